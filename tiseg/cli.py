@@ -1,0 +1,56 @@
+"""`tiseg` command line: one sub-command per module in :mod:`tiseg.commands`.
+
+User mistakes (:class:`tiseg.errors.TisegError`) end in one line on stderr and exit status 2;
+anything else is a bug and shows its traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .errors import TisegError
+
+# Sub-command modules, each with ``register(subparsers)``; imported lazily so that
+# `tiseg steady` does not pay for importing Taichi.
+COMMAND_MODULES = ["steady", "stability", "figures", "run"]
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse's own errors: one line, exit 2
+        self.print_usage(sys.stderr)
+        sys.stderr.write(f"tiseg: error: {message}\n")
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="tiseg", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for name in COMMAND_MODULES:
+        try:
+            mod = importlib.import_module(f"tiseg.commands.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"tiseg.commands.{name}":
+                continue  # command not built yet
+            raise
+        mod.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        result = args.func(args)
+    except TisegError as exc:
+        sys.stderr.write(f"tiseg {args.command}: error: {exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("tiseg: interrupted\n")
+        return 130
+    return int(result or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,55 @@
+"""Small helpers shared by the sub-commands."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+from ..errors import InputError
+from ..material import Material
+
+
+def add_material_options(p) -> None:
+    """Options overriding Table 1 (the defaults)."""
+    g = p.add_argument_group("material (Table 1 by default)")
+    g.add_argument("--zeta", type=float, default=None, metavar="DEG", help="slope angle [deg] (27)")
+    g.add_argument("--alpha", type=float, default=None, help="shear-profile slip alpha (1/7)")
+
+
+def material_from_args(args) -> Material:
+    m = Material()
+    changes = {}
+    if getattr(args, "zeta", None) is not None:
+        changes["zeta_deg"] = args.zeta
+    if getattr(args, "alpha", None) is not None:
+        changes["alpha"] = args.alpha
+    return m.with_(**changes) if changes else m
+
+
+def _clean(obj):
+    """JSON-safe copy: non-finite floats become null (JSON has no inf/nan)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
+        try:
+            return _clean(obj.item())
+        except (ValueError, AttributeError):
+            pass
+    if hasattr(obj, "tolist"):
+        return _clean(obj.tolist())
+    return obj
+
+
+def print_json(obj) -> None:
+    json.dump(_clean(obj), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+
+
+def positive(name: str, value: float) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"--{name}={value!r} must be a positive number")
+    return value
