@@ -56,8 +56,8 @@ class Material:
     chi: float = 1.0                  # shape factor; the model assumes chi = 1 (section 3)
 
     def __post_init__(self):
-        require(0.0 < self.zeta_deg < 90.0,
-                f"material.zeta_deg={self.zeta_deg!r}: slope angle must lie in (0, 90) degrees")
+        require(0.0 <= self.zeta_deg < 90.0,
+                f"material.zeta_deg={self.zeta_deg!r}: slope angle must lie in [0, 90) degrees")
         require(0.0 <= self.alpha <= 1.0, f"material.alpha={self.alpha!r} must lie in [0, 1]")
         require(self.transport in ("linear", "bagnold"),
                 f"material.transport={self.transport!r}: choose 'linear' or 'bagnold'")

@@ -1,0 +1,179 @@
+"""Everything the semi-discrete operator needs, as plain numbers and switches.
+
+:class:`OperatorConfig` is shared by the Taichi operator (:mod:`tiseg.numerics.operator`) and the
+NumPy reference (:mod:`tiseg.reference.operator`) so both see exactly the same problem. Switches
+(``segregation``, ``viscous``, ``feedback``, ``friction``, ``reconstruction``, 1D/2D, boundaries)
+are compile-time choices of the Taichi kernels; numbers (slope, nu, inflow state, ...) are
+run-time parameters.
+
+The array layout (:class:`Layout`) is the same for both: cell-centred conserved variables
+``q = (h, hu[, hv][, h*phi])`` with ``G = 2`` ghost cells on each side in x, and in y unless the
+run is 1D (``ny == 1``: one row, no ghosts, no v component, no cross-slope work).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
+RECONSTRUCTIONS = ("first-order", "minmod", "weno")
+BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
+GHOST = 2
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Array layout: component indices and index ranges of interior cells."""
+    nx: int
+    ny: int
+    segregation: bool
+
+    @property
+    def is_1d(self) -> bool:
+        return self.ny == 1
+
+    @property
+    def gx(self) -> int:
+        return GHOST
+
+    @property
+    def gy(self) -> int:
+        return 0 if self.is_1d else GHOST
+
+    @property
+    def NX(self) -> int:
+        return self.nx + 2 * self.gx
+
+    @property
+    def NY(self) -> int:
+        return self.ny + 2 * self.gy
+
+    # component indices of q (and of the primitive vector w = (h, u[, v][, phi]))
+    @property
+    def H(self) -> int:
+        return 0
+
+    @property
+    def HU(self) -> int:
+        return 1
+
+    @property
+    def HV(self) -> int:
+        return -1 if self.is_1d else 2
+
+    @property
+    def HPHI(self) -> int:
+        return (2 if self.is_1d else 3) if self.segregation else -1
+
+    @property
+    def nc(self) -> int:
+        return 2 + (0 if self.is_1d else 1) + (1 if self.segregation else 0)
+
+    def interior(self):
+        """Slices of the interior cells in an (NX, NY) array."""
+        return (slice(self.gx, self.gx + self.nx), slice(self.gy, self.gy + self.ny))
+
+
+@dataclass(frozen=True)
+class FrictionParams:
+    mu1_s: float
+    mu2_s: float
+    beta_s: float
+    L_s: float
+    mu1_l: float
+    mu2_l: float
+    beta_l: float
+    L_l: float
+    coulomb_mu: float
+
+
+@dataclass(frozen=True)
+class OperatorConfig:
+    layout: Layout
+    dx: float
+    dy: float
+    Ly: float
+    # physics switches
+    viscous: bool = False
+    feedback: bool = False            # friction depends on the local phi
+    friction: str = "pouliquen-mixture"
+    # physics numbers
+    g: float = 9.81
+    zeta: float = math.radians(27.0)
+    alpha: float = 1.0 / 7.0          # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
+    nu: float = 0.0
+    phi_ref: float = 0.8              # concentration used by the friction when feedback is off
+    fric: FrictionParams | None = None
+    # numerics
+    reconstruction: str = "minmod"
+    theta: float = 1.5
+    weno_eps: float = 1e-6
+    h_ref: float = 2e-3               # scales making the WENO smoothness indicators dimensionless
+    u_ref: float = 0.2
+    h_min: float = 1e-4
+    h_eps: float = 1e-7
+    u_eps: float = 1e-3
+    # boundaries: x_lo, x_hi, y_lo, y_hi
+    bc: tuple = ("outflow", "outflow", "periodic", "periodic")
+    # inflow (6.8)-(6.9)
+    inflow_h: float = 0.0
+    inflow_u: float = 0.0
+    inflow_phi: float = 0.0
+    inflow_ramp: float = 10.0
+    inflow_delta: float = 0.0
+    inflow_modes: int = 1
+    inflow_stop: float = math.inf
+
+    def __post_init__(self):
+        assert self.friction in FRICTION_LAWS, self.friction
+        assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
+        for b in self.bc:
+            assert b in BOUNDARIES, b
+
+    @property
+    def g_cos(self) -> float:
+        return self.g * math.cos(self.zeta)
+
+    @property
+    def g_sin(self) -> float:
+        return self.g * math.sin(self.zeta)
+
+    @property
+    def segregation(self) -> bool:
+        return self.layout.segregation
+
+    def inflow_state(self, t: float) -> tuple[float, float, float]:
+        """(h, u, phi) of the inflow (6.8) at time t; h = 0 once the inflow has stopped."""
+        if t > self.inflow_stop:
+            return 0.0, 0.0, self.inflow_phi
+        ramp = 1.0 if self.inflow_ramp <= 0 else -math.expm1(-self.inflow_ramp * t)
+        return ramp * self.inflow_h, self.inflow_u, self.inflow_phi
+
+
+def config_from_scene(scene) -> OperatorConfig:
+    """The operator's view of a :class:`tiseg.scene.Scene`."""
+    m = scene.material
+    if scene.segregation and m.transport != "linear":
+        from ..errors import InputError
+        raise InputError(f"material.transport={m.transport!r}: the solver implements the quadratic "
+                         "transport function (2.17) used throughout the paper; use 'linear'")
+    lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
+    fric = FrictionParams(m.small.mu1, m.small.mu2, m.small.beta, m.small.L,
+                          m.large.mu1, m.large.mu2, m.large.beta, m.large.L,
+                          float(scene.effects.coulomb_mu))
+    u_ref = scene.flow.u0 or math.sqrt(m.g * scene.flow.h0 * max(math.cos(m.zeta), 1e-3))
+    kw = {}
+    inflow = scene.inflow
+    if inflow is not None:
+        kw = dict(inflow_h=inflow.h, inflow_u=inflow.u, inflow_phi=inflow.phi,
+                  inflow_ramp=inflow.ramp_rate, inflow_delta=inflow.perturbation,
+                  inflow_modes=inflow.modes,
+                  inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time)
+    num = scene.numerics
+    return OperatorConfig(
+        layout=lay, dx=scene.domain.dx, dy=scene.domain.dy, Ly=scene.domain.Ly,
+        viscous=bool(scene.viscous), feedback=bool(scene.feedback), friction=scene.effects.friction,
+        g=m.g, zeta=m.zeta, alpha=m.alpha, nu=scene.flow.nu if scene.viscous else 0.0,
+        phi_ref=scene.flow.phi0, fric=fric, reconstruction=num.reconstruction, theta=num.theta,
+        h_ref=scene.flow.h0, u_ref=u_ref, h_min=num.h_min, h_eps=num.h_eps, u_eps=num.u_eps,
+        bc=scene.boundary.as_tuple(), **kw)

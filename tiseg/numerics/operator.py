@@ -1,0 +1,450 @@
+"""The semi-discrete operator dq/dt = L(q, t) of (6.1)-(6.6) in Taichi kernels.
+
+Same discretisation as the NumPy reference (:mod:`tiseg.reference.operator`, whose docstring
+lists the steps): ghost cells, desingularised primitives, slopes (first order / minmod-theta /
+WENO-type), Kurganov-Tadmor central fluxes with local speeds, the viscous stress with harmonic
+face coefficients, and the friction source.
+
+States live in one field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field
+passed as template, so buffers are slots selected by an integer). Time steppers
+(:mod:`tiseg.timestepping`) see only :meth:`rhs`, :meth:`combine`, :meth:`postprocess` and
+:meth:`stability`.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import taichi as ti
+
+from .. import backend
+from ..physics.pointwise import Params, Physics
+from .config import OperatorConfig
+
+MAX_TERMS = 6
+NBUDGET = 4      # mass in through x faces, small mass x, mass y, small mass y
+INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
+BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
+
+
+@dataclass
+class StabilityNumbers:
+    ax: float          # max |u| + c (or segregation speed) in x [m/s]
+    ay: float
+    rho_visc: float    # Gershgorin bound of the viscous Jacobian [1/s]
+    rho_fric: float    # friction stiffness [1/s]
+    max_speed: float   # max |u| [m/s]
+
+
+@ti.data_oriented
+class TaichiOperator:
+    def __init__(self, cfg: OperatorConfig, nslots: int = 6):
+        st = backend.state()
+        self.generation = st.generation
+        self.cfg = cfg
+        lay = cfg.layout
+        self.lay = lay
+        self.nslots = nslots
+        self.fp = ti.f64 if st.precision == "f64" else ti.f32
+        self.np_fp = np.float64 if st.precision == "f64" else np.float32
+        nc, NX, NY = lay.nc, lay.NX, lay.NY
+        # compile-time constants
+        self.nc, self.NX, self.NY = nc, NX, NY
+        self.nx, self.ny, self.gx, self.gy = lay.nx, lay.ny, lay.gx, lay.gy
+        self.is_1d, self.seg, self.visc = lay.is_1d, lay.segregation, cfg.viscous
+        self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
+        # compile-time switches as plain ints/bools (ti.static does not take strings)
+        self.rec_first = cfg.reconstruction == "first-order"
+        self.rec_minmod = cfg.reconstruction == "minmod"
+        self.bc = tuple(cfg.bc)
+        self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
+        # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects)
+        self.q = ti.Vector.field(nc, self.fp, shape=(nslots, NX, NY))
+        self.w = ti.Vector.field(nc, self.fp, shape=(NX, NY))
+        self.fx = ti.Vector.field(nc, self.fp, shape=(NX, NY))
+        self.sx = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
+        if not self.is_1d:
+            self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
+            self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
+        self.par = ti.field(self.fp, shape=Params.COUNT)
+        self.red = ti.field(self.fp, shape=5)
+        # Boundary budgets per slot: rates of (mass, small-particle mass) entering through the
+        # x faces and the y faces. combine() applies the same linear combination to them as to
+        # the states, so slot 0 accumulates exactly the time integral the scheme uses.
+        self.bud = ti.field(self.fp, shape=(nslots, NBUDGET))
+        self.coef = ti.field(self.fp, shape=MAX_TERMS)
+        self.src = ti.field(ti.i32, shape=MAX_TERMS)
+        self.phys = Physics(cfg, self.par)
+        self.set_params(cfg)
+        self.t = 0.0
+
+    # ------------------------------------------------------------------ parameters
+    def set_params(self, cfg: OperatorConfig) -> None:
+        """Copy run-time numbers into the parameter field (no recompilation)."""
+        P = Params
+        p = np.zeros(P.COUNT)
+        p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
+        p[P.NU], p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.nu, cfg.h_min, cfg.h_eps ** 4, cfg.u_eps
+        p[P.THETA], p[P.WENO_EPS], p[P.H_REF], p[P.U_REF] = cfg.theta, cfg.weno_eps, cfg.h_ref, cfg.u_ref
+        p[P.ALPHA1], p[P.PHI_REF], p[P.DX], p[P.DY] = 1.0 - cfg.alpha, cfg.phi_ref, cfg.dx, cfg.dy
+        f = cfg.fric
+        if f is not None:
+            p[P.MU1S:P.MUC + 1] = [f.mu1_s, f.mu2_s, f.beta_s, f.L_s, f.mu1_l, f.mu2_l, f.beta_l,
+                                  f.L_l, f.coulomb_mu]
+        p[P.IN_U], p[P.IN_PHI], p[P.IN_DELTA] = cfg.inflow_u, cfg.inflow_phi, cfg.inflow_delta
+        p[P.IN_K] = 2.0 * math.pi * cfg.inflow_modes / cfg.Ly
+        self.cfg = cfg
+        self.par.from_numpy(p.astype(self.np_fp))
+        self._inflow_key = None
+
+    def _set_time(self, t: float) -> None:
+        """Inflow thickness of (6.8) at the stage time t (ramp) and whether it still flows."""
+        if self.bc[0] != "inflow":
+            return
+        h, _, _ = self.cfg.inflow_state(t)
+        on = 0.0 if t > self.cfg.inflow_stop else 1.0
+        key = (h, on)
+        if key != self._inflow_key:
+            self.par[Params.IN_H] = h
+            self.par[Params.IN_ON] = on
+            self._inflow_key = key
+
+    # ------------------------------------------------------------------ host access
+    def check_alive(self) -> None:
+        if backend.state().generation != self.generation:
+            from ..errors import TisegError
+            raise TisegError("Taichi was re-initialised (tiseg.init with other settings); "
+                             "this simulation's fields no longer exist: create it again")
+
+    def get(self, slot: int = 0) -> np.ndarray:
+        """Slot as a float64 array shaped (nc, NX, NY)."""
+        a = self.q.to_numpy()[slot]
+        return np.moveaxis(a, -1, 0).astype(np.float64)
+
+    def set(self, slot: int, arr: np.ndarray) -> None:
+        full = self.q.to_numpy()
+        full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
+        self.q.from_numpy(full)
+
+    # ------------------------------------------------------------------ kernels
+    @ti.func
+    def _mirror(self, v, comp: ti.template()):
+        r = v
+        r[comp] = -v[comp]
+        return r
+
+    @ti.kernel
+    def _fill_ghosts(self, s: ti.i32):
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        lo, hi = ti.static(self.bcc[0], self.bcc[1])
+        for k, j in ti.ndrange(gx, (0, self.NY)):
+            il, ih = gx - 1 - k, nx + gx + k
+            if ti.static(lo == PERIODIC):
+                self.q[s, il, j] = self.q[s, nx + gx - 1 - k, j]
+            elif ti.static(lo == OUTFLOW):
+                self.q[s, il, j] = self.q[s, gx, j]
+            elif ti.static(lo == WALL):
+                self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)
+            elif ti.static(lo == INFLOW):
+                if self.par[Params.IN_ON] > 0.5:
+                    v = ti.Vector.zero(self.fp, self.nc)
+                    if gy <= j < gy + ny:
+                        h = self.par[Params.IN_H]
+                        v[0] = h
+                        v[1] = h * self.par[Params.IN_U]
+                        if ti.static(self.seg):
+                            y = (j - gy + 0.5) * self.par[Params.DY]
+                            phi = self.par[Params.IN_PHI] + self.par[Params.IN_DELTA] * ti.sin(
+                                self.par[Params.IN_K] * y)
+                            v[self.HPHI] = h * phi
+                    self.q[s, il, j] = v
+                else:  # a stopped inflow is a wall: no material leaks upstream
+                    self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)
+            if ti.static(hi == PERIODIC):
+                self.q[s, ih, j] = self.q[s, gx + k, j]
+            elif ti.static(hi == OUTFLOW):
+                self.q[s, ih, j] = self.q[s, nx + gx - 1, j]
+            elif ti.static(hi == WALL):
+                self.q[s, ih, j] = self._mirror(self.q[s, nx + gx - 1 - k, j], 1)
+        if ti.static(not self.is_1d):
+            blo, bhi = ti.static(self.bcc[2], self.bcc[3])
+            for i, k in ti.ndrange((0, self.NX), gy):
+                jl, jh = gy - 1 - k, ny + gy + k
+                if ti.static(blo == PERIODIC):
+                    self.q[s, i, jl] = self.q[s, i, ny + gy - 1 - k]
+                elif ti.static(blo == OUTFLOW):
+                    self.q[s, i, jl] = self.q[s, i, gy]
+                elif ti.static(blo == WALL):
+                    self.q[s, i, jl] = self._mirror(self.q[s, i, gy + k], self.HV)
+                if ti.static(bhi == PERIODIC):
+                    self.q[s, i, jh] = self.q[s, i, gy + k]
+                elif ti.static(bhi == OUTFLOW):
+                    self.q[s, i, jh] = self.q[s, i, ny + gy - 1]
+                elif ti.static(bhi == WALL):
+                    self.q[s, i, jh] = self._mirror(self.q[s, i, ny + gy - 1 - k], self.HV)
+
+    @ti.func
+    def _primitive(self, q):
+        """Desingularised primitives, u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4))."""
+        h = ti.max(q[0], 0.0)
+        h4 = h * h * h * h
+        denom = ti.sqrt(h4 + ti.max(h4, self.par[Params.H_EPS4]))
+        w = q
+        w[0] = h
+        for c in ti.static(range(1, self.nc)):
+            w[c] = ti.sqrt(2.0) * h * q[c] / denom
+        if ti.static(self.seg):
+            w[self.HPHI] = ti.min(ti.max(w[self.HPHI], 0.0), 1.0)
+        return w
+
+    @ti.func
+    def _slope(self, wm, w0, wp):
+        """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2."""
+        dm = w0 - wm
+        dp = wp - w0
+        dc = 0.5 * (wp - wm)
+        s = dc
+        if ti.static(self.rec_minmod):
+            th = self.par[Params.THETA]
+            a = th * dm
+            b = dc
+            c = th * dp
+            pos = (a > 0) & (b > 0) & (c > 0)
+            neg = (a < 0) & (b < 0) & (c < 0)
+            mn = ti.min(ti.min(a, b), c)
+            mx = ti.max(ti.max(a, b), c)
+            s = ti.select(pos, mn, ti.select(neg, mx, 0.0))
+        else:  # WENO-type weighted slope with dimensionless smoothness indicators
+            eps = self.par[Params.WENO_EPS]
+            sc = ti.Vector.zero(self.fp, self.nc) + self.par[Params.U_REF]
+            sc[0] = self.par[Params.H_REF]
+            if ti.static(self.seg):
+                sc[self.HPHI] = 1.0
+            bm = dm / sc
+            bp = dp / sc
+            bc = dc / sc
+            am = 0.25 / ((eps + bm * bm) * (eps + bm * bm))
+            ap = 0.25 / ((eps + bp * bp) * (eps + bp * bp))
+            ac = 0.5 / ((eps + bc * bc) * (eps + bc * bc))
+            s = (am * dm + ap * dp + ac * dc) / (am + ap + ac)
+        # positivity of h and 0 <= phi <= 1 at the edges
+        s[0] = ti.min(ti.max(s[0], -2.0 * w0[0]), 2.0 * w0[0])
+        if ti.static(self.seg):
+            p = w0[self.HPHI]
+            lim = 2.0 * ti.min(p, 1.0 - p)
+            s[self.HPHI] = ti.min(ti.max(s[self.HPHI], -lim), lim)
+        return s
+
+    @ti.kernel
+    def _primitives_and_slopes(self, s: ti.i32):
+        for i, j in self.w:
+            self.w[i, j] = self._primitive(self.q[s, i, j])
+        if ti.static(not self.rec_first):
+            for i, j in ti.ndrange((1, self.NX - 1), (self.gy, self.gy + self.ny)):
+                self.sx[i, j] = self._slope(self.w[i - 1, j], self.w[i, j], self.w[i + 1, j])
+            if ti.static(not self.is_1d):
+                for i, j in ti.ndrange((self.gx, self.gx + self.nx), (1, self.NY - 1)):
+                    self.sy[i, j] = self._slope(self.w[i, j - 1], self.w[i, j], self.w[i, j + 1])
+
+    @ti.func
+    def _kt_flux(self, wl, wr, d: ti.template()):
+        """Kurganov-Tadmor central flux between edge states wl | wr along d."""
+        ph = self.phys
+        a = ti.max(ph.speed(wl, d), ph.speed(wr, d))
+        return 0.5 * (ph.flux(wl, d) + ph.flux(wr, d)) - 0.5 * a * (ph.conserved(wr) - ph.conserved(wl))
+
+    @ti.func
+    def _face_K(self, ha, hb):
+        """Harmonic mean of nu h^{3/2} of two cells; zero if either is thinner than h_min."""
+        hmin = self.par[Params.H_MIN]
+        nu = self.par[Params.NU]
+        ka = nu * ha * ti.sqrt(ha)
+        kb = nu * hb * ti.sqrt(hb)
+        k = 0.0 * ha
+        if ha >= hmin and hb >= hmin and ka + kb > 0:
+            k = 2.0 * ka * kb / (ka + kb)
+        return k
+
+    @ti.kernel
+    def _face_fluxes(self):
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        hmin = self.par[Params.H_MIN]
+        dx = self.par[Params.DX]
+        dy = self.par[Params.DY]
+        for i, j in ti.ndrange((gx - 1, gx + nx), (gy, gy + ny)):
+            w0 = self.w[i, j]
+            w1 = self.w[i + 1, j]
+            F = ti.Vector.zero(self.fp, self.nc)
+            if ti.max(w0[0], w1[0]) >= hmin:
+                wl = w0
+                wr = w1
+                if ti.static(not self.rec_first):
+                    wl = w0 + 0.5 * self.sx[i, j]
+                    wr = w1 - 0.5 * self.sx[i + 1, j]
+                F = self._kt_flux(wl, wr, 0)
+            if ti.static(self.visc):
+                K = self._face_K(w0[0], w1[0])
+                F[1] -= K * (w1[1] - w0[1]) / dx
+                if ti.static(not self.is_1d):
+                    HV = ti.static(self.HV)
+                    dudy = (self.w[i, j + 1][1] + self.w[i + 1, j + 1][1]
+                            - self.w[i, j - 1][1] - self.w[i + 1, j - 1][1]) / (4.0 * dy)
+                    F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) / dx + dudy)
+            self.fx[i, j] = F
+        if ti.static(not self.is_1d):
+            HV = ti.static(self.HV)
+            for i, j in ti.ndrange((gx, gx + nx), (gy - 1, gy + ny)):
+                w0 = self.w[i, j]
+                w1 = self.w[i, j + 1]
+                F = ti.Vector.zero(self.fp, self.nc)
+                if ti.max(w0[0], w1[0]) >= hmin:
+                    wl = w0
+                    wr = w1
+                    if ti.static(not self.rec_first):
+                        wl = w0 + 0.5 * self.sy[i, j]
+                        wr = w1 - 0.5 * self.sy[i, j + 1]
+                    F = self._kt_flux(wl, wr, 1)
+                if ti.static(self.visc):
+                    K = self._face_K(w0[0], w1[0])
+                    F[HV] -= K * (w1[HV] - w0[HV]) / dy
+                    dvdx = (self.w[i + 1, j][HV] + self.w[i + 1, j + 1][HV]
+                            - self.w[i - 1, j][HV] - self.w[i - 1, j + 1][HV]) / (4.0 * dx)
+                    F[1] -= 0.5 * K * ((w1[1] - w0[1]) / dy + dvdx)
+                self.fy[i, j] = F
+
+    @ti.kernel
+    def _divergence(self, d: ti.i32):
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        dx = self.par[Params.DX]
+        dy = self.par[Params.DY]
+        for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
+            r = -(self.fx[i, j] - self.fx[i - 1, j]) / dx
+            if ti.static(not self.is_1d):
+                r -= (self.fy[i, j] - self.fy[i, j - 1]) / dy
+            self.q[d, i, j] = r + self.phys.source(self.w[i, j])
+
+    @ti.kernel
+    def _combine(self, d: ti.i32, n: ti.template()):
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
+            acc = self.coef[0] * self.q[self.src[0], i, j]
+            for k in ti.static(range(1, n)):
+                acc += self.coef[k] * self.q[self.src[k], i, j]
+            self.q[d, i, j] = acc
+        for b in range(NBUDGET):
+            acc = self.coef[0] * self.bud[self.src[0], b]
+            for k in ti.static(range(1, n)):
+                acc += self.coef[k] * self.bud[self.src[k], b]
+            self.bud[d, b] = acc
+
+    @ti.kernel
+    def _boundary_rates(self, d: ti.i32):
+        """Net inflow rates through the domain's faces, summed in a fixed order."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        dx = self.par[Params.DX]
+        dy = self.par[Params.DY]
+        ti.loop_config(serialize=True)
+        for b in range(NBUDGET):
+            self.bud[d, b] = 0.0
+        ti.loop_config(serialize=True)
+        for j in range(gy, gy + ny):
+            self.bud[d, 0] += (self.fx[gx - 1, j][0] - self.fx[gx + nx - 1, j][0]) * dy
+            if ti.static(self.seg):
+                self.bud[d, 1] += (self.fx[gx - 1, j][self.HPHI] - self.fx[gx + nx - 1, j][self.HPHI]) * dy
+        if ti.static(not self.is_1d):
+            ti.loop_config(serialize=True)
+            for i in range(gx, gx + nx):
+                self.bud[d, 2] += (self.fy[i, gy - 1][0] - self.fy[i, gy + ny - 1][0]) * dx
+                if ti.static(self.seg):
+                    self.bud[d, 3] += (self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]) * dx
+
+    @ti.kernel
+    def _postprocess(self, s: ti.i32):
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        hmin = self.par[Params.H_MIN]
+        for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
+            v = self.q[s, i, j]
+            h = ti.max(v[0], 0.0)
+            v[0] = h
+            if h < hmin:
+                v[1] = 0.0
+                if ti.static(not self.is_1d):
+                    v[self.HV] = 0.0
+            if ti.static(self.seg):
+                v[self.HPHI] = ti.min(ti.max(v[self.HPHI], 0.0), h)
+            self.q[s, i, j] = v
+
+    @ti.kernel
+    def _stability(self):
+        """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
+        (deterministic atomic maxima) from the primitives of the current state."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        for k in range(5):
+            self.red[k] = 0.0
+        hmin = self.par[Params.H_MIN]
+        dx = self.par[Params.DX]
+        dy = self.par[Params.DY]
+        # include the first ghost layer in x so that an inflow into an empty chute sets a speed
+        for i, j in ti.ndrange((gx - 1, gx + nx + 1), (gy, gy + ny)):
+            w = self.w[i, j]
+            ti.atomic_max(self.red[0], self.phys.speed(w, 0))
+            if ti.static(not self.is_1d):
+                ti.atomic_max(self.red[1], self.phys.speed(w, 1))
+            ti.atomic_max(self.red[4], self.phys.speed_mag(w))
+            ti.atomic_max(self.red[3], self.phys.friction_rate(w))
+            if ti.static(self.visc):
+                h = w[0]
+                if h >= hmin and gx <= i < gx + nx:
+                    inv = 1.0 / h
+                    sxs = (self._face_K(h, self.w[i + 1, j][0]) * (inv + 1.0 / ti.max(self.w[i + 1, j][0], hmin))
+                           + self._face_K(h, self.w[i - 1, j][0]) * (inv + 1.0 / ti.max(self.w[i - 1, j][0], hmin)))
+                    rho = sxs / (dx * dx)
+                    if ti.static(not self.is_1d):
+                        sys = (self._face_K(h, self.w[i, j + 1][0]) * (inv + 1.0 / ti.max(self.w[i, j + 1][0], hmin))
+                               + self._face_K(h, self.w[i, j - 1][0]) * (inv + 1.0 / ti.max(self.w[i, j - 1][0], hmin)))
+                        cross = 0.5 * (sxs + sys) / (dx * dy)
+                        rho = ti.max(sxs / (dx * dx) + 0.5 * sys / (dy * dy),
+                                     0.5 * sxs / (dx * dx) + sys / (dy * dy)) + cross
+                    ti.atomic_max(self.red[2], rho)
+
+    # ------------------------------------------------------------------ stepper interface
+    def rhs(self, src: int, dst: int, t: float) -> None:
+        """slot dst := L(slot src, t) on interior cells (fills src's ghost cells)."""
+        self._set_time(t)
+        self._fill_ghosts(src)
+        self._primitives_and_slopes(src)
+        self._face_fluxes()
+        self._divergence(dst)
+        self._boundary_rates(dst)
+
+    def combine(self, dst: int, terms) -> None:
+        """slot dst := sum(c * slot) over terms [(c, slot), ...] on interior cells.
+
+        dst may be one of the sources: the update is element-wise.
+        """
+        n = len(terms)
+        assert 1 <= n <= MAX_TERMS
+        for k, (c, s) in enumerate(terms):
+            self.coef[k] = c
+            self.src[k] = s
+        self._combine(dst, n)
+
+    def budget(self, slot: int = 0) -> np.ndarray:
+        """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
+        return self.bud.to_numpy()[slot].astype(float)
+
+    def reset_budget(self, values=None) -> None:
+        b = self.bud.to_numpy()
+        b[0] = 0.0 if values is None else values
+        self.bud.from_numpy(b)
+
+    def postprocess(self, slot: int) -> None:
+        self._postprocess(slot)
+
+    def stability(self, slot: int, t: float) -> StabilityNumbers:
+        self._set_time(t)
+        self._fill_ghosts(slot)
+        self._primitives_and_slopes(slot)
+        self._stability()
+        r = self.red.to_numpy().astype(float)
+        return StabilityNumbers(ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4])

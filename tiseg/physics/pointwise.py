@@ -1,0 +1,158 @@
+"""Pointwise terms of (6.1)-(6.6) for one primitive state w = (h, u[, v][, phi]).
+
+Every switch of the scene (segregation, 1D, friction law, mobility feedback) is a compile-time
+constant read through ``ti.static``: a switched-off effect leaves no code in the kernels.
+Run-time numbers (slope, friction constants, inflow, ...) live in one small parameter field so
+they can change without recompiling.
+"""
+
+import taichi as ti
+
+from ..numerics.config import OperatorConfig
+
+
+class Params:
+    """Indices of run-time numbers in the parameter field."""
+    G_COS, G_SIN, NU, H_MIN, H_EPS4, U_EPS, THETA, WENO_EPS, H_REF, U_REF = range(10)
+    ALPHA1, PHI_REF, DX, DY = range(10, 14)
+    MU1S, MU2S, BETAS, LS, MU1L, MU2L, BETAL, LL, MUC = range(14, 23)
+    IN_H, IN_U, IN_PHI, IN_DELTA, IN_K, IN_ON = range(23, 29)
+    COUNT = 29
+
+
+@ti.data_oriented
+class Physics:
+    def __init__(self, cfg: OperatorConfig, par):
+        lay = cfg.layout
+        self.par = par
+        self.nc = lay.nc
+        self.is_1d = lay.is_1d
+        self.seg = lay.segregation
+        self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
+        # compile-time switches as bools (ti.static does not take strings)
+        self.fr_none = cfg.friction == "none"
+        self.fr_coulomb = cfg.friction == "coulomb"
+        self.fr_small = cfg.friction == "pouliquen-small"
+        self.fr_large = cfg.friction == "pouliquen-large"
+        self.feedback = cfg.feedback and lay.segregation
+
+    @ti.func
+    def vel(self, w, d: ti.template()):
+        """Velocity component along direction d (0 = x, 1 = y)."""
+        r = w[1]
+        if ti.static(d == 1):
+            r = w[self.HV]
+        return r
+
+    @ti.func
+    def G(self, phi):
+        """Transport function (2.17), G = (1 - alpha) phi (1 - phi)."""
+        return self.par[Params.ALPHA1] * phi * (1.0 - phi)
+
+    @ti.func
+    def dG(self, phi):
+        return self.par[Params.ALPHA1] * (1.0 - 2.0 * phi)
+
+    @ti.func
+    def conserved(self, w):
+        q = w
+        for c in ti.static(range(1, self.nc)):
+            q[c] = w[c] * w[0]
+        return q
+
+    @ti.func
+    def flux(self, w, d: ti.template()):
+        """Physical flux of (6.1)-(6.3) along d: mass, momentum with slope-normal pressure
+        (1/2) g cos(zeta) h^2, and the large-particle transport h u (phi - G(phi))."""
+        h = w[0]
+        vn = self.vel(w, d)
+        f = ti.Vector.zero(float, self.nc)
+        f[0] = h * vn
+        f[1] = h * w[1] * vn
+        if ti.static(not self.is_1d):
+            f[self.HV] = h * w[self.HV] * vn
+        if ti.static(d == 0):
+            f[1] += 0.5 * self.par[Params.G_COS] * h * h
+        else:
+            f[self.HV] += 0.5 * self.par[Params.G_COS] * h * h
+        if ti.static(self.seg):
+            phi = w[self.HPHI]
+            f[self.HPHI] = h * vn * (phi - self.G(phi))
+        return f
+
+    @ti.func
+    def speed(self, w, d: ti.template()):
+        """Local characteristic speed: max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) (5.25)-(5.26)."""
+        vn = self.vel(w, d)
+        a = ti.abs(vn) + ti.sqrt(self.par[Params.G_COS] * w[0])
+        if ti.static(self.seg):
+            a = ti.max(a, ti.abs(vn * (1.0 - self.dG(w[self.HPHI]))))
+        return a
+
+    @ti.func
+    def pouliquen(self, h, fr, mu1, mu2, beta, L):
+        """(3.7) in division-free form: mu1 + (mu2 - mu1) L Fr / (beta h + L Fr)."""
+        x = L * fr
+        return mu1 + (mu2 - mu1) * x / (beta * h + x)
+
+    @ti.func
+    def mu_b(self, h, spd, phi):
+        """Basal friction of the scene's law; (3.4) for the concentration-weighted mixture."""
+        mu = 0.0 * h
+        if ti.static(self.fr_coulomb):
+            mu = self.par[Params.MUC] + 0.0 * h
+        elif ti.static(not self.fr_none):
+            fr = spd / ti.sqrt(self.par[Params.G_COS] * h)
+            if ti.static(self.fr_small):
+                mu = self.pouliquen(h, fr, self.par[Params.MU1S], self.par[Params.MU2S], self.par[Params.BETAS], self.par[Params.LS])
+            elif ti.static(self.fr_large):
+                mu = self.pouliquen(h, fr, self.par[Params.MU1L], self.par[Params.MU2L], self.par[Params.BETAL], self.par[Params.LL])
+            else:
+                mus = self.pouliquen(h, fr, self.par[Params.MU1S], self.par[Params.MU2S], self.par[Params.BETAS], self.par[Params.LS])
+                mul = self.pouliquen(h, fr, self.par[Params.MU1L], self.par[Params.MU2L], self.par[Params.BETAL], self.par[Params.LL])
+                ph = self.par[Params.PHI_REF]
+                if ti.static(self.feedback):
+                    ph = phi
+                mu = ph * mus + (1.0 - ph) * mul
+        return mu
+
+    @ti.func
+    def speed_mag(self, w):
+        s = ti.abs(w[1])
+        if ti.static(not self.is_1d):
+            s = ti.sqrt(w[1] * w[1] + w[self.HV] * w[self.HV])
+        return s
+
+    @ti.func
+    def source(self, w):
+        """g h S of (6.4): gravity along the slope and basal friction opposing the motion, with
+        u/|u| regularised as u / max(|u|, u_eps); zero in films thinner than h_min."""
+        h = w[0]
+        s = ti.Vector.zero(float, self.nc)
+        if h >= self.par[Params.H_MIN]:
+            s[1] = h * self.par[Params.G_SIN]
+            if ti.static(not self.fr_none):
+                spd = self.speed_mag(w)
+                phi = self.par[Params.PHI_REF]
+                if ti.static(self.seg):
+                    phi = w[self.HPHI]
+                mu = self.mu_b(ti.max(h, self.par[Params.H_MIN]), spd, phi)
+                inv = 1.0 / ti.max(spd, self.par[Params.U_EPS])
+                s[1] = h * (self.par[Params.G_SIN] - self.par[Params.G_COS] * mu * w[1] * inv)
+                if ti.static(not self.is_1d):
+                    s[self.HV] = -h * self.par[Params.G_COS] * mu * w[self.HV] * inv
+        return s
+
+    @ti.func
+    def friction_rate(self, w):
+        """Stiffness of the friction term, g cos(zeta) mu_b / max(|u|, u_eps) [1/s]."""
+        r = 0.0 * w[0]
+        if ti.static(not self.fr_none):
+            h = w[0]
+            if h >= self.par[Params.H_MIN]:
+                spd = self.speed_mag(w)
+                phi = self.par[Params.PHI_REF]
+                if ti.static(self.seg):
+                    phi = w[self.HPHI]
+                r = self.par[Params.G_COS] * self.mu_b(h, spd, phi) / ti.max(spd, self.par[Params.U_EPS])
+        return r

@@ -1,0 +1,319 @@
+"""NumPy reference of the semi-discrete operator dq/dt = L(q, t) for (6.1)-(6.6).
+
+The discretisation (identical in :mod:`tiseg.numerics.operator`):
+
+1. Ghost cells from the boundary conditions (inflow (6.8)-(6.9), outflow, periodic, wall).
+2. Cell primitives w = (h, u, v, phi) with Kurganov-Petrova desingularisation
+   u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)) (dimensional h_eps, NUMERICS finding 4).
+3. Slopes of w per direction: zero (first order), minmod-theta, or a WENO-type weighted slope
+   (smoothness indicators made dimensionless with h_ref, u_ref); then limited so that the
+   edge values keep h >= 0 and 0 <= phi <= 1.
+4. Kurganov-Tadmor (2000) central flux at each face,
+   H = (f(q_L) + f(q_R))/2 - a/2 (q_R - q_L), with the local speed
+   a = max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) over both edge states (segregation wave
+   speed (5.26) included); zero where both neighbouring cells are thinner than h_min.
+5. Viscous stress div(nu h^{3/2} D) (6.2), (6.6): face coefficient K = harmonic mean of
+   nu h^{3/2} of the two cells (zero if either is thinner than h_min), central differences with
+   the cross derivatives averaged over four cells.
+6. Source g h S (6.4) with mu_b from (3.4), (3.7), the direction u/|u| regularised as
+   u / max(|u|, u_eps); no source where h < h_min.
+
+Arrays are shaped (nc, NX, NY) as in :class:`tiseg.numerics.config.Layout`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..numerics.config import OperatorConfig
+
+SQRT2 = math.sqrt(2.0)
+
+
+class ReferenceOperator:
+    """dq/dt for a full array with ghost cells (ghosts are overwritten)."""
+
+    def __init__(self, cfg: OperatorConfig, y_centres: np.ndarray | None = None):
+        self.cfg = cfg
+        self.lay = cfg.layout
+        lay = self.lay
+        if y_centres is None:
+            y_centres = (np.arange(lay.ny) + 0.5) * cfg.dy
+        self.y = np.asarray(y_centres, dtype=float)
+
+    # ------------------------------------------------------------------ boundaries
+    def fill_ghosts(self, q: np.ndarray, t: float) -> None:
+        c, lay = self.cfg, self.lay
+        g, n = lay.gx, lay.nx
+        # x direction first (over all rows), y second (over all columns, corners included)
+        lo, hi = c.bc[0], c.bc[1]
+        for k in range(g):
+            # ghost index on the low side: g-1-k mirrors interior g+k, periodic takes n+g-1-k
+            il, ih = g - 1 - k, n + g + k
+            if lo == "periodic":
+                q[:, il] = q[:, n + g - 1 - k]
+            elif lo == "outflow":
+                q[:, il] = q[:, g]
+            elif lo == "wall" or (lo == "inflow" and t > c.inflow_stop):
+                q[:, il] = q[:, g + k]
+                q[lay.HU, il] *= -1
+            elif lo == "inflow":
+                h, u, phi = c.inflow_state(t)
+                q[:, il] = 0.0
+                ys = slice(lay.gy, lay.gy + lay.ny)
+                q[lay.H, il, ys] = h
+                q[lay.HU, il, ys] = h * u
+                if lay.segregation:
+                    phis = phi + c.inflow_delta * np.sin(2 * np.pi * c.inflow_modes * self.y / c.Ly)
+                    q[lay.HPHI, il, ys] = h * phis
+            if hi == "periodic":
+                q[:, ih] = q[:, g + k]
+            elif hi == "outflow":
+                q[:, ih] = q[:, n + g - 1]
+            elif hi == "wall":
+                q[:, ih] = q[:, n + g - 1 - k]
+                q[lay.HU, ih] *= -1
+        if lay.is_1d:
+            return
+        g, n = lay.gy, lay.ny
+        lo, hi = c.bc[2], c.bc[3]
+        for k in range(g):
+            jl, jh = g - 1 - k, n + g + k
+            if lo == "periodic":
+                q[:, :, jl] = q[:, :, n + g - 1 - k]
+            elif lo == "outflow":
+                q[:, :, jl] = q[:, :, g]
+            elif lo == "wall":
+                q[:, :, jl] = q[:, :, g + k]
+                q[lay.HV, :, jl] *= -1
+            if hi == "periodic":
+                q[:, :, jh] = q[:, :, g + k]
+            elif hi == "outflow":
+                q[:, :, jh] = q[:, :, n + g - 1]
+            elif hi == "wall":
+                q[:, :, jh] = q[:, :, n + g - 1 - k]
+                q[lay.HV, :, jh] *= -1
+
+    # ------------------------------------------------------------------ pointwise physics
+    def primitives(self, q: np.ndarray) -> np.ndarray:
+        """w = (h, u[, v][, phi]) with Kurganov-Petrova desingularisation."""
+        c, lay = self.cfg, self.lay
+        h = np.maximum(q[lay.H], 0.0)
+        h4 = h ** 4
+        denom = np.sqrt(h4 + np.maximum(h4, c.h_eps ** 4))
+        w = np.empty_like(q)
+        w[0] = h
+        for comp in range(1, lay.nc):
+            w[comp] = SQRT2 * h * q[comp] / denom
+        if lay.segregation:
+            w[lay.HPHI] = np.clip(w[lay.HPHI], 0.0, 1.0)
+        return w
+
+    def G(self, phi):
+        return (1.0 - self.cfg.alpha) * phi * (1.0 - phi)
+
+    def dG(self, phi):
+        return (1.0 - self.cfg.alpha) * (1.0 - 2.0 * phi)
+
+    def mu_b(self, h, speed, phi):
+        """Basal friction coefficient for the configured law, (3.4) and (3.7)."""
+        c = self.cfg
+        f = c.fric
+        if c.friction == "none":
+            return np.zeros_like(h)
+        if c.friction == "coulomb":
+            return np.full_like(h, f.coulomb_mu)
+        fr_l = speed / np.sqrt(c.g_cos * h)            # Froude number (6.5); h >= h_min here
+
+        def pf(mu1, mu2, beta, L):
+            x = L * fr_l
+            return mu1 + (mu2 - mu1) * x / (beta * h + x)
+
+        mus = pf(f.mu1_s, f.mu2_s, f.beta_s, f.L_s)
+        if c.friction == "pouliquen-small":
+            return mus
+        mul = pf(f.mu1_l, f.mu2_l, f.beta_l, f.L_l)
+        if c.friction == "pouliquen-large":
+            return mul
+        ph = phi if c.feedback else c.phi_ref
+        return ph * mus + (1.0 - ph) * mul
+
+    def flux(self, w: np.ndarray, direction: int) -> np.ndarray:
+        """Physical flux f (x) or g (y) of the primitive state w, as conserved components."""
+        lay, c = self.lay, self.cfg
+        h, u = w[0], w[1]
+        vel = u if direction == 0 else w[lay.HV]
+        f = np.empty_like(w)
+        f[lay.H] = h * vel
+        f[lay.HU] = h * u * vel
+        if not lay.is_1d:
+            f[lay.HV] = h * w[lay.HV] * vel
+        f[lay.HU if direction == 0 else lay.HV] += 0.5 * c.g_cos * h * h
+        if lay.segregation:
+            phi = w[lay.HPHI]
+            f[lay.HPHI] = h * vel * (phi - self.G(phi))
+        return f
+
+    def speed(self, w: np.ndarray, direction: int) -> np.ndarray:
+        lay, c = self.lay, self.cfg
+        vel = w[1] if direction == 0 else w[lay.HV]
+        a = np.abs(vel) + np.sqrt(c.g_cos * w[0])
+        if lay.segregation:
+            a = np.maximum(a, np.abs(vel * (1.0 - self.dG(w[lay.HPHI]))))
+        return a
+
+    def conserved(self, w: np.ndarray) -> np.ndarray:
+        q = w.copy()
+        q[1:] = w[1:] * w[0]
+        return q
+
+    # ------------------------------------------------------------------ reconstruction
+    def slopes(self, w: np.ndarray, axis: int) -> np.ndarray:
+        """Undivided slopes (edge value = w +- slope/2) along axis 1 (x) or 2 (y); zero at the
+        outermost ghost layer."""
+        c, lay = self.cfg, self.lay
+        s = np.zeros_like(w)
+        if c.reconstruction == "first-order":
+            return s
+        wm = np.take(w, range(0, w.shape[axis] - 2), axis=axis)
+        w0 = np.take(w, range(1, w.shape[axis] - 1), axis=axis)
+        wp = np.take(w, range(2, w.shape[axis]), axis=axis)
+        dm, dp, dc = w0 - wm, wp - w0, 0.5 * (wp - wm)
+        if c.reconstruction == "minmod":
+            th = c.theta
+            a, b, cc = th * dm, dc, th * dp
+            same = (np.sign(a) == np.sign(b)) & (np.sign(b) == np.sign(cc))
+            mag = np.minimum(np.minimum(np.abs(a), np.abs(b)), np.abs(cc))
+            inner = np.where(same, np.sign(b) * mag, 0.0)
+        else:  # WENO-type weighted slope (NUMERICS section 4)
+            scale = np.ones(lay.nc)
+            scale[0] = c.h_ref
+            scale[1:] = c.u_ref
+            if lay.segregation:
+                scale[lay.HPHI] = 1.0
+            shp = (-1,) + (1,) * (w.ndim - 1)
+            sc = scale.reshape(shp)
+            eps = c.weno_eps
+            am = 0.25 / (eps + (dm / sc) ** 2) ** 2
+            ap = 0.25 / (eps + (dp / sc) ** 2) ** 2
+            ac = 0.5 / (eps + (dc / sc) ** 2) ** 2
+            inner = (am * dm + ap * dp + ac * dc) / (am + ap + ac)
+        # keep edge values physical: h_edge >= 0, 0 <= phi_edge <= 1
+        inner[0] = np.clip(inner[0], -2.0 * w0[0], 2.0 * w0[0])
+        if lay.segregation:
+            p = w0[lay.HPHI]
+            lim = 2.0 * np.minimum(p, 1.0 - p)
+            inner[lay.HPHI] = np.clip(inner[lay.HPHI], -lim, lim)
+        idx = [slice(None)] * w.ndim
+        idx[axis] = slice(1, w.shape[axis] - 1)
+        s[tuple(idx)] = inner
+        return s
+
+    # ------------------------------------------------------------------ the operator
+    def face_fluxes(self, w: np.ndarray, axis: int) -> np.ndarray:
+        """KT numerical flux at faces between cells m and m+1 along axis; shape like w with the
+        face m+1/2 stored at index m (last index unused)."""
+        c, lay = self.cfg, self.lay
+        direction = axis - 1
+        s = self.slopes(w, axis)
+        n = w.shape[axis]
+
+        def sl(a, b):
+            idx = [slice(None)] * w.ndim
+            idx[axis] = slice(a, b)
+            return tuple(idx)
+
+        wl = (w + 0.5 * s)[sl(0, n - 1)]     # east/north edge of cell m
+        wr = (w - 0.5 * s)[sl(1, n)]         # west/south edge of cell m+1
+        ql, qr = self.conserved(wl), self.conserved(wr)
+        a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
+        H = 0.5 * (self.flux(wl, direction) + self.flux(wr, direction)) - 0.5 * a * (qr - ql)
+        hc = w[0]
+        dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
+        H = np.where(dry[None], 0.0, H)
+        out = np.zeros_like(w)
+        out[sl(0, n - 1)] = H
+        return out
+
+    def viscous_fluxes(self, w: np.ndarray):
+        """Face stresses P (x faces, y faces) to be subtracted from the KT fluxes of hu, hv."""
+        c, lay = self.cfg, self.lay
+        h, u = w[0], w[1]
+        K = c.nu * h * np.sqrt(h)
+        wet = h >= c.h_min
+        Px = np.zeros_like(w)
+        Py = np.zeros_like(w)
+
+        def harmonic(Ka, Kb, wa, wb):
+            ssum = Ka + Kb
+            with np.errstate(divide="ignore", invalid="ignore"):
+                kf = np.where(ssum > 0, 2.0 * Ka * Kb / np.where(ssum > 0, ssum, 1.0), 0.0)
+            return np.where(wa & wb, kf, 0.0)
+
+        Kx = harmonic(K[:-1], K[1:], wet[:-1], wet[1:])           # face i+1/2 at index i
+        Px[lay.HU, :-1] = Kx * (u[1:] - u[:-1]) / c.dx
+        if lay.is_1d:
+            return Px, Py
+        v = w[lay.HV]
+        dx, dy = c.dx, c.dy
+        # x faces: cross derivative du/dy averaged over cells i, i+1 (rows j-1, j+1)
+        dudy = np.zeros_like(u)
+        dudy[:-1, 1:-1] = (u[:-1, 2:] + u[1:, 2:] - u[:-1, :-2] - u[1:, :-2]) / (4 * dy)
+        Px[lay.HV, :-1] = 0.5 * Kx * ((v[1:] - v[:-1]) / dx + dudy[:-1])
+        Ky = harmonic(K[:, :-1], K[:, 1:], wet[:, :-1], wet[:, 1:])
+        Py[lay.HV, :, :-1] = Ky * (v[:, 1:] - v[:, :-1]) / dy
+        dvdx = np.zeros_like(v)
+        dvdx[1:-1, :-1] = (v[2:, :-1] + v[2:, 1:] - v[:-2, :-1] - v[:-2, 1:]) / (4 * dx)
+        Py[lay.HU, :, :-1] = 0.5 * Ky * ((u[:, 1:] - u[:, :-1]) / dy + dvdx[:, :-1])
+        return Px, Py
+
+    def source(self, w: np.ndarray) -> np.ndarray:
+        """g h S of (6.4) (zero where h < h_min)."""
+        c, lay = self.cfg, self.lay
+        h, u = w[0], w[1]
+        v = np.zeros_like(u) if lay.is_1d else w[lay.HV]
+        speed = np.sqrt(u * u + v * v)
+        phi = w[lay.HPHI] if lay.segregation else c.phi_ref
+        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)   # only used where h >= h_min
+        inv = 1.0 / np.maximum(speed, c.u_eps)
+        wet = h >= c.h_min
+        S = np.zeros_like(w)
+        S[lay.HU] = np.where(wet, h * (c.g_sin - c.g_cos * mu * u * inv), 0.0)
+        if not lay.is_1d:
+            S[lay.HV] = np.where(wet, -h * c.g_cos * mu * v * inv, 0.0)
+        return S
+
+    def rhs(self, q: np.ndarray, t: float) -> np.ndarray:
+        """dq/dt on interior cells (ghost entries of the result are zero); fills q's ghosts."""
+        c, lay = self.cfg, self.lay
+        self.fill_ghosts(q, t)
+        w = self.primitives(q)
+        Fx = self.face_fluxes(w, 1)
+        Fy = None if lay.is_1d else self.face_fluxes(w, 2)
+        if c.viscous:
+            Px, Py = self.viscous_fluxes(w)
+            Fx = Fx - Px
+            if Fy is not None:
+                Fy = Fy - Py
+        ix, iy = lay.interior()
+        out = np.zeros_like(q)
+        ixm = slice(ix.start - 1, ix.stop - 1)
+        div = -(Fx[:, ix, iy] - Fx[:, ixm, iy]) / c.dx
+        if Fy is not None:
+            iym = slice(iy.start - 1, iy.stop - 1)
+            div = div - (Fy[:, ix, iy] - Fy[:, ix, iym]) / c.dy
+        out[:, ix, iy] = div + self.source(w)[:, ix, iy]
+        return out
+
+    def postprocess(self, q: np.ndarray) -> None:
+        """Stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
+        c, lay = self.cfg, self.lay
+        h = np.maximum(q[lay.H], 0.0)
+        q[lay.H] = h
+        dry = h < c.h_min
+        q[lay.HU][dry] = 0.0
+        if not lay.is_1d:
+            q[lay.HV][dry] = 0.0
+        if lay.segregation:
+            q[lay.HPHI] = np.clip(q[lay.HPHI], 0.0, h)

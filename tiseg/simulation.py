@@ -1,0 +1,259 @@
+"""The run loop: a scene, its Taichi operator, a stepper, and callbacks on a schedule.
+
+Each step measures the wave speeds and stiffness of the current state, asks the stepper for
+(dt, stages) from the convective CFL and the spectral radius, trims dt to land exactly on the
+next output time, and advances. Output (NetCDF snapshots, diagnostics CSV), progress and the
+non-finite guard run as callbacks at output times.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import backend
+from .errors import InputError, TisegError
+from .initial import initial_state
+from .numerics.config import config_from_scene
+from .timestepping import make_stepper
+
+
+@dataclass
+class StepInfo:
+    t: float
+    dt: float
+    stages: int
+    rhs_evals: int
+
+
+class SimulationError(TisegError):
+    """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1])."""
+
+
+@dataclass
+class RunStats:
+    steps: int = 0
+    stages: int = 0          # operator evaluations
+    wall: float = 0.0
+    history: list = field(default_factory=list)
+
+
+class Simulation:
+    """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``."""
+
+    def __init__(self, scene, arch: str | None = None, precision: str | None = None,
+                 threads: int = 0):
+        from .numerics.operator import TaichiOperator
+
+        self.scene = scene
+        prec = precision or scene.numerics.precision
+        if backend.is_initialised() and arch is None:
+            st = backend.state()
+            if st.precision != prec:
+                backend.init(st.arch if st.arch == "cpu" else "gpu", prec, threads or st.threads)
+        else:
+            backend.init(arch or "cpu", prec, threads)
+        self.backend = backend.state()
+        self.cfg = config_from_scene(scene)
+        self.layout = self.cfg.layout
+        num = scene.numerics
+        kw = {"max_stages": num.max_stages} if num.stepper == "rkc" else {}
+        self.stepper = make_stepper(num.stepper, **kw)
+        self.op = TaichiOperator(self.cfg, nslots=max(self.stepper.slots, 2))
+        self.t = 0.0
+        self.stats = RunStats()
+        self.reset()
+
+    @classmethod
+    def from_scene(cls, scene, overrides=None, **kwargs) -> "Simulation":
+        """Build from a Scene, a built-in scene name or a TOML path, with ``section.key`` overrides."""
+        from .scene import Scene, load_scene
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene, overrides)
+        elif overrides:
+            scene = scene.with_overrides(overrides)
+        return cls(scene, **kwargs)
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        q0 = initial_state(self.scene, self.layout)
+        self.op.set(0, q0)
+        self.op.reset_budget()
+        self.t = 0.0
+        self.stats = RunStats()
+        self.initial_totals = self.totals()
+
+    def conserved(self) -> np.ndarray:
+        """Interior conserved variables (nc, nx, ny)."""
+        ix, iy = self.layout.interior()
+        return self.op.get(0)[:, ix, iy]
+
+    def set_conserved(self, q_interior: np.ndarray) -> None:
+        full = self.op.get(0)
+        ix, iy = self.layout.interior()
+        full[:, ix, iy] = q_interior
+        self.op.set(0, full)
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Primitive fields h, u[, v][, phi] shaped (ny, nx) as in the output files.
+
+        Velocities and phi are hu/h etc. where h > 0 and 0 on the empty chute."""
+        lay = self.layout
+        q = self.conserved()
+        h = q[lay.H]
+        safe = np.where(h > 0, h, 1.0)
+        out = {"h": h.T.copy(), "u": np.where(h > 0, q[lay.HU] / safe, 0.0).T.copy()}
+        if not lay.is_1d:
+            out["v"] = np.where(h > 0, q[lay.HV] / safe, 0.0).T.copy()
+        if lay.segregation:
+            out["phi"] = np.clip(np.where(h > 0, q[lay.HPHI] / safe, 0.0), 0.0, 1.0).T.copy()
+        return out
+
+    def totals(self) -> dict[str, float]:
+        """Total mass and small-particle mass [m^3] (summed in NumPy: deterministic)."""
+        lay = self.layout
+        q = self.conserved()
+        cell = self.scene.dx * (self.scene.dy if not lay.is_1d else 1.0)
+        out = {"mass": float(np.sum(q[lay.H]) * cell)}
+        out["small_mass"] = float(np.sum(q[lay.HPHI]) * cell) if lay.segregation else float("nan")
+        return out
+
+    def budget(self) -> dict[str, float]:
+        """Mass and small-particle mass that entered through the boundaries since the start."""
+        b = self.op.budget(0)
+        scale = 1.0 if not self.layout.is_1d else 1.0 / self.scene.dy
+        return {"mass_in": float((b[0] + b[2]) * scale), "small_mass_in": float((b[1] + b[3]) * scale)}
+
+    # ------------------------------------------------------------------ stepping
+    def plan_step(self, t_target: float | None = None) -> tuple[float, int, object]:
+        """(dt, stages, stability numbers) for the next step from the current state."""
+        sc = self.scene
+        stab = self.op.stability(0, self.t)
+        ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
+        inv = ax / sc.dx + (ay / sc.dy if not self.layout.is_1d else 0.0)
+        # CFL on the sum of directional rates (a conservative 2D form of dt <= C dx / a)
+        dt_cfl = sc.numerics.cfl / inv if inv > 0 else math.inf
+        rho = stab.rho_visc + stab.rho_fric + 2.0 * inv
+        remaining = (t_target if t_target is not None else sc.t_end) - self.t
+        dt_max = remaining if remaining > 0 else 0.0
+        if not math.isfinite(dt_cfl) and rho == 0:
+            dt_cfl = remaining
+        dt, stages = self.stepper.plan(dt_cfl, rho, dt_max)
+        # avoid a sliver step just before an output time
+        if 0 < remaining - dt < 1e-9 * max(1.0, remaining):
+            dt = remaining
+        return dt, stages, stab
+
+    def step(self, t_target: float | None = None) -> StepInfo:
+        self.op.check_alive()
+        dt, stages, _ = self.plan_step(t_target)
+        if not (dt > 0 and math.isfinite(dt)):
+            raise SimulationError(f"time step collapsed to dt={dt!r} at t={self.t:.6g} s")
+        self.stepper.step(self.op, self.t, dt, stages)
+        if t_target is not None and abs((self.t + dt) - t_target) <= 1e-12 * max(1.0, t_target):
+            self.t = t_target
+        else:
+            self.t += dt
+        evals = stages
+        self.stats.steps += 1
+        self.stats.stages += evals
+        return StepInfo(self.t, dt, stages, evals)
+
+    def advance(self, t_target: float, on_step=None) -> None:
+        """Step until t == t_target exactly (the last step is trimmed)."""
+        while self.t < t_target - 1e-12 * max(1.0, t_target):
+            info = self.step(t_target)
+            if on_step is not None:
+                on_step(info)
+
+    def check_state(self) -> None:
+        """Stop with a clear message when the state holds NaN/Inf or h < 0 (guard)."""
+        q = self.conserved()
+        lay = self.layout
+        bad = ~np.isfinite(q)
+        if bad.any():
+            c, i, j = np.argwhere(bad)[0]
+            raise SimulationError(f"non-finite value in component {c} at cell (i={i}, j={j}) at "
+                                  f"t={self.t:.6g} s after {self.stats.steps} steps")
+        if (q[lay.H] < 0).any():
+            i, j = np.argwhere(q[lay.H] < 0)[0]
+            raise SimulationError(f"negative thickness {q[lay.H][i, j]:.3g} m at cell (i={i}, j={j}) "
+                                  f"at t={self.t:.6g} s")
+
+    # ------------------------------------------------------------------ run with output
+    def run(self, out_dir=None, progress: bool = True, t_end: float | None = None) -> RunStats:
+        """Run to t_end writing snapshots at the scene's output times into ``out_dir``
+        (scene.toml, fields.nc, diagnostics.csv); without ``out_dir`` nothing is written."""
+        from .output import DiagnosticsWriter, FieldsWriter, write_text_atomic
+
+        sc = self.scene
+        t_end = sc.t_end if t_end is None else t_end
+        times = [t for t in sc.output_times if t <= t_end + 1e-12] or [t_end]
+        writer = diag = None
+        if out_dir is not None:
+            out = Path(out_dir)
+            try:
+                out.mkdir(parents=True, exist_ok=True)
+                write_text_atomic(out / "scene.toml", sc.to_toml())
+            except OSError as exc:
+                raise InputError(f"cannot write to output folder {str(out)!r}: {exc.strerror}")
+            x, y = sc.domain.cell_centres()
+            writer = FieldsWriter(out / "fields.nc", x, y,
+                                  attrs={"scene": sc.to_toml(), "tiseg_arch": self.backend.arch,
+                                         "tiseg_precision": self.backend.precision},
+                                  fields=sc.fields,
+                                  dtype="f8" if self.backend.precision == "f64" else "f4")
+            diag = DiagnosticsWriter(out / "diagnostics.csv")
+        bar = _progress(progress, t_end, sc.name)
+        wall0 = _time.perf_counter()
+        last = {"dt": 0.0, "stages": 0, "speed": 0.0}
+
+        def record(info: StepInfo | None):
+            if diag is None:
+                return
+            tot = self.totals()
+            diag.write(time=self.t, dt=last["dt"], stages=last["stages"], mass=tot["mass"],
+                       small_mass=tot["small_mass"], max_speed=last["speed"],
+                       wall_time=_time.perf_counter() - wall0)
+
+        def on_step(info: StepInfo):
+            last["dt"], last["stages"] = info.dt, info.stages
+            if bar is not None:
+                bar.update(info.t - bar.n)
+                bar.set_postfix(steps=self.stats.steps, stages=info.stages, dt=f"{info.dt:.2e}",
+                                refresh=False)
+
+        try:
+            if self.t <= times[0] + 1e-15:
+                self._snapshot(writer, record)
+            for t_out in times:
+                if t_out <= self.t + 1e-12:
+                    continue
+                self.advance(t_out, on_step)
+                self._snapshot(writer, record)
+        finally:
+            self.stats.wall += _time.perf_counter() - wall0
+            if bar is not None:
+                bar.close()
+            if writer is not None:
+                writer.close()
+            if diag is not None:
+                diag.close()
+        return self.stats
+
+    def _snapshot(self, writer, record) -> None:
+        self.check_state()
+        if writer is not None:
+            writer.write(self.t, **self.fields())
+        record(None)
+
+
+def _progress(enabled: bool, total: float, name: str):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, unit="s", desc=f"{name}", bar_format=(
+        "{desc}: {percentage:3.0f}%|{bar}| t={n:.3f}/{total:.3f} s [{elapsed}<{remaining}{postfix}]"))

@@ -1,0 +1,34 @@
+"""Stepper interface and registry."""
+from __future__ import annotations
+
+from ..errors import InputError
+
+STEPPERS: dict[str, type] = {}
+
+
+def register(cls):
+    STEPPERS[cls.name] = cls
+    return cls
+
+
+class Stepper:
+    """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs."""
+    name = "base"
+    slots = 1
+    order = 1
+
+    def plan(self, dt_cfl: float, rho: float, dt_max: float) -> tuple[float, int]:
+        """(dt, stages) for the next step given the convective limit, the spectral radius and
+        an upper bound (time left to the next output)."""
+        raise NotImplementedError
+
+    def step(self, op, t: float, dt: float, stages: int) -> None:
+        """Advance slot 0 of ``op`` from t to t + dt."""
+        raise NotImplementedError
+
+
+def make_stepper(name: str, **kwargs) -> Stepper:
+    if name not in STEPPERS:
+        raise InputError(f"numerics.stepper={name!r} is not known; choose one of "
+                         f"{', '.join(sorted(STEPPERS))}")
+    return STEPPERS[name](**kwargs)
