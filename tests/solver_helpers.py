@@ -1,0 +1,46 @@
+"""Helpers for the solver tests: build operators straight from an OperatorConfig."""
+import numpy as np
+
+from tiseg.material import TABLE1
+from tiseg.numerics.config import FrictionParams, Layout, OperatorConfig
+
+
+def table1_friction(m=TABLE1, coulomb_mu=0.36):
+    return FrictionParams(m.small.mu1, m.small.mu2, m.small.beta, m.small.L,
+                          m.large.mu1, m.large.mu2, m.large.beta, m.large.L, coulomb_mu)
+
+
+def make_config(nx, ny, segregation=True, **kw):
+    defaults = dict(dx=0.01, dy=0.012, Ly=ny * 0.012, viscous=True, feedback=segregation,
+                    fric=table1_friction(), nu=0.01, inflow_h=0.002, inflow_u=0.2,
+                    inflow_phi=0.8, inflow_delta=0.1)
+    defaults.update(kw)
+    return OperatorConfig(layout=Layout(nx, ny, segregation), **defaults)
+
+
+def random_state(lay, rng, wet_dry=False, smooth=False):
+    """A random state: smooth waves, or noisy with dry cells and films below h_min."""
+    q = np.zeros((lay.nc, lay.NX, lay.NY))
+    X, Y = np.meshgrid(np.linspace(0, 2 * np.pi, lay.NX), np.linspace(0, 2 * np.pi, lay.NY),
+                       indexing="ij")
+    if smooth:
+        h = 0.002 * (1 + 0.3 * np.sin(X + 0.5) * np.cos(Y))
+        u = 0.2 + 0.05 * np.cos(X)
+        v = 0.03 * np.sin(Y + X)
+        phi = 0.5 + 0.4 * np.sin(X) * np.sin(Y + 1)
+    else:
+        h = 0.002 * (1 + 0.3 * rng.random(X.shape))
+        u = 0.2 + 0.1 * rng.standard_normal(X.shape)
+        v = 0.05 * rng.standard_normal(X.shape)
+        phi = rng.random(X.shape)
+    if wet_dry:
+        mask = rng.random(X.shape)
+        h = np.where(mask < 0.2, 0.0, h)
+        h = np.where((mask >= 0.2) & (mask < 0.35), 5e-5 * rng.random(X.shape), h)
+    q[lay.H] = h
+    q[lay.HU] = h * u
+    if not lay.is_1d:
+        q[lay.HV] = h * v
+    if lay.segregation:
+        q[lay.HPHI] = h * phi
+    return q

@@ -1,0 +1,161 @@
+"""Output files: NetCDF snapshots read back by xarray, diagnostics CSV, atomic writes."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+
+from tiseg.output import (DiagnosticsWriter, FieldsWriter, read_diagnostics, read_fields,
+                          write_json_atomic, write_text_atomic)
+from tiseg.scene import load_scene
+
+NX, NY = 7, 4
+X = (np.arange(NX) + 0.5) * 0.01
+Y = (np.arange(NY) + 0.5) * 0.02
+
+
+def _snapshot(t, fields=("h", "u", "v", "phi")):
+    """Distinct, time-dependent values per field so mix-ups show."""
+    base = np.arange(NY * NX, dtype=float).reshape(NY, NX)
+    return {name: base * (i + 1) + 100.0 * t for i, name in enumerate(fields)}
+
+
+def test_fields_round_trip_with_xarray(tmp_path):
+    path = tmp_path / "fields.nc"
+    times = [0.0, 0.25, 1.5]
+    scene_toml = load_scene("fingers").to_toml()
+    with FieldsWriter(path, X, Y, {"scene": scene_toml, "scene_name": "fingers"}) as w:
+        for t in times:
+            w.write(t, **_snapshot(t))
+    ds = xr.open_dataset(path)
+    try:
+        assert ds.attrs["Conventions"] == "CF-1.8"
+        for key in ("title", "source", "history"):
+            assert ds.attrs[key]
+        assert ds.attrs["scene"] == scene_toml and ds.attrs["scene_name"] == "fingers"
+        assert ds["h"].dims == ("time", "y", "x")
+        np.testing.assert_array_equal(ds["time"].values, times)
+        assert ds["time"].dtype == np.float64        # not decoded to dates/timedeltas
+        assert ds["time"].attrs["units"] == "s" and ds["time"].attrs["axis"] == "T"
+        np.testing.assert_array_equal(ds["x"].values, X)
+        np.testing.assert_array_equal(ds["y"].values, Y)
+        assert ds["x"].attrs == {"long_name": "downslope distance", "units": "m", "axis": "X"}
+        assert ds["y"].attrs == {"long_name": "cross-slope distance", "units": "m", "axis": "Y"}
+        units = {"h": "m", "u": "m s-1", "v": "m s-1", "phi": "1"}
+        for name, unit in units.items():
+            assert ds[name].attrs["units"] == unit
+            assert ds[name].attrs["long_name"]
+        for i, t in enumerate(times):
+            for name, arr in _snapshot(t).items():
+                np.testing.assert_array_equal(ds[name].isel(time=i).values, arr)
+        # the stored scene is a loadable scene
+        assert ds.attrs["scene"].count("[domain]") == 1
+    finally:
+        ds.close()
+    # zlib compression is on for the data variables
+    with netCDF4.Dataset(path) as nc:
+        assert nc["h"].filters()["zlib"] is True
+        assert nc.dimensions["time"].isunlimited()
+    ds2 = read_fields(path)
+    try:
+        np.testing.assert_array_equal(ds2["phi"].values[-1], _snapshot(1.5)["phi"])
+    finally:
+        ds2.close()
+
+
+def test_only_named_fields_exist(tmp_path):
+    path = tmp_path / "noseg.nc"
+    with FieldsWriter(path, X, [0.5], {"segregation": False}, fields=("h", "u"), dtype="f4") as w:
+        w.write(0.0, h=np.ones(NX), u=np.zeros((1, NX)))     # a 1D run: (nx,) or (1, nx)
+        with pytest.raises(ValueError, match="phi"):
+            w.write(0.1, h=np.ones(NX), u=np.zeros(NX), phi=np.zeros(NX))
+        with pytest.raises(ValueError, match="missing"):
+            w.write(0.2, h=np.ones(NX))
+        with pytest.raises(ValueError, match="shape"):
+            w.write(0.3, h=np.ones((2, NX)), u=np.ones((2, NX)))
+        with pytest.raises(ValueError, match="after"):
+            w.write(0.0, h=np.ones(NX), u=np.ones(NX))
+    ds = read_fields(path)
+    try:
+        assert set(ds.data_vars) == {"h", "u"}
+        assert ds["h"].dtype == np.float32 and ds.sizes["time"] == 1
+        assert ds.attrs["segregation"] == 0
+    finally:
+        ds.close()
+
+
+def test_killed_writer_keeps_snapshots(tmp_path):
+    """A process killed (SIGKILL, no close) after 2 snapshots leaves 2 readable snapshots."""
+    path = tmp_path / "killed.nc"
+    script = textwrap.dedent(f"""
+        import os, signal
+        import numpy as np
+        from tiseg.output import FieldsWriter
+        w = FieldsWriter({str(path)!r}, np.arange(5.0), np.arange(3.0), {{"note": "killed"}})
+        for t in (0.0, 0.5):
+            a = np.full((3, 5), 1.0 + t)
+            w.write(t, h=a, u=2 * a, v=3 * a, phi=a / 4)
+        os.kill(os.getpid(), signal.SIGKILL)
+    """)
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert proc.returncode == -9, proc.stderr               # really killed, not closed
+    with netCDF4.Dataset(path, "r") as nc:
+        assert nc.dimensions["time"].size == 2
+        np.testing.assert_array_equal(nc["time"][:], [0.0, 0.5])
+    ds = xr.open_dataset(path)
+    try:
+        assert ds.sizes["time"] == 2
+        np.testing.assert_array_equal(ds["u"].isel(time=1).values, np.full((3, 5), 3.0))
+        np.testing.assert_array_equal(ds["phi"].isel(time=0).values, np.full((3, 5), 0.25))
+    finally:
+        ds.close()
+
+
+def test_diagnostics_round_trip(tmp_path):
+    path = tmp_path / "diag.csv"
+    rows = [dict(time=0.0, dt=1e-4, stages=3, mass=0.0, small_mass=0.0, max_speed=0.0,
+                 wall_time=0.01, front=0.1),
+            dict(time=0.1 + 1e-17, dt=1.2345678901234567e-4, stages=17, mass=1e-3,
+                 small_mass=8e-4, max_speed=0.208, wall_time=0.5, front=0.12)]
+    with DiagnosticsWriter(path, extra=("front",)) as w:
+        for r in rows:
+            w.write(**r)
+        w.write(time=0.2)                                  # missing values -> NaN
+        with pytest.raises(ValueError, match="unknown"):
+            w.write(time=0.3, bogus=1)
+        # flushed per row: readable while the writer is still open
+        assert read_diagnostics(path)["time"].size == 3
+    d = read_diagnostics(path)
+    assert list(d) == ["time", "dt", "stages", "mass", "small_mass", "max_speed", "wall_time",
+                       "front"]
+    for key in rows[0]:
+        np.testing.assert_array_equal(d[key][:2], [r[key] for r in rows])   # exact floats
+    assert np.isnan(d["dt"][2]) and d["time"][2] == 0.2
+    with open(path) as fh:
+        assert fh.readline().strip() == "time,dt,stages,mass,small_mass,max_speed,wall_time,front"
+
+
+def test_custom_columns(tmp_path):
+    path = tmp_path / "c.csv"
+    with DiagnosticsWriter(path, columns=("step", "energy")) as w:
+        w.write(step=1, energy=2.5)
+    d = read_diagnostics(path)
+    assert set(d) == {"step", "energy"} and d["energy"][0] == 2.5
+
+
+def test_write_text_atomic(tmp_path):
+    path = tmp_path / "sub" / "scene.toml"
+    write_text_atomic(path, "a = 1\n")
+    write_text_atomic(path, "a = 2\n")
+    assert path.read_text() == "a = 2\n"
+    assert sorted(os.listdir(path.parent)) == ["scene.toml"]   # no temporary left behind
+    j = write_json_atomic(tmp_path / "summary.json", {"u0": 0.208, "bad": float("nan"),
+                                                     "arr": np.arange(3)})
+    assert json.loads(j.read_text()) == {"u0": 0.208, "bad": None, "arr": [0, 1, 2]}

@@ -1,0 +1,1119 @@
+"""Scenes: a simulation set-up as a TOML file, validated into one frozen :class:`Scene`.
+
+A scene describes everything a run needs: the material (Table 1), the reference steady uniform
+flow of section 4, which physical effects are switched on, the domain and its boundaries, the
+inflow (6.8)-(6.9), the initial state (e.g. the empty slope (6.7)), the numerics, the end time and
+the output times. Built-in scenes live in ``assets/scenes/*.toml`` (see :func:`list_builtin_scenes`);
+any other TOML file can be given by path.
+
+Loading is strict, because a typo in a scene would otherwise silently run the wrong experiment:
+unknown sections and keys, wrong types, out-of-range values and inconsistent combinations all raise
+:class:`tiseg.errors.InputError` with a message that names the full dotted key, the bad value and
+what is allowed. Nothing given is ever ignored without saying so.
+
+Command-line style overrides (``--set section.key=value``) are applied to the raw TOML data
+before validation, so an override is checked exactly like the same value written in the file::
+
+    scene = load_scene("fingers", ["domain.resolution=250", "time.t_end=2.0"])
+
+:meth:`Scene.to_toml` writes the fully resolved scene (every default filled in) as TOML that
+:func:`load_scene` turns back into an equal :class:`Scene`; a run stores it next to its output so
+that the run can be repeated exactly.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+import tomli_w
+
+from .errors import InputError
+from .material import Material, Species
+from .steady import steady_state
+
+# The repository root is the parent of the package folder: this is the same path as
+# ``Path(tiseg.__file__).resolve().parents[1]`` (both files sit directly in ``tiseg/``), written
+# without importing the package from inside itself.
+SCENE_DIR = Path(__file__).resolve().parents[1] / "assets" / "scenes"
+
+# ---- allowed choices ----------------------------------------------------------------------------
+FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
+TRANSPORTS = ("linear", "bagnold")
+RECONSTRUCTIONS = ("weno", "minmod", "first-order")
+RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
+STEPPERS = ("rkc", "ssprk3", "ssprk2", "euler")
+PRECISIONS = ("f64", "f32")
+BOUNDARY_KINDS = ("inflow", "outflow", "periodic", "wall")
+INITIAL_KINDS = ("empty", "uniform", "dam-break", "release")
+PERTURBATION_MODES = ("eigen", "h", "phi", "noise")
+
+# Keys each initial kind accepts; a key of another kind is an error (it would otherwise be unused).
+INITIAL_KEYS = {
+    "empty": ("kind",),
+    "uniform": ("kind", "amplitude", "k", "ky", "mode", "seed", "wavelengths"),
+    "dam-break": ("kind", "x0", "h_left", "h_right", "phi"),
+    "release": ("kind", "x0", "x1", "y0", "y1", "h", "phi"),
+}
+
+SECTION_KEYS = {
+    "material": ("zeta_deg", "alpha", "transport", "g", "chi", "small", "large"),
+    "flow": ("h0", "phi0", "nu", "u0"),
+    "effects": ("segregation", "mobility_feedback", "viscosity", "friction", "coulomb_mu"),
+    "domain": ("Lx", "Ly", "resolution", "nx", "ny"),
+    "boundary": ("x_lo", "x_hi", "y_lo", "y_hi"),
+    "inflow": ("h", "u", "phi", "ramp_rate", "perturbation", "modes", "stop_time"),
+    "initial": tuple(dict.fromkeys(k for keys in INITIAL_KEYS.values() for k in keys)),
+    "numerics": ("reconstruction", "theta", "stepper", "cfl", "precision", "h_min", "h_eps",
+                 "u_eps", "max_stages"),
+    "time": ("t_end",),
+    "output": ("interval", "times", "checkpoint_interval"),
+}
+TOP_LEVEL_KEYS = ("name", "description") + tuple(SECTION_KEYS)
+SPECIES_KEYS = ("zeta1_deg", "zeta2_deg", "beta", "L")
+
+DEFAULT_COULOMB_MU = math.tan(math.radians(20.0))
+MIN_CELLS = 4                    # a periodic axis needs at least 2 x GHOST(=2) interior cells
+MIN_CELLS_PER_PERTURBATION = 4   # cells across one wavelength Ly/modes of the inflow (6.9)
+MAX_CELLS = 2 ** 31 - 1          # Taichi fields are indexed with 32-bit integers
+MAX_OUTPUT_TIMES = 1_000_000     # guards against e.g. output.interval = 1e-12
+
+_MISSING = object()
+
+
+# =================================================================================================
+# The configuration
+# =================================================================================================
+@dataclass(frozen=True)
+class FlowConfig:
+    """Reference steady uniform flow of section 4.
+
+    ``u0`` and ``F`` are derived from (4.3), (4.9) when ``effects.friction`` is
+    "pouliquen-mixture"; for the other friction laws ``u0`` may be given (``flow.u0``) and ``F``
+    follows from it, otherwise both are None.
+    """
+    h0: float = 0.002          # [m]
+    phi0: float = 0.8
+    nu: float = 0.01           # [m^(3/2)/s], coefficient of the viscous term of (6.2)
+    u0: float | None = None    # [m/s]
+    F: float | None = None     # Froude number (4.3)
+
+
+@dataclass(frozen=True)
+class EffectsConfig:
+    """Which physics is switched on; see the resolved properties on :class:`Scene`."""
+    segregation: bool = True             # large-particle transport (6.3); false: no phi field
+    mobility_feedback: bool = True       # friction (3.4) uses the local phi, else flow.phi0
+    viscosity: bool = True               # the nu h^(3/2) D term of (6.2)
+    friction: str = "pouliquen-mixture"  # one of FRICTION_LAWS
+    coulomb_mu: float = DEFAULT_COULOMB_MU  # constant friction coefficient for "coulomb"
+
+
+@dataclass(frozen=True)
+class DomainConfig:
+    """Rectangle x in [0, Lx] (downslope), y in [0, Ly] (cross-slope) of nx x ny cells."""
+    Lx: float
+    Ly: float
+    nx: int
+    ny: int
+    resolution: float | None = None      # cells per metre, only used to derive nx, ny
+
+    @property
+    def dx(self) -> float:
+        return self.Lx / self.nx
+
+    @property
+    def dy(self) -> float:
+        return self.Ly / self.ny
+
+    @property
+    def is_1d(self) -> bool:
+        return self.ny == 1
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(ny, nx): the shape of one output field."""
+        return (self.ny, self.nx)
+
+    def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cell-centre coordinates (x of length nx, y of length ny) [m]."""
+        x = (np.arange(self.nx) + 0.5) * self.dx
+        y = (np.arange(self.ny) + 0.5) * self.dy
+        return x, y
+
+
+@dataclass(frozen=True)
+class BoundaryConfig:
+    x_lo: str = "inflow"
+    x_hi: str = "outflow"
+    y_lo: str = "periodic"
+    y_hi: str = "periodic"
+
+    def as_tuple(self) -> tuple[str, str, str, str]:
+        """(x_lo, x_hi, y_lo, y_hi), the order of ``OperatorConfig.bc``."""
+        return (self.x_lo, self.x_hi, self.y_lo, self.y_hi)
+
+
+@dataclass(frozen=True)
+class InflowConfig:
+    """Inflow at x = 0, (6.8)-(6.9):
+
+    h(0, y, t) = (1 - exp(-ramp_rate t)) h,  u = u,  v = 0,
+    phi(0, y, t) = phi + perturbation sin(2 pi modes y / Ly),
+
+    switched off (h = 0) for t > stop_time when a finite release is modelled. In a 1D run the
+    single cell row has its centre at y = Ly/2, where the perturbation sin(pi modes) vanishes.
+    """
+    h: float
+    u: float
+    phi: float
+    ramp_rate: float = 10.0           # [1/s]; 0 = sudden inflow
+    perturbation: float = 8e-5        # delta of (6.9)
+    modes: int = 1                    # number of sine periods across Ly
+    stop_time: float | None = None    # [s]; None = continuous inflow
+
+    def thickness(self, t: float) -> float:
+        """Inflow thickness at time t, (6.8a); 0 after ``stop_time``."""
+        if self.stop_time is not None and t > self.stop_time:
+            return 0.0
+        ramp = 1.0 if self.ramp_rate <= 0 else -math.expm1(-self.ramp_rate * t)
+        return ramp * self.h
+
+    def concentration(self, y, Ly: float):
+        """Inflow concentration (6.8d), (6.9) at cross-slope positions y [m]."""
+        y = np.asarray(y, dtype=float)
+        return self.phi + self.perturbation * np.sin(2.0 * np.pi * self.modes * y / Ly)
+
+
+@dataclass(frozen=True)
+class InitialConfig:
+    """Initial state; only the fields of ``kind`` are set, the others are None.
+
+    * empty: the empty slope (6.7).
+    * uniform: the steady uniform state (h0, u0, phi0) plus a perturbation of relative
+      ``amplitude`` with dimensionless wavenumbers ``k`` (downslope) and ``ky`` (cross-slope) in
+      the scalings (5.1), i.e. k_SI = k / h0; ``mode`` "eigen" is the most unstable linear mode
+      (computed by the simulation), "h"/"phi" perturb one field, "noise" is random (``seed``).
+      ``wavelengths`` = Lx k_SI / (2 pi), the number of downslope wavelengths in the domain.
+    * dam-break: h = h_left for x < x0, h_right beyond, at rest, concentration ``phi``.
+    * release: a block [x0, x1] x [y0, y1] of thickness h and concentration phi, at rest.
+    """
+    kind: str = "empty"
+    amplitude: float | None = None
+    k: float | None = None
+    ky: float | None = None
+    mode: str | None = None
+    seed: int | None = None
+    wavelengths: float | None = None
+    x0: float | None = None
+    x1: float | None = None
+    y0: float | None = None
+    y1: float | None = None
+    h_left: float | None = None
+    h_right: float | None = None
+    h: float | None = None
+    phi: float | None = None
+
+
+@dataclass(frozen=True)
+class NumericsConfig:
+    reconstruction: str = "weno"      # "weno" (Noelle 2000, as in section 6.2), "minmod", "first-order"
+    theta: float = 1.5                # generalised minmod parameter, in [1, 2]
+    stepper: str = "rkc"              # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
+    cfl: float = 0.25                 # Courant number of the hyperbolic part, in (0, 1]
+    precision: str = "f64"
+    h_min: float = 1e-4               # fluxes vanish where h < h_min (section 6.2) [m]
+    h_eps: float = 1e-7               # desingularisation thickness for u = hu / h [m], < h_min
+    u_eps: float = 1e-3               # regularises the friction direction u / |u| [m/s]
+    max_stages: int = 200             # upper bound on the number of RKC stages
+
+
+@dataclass(frozen=True)
+class TimeConfig:
+    t_end: float                      # [s]
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    """Snapshot times. ``output_times`` is the resolved, sorted union of ``times``, the multiples
+    of ``interval`` up to t_end, t = 0 and t_end."""
+    interval: float | None = None
+    times: tuple[float, ...] = ()
+    checkpoint_interval: float | None = None
+    output_times: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A fully validated simulation set-up; build it with :func:`load_scene`."""
+    name: str
+    description: str
+    material: Material
+    flow: FlowConfig
+    effects: EffectsConfig
+    domain: DomainConfig
+    boundary: BoundaryConfig
+    inflow: InflowConfig | None       # None unless boundary.x_lo == "inflow"
+    initial: InitialConfig
+    numerics: NumericsConfig
+    time: TimeConfig
+    output: OutputConfig
+    source: str | None = field(default=None, compare=False)   # file it was read from
+
+    # ---- resolved switches ------------------------------------------------------------------
+    @property
+    def segregation(self) -> bool:
+        """Large-particle transport (6.3) is solved, i.e. there is a phi field."""
+        return self.effects.segregation
+
+    @property
+    def viscous(self) -> bool:
+        """The viscous term of (6.2) is present (switched on and nu > 0)."""
+        return self.effects.viscosity and self.flow.nu > 0.0
+
+    @property
+    def feedback(self) -> bool:
+        """Friction (3.4) depends on the local phi (segregation-mobility feedback)."""
+        return (self.effects.segregation and self.effects.mobility_feedback
+                and self.effects.friction == "pouliquen-mixture")
+
+    @property
+    def friction_phi(self) -> float:
+        """Concentration the mixture friction uses where there is no feedback (flow.phi0)."""
+        return self.flow.phi0
+
+    @property
+    def is_1d(self) -> bool:
+        return self.domain.ny == 1
+
+    @property
+    def has_inflow(self) -> bool:
+        return self.boundary.x_lo == "inflow"
+
+    @property
+    def periodic_x(self) -> bool:
+        return self.boundary.x_lo == "periodic"
+
+    @property
+    def periodic_y(self) -> bool:
+        return self.boundary.y_lo == "periodic"
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        """Primitive output fields: h, u, v (2D only), phi (with segregation only)."""
+        return (("h", "u") + (() if self.is_1d else ("v",))
+                + (("phi",) if self.segregation else ()))
+
+    # ---- derived numbers ---------------------------------------------------------------------
+    @property
+    def u0(self) -> float | None:
+        return self.flow.u0
+
+    @property
+    def F(self) -> float | None:
+        return self.flow.F
+
+    @property
+    def dx(self) -> float:
+        return self.domain.dx
+
+    @property
+    def dy(self) -> float:
+        return self.domain.dy
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.domain.shape
+
+    @property
+    def t_end(self) -> float:
+        return self.time.t_end
+
+    @property
+    def output_times(self) -> tuple[float, ...]:
+        return self.output.output_times
+
+    @property
+    def time_scale(self) -> float | None:
+        """h0 / u0 [s], the time unit of the scalings (5.1)."""
+        return None if not self.flow.u0 else self.flow.h0 / self.flow.u0
+
+    @property
+    def reynolds(self) -> float | None:
+        """Granular Reynolds number R = u0 sqrt(h0) / nu (5.7); inf when inviscid."""
+        if self.flow.u0 is None:
+            return None
+        return math.inf if not self.viscous else self.flow.u0 * math.sqrt(self.flow.h0) / self.flow.nu
+
+    @property
+    def perturbation_wavenumbers(self) -> tuple[float, float]:
+        """(kx, ky) of a uniform initial perturbation in SI units [1/m] (k_SI = k_hat / h0)."""
+        if self.initial.kind != "uniform":
+            return (0.0, 0.0)
+        return (self.initial.k / self.flow.h0, self.initial.ky / self.flow.h0)
+
+    # ---- serialisation -----------------------------------------------------------------------
+    def to_dict(self, derived: bool = False) -> dict:
+        return scene_to_dict(self, derived=derived)
+
+    def to_toml(self) -> str:
+        """The fully resolved scene as TOML; ``load_scene`` of it gives an equal Scene."""
+        head = [f"# tiseg scene {self.name!r}, fully resolved (every default filled in)."]
+        if self.source:
+            head.append(f"# read from: {self.source}")
+        d = []
+        if self.flow.u0 is not None:
+            d.append(f"u0 = {self.flow.u0:.6g} m/s, F = {self.flow.F:.6g}")
+        d.append(f"dx = {self.dx:.6g} m, dy = {self.dy:.6g} m, grid {self.domain.nx} x {self.domain.ny}")
+        d.append(f"{len(self.output_times)} output times from {self.output_times[0]:g} to "
+                 f"{self.output_times[-1]:g} s")
+        head.append("# derived: " + "; ".join(d))
+        return "\n".join(head) + "\n\n" + tomli_w.dumps(scene_to_dict(self))
+
+    def with_overrides(self, overrides) -> "Scene":
+        """A new, re-validated scene with ``section.key`` overrides applied."""
+        data = scene_to_dict(self)
+        _apply_overrides(data, overrides)
+        return _build_labelled(data, self.name, self.source, f"{self.name!r}")
+
+
+# =================================================================================================
+# Public functions
+# =================================================================================================
+def list_builtin_scenes() -> list[str]:
+    """Names of the scenes shipped in ``assets/scenes``."""
+    if not SCENE_DIR.is_dir():
+        return []
+    return sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """Split ``"section.key=value"`` into the dotted key and the value parsed as a TOML literal.
+
+    ``0.01`` -> float, ``3`` -> int, ``true`` -> bool, ``"weno"`` or a bare word ``weno`` ->
+    str, ``[1.9, 3.3]`` -> list.
+    """
+    if not isinstance(text, str):
+        raise InputError(f"override {text!r}: expected a string 'section.key=value'")
+    key, sep, raw = text.partition("=")
+    key, raw = key.strip(), raw.strip()
+    if not sep:
+        raise InputError(f"override {text!r}: expected 'section.key=value' (no '=' found)")
+    _check_dotted_key(key, text)
+    if "\n" in raw or "\r" in raw:
+        raise InputError(f"override {text!r}: the value must be on one line")
+    try:
+        doc = tomllib.loads(f"v = {raw}")
+    except tomllib.TOMLDecodeError:
+        return key, raw          # a bare word such as `weno`: take it as a string
+    if set(doc) != {"v"}:        # e.g. `1 \n x = 2` smuggling a second key
+        return key, raw
+    return key, doc["v"]
+
+
+def load_scene(name_or_path, overrides=None) -> Scene:
+    """Load and validate a scene.
+
+    ``name_or_path``: a built-in scene name (no '/' and no '.toml', see
+    :func:`list_builtin_scenes`), a path to a TOML file, or a :class:`Scene` (then only the
+    overrides are applied). ``overrides``: a dict ``{"section.key": value}`` (a value of None
+    removes the key) or a list of ``"section.key=value"`` strings (``--set``).
+    """
+    if isinstance(name_or_path, Scene):
+        return name_or_path.with_overrides(overrides) if overrides else name_or_path
+    path = _resolve_scene_path(name_or_path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"scene file {str(path)!r} is not UTF-8 text: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}; "
+                         f"built-in scenes: {', '.join(list_builtin_scenes())}") from None
+    # error messages name a built-in scene by its name, any other file by its path
+    builtin = path.resolve().parent == SCENE_DIR
+    return scene_from_text(text, name=path.stem, overrides=overrides, source=str(path),
+                           label=repr(path.stem) if builtin else None)
+
+
+def scene_from_text(text: str, name: str = "scene", overrides=None,
+                    source: str | None = None, label: str | None = None) -> Scene:
+    """Validate a scene given as TOML text (``name`` is the default for the top-level name)."""
+    where = source or "<text>"
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"scene file {where!r} is not valid TOML: {exc}") from None
+    return scene_from_dict(data, name=name, overrides=overrides, source=source, label=label)
+
+
+def scene_from_dict(data: Mapping, name: str = "scene", overrides=None,
+                    source: str | None = None, label: str | None = None) -> Scene:
+    """Validate a scene given as the nested dict a TOML file parses to."""
+    if not isinstance(data, Mapping):
+        raise InputError(f"a scene must be a table of sections, got {_type_name(data)}")
+    data = _deep_copy(data)
+    label = label or (repr(source) if source else repr(name))
+    try:
+        _apply_overrides(data, overrides)
+    except InputError as exc:
+        raise InputError(f"scene {label}: {exc}") from None
+    return _build_labelled(data, name, source, label)
+
+
+def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
+    """The resolved scene as the nested dict of its TOML form (None values are left out, as TOML
+    has no null). With ``derived=True`` a ``derived`` table with u0, F, dx, dy, the output times
+    and the resolved switches is added (that dict is for reports, not for loading)."""
+    m = scene.material
+    material = {k: v for k, v in m.as_dict().items() if k not in ("small", "large")}
+    for sp_name in ("small", "large"):
+        sp: Species = getattr(m, sp_name)
+        material[sp_name] = {"zeta1_deg": sp.zeta1_deg, "zeta2_deg": sp.zeta2_deg,
+                             "beta": sp.beta, "L": sp.L}
+    flow = {"h0": scene.flow.h0, "phi0": scene.flow.phi0, "nu": scene.flow.nu}
+    if scene.effects.friction != "pouliquen-mixture" and scene.flow.u0 is not None:
+        flow["u0"] = scene.flow.u0       # user-given; with the mixture law it is derived
+    e = scene.effects
+    dom = scene.domain
+    # With a resolution the cell counts are derived from it (and left out, so that an override
+    # of Lx or Ly on the resolved scene re-derives them); a 1D run keeps its explicit ny = 1.
+    domain = {"Lx": dom.Lx, "Ly": dom.Ly}
+    if dom.resolution is not None:
+        domain["resolution"] = dom.resolution
+    else:
+        domain["nx"] = dom.nx
+    if dom.resolution is None or dom.is_1d:
+        domain["ny"] = dom.ny
+    b = scene.boundary
+    n = scene.numerics
+    out = scene.output
+    output: dict = {}
+    if out.interval is not None:
+        output["interval"] = out.interval
+    output["times"] = list(out.times)
+    if out.checkpoint_interval is not None:
+        output["checkpoint_interval"] = out.checkpoint_interval
+    d: dict = {
+        "name": scene.name,
+        "description": scene.description,
+        "material": material,
+        "flow": flow,
+        "effects": {"segregation": e.segregation, "mobility_feedback": e.mobility_feedback,
+                    "viscosity": e.viscosity, "friction": e.friction,
+                    "coulomb_mu": e.coulomb_mu},
+        "domain": domain,
+        "boundary": {"x_lo": b.x_lo, "x_hi": b.x_hi, "y_lo": b.y_lo, "y_hi": b.y_hi},
+    }
+    if scene.inflow is not None:
+        i = scene.inflow
+        inflow = {"h": i.h, "u": i.u, "phi": i.phi, "ramp_rate": i.ramp_rate,
+                  "perturbation": i.perturbation, "modes": i.modes}
+        if i.stop_time is not None:
+            inflow["stop_time"] = i.stop_time
+        d["inflow"] = inflow
+    ini = scene.initial
+    d["initial"] = {k: getattr(ini, k) for k in INITIAL_KEYS[ini.kind]
+                    if getattr(ini, k) is not None}
+    d["numerics"] = {"reconstruction": n.reconstruction, "theta": n.theta, "stepper": n.stepper,
+                     "cfl": n.cfl, "precision": n.precision, "h_min": n.h_min, "h_eps": n.h_eps,
+                     "u_eps": n.u_eps, "max_stages": n.max_stages}
+    d["time"] = {"t_end": scene.time.t_end}
+    d["output"] = output
+    if derived:
+        der = {"dx": scene.dx, "dy": scene.dy, "is_1d": scene.is_1d, "viscous": scene.viscous,
+               "feedback": scene.feedback, "fields": list(scene.fields),
+               "output_times": list(scene.output_times)}
+        if scene.flow.u0 is not None:
+            der.update(u0=scene.flow.u0, F=scene.flow.F, time_scale=scene.time_scale,
+                       reynolds=scene.reynolds)
+        d["derived"] = der
+    return d
+
+
+# =================================================================================================
+# Building and validation
+# =================================================================================================
+def _resolve_scene_path(name_or_path) -> Path:
+    if isinstance(name_or_path, Path):
+        text = str(name_or_path)
+        is_name = False
+    elif isinstance(name_or_path, str):
+        text = name_or_path
+        is_name = "/" not in text and "\\" not in text and not text.endswith(".toml")
+    else:
+        raise InputError(f"scene {name_or_path!r}: expected a built-in scene name or a path")
+    builtins = list_builtin_scenes()
+    if is_name:
+        if text in builtins:
+            return SCENE_DIR / f"{text}.toml"
+        close = difflib.get_close_matches(text, builtins, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"unknown built-in scene {text!r}{hint}; built-in scenes: "
+                         f"{', '.join(builtins) or '(none)'}; or give a path to a .toml file")
+    path = Path(text).expanduser()
+    if not path.is_file():
+        raise InputError(f"scene file {text!r} not found; built-in scenes: "
+                         f"{', '.join(builtins) or '(none)'}")
+    return path
+
+
+def _build_labelled(data: dict, name: str, source: str | None, label: str) -> Scene:
+    try:
+        return _build(data, name, source)
+    except InputError as exc:
+        raise InputError(f"scene {label}: {exc}") from None
+
+
+def _build(data: dict, default_name: str, source: str | None) -> Scene:
+    top = _Table(data, "", TOP_LEVEL_KEYS)
+    name = top.string("name", default_name)
+    _require(name.strip() != "" and not any(c in name for c in "/\\\0"), "name", name,
+             "must be a non-empty name without '/' or '\\'")
+    description = top.string("description", "")
+
+    material = _read_material(top.table("material"))
+    effects = _read_effects(top.table("effects"))
+    flow = _read_flow(top.table("flow"), material, effects)
+
+    ini_t = top.table("initial")
+    kind = ini_t.choice("kind", INITIAL_KINDS, "empty")
+    ini_t.only(INITIAL_KEYS[kind], f"initial.kind={kind!r}")
+
+    time = TimeConfig(t_end=top.table("time").number("t_end", positive=True))
+    domain, wavelengths = _read_domain(top.table("domain"), ini_t, kind, flow)
+    boundary = _read_boundary(top.table("boundary"), domain)
+    inflow = _read_inflow(top.table("inflow"), top.has("inflow"), boundary, domain, flow)
+    initial = _read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects)
+    numerics = _read_numerics(top.table("numerics"), flow)
+    output = _read_output(top.table("output"), time.t_end)
+    return Scene(name=name, description=description, material=material, flow=flow,
+                 effects=effects, domain=domain, boundary=boundary, inflow=inflow,
+                 initial=initial, numerics=numerics, time=time, output=output, source=source)
+
+
+def _read_material(t: "_Table") -> Material:
+    base = Material()
+    kw: dict = {
+        "zeta_deg": t.number("zeta_deg", base.zeta_deg),
+        "alpha": t.number("alpha", base.alpha),
+        "transport": t.choice("transport", TRANSPORTS, base.transport),
+        "g": t.number("g", base.g, positive=True),
+        "chi": t.number("chi", base.chi),
+    }
+    for sp_name in ("small", "large"):
+        st = t.table(sp_name, SPECIES_KEYS)
+        sp0: Species = getattr(base, sp_name)
+        kw[sp_name] = Species(zeta1_deg=st.number("zeta1_deg", sp0.zeta1_deg),
+                              zeta2_deg=st.number("zeta2_deg", sp0.zeta2_deg),
+                              beta=st.number("beta", sp0.beta, positive=True),
+                              L=st.number("L", sp0.L, positive=True))
+    return Material(**kw)      # checks the remaining ranges, naming material.<key>
+
+
+def _read_effects(t: "_Table") -> EffectsConfig:
+    return EffectsConfig(
+        segregation=t.boolean("segregation", True),
+        mobility_feedback=t.boolean("mobility_feedback", True),
+        viscosity=t.boolean("viscosity", True),
+        friction=t.choice("friction", FRICTION_LAWS, "pouliquen-mixture"),
+        coulomb_mu=t.number("coulomb_mu", DEFAULT_COULOMB_MU, nonneg=True),
+    )
+
+
+def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowConfig:
+    h0 = t.number("h0", 0.002, positive=True)
+    phi0 = t.number("phi0", 0.8, lo=0.0, hi=1.0)
+    nu = t.number("nu", 0.01, nonneg=True)
+    derived = effects.friction == "pouliquen-mixture"
+    if derived:
+        if t.has("u0"):
+            raise InputError(
+                f"flow.u0={_show(t.get('u0'))}: with effects.friction='pouliquen-mixture' u0 is "
+                "derived from the steady uniform flow (4.3), (4.9) of h0 and phi0; remove flow.u0 "
+                "(it may only be given for the other friction laws)")
+        try:
+            st = steady_state(h0, phi0, material)
+        except InputError as exc:
+            raise InputError(f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; "
+                             "effects.friction='pouliquen-mixture' needs a steady uniform flow "
+                             "to define u0 (raise flow.phi0 or change material.zeta_deg)") from None
+        except (ArithmeticError, ValueError) as exc:
+            raise InputError(f"flow.h0={h0!r}, flow.phi0={phi0!r}: no steady uniform flow for "
+                             f"this material ({exc})") from None
+        return FlowConfig(h0=h0, phi0=phi0, nu=nu, u0=st.u0, F=st.F)
+    u0 = t.number("u0", None, positive=True)
+    F = None if u0 is None else u0 / math.sqrt(material.g * h0 * material.cos_zeta)
+    return FlowConfig(h0=h0, phi0=phi0, nu=nu, u0=u0, F=F)
+
+
+def _read_domain(t: "_Table", ini: "_Table", kind: str, flow: FlowConfig):
+    """Domain size and grid; also returns the number of downslope perturbation wavelengths of a
+    uniform initial state (None for other kinds), since Lx and it determine each other."""
+    k = wavelengths = None
+    if kind == "uniform":
+        k = ini.number("k", 0.0, nonneg=True)
+        wavelengths = ini.number("wavelengths", None, positive=True)
+    resolution = t.number("resolution", None, positive=True)
+    if t.has("Lx"):
+        Lx = t.number("Lx", positive=True)
+        if k:
+            implied = Lx * k / (2.0 * math.pi * flow.h0)
+            if wavelengths is not None and not _close(implied, wavelengths):
+                raise InputError(
+                    f"domain.Lx={Lx!r} holds {implied:.6g} wavelengths of initial.k={k!r} "
+                    f"(2 pi h0 / k = {2 * math.pi * flow.h0 / k:.6g} m) but "
+                    f"initial.wavelengths={wavelengths!r}; give only one of them")
+            wavelengths = implied if wavelengths is None else wavelengths
+    elif k:
+        wavelengths = 1.0 if wavelengths is None else wavelengths
+        Lx = wavelengths * 2.0 * math.pi * flow.h0 / k
+    else:
+        raise InputError("domain.Lx is required (a positive length in metres"
+                         + ("; or give initial.k > 0 to size the domain by wavelengths)"
+                            if kind == "uniform" else ")"))
+    if kind == "uniform" and not k and wavelengths is not None:
+        raise InputError(f"initial.wavelengths={wavelengths!r} needs initial.k > 0")
+
+    nx = _grid_count(t, "nx", "Lx", Lx, resolution)
+    if t.has("ny"):
+        ny = t.integer("ny", lo=1)
+    elif resolution is not None and t.has("Ly"):
+        ny = round(t.number("Ly", positive=True) * resolution)
+        # only an explicit ny = 1 makes a 1D run; a derived count must resolve the width
+        _require(ny >= MIN_CELLS, "domain.ny", ny,
+                 f"domain.resolution x domain.Ly gives {ny} cells across the slope; a 2D run "
+                 f"needs at least {MIN_CELLS} (give domain.ny = 1 for a 1D run)")
+    else:
+        raise InputError("domain.ny is required (1 for a 1D run), or give domain.Ly with "
+                         "domain.resolution")
+    if ny == 1:
+        # 1D run: one cell row; its width is immaterial, dy = dx keeps the grid square.
+        t.number("Ly", None, positive=True)   # still type-checked when given
+        Ly = Lx / nx
+    else:
+        if not t.has("Ly"):
+            raise InputError(f"domain.Ly is required for a 2D run (domain.ny={ny})")
+        Ly = t.number("Ly", positive=True)
+        if t.has("ny") and resolution is not None:
+            _grid_count(t, "ny", "Ly", Ly, resolution)   # consistency check only
+        _require(ny >= MIN_CELLS, "domain.ny", ny,
+                 f"a 2D run needs at least {MIN_CELLS} cells across the slope (or ny = 1 for 1D)")
+    _require(nx >= MIN_CELLS, "domain.nx", nx, f"needs at least {MIN_CELLS} cells")
+    _require(nx * ny <= MAX_CELLS, "domain.nx * domain.ny", nx * ny,
+             f"at most {MAX_CELLS} cells are supported")
+    return DomainConfig(Lx=Lx, Ly=Ly, nx=nx, ny=ny, resolution=resolution), wavelengths
+
+
+def _grid_count(t: "_Table", key: str, length_key: str, length: float,
+                resolution: float | None) -> int:
+    if resolution is not None:
+        implied = round(length * resolution)
+        if t.has(key):
+            n = t.integer(key, lo=1)
+            if n != implied:
+                raise InputError(
+                    f"domain.{key}={n} disagrees with domain.resolution={resolution!r} x "
+                    f"domain.{length_key}={length!r} = {implied} cells; change "
+                    f"domain.resolution instead, or give domain.{key} without a resolution")
+            return n
+        _require(implied >= 1, f"domain.{key}", implied,
+                 f"domain.resolution={resolution!r} x domain.{length_key}={length!r} gives no cells")
+        return implied
+    if not t.has(key):
+        raise InputError(f"domain.{key} or domain.resolution is required (cells in {length_key})")
+    return t.integer(key, lo=1)
+
+
+def _read_boundary(t: "_Table", domain: DomainConfig) -> BoundaryConfig:
+    sides = {}
+    for side, default in (("x_lo", "inflow"), ("x_hi", "outflow"), ("y_lo", "periodic"),
+                          ("y_hi", "periodic")):
+        v = t.choice(side, BOUNDARY_KINDS, default)
+        if v == "inflow" and side != "x_lo":
+            raise InputError(f"boundary.{side}='inflow': an inflow is only supported at x_lo "
+                             "(the top of the slope)")
+        sides[side] = v
+    for lo, hi in (("x_lo", "x_hi"), ("y_lo", "y_hi")):
+        if (sides[lo] == "periodic") != (sides[hi] == "periodic"):
+            raise InputError(f"boundary.{lo}={sides[lo]!r}, boundary.{hi}={sides[hi]!r}: "
+                             "'periodic' must be given on both ends of an axis")
+    if domain.is_1d and sides["y_lo"] != "periodic":
+        raise InputError(f"boundary.y_lo={sides['y_lo']!r}, boundary.y_hi={sides['y_hi']!r}: a "
+                         "1D run (domain.ny = 1) has no cross-slope boundaries; keep them "
+                         "'periodic'")
+    return BoundaryConfig(**sides)
+
+
+def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: DomainConfig,
+                 flow: FlowConfig) -> InflowConfig | None:
+    if boundary.x_lo != "inflow":
+        if given:
+            raise InputError(f"[inflow] is given but boundary.x_lo={boundary.x_lo!r}; set "
+                             "boundary.x_lo = 'inflow' or remove the [inflow] section")
+        return None
+    h = t.number("h", flow.h0, positive=True)
+    if not t.has("u") and flow.u0 is None:
+        raise InputError("inflow.u is required: without the 'pouliquen-mixture' friction there is "
+                         "no derived steady velocity (give inflow.u or flow.u0)")
+    u = t.number("u", flow.u0, positive=True)
+    phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
+    ramp = t.number("ramp_rate", 10.0, nonneg=True)
+    delta = t.number("perturbation", 8e-5)
+    modes = t.integer("modes", 1, lo=1)
+    stop = t.number("stop_time", None, positive=True, allow_inf=True)
+    if stop is not None and math.isinf(stop):
+        stop = None                      # inf = never stops = continuous inflow
+    if not (0.0 <= phi - abs(delta) and phi + abs(delta) <= 1.0):
+        raise InputError(f"inflow.perturbation={delta!r}: phi = inflow.phi={phi!r} +- "
+                         f"{abs(delta)!r} leaves [0, 1]; use a smaller perturbation (or 0)")
+    if delta != 0.0 and not domain.is_1d:
+        cells = domain.ny / modes
+        if cells < MIN_CELLS_PER_PERTURBATION:
+            raise InputError(
+                f"inflow.modes={modes}: the perturbation (6.9) has a wavelength of Ly/modes = "
+                f"{domain.ny / modes:.3g} cells (domain.ny={domain.ny}); at least "
+                f"{MIN_CELLS_PER_PERTURBATION} cells are needed to resolve it (raise "
+                "domain.resolution or domain.ny, or lower inflow.modes)")
+    return InflowConfig(h=h, u=u, phi=phi, ramp_rate=ramp, perturbation=delta, modes=modes,
+                        stop_time=stop)
+
+
+def _read_initial(t: "_Table", kind: str, wavelengths: float | None, domain: DomainConfig,
+                  boundary: BoundaryConfig, flow: FlowConfig,
+                  effects: EffectsConfig) -> InitialConfig:
+    if kind == "empty":
+        return InitialConfig(kind="empty")
+    if kind == "uniform":
+        if flow.u0 is None:
+            raise InputError("initial.kind='uniform' needs the steady velocity u0: give flow.u0 "
+                             f"(effects.friction={effects.friction!r} does not define one)")
+        amplitude = t.number("amplitude", 0.0, lo=0.0)
+        _require(amplitude < 1.0, "initial.amplitude", amplitude,
+                 "relative amplitude must be < 1 (h must stay positive)")
+        k = t.number("k", 0.0, nonneg=True)
+        ky = t.number("ky", 0.0, nonneg=True)
+        mode = t.choice("mode", PERTURBATION_MODES, "eigen")
+        seed = t.integer("seed", 0, lo=0)
+        if domain.is_1d and ky != 0.0:
+            raise InputError(f"initial.ky={ky!r}: a 1D run (domain.ny = 1) has no cross-slope "
+                             "wavenumber; use 0")
+        if amplitude > 0 and mode != "noise" and k == 0.0 and ky == 0.0:
+            raise InputError(f"initial.amplitude={amplitude!r} with initial.mode={mode!r} needs "
+                             "initial.k > 0 or initial.ky > 0")
+        if mode == "phi" and not effects.segregation:
+            raise InputError("initial.mode='phi' perturbs the concentration, but "
+                             "effects.segregation = false has no phi field")
+        if k and boundary.x_lo == "periodic" and not _near_integer(wavelengths):
+            raise InputError(
+                f"initial.wavelengths={wavelengths:.6g}: domain.Lx={domain.Lx!r} holds that many "
+                f"wavelengths of initial.k={k!r}, but a periodic domain needs a whole number "
+                "(set initial.wavelengths to an integer and leave domain.Lx out)")
+        if ky and boundary.y_lo == "periodic":
+            ny_waves = domain.Ly * ky / (2.0 * math.pi * flow.h0)
+            if not _near_integer(ny_waves):
+                raise InputError(
+                    f"initial.ky={ky!r}: domain.Ly={domain.Ly!r} holds {ny_waves:.6g} wavelengths; "
+                    "a periodic domain needs a whole number (ky = 2 pi h0 n / Ly)")
+        return InitialConfig(kind=kind, amplitude=amplitude, k=k, ky=ky, mode=mode, seed=seed,
+                             wavelengths=wavelengths)
+    if kind == "dam-break":
+        x0 = t.number("x0")
+        _require(0.0 < x0 < domain.Lx, "initial.x0", x0, f"must lie inside (0, Lx={domain.Lx!r})")
+        h_left = t.number("h_left", flow.h0, nonneg=True)
+        h_right = t.number("h_right", 0.0, nonneg=True)
+        _require(h_left > 0 or h_right > 0, "initial.h_left", h_left,
+                 "h_left and h_right cannot both be 0 (nothing would move)")
+        phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
+        return InitialConfig(kind=kind, x0=x0, h_left=h_left, h_right=h_right, phi=phi)
+    # release: a block of material at rest
+    x0 = t.number("x0", lo=0.0)
+    x1 = t.number("x1")
+    _require(x0 < x1 <= domain.Lx, "initial.x1", x1,
+             f"need initial.x0={x0!r} < x1 <= Lx={domain.Lx!r}")
+    y0 = t.number("y0", 0.0, lo=0.0)
+    y1 = t.number("y1", domain.Ly)
+    _require(y0 < y1 <= domain.Ly * (1 + 1e-12), "initial.y1", y1,
+             f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}")
+    h = t.number("h", flow.h0, positive=True)
+    phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
+    return InitialConfig(kind=kind, x0=x0, x1=x1, y0=y0, y1=y1, h=h, phi=phi)
+
+
+def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
+    n = NumericsConfig(
+        reconstruction=t.choice("reconstruction", RECONSTRUCTIONS, "weno",
+                                aliases=RECONSTRUCTION_ALIASES),
+        theta=t.number("theta", 1.5, lo=1.0, hi=2.0),
+        stepper=t.choice("stepper", STEPPERS, "rkc"),
+        cfl=t.number("cfl", 0.25, positive=True, hi=1.0),
+        precision=t.choice("precision", PRECISIONS, "f64"),
+        h_min=t.number("h_min", 1e-4, positive=True),
+        h_eps=t.number("h_eps", 1e-7, positive=True),
+        u_eps=t.number("u_eps", 1e-3, positive=True),
+        max_stages=t.integer("max_stages", 200, lo=2),
+    )
+    _require(n.h_eps < n.h_min, "numerics.h_eps", n.h_eps,
+             f"must be smaller than numerics.h_min={n.h_min!r}")
+    _require(n.h_min < flow.h0, "numerics.h_min", n.h_min,
+             f"must be smaller than flow.h0={flow.h0!r} (else the reference flow counts as empty)")
+    return n
+
+
+def _read_output(t: "_Table", t_end: float) -> OutputConfig:
+    interval = t.number("interval", None, positive=True)
+    times = tuple(t.number_list("times", ()))
+    for i, v in enumerate(times):
+        _require(0.0 <= v <= t_end * (1 + 1e-12), f"output.times[{i}]", v,
+                 f"output times must lie in [0, time.t_end={t_end!r}]")
+    checkpoint = t.number("checkpoint_interval", None, positive=True)
+    # (time, priority): explicit times, 0 and t_end win over a nearby multiple of the interval
+    cands = [(0.0, 0), (t_end, 0)] + [(min(v, t_end), 0) for v in times]
+    if interval is not None:
+        n = int(math.floor(t_end / interval * (1 + 1e-12)))
+        _require(n <= MAX_OUTPUT_TIMES, "output.interval", interval,
+                 f"gives {n} snapshots up to t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed")
+        # %.12g turns 19 * 0.1 = 1.9000000000000001 into 1.9
+        cands += [(min(float(f"{i * interval:.12g}"), t_end), 1) for i in range(n + 1)]
+    cands.sort()
+    tol = 1e-9 * t_end
+    merged: list[tuple[float, int]] = []
+    for tv, pr in cands:
+        if merged and tv - merged[-1][0] <= tol:
+            if pr < merged[-1][1]:
+                merged[-1] = (tv, pr)
+            continue
+        merged.append((tv, pr))
+    return OutputConfig(interval=interval, times=times, checkpoint_interval=checkpoint,
+                        output_times=tuple(tv for tv, _ in merged))
+
+
+# =================================================================================================
+# Typed access to one TOML table
+# =================================================================================================
+class _Table:
+    """Typed reads from one TOML table; every failure is an InputError naming the full key.
+
+    Unknown keys are rejected on construction, listing the allowed keys and the closest match.
+    """
+
+    def __init__(self, data: Mapping, prefix: str, allowed: Iterable[str]):
+        self.data = data
+        self.prefix = prefix
+        self.allowed = tuple(allowed)
+        for key in data:
+            if key not in self.allowed:
+                self._unknown(key)
+
+    def _unknown(self, key) -> None:
+        where = f"section [{self.prefix}]" if self.prefix else "the top level"
+        full = self.full(key)
+        close = difflib.get_close_matches(str(key), self.allowed, n=1, cutoff=0.5)
+        hint = f" (did you mean {self.full(close[0])!r}?)" if close else ""
+        what = "key" if self.prefix else "section or key"
+        raise InputError(f"unknown {what} {full!r} in {where}{hint}; allowed: "
+                         f"{', '.join(self.allowed)}")
+
+    def only(self, allowed: Iterable[str], because: str) -> None:
+        """Reject keys that are valid for the section but not in this configuration."""
+        allowed = tuple(allowed)
+        for key in self.data:
+            if key not in allowed:
+                raise InputError(f"{self.full(key)} is not used by {because} (its keys: "
+                                 f"{', '.join(allowed)}); remove it or change the kind")
+
+    def full(self, key: str) -> str:
+        return f"{self.prefix}.{key}" if self.prefix else str(key)
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def get(self, key: str, default=_MISSING):
+        if key in self.data:
+            return self.data[key]
+        if default is _MISSING:
+            raise InputError(f"{self.full(key)} is required")
+        return default
+
+    def table(self, key: str, allowed: Iterable[str] | None = None) -> "_Table":
+        v = self.data.get(key, {})
+        full = self.full(key)
+        if not isinstance(v, Mapping):
+            raise InputError(f"{full}={_show(v)}: expected a table ([{full}]), got "
+                             f"{_type_name(v)}")
+        return _Table(v, full, SECTION_KEYS[key] if allowed is None else allowed)
+
+    def string(self, key: str, default=_MISSING) -> str:
+        v = self.get(key, default)
+        if not isinstance(v, str):
+            raise InputError(f"{self.full(key)}={_show(v)}: expected a string, got "
+                             f"{_type_name(v)}")
+        return v
+
+    def boolean(self, key: str, default=_MISSING) -> bool:
+        v = self.get(key, default)
+        if not isinstance(v, bool):
+            raise InputError(f"{self.full(key)}={_show(v)}: expected true or false, got "
+                             f"{_type_name(v)}")
+        return v
+
+    def choice(self, key: str, choices: tuple[str, ...], default=_MISSING,
+               aliases: Mapping[str, str] | None = None) -> str:
+        v = self.get(key, default)
+        full = self.full(key)
+        if not isinstance(v, str):
+            raise InputError(f"{full}={_show(v)}: expected a string, one of "
+                             f"{', '.join(map(repr, choices))}; got {_type_name(v)}")
+        if aliases and v in aliases:
+            return aliases[v]
+        if v not in choices:
+            close = difflib.get_close_matches(v, list(choices) + list(aliases or ()), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise InputError(f"{full}={v!r}: allowed values are "
+                             f"{', '.join(map(repr, choices))}{hint}")
+        return v
+
+    def number(self, key: str, default=_MISSING, *, positive=False, nonneg=False, lo=None,
+               hi=None, allow_inf=False) -> float | None:
+        """A real number (int or float, never bool), finite unless ``allow_inf``; None only as
+        a default. ``lo``/``hi`` are inclusive bounds."""
+        v = self.get(key, default)
+        if v is None and key not in self.data:
+            return None
+        full = self.full(key)
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):
+            raise InputError(f"{full}={_show(v)}: expected a number, got {_type_name(v)}")
+        f = float(v)
+        if math.isnan(f) or (math.isinf(f) and not (allow_inf and f > 0)):
+            raise InputError(f"{full}={_show(v)}: must be a finite number")
+        if positive and not f > 0:
+            raise InputError(f"{full}={_show(v)}: must be positive (> 0)")
+        if nonneg and not f >= 0:
+            raise InputError(f"{full}={_show(v)}: must not be negative")
+        if lo is not None and hi is not None and not lo <= f <= hi:
+            raise InputError(f"{full}={_show(v)}: must lie in [{lo:g}, {hi:g}]")
+        if lo is not None and not f >= lo:
+            raise InputError(f"{full}={_show(v)}: must be >= {lo:g}")
+        if hi is not None and not f <= hi:
+            raise InputError(f"{full}={_show(v)}: must be <= {hi:g}")
+        return f
+
+    def integer(self, key: str, default=_MISSING, *, lo=None) -> int:
+        v = self.get(key, default)
+        full = self.full(key)
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+            raise InputError(f"{full}={_show(v)}: expected an integer, got {_type_name(v)}")
+        i = int(v)
+        if lo is not None and i < lo:
+            raise InputError(f"{full}={i}: must be an integer >= {lo}")
+        return i
+
+    def number_list(self, key: str, default=_MISSING) -> list[float]:
+        v = self.get(key, default)
+        full = self.full(key)
+        if not isinstance(v, (list, tuple)):
+            raise InputError(f"{full}={_show(v)}: expected an array of numbers such as "
+                             f"[1.0, 2.5], got {_type_name(v)}")
+        out = []
+        for i, x in enumerate(v):
+            if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(x):
+                raise InputError(f"{full}[{i}]={_show(x)}: expected a finite number, got "
+                                 f"{_type_name(x)}")
+            out.append(float(x))
+        return out
+
+
+# =================================================================================================
+# Small helpers
+# =================================================================================================
+_KEY_PART = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _check_dotted_key(key, context) -> None:
+    if not isinstance(key, str) or not key or not all(_KEY_PART.match(p) for p in key.split(".")):
+        raise InputError(f"override {context!r}: the key {key!r} must be dotted names such as "
+                         "'flow.h0' or 'material.small.zeta1_deg'")
+
+
+def _apply_overrides(data: dict, overrides) -> None:
+    """Apply ``section.key`` overrides to the raw scene dict in place (before validation)."""
+    if overrides is None:
+        return
+    if isinstance(overrides, Mapping):
+        items = []
+        for key, value in overrides.items():
+            _check_dotted_key(key, key)
+            items.append((key, value))
+    elif isinstance(overrides, (list, tuple)):
+        items = [parse_override(text) for text in overrides]
+    else:
+        raise InputError(f"overrides must be a dict or a list of 'section.key=value' strings, "
+                         f"got {_type_name(overrides)}")
+    for key, value in items:
+        parts = key.split(".")
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            nxt = node.get(part)
+            if nxt is None:
+                nxt = node[part] = {}
+            elif not isinstance(nxt, dict):
+                raise InputError(f"override {key!r}: {'.'.join(parts[:i + 1])} is "
+                                 f"{_type_name(nxt)}, not a table")
+            node = nxt
+        if value is None:            # dict overrides only: remove the key
+            node.pop(parts[-1], None)
+        else:
+            node[parts[-1]] = _deep_copy(value)
+
+
+def _deep_copy(v):
+    if isinstance(v, Mapping):
+        return {k: _deep_copy(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_deep_copy(x) for x in v]
+    return v
+
+
+def _require(cond: bool, key: str, value, rule: str) -> None:
+    if not cond:
+        raise InputError(f"{key}={_show(value)}: {rule}")
+
+
+def _show(v) -> str:
+    s = repr(v)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def _type_name(v) -> str:
+    if isinstance(v, bool):
+        return "a boolean"
+    if isinstance(v, numbers.Integral):
+        return "an integer"
+    if isinstance(v, numbers.Real):
+        return "a float"
+    if isinstance(v, str):
+        return "a string"
+    if isinstance(v, (list, tuple)):
+        return "an array"
+    if isinstance(v, Mapping):
+        return "a table"
+    return f"a {type(v).__name__}"   # e.g. TOML dates and times
+
+
+def _close(a: float, b: float, rel: float = 1e-9) -> bool:
+    return abs(a - b) <= rel * max(abs(a), abs(b))
+
+
+def _near_integer(x: float | None, rel: float = 1e-6) -> bool:
+    return x is not None and round(x) >= 1 and abs(x - round(x)) <= rel * max(1.0, abs(x))
+
+
+__all__ = ["Scene", "FlowConfig", "EffectsConfig", "DomainConfig", "BoundaryConfig",
+           "InflowConfig", "InitialConfig", "NumericsConfig", "TimeConfig", "OutputConfig",
+           "load_scene", "scene_from_text", "scene_from_dict", "scene_to_dict", "parse_override",
+           "list_builtin_scenes", "SCENE_DIR", "InputError"]
