@@ -68,6 +68,11 @@ class TaichiOperator:
             self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
         self.par = ti.field(self.fp, shape=Params.COUNT)
         self.red = ti.field(self.fp, shape=5)
+        # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
+        # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
+        self.act = ti.field(ti.i32, shape=2)
+        self.wet = ti.field(ti.i32, shape=2)
+        self.set_active(self.gx, self.gx + self.nx)
         # Boundary budgets per slot: rates of (mass, small-particle mass) entering through the
         # x faces and the y faces. combine() applies the same linear combination to them as to
         # the states, so slot 0 accumulates exactly the time integral the scheme uses.
@@ -237,13 +242,15 @@ class TaichiOperator:
 
     @ti.kernel
     def _primitives_and_slopes(self, s: ti.i32):
-        for i, j in self.w:
+        a, b = self.act[0], self.act[1]
+        for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
         if ti.static(not self.rec_first):
-            for i, j in ti.ndrange((1, self.NX - 1), (self.gy, self.gy + self.ny)):
+            for i, j in ti.ndrange((ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)),
+                                   (self.gy, self.gy + self.ny)):
                 self.sx[i, j] = self._slope(self.w[i - 1, j], self.w[i, j], self.w[i + 1, j])
             if ti.static(not self.is_1d):
-                for i, j in ti.ndrange((self.gx, self.gx + self.nx), (1, self.NY - 1)):
+                for i, j in ti.ndrange((a, b), (1, self.NY - 1)):
                     self.sy[i, j] = self._slope(self.w[i, j - 1], self.w[i, j], self.w[i, j + 1])
 
     @ti.func
@@ -271,7 +278,8 @@ class TaichiOperator:
         hmin = self.par[Params.H_MIN]
         dx = self.par[Params.DX]
         dy = self.par[Params.DY]
-        for i, j in ti.ndrange((gx - 1, gx + nx), (gy, gy + ny)):
+        a, b = self.act[0], self.act[1]
+        for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
             w0 = self.w[i, j]
             w1 = self.w[i + 1, j]
             F = ti.Vector.zero(self.fp, self.nc)
@@ -287,13 +295,14 @@ class TaichiOperator:
                 F[1] -= K * (w1[1] - w0[1]) / dx
                 if ti.static(not self.is_1d):
                     HV = ti.static(self.HV)
-                    dudy = (self.w[i, j + 1][1] + self.w[i + 1, j + 1][1]
-                            - self.w[i, j - 1][1] - self.w[i + 1, j - 1][1]) / (4.0 * dy)
+                    # paired differences: exactly zero for y-independent data
+                    dudy = ((self.w[i, j + 1][1] - self.w[i, j - 1][1])
+                            + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])) / (4.0 * dy)
                     F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) / dx + dudy)
             self.fx[i, j] = F
         if ti.static(not self.is_1d):
             HV = ti.static(self.HV)
-            for i, j in ti.ndrange((gx, gx + nx), (gy - 1, gy + ny)):
+            for i, j in ti.ndrange((a, b), (gy - 1, gy + ny)):
                 w0 = self.w[i, j]
                 w1 = self.w[i, j + 1]
                 F = ti.Vector.zero(self.fp, self.nc)
@@ -307,8 +316,8 @@ class TaichiOperator:
                 if ti.static(self.visc):
                     K = self._face_K(w0[0], w1[0])
                     F[HV] -= K * (w1[HV] - w0[HV]) / dy
-                    dvdx = (self.w[i + 1, j][HV] + self.w[i + 1, j + 1][HV]
-                            - self.w[i - 1, j][HV] - self.w[i - 1, j + 1][HV]) / (4.0 * dx)
+                    dvdx = ((self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
+                            + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])) / (4.0 * dx)
                     F[1] -= 0.5 * K * ((w1[1] - w0[1]) / dy + dvdx)
                 self.fy[i, j] = F
 
@@ -317,11 +326,15 @@ class TaichiOperator:
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         dx = self.par[Params.DX]
         dy = self.par[Params.DY]
+        a, b = self.act[0], self.act[1]
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
-            r = -(self.fx[i, j] - self.fx[i - 1, j]) / dx
-            if ti.static(not self.is_1d):
-                r -= (self.fy[i, j] - self.fy[i, j - 1]) / dy
-            self.q[d, i, j] = r + self.phys.source(self.w[i, j])
+            r = ti.Vector.zero(self.fp, self.nc)
+            if a <= i < b:
+                r = -(self.fx[i, j] - self.fx[i - 1, j]) / dx
+                if ti.static(not self.is_1d):
+                    r -= (self.fy[i, j] - self.fy[i, j - 1]) / dy
+                r += self.phys.source(self.w[i, j])
+            self.q[d, i, j] = r
 
     @ti.kernel
     def _combine(self, d: ti.i32, n: ti.template()):
@@ -346,14 +359,18 @@ class TaichiOperator:
         ti.loop_config(serialize=True)
         for b in range(NBUDGET):
             self.bud[d, b] = 0.0
+        # faces outside the active range were not computed this time: they carry no flux
+        wl = 1.0 if self.act[0] == gx else 0.0
+        wr = 1.0 if self.act[1] == gx + nx else 0.0
         ti.loop_config(serialize=True)
         for j in range(gy, gy + ny):
-            self.bud[d, 0] += (self.fx[gx - 1, j][0] - self.fx[gx + nx - 1, j][0]) * dy
+            self.bud[d, 0] += (wl * self.fx[gx - 1, j][0] - wr * self.fx[gx + nx - 1, j][0]) * dy
             if ti.static(self.seg):
-                self.bud[d, 1] += (self.fx[gx - 1, j][self.HPHI] - self.fx[gx + nx - 1, j][self.HPHI]) * dy
+                self.bud[d, 1] += (wl * self.fx[gx - 1, j][self.HPHI]
+                                   - wr * self.fx[gx + nx - 1, j][self.HPHI]) * dy
         if ti.static(not self.is_1d):
             ti.loop_config(serialize=True)
-            for i in range(gx, gx + nx):
+            for i in range(self.act[0], self.act[1]):
                 self.bud[d, 2] += (self.fy[i, gy - 1][0] - self.fy[i, gy + ny - 1][0]) * dx
                 if ti.static(self.seg):
                     self.bud[d, 3] += (self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]) * dx
@@ -377,7 +394,8 @@ class TaichiOperator:
     @ti.kernel
     def _stability(self):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
-        (deterministic atomic maxima) from the primitives of the current state."""
+        from the primitives of the current state. Rows run in parallel and reduce locally, so
+        there is one atomic per row (maxima are order independent: deterministic)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         for k in range(5):
             self.red[k] = 0.0
@@ -385,27 +403,57 @@ class TaichiOperator:
         dx = self.par[Params.DX]
         dy = self.par[Params.DY]
         # include the first ghost layer in x so that an inflow into an empty chute sets a speed
-        for i, j in ti.ndrange((gx - 1, gx + nx + 1), (gy, gy + ny)):
-            w = self.w[i, j]
-            ti.atomic_max(self.red[0], self.phys.speed(w, 0))
-            if ti.static(not self.is_1d):
-                ti.atomic_max(self.red[1], self.phys.speed(w, 1))
-            ti.atomic_max(self.red[4], self.phys.speed_mag(w))
-            ti.atomic_max(self.red[3], self.phys.friction_rate(w))
-            if ti.static(self.visc):
-                h = w[0]
-                if h >= hmin and gx <= i < gx + nx:
-                    inv = 1.0 / h
-                    sxs = (self._face_K(h, self.w[i + 1, j][0]) * (inv + 1.0 / ti.max(self.w[i + 1, j][0], hmin))
-                           + self._face_K(h, self.w[i - 1, j][0]) * (inv + 1.0 / ti.max(self.w[i - 1, j][0], hmin)))
-                    rho = sxs / (dx * dx)
-                    if ti.static(not self.is_1d):
-                        sys = (self._face_K(h, self.w[i, j + 1][0]) * (inv + 1.0 / ti.max(self.w[i, j + 1][0], hmin))
-                               + self._face_K(h, self.w[i, j - 1][0]) * (inv + 1.0 / ti.max(self.w[i, j - 1][0], hmin)))
-                        cross = 0.5 * (sxs + sys) / (dx * dy)
-                        rho = ti.max(sxs / (dx * dx) + 0.5 * sys / (dy * dy),
-                                     0.5 * sxs / (dx * dx) + sys / (dy * dy)) + cross
-                    ti.atomic_max(self.red[2], rho)
+        for i in range(ti.max(self.act[0] - 1, gx - 1), ti.min(self.act[1] + 1, gx + nx + 1)):
+            m0 = 0.0
+            m1 = 0.0
+            m2 = 0.0
+            m3 = 0.0
+            m4 = 0.0
+            for j in range(gy, gy + ny):
+                w = self.w[i, j]
+                m0 = ti.max(m0, self.phys.speed(w, 0))
+                if ti.static(not self.is_1d):
+                    m1 = ti.max(m1, self.phys.speed(w, 1))
+                m4 = ti.max(m4, self.phys.speed_mag(w))
+                m3 = ti.max(m3, self.phys.friction_rate(w))
+                if ti.static(self.visc):
+                    h = w[0]
+                    if h >= hmin and gx <= i < gx + nx:
+                        inv = 1.0 / h
+                        hp = self.w[i + 1, j][0]
+                        hm = self.w[i - 1, j][0]
+                        sxs = (self._face_K(h, hp) * (inv + 1.0 / ti.max(hp, hmin))
+                               + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin)))
+                        rho = sxs / (dx * dx)
+                        if ti.static(not self.is_1d):
+                            hn = self.w[i, j + 1][0]
+                            hs = self.w[i, j - 1][0]
+                            sys = (self._face_K(h, hn) * (inv + 1.0 / ti.max(hn, hmin))
+                                   + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin)))
+                            cross = 0.5 * (sxs + sys) / (dx * dy)
+                            rho = ti.max(sxs / (dx * dx) + 0.5 * sys / (dy * dy),
+                                         0.5 * sxs / (dx * dx) + sys / (dy * dy)) + cross
+                        m2 = ti.max(m2, rho)
+            ti.atomic_max(self.red[0], m0)
+            ti.atomic_max(self.red[1], m1)
+            ti.atomic_max(self.red[2], m2)
+            ti.atomic_max(self.red[3], m3)
+            ti.atomic_max(self.red[4], m4)
+
+    @ti.kernel
+    def _wet_extent(self, s: ti.i32):
+        """Smallest and largest x index (ghosts included) of a cell with h >= h_min."""
+        self.wet[0] = self.NX
+        self.wet[1] = -1
+        hmin = self.par[Params.H_MIN]
+        for i in range(self.NX):
+            wet = 0
+            for j in range(self.gy, self.gy + self.ny):
+                if self.q[s, i, j][0] >= hmin:
+                    wet = 1
+            if wet == 1:
+                ti.atomic_min(self.wet[0], i)
+                ti.atomic_max(self.wet[1], i)
 
     # ------------------------------------------------------------------ stepper interface
     def rhs(self, src: int, dst: int, t: float) -> None:
@@ -437,6 +485,22 @@ class TaichiOperator:
         b = self.bud.to_numpy()
         b[0] = 0.0 if values is None else values
         self.bud.from_numpy(b)
+
+    def set_active(self, a: int, b: int) -> None:
+        """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted)."""
+        a = max(self.gx, int(a))
+        b = min(self.gx + self.nx, int(b))
+        self.act[0] = a
+        self.act[1] = max(a, b)
+        self.active = (a, max(a, b))
+
+    def wet_extent(self, slot: int, t: float) -> tuple[int, int]:
+        """(first, last) x index with a cell h >= h_min after filling ghosts; (NX, -1) if none."""
+        self._set_time(t)
+        self._fill_ghosts(slot)
+        self._wet_extent(slot)
+        w = self.wet.to_numpy()
+        return int(w[0]), int(w[1])
 
     def postprocess(self, slot: int) -> None:
         self._postprocess(slot)

@@ -259,12 +259,12 @@ class ReferenceOperator:
         dx, dy = c.dx, c.dy
         # x faces: cross derivative du/dy averaged over cells i, i+1 (rows j-1, j+1)
         dudy = np.zeros_like(u)
-        dudy[:-1, 1:-1] = (u[:-1, 2:] + u[1:, 2:] - u[:-1, :-2] - u[1:, :-2]) / (4 * dy)
+        dudy[:-1, 1:-1] = ((u[:-1, 2:] - u[:-1, :-2]) + (u[1:, 2:] - u[1:, :-2])) / (4 * dy)
         Px[lay.HV, :-1] = 0.5 * Kx * ((v[1:] - v[:-1]) / dx + dudy[:-1])
         Ky = harmonic(K[:, :-1], K[:, 1:], wet[:, :-1], wet[:, 1:])
         Py[lay.HV, :, :-1] = Ky * (v[:, 1:] - v[:, :-1]) / dy
         dvdx = np.zeros_like(v)
-        dvdx[1:-1, :-1] = (v[2:, :-1] + v[2:, 1:] - v[:-2, :-1] - v[:-2, 1:]) / (4 * dx)
+        dvdx[1:-1, :-1] = ((v[2:, :-1] - v[:-2, :-1]) + (v[2:, 1:] - v[:-2, 1:])) / (4 * dx)
         Py[lay.HU, :, :-1] = 0.5 * Ky * ((u[:, 1:] - u[:, :-1]) / dy + dvdx[:, :-1])
         return Px, Py
 

@@ -1,0 +1,359 @@
+"""Finger diagnostics (section 6.3, (6.10)-(6.12)) on synthetic fields with known answers.
+
+Every expected number below follows from how the fields are built (cell indices of tips, rear,
+channels), never from the code under test.
+"""
+import json
+
+import numpy as np
+import pytest
+
+from tiseg.analysis.fingers import (analyse_run, finger_metrics, front_speed, periodic_runs)
+from tiseg.cli import main
+
+PHI0 = 0.8
+H_MIN = 1e-4
+U0 = 0.2
+NX, NY = 100, 200
+DX = 0.01                      # Lx = 1 m
+LY = 0.5
+DY = LY / NY                   # 2.5 mm
+X = (np.arange(NX) + 0.5) * DX
+Y = (np.arange(NY) + 0.5) * DY
+I_REAR = 40                    # first column of the coarse-rich zone: x_f- = 0.405 m
+I_TIP = 79                     # last wet column of the channels: x_f+ = 0.795 m
+
+
+def build(channel, *, i_rear=I_REAR, i_tip=I_TIP, levee_tip=None, phi_channel=0.95,
+          phi_levee=0.1, u_channel=2.0 * U0, u_levee=0.1 * U0):
+    """Fields of a fingered front: behind column ``i_rear`` the mixed inflow (phi0, u0); from it
+    on fine channels (rows where ``channel`` is True, wet up to ``i_tip``) and coarse levees
+    (wet up to ``levee_tip``, default 10 cells behind the tips); dry (h = 0, phi = 0) ahead."""
+    channel = np.asarray(channel, dtype=bool)
+    levee_tip = i_tip - 10 if levee_tip is None else levee_tip
+    i = np.arange(NX)[None, :]
+    tip = np.where(channel, i_tip, levee_tip)[:, None]
+    wet = i <= tip
+    rear = i < i_rear
+    chan = np.broadcast_to(channel[:, None], (NY, NX))
+    h = np.where(wet, 0.002, 0.0)
+    phi = np.where(rear, PHI0, np.where(chan, phi_channel, phi_levee))
+    u = np.where(rear, U0, np.where(chan, u_channel, u_levee))
+    phi = np.where(wet, phi, 0.0)
+    u = np.where(wet, u, 0.0)
+    return h, u, np.zeros_like(h), phi
+
+
+def equal_channels(n, frac=0.6, y0=0.0):
+    """n channels of width frac * Ly/n, the first starting at y0 (periodic)."""
+    lam = LY / n
+    return np.mod(Y - y0, lam) < frac * lam
+
+
+def metrics(fields, **kw):
+    h, u, v, phi = fields
+    return finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, kw.pop("u0", U0), **kw)
+
+
+# ---- periodic runs --------------------------------------------------------------------------
+def test_periodic_runs_basic():
+    assert periodic_runs([1, 1, 0, 0, 1]) == [(4, 3)]             # wraps through the seam
+    assert periodic_runs([0, 1, 1, 0, 1, 0]) == [(1, 2), (4, 1)]
+    assert periodic_runs([1, 1, 1]) == [] and periodic_runs([0, 0]) == []
+    assert periodic_runs([0, 1, 0, 1, 1, 0], min_width=2) == [(3, 2)]
+    # a 1-cell gap closes a line on itself -> no levee -> no run
+    assert periodic_runs([1, 1, 0, 1, 1, 1], min_gap=2) == []
+    assert periodic_runs([1, 1, 0, 1, 1, 1, 0, 0], min_gap=2) == [(0, 6)]
+
+
+# ---- counting -------------------------------------------------------------------------------
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 8])
+def test_equal_step_fingers(n):
+    m = metrics(build(equal_channels(n)))
+    assert m["finger_count"] == n
+    assert m["wavelength"] == pytest.approx(LY / n)
+    assert m["line_counts"] == [n, n, n]
+
+
+@pytest.mark.parametrize("n", [1, 4, 7])
+def test_sinusoidal_fingers(n):
+    h, u, v, _ = build(np.ones(NY, bool), levee_tip=I_TIP)
+    phi_y = 0.5 + 0.45 * np.cos(2 * np.pi * n * Y / LY)
+    phi = np.where(np.arange(NX)[None, :] < I_REAR, PHI0, phi_y[:, None]) * (h > 0)
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count"] == n
+    assert m["wavelength"] == pytest.approx(LY / n)
+
+
+@pytest.mark.parametrize("n", [1, 3, 6])
+def test_fingers_straddling_the_seam_count_once(n):
+    lam = LY / n
+    chan = equal_channels(n, frac=0.5, y0=-0.25 * lam)     # a channel centred on y = 0 = Ly
+    assert chan[0] and chan[-1]                             # the set-up straddles the seam
+    m = metrics(build(chan))
+    assert m["finger_count"] == n
+    assert m["wavelength"] == pytest.approx(LY / n)
+    # half a wavelength, to within the cell the channel edges snap to
+    assert sorted(m["channel_widths"]) == pytest.approx([0.5 * lam] * n, abs=1.01 * DY)
+
+
+def test_uneven_widths():
+    chan = np.zeros(NY, bool)
+    chan[190:] = chan[:5] = True        # 15 cells through the seam
+    chan[8:10] = True                   # 2 cells (the narrowest kept by default)
+    chan[12:42] = True
+    chan[50:62] = True
+    chan[70:130] = True
+    m = metrics(build(chan))
+    assert m["finger_count"] == 5
+    assert m["wavelength"] == pytest.approx(LY / 5)
+    assert sorted(m["channel_widths"]) == pytest.approx(sorted(np.array([15, 2, 30, 12, 60]) * DY))
+
+
+def test_merging_across_narrow_gap():
+    chan = np.zeros(NY, bool)
+    chan[20:60] = True
+    chan[61:100] = True                                      # 1-cell coarse gap at 60
+    chan[140:170] = True
+    m = metrics(build(chan))
+    assert m["finger_count"] == 2                            # 20..100 is one finger
+    assert sorted(m["channel_widths"]) == pytest.approx([30 * DY, 80 * DY])
+    assert metrics(build(chan), min_gap=0.0)["finger_count"] == 3     # no merging
+    chan[60:65] = False                                      # a 5-cell levee: two fingers ...
+    assert metrics(build(chan))["finger_count"] == 3
+    assert metrics(build(chan), min_gap=6 * DY)["finger_count"] == 2  # ... unless min_gap > 5 cells
+
+
+def test_narrow_runs_are_noise():
+    chan = equal_channels(4)
+    chan[85] = True                                          # an isolated fine cell in a levee
+    chan[91:93] = True                                       # a 2-cell run
+    assert not chan[84] and not chan[86] and not chan[90] and not chan[93]
+    assert metrics(build(chan))["finger_count"] == 5         # the 2-cell run counts by default
+    assert metrics(build(chan), min_width=3 * DY)["finger_count"] == 4
+
+
+def test_median_over_lines():
+    # lines at x_f- + (0.25, 0.5, 0.75) x_l = 0.5025, 0.6, 0.6975 m: columns 50, 59 or 60, 69
+    chan = equal_channels(4)
+    h, u, v, phi = build(chan)
+    phi[10:15, 45:56] = 0.1         # a coarse island splits the first channel on the first line
+    h[50:80, 66:] = 0.0             # the second finger ends at column 65, before the last line
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["line_counts"] == [5, 4, 3]
+    assert m["finger_count"] == 4
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
+                          line_fractions=[0.25])["finger_count"] == 5
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_noise_does_not_add_fingers(seed):
+    rng = np.random.default_rng(seed)
+    h, u, v, phi = build(equal_channels(5))
+    phi = phi + np.where(h > 0, rng.normal(0.0, 0.08, phi.shape), 0.0)
+    # salt and pepper: isolated single cells flipped between fine and coarse (every 7th row)
+    rows = np.arange(3, NY, 7)
+    cols = rng.integers(I_REAR, I_TIP - 10, rows.size)
+    phi[rows, cols] = np.where(phi[rows, cols] > 0.5, 0.05, 0.95)
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count"] == 5
+
+
+def test_uniform_coarse_head_has_no_fingers():
+    h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)   # coarse all across the front
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count"] == 0 and m["wavelength"] is None
+    assert m["max_channel_speed_over_u0"] is None
+    assert m["x_front_max"] == pytest.approx((I_TIP + 0.5) * DX)
+    assert m["x_front_min"] == pytest.approx((I_REAR + 0.5) * DX)
+
+
+@pytest.mark.parametrize("phi0", [1.0, 0.8])
+def test_monodisperse_front_has_no_fingers(phi0):
+    h, u, v, _ = build(np.ones(NY, bool))
+    phi = np.where(h > 0, 1.0, 0.0)
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, phi0, U0)
+    assert m["finger_count"] == 0 and m["wavelength"] is None
+    assert m["x_front_min"] is None and m["elongation"] is None
+    assert m["x_front_max"] == pytest.approx((I_TIP + 0.5) * DX)
+
+
+def test_all_fine_band_has_no_fingers():
+    # coarse only in a small island far behind: every sample line is wet and fine all across
+    h, u, v, _ = build(np.ones(NY, bool))
+    phi = np.where(h > 0, 0.9, 0.0)
+    phi[7, 12] = 0.1
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["x_front_min"] == pytest.approx(12.5 * DX)
+    assert m["finger_count"] == 0 and m["wavelength"] is None
+
+
+# ---- fronts (6.10)-(6.12) -------------------------------------------------------------------
+def test_front_positions():
+    chan = equal_channels(3)
+    h, u, v, phi = build(chan)
+    # one finger runs further: its tip at column 86; a wet cell exactly at h_min counts as wet,
+    # one just below does not
+    row = int(np.flatnonzero(chan)[5])
+    h[row, 80:87] = 0.002
+    phi[row, 80:87] = 0.95
+    h[row, 87] = H_MIN
+    phi[row, 87] = 0.9
+    h[row, 88] = 0.999 * H_MIN
+    # a coarse island further back (x_f-), and a dry cell with phi = 0 even further back, which
+    # must not count as coarse
+    levee_row = int(np.flatnonzero(~chan)[3])
+    phi[levee_row, 31] = 0.2
+    h[levee_row, 20] = 0.0
+    phi[levee_row, 20] = 0.0
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["x_front_max"] == pytest.approx(0.875)
+    assert m["x_front_min"] == pytest.approx(0.315)
+    assert m["elongation"] == pytest.approx(0.875 - 0.315)
+
+
+def test_empty_slope():
+    z = np.zeros((NY, NX))
+    m = finger_metrics(z, z, z, z, X, Y, H_MIN, PHI0, U0)
+    assert m["x_front_max"] is None and m["x_front_min"] is None and m["finger_count"] == 0
+
+
+def test_front_speed():
+    assert front_speed([1.0, 1.5], [0.30, 0.41]) == pytest.approx([0.22, 0.22])
+    # chord through the neighbours for unequal spacing, one-sided at the ends
+    s = front_speed([0.0, 1.0, 3.0], [0.1, 0.3, 0.9])
+    assert s == pytest.approx([0.2, 0.8 / 3.0, 0.3])
+    # no flow at t = 0: undefined there, one-sided next to it
+    assert front_speed([0.0, 0.5, 1.0, 1.5], [None, 0.1, 0.2, 0.4]) == \
+        [None, pytest.approx(0.2), pytest.approx(0.3), pytest.approx(0.4)]
+    assert front_speed([2.0], [0.5]) == [None]
+
+
+def test_channel_speed_ratio():
+    chan = equal_channels(4)
+    h, u, v, phi = build(chan, u_channel=1.5 * U0)
+    r = int(np.flatnonzero(chan)[10])
+    u[r, 60], v[r, 60] = 1.6 * U0, 1.2 * U0      # |u| = 2 u0 in a channel
+    lv = int(np.flatnonzero(~chan)[4])
+    u[lv, 55] = 5 * U0                           # fast but coarse (levee): not a channel
+    u[r, 10] = 6 * U0                            # fast but behind x_f-: not in the fingers
+    u[r, 95] = 7 * U0                            # fast but dry
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["max_channel_speed"] == pytest.approx(2 * U0)
+    assert m["max_channel_speed_over_u0"] == pytest.approx(2.0)
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0)["max_channel_speed_over_u0"] is None
+
+
+def test_speed_criterion_option():
+    chan = equal_channels(3)
+    h, u, v, phi = build(chan)
+    # one channel is fine-rich but slow: with the speed criterion it is not a channel
+    slow = np.flatnonzero(chan)[:int(chan.sum() / 3)]
+    u[slow, I_REAR:] = 0.2 * U0
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 3
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
+                          min_speed_over_u0=1.0)["finger_count"] == 2
+
+
+# ---- saved runs and the command line ----------------------------------------------------------
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    """A tiny fields.nc of the fingers scene at 40 cells/m (60 x 20 cells, dx = dy = 2.5 cm):
+    t = 1, 2: uniform coarse head; t = 3: two fingers (rows 2..7 and 12..17)."""
+    from tiseg.output import FieldsWriter
+    from tiseg.scene import load_scene
+    scene = load_scene("fingers", {"domain.resolution": 40})
+    x, y = scene.domain.cell_centres()
+    ny, nx = scene.domain.shape
+    u0 = scene.flow.u0
+    d = tmp_path_factory.mktemp("run")
+    cols = np.arange(nx)[None, :]
+    with FieldsWriter(d / "fields.nc", x, y, attrs={"scene": scene.to_toml()},
+                      fields=("h", "u", "v", "phi")) as w:
+        for t, tip, rear in [(1.0, 10, 6), (2.0, 14, 9), (3.0, 20, 11)]:
+            chan = np.zeros(ny, bool)
+            if t == 3.0:
+                chan[2:8] = chan[12:18] = True
+            tips = np.where(chan, tip, tip - 3)[:, None] if t == 3.0 else tip
+            wet = np.broadcast_to(cols <= tips, (ny, nx))
+            h = np.where(wet, 0.002, 0.0)
+            phi = np.where(cols < rear, 0.8, np.where(chan[:, None], 0.9, 0.1)) * wet
+            u = np.where(cols < rear, 1.0, np.where(chan[:, None], 2.0, 0.1)) * u0 * wet
+            w.write(t, h=h, u=u, v=np.zeros_like(h), phi=phi)
+    return d
+
+
+def test_analyse_run(run_dir):
+    r = analyse_run(run_dir)
+    dx = 0.025
+    assert r["time"] == [1.0, 2.0, 3.0]
+    assert r["x_front_max"] == pytest.approx([10.5 * dx, 14.5 * dx, 20.5 * dx])
+    assert r["x_front_min"] == pytest.approx([6.5 * dx, 9.5 * dx, 11.5 * dx])
+    assert r["elongation"] == pytest.approx([4 * dx, 5 * dx, 9 * dx])
+    assert r["finger_count"] == [0, 0, 2]
+    assert r["wavelength"][:2] == [None, None] and r["wavelength"][2] == pytest.approx(0.25)
+    assert r["front_speed"] == pytest.approx([4 * dx, 10 * dx / 2, 6 * dx])
+    assert r["max_channel_speed_over_u0"][:2] == [None, None]
+    assert r["max_channel_speed_over_u0"][2] == pytest.approx(2.0)
+    assert r["phi0"] == 0.8 and r["h_min"] == 1e-4 and r["Ly"] == 0.5
+    assert r["u0"] == pytest.approx(0.2079, abs=1e-4)          # the steady state of figure 12
+
+
+def test_cli_json(run_dir, capsys):
+    assert main(["fingers", str(run_dir), "--json"]) == 0
+    o = json.loads(capsys.readouterr().out)
+    for key in ("time", "x_front_max", "x_front_min", "elongation", "finger_count",
+                "wavelength", "front_speed", "max_channel_speed_over_u0"):
+        assert len(o[key]) == 3, key
+    assert o["finger_count"] == [0, 0, 2] and o["wavelength"][0] is None
+
+    assert main(["fingers", str(run_dir / "fields.nc"), "--json", "--time", "3"]) == 0
+    o = json.loads(capsys.readouterr().out)
+    assert o["time"] == [3.0] and o["finger_count"] == [2]
+    assert o["front_speed"] == pytest.approx([6 * 0.025])     # still uses t = 2
+
+
+def test_cli_table(run_dir, capsys):
+    assert main(["fingers", str(run_dir)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "phi0 = 0.8" in out[0]
+    header = out[2].split()
+    assert header[:3] == ["t", "[s]", "x_f+"] and "fingers" in header
+    rows = [line.split() for line in out[3:]]
+    assert len(rows) == 3 and rows[2][0] == "3"
+    assert rows[0][4] == "0" and rows[0][5] == "-" and rows[2][4] == "2"
+    assert float(rows[2][5]) == pytest.approx(0.25)
+
+
+def _fails(capsys, argv, *words):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("tiseg fingers: error:"), err
+    for w in words:
+        assert w in err, err
+
+
+def test_cli_errors(tmp_path, run_dir, capsys):
+    _fails(capsys, ["fingers", str(tmp_path / "nowhere")], "does not exist")
+    _fails(capsys, ["fingers", str(tmp_path)], "no fields.nc")
+    junk = tmp_path / "junk.nc"
+    junk.write_text("not a netcdf file\n")
+    _fails(capsys, ["fingers", str(junk)], "cannot read")
+    _fails(capsys, ["fingers", str(run_dir), "--time", "2.5"], "not an output time", "2.5")
+    _fails(capsys, ["fingers", str(run_dir), "--lines", "0.5", "1.5"], "--lines")
+
+    from tiseg.output import FieldsWriter
+    nophi = tmp_path / "nophi"
+    with FieldsWriter(nophi / "fields.nc", X[:5], Y[:4], fields=("h", "u")) as w:
+        w.write(0.0, h=np.zeros((4, 5)), u=np.zeros((4, 5)))
+    _fails(capsys, ["fingers", str(nophi)], "no phi")
+
+
+def test_bad_options():
+    h, u, v, phi = build(equal_channels(2))
+    with pytest.raises(ValueError, match="line_fractions"):
+        finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, line_fractions=[1.2])
+    with pytest.raises(ValueError, match="shape"):
+        finger_metrics(h, u, v, phi[:, :-1], X, Y, H_MIN, PHI0)
+    with pytest.raises(ValueError, match="u0"):
+        finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, min_speed_over_u0=1.0)
