@@ -72,7 +72,7 @@ def test_equal_step_fingers(n):
     m = metrics(build(equal_channels(n)))
     assert m["finger_count"] == n
     assert m["wavelength"] == pytest.approx(LY / n)
-    assert m["line_counts"] == [n, n, n]
+    assert m["line_counts"] == [n] * (I_TIP - I_REAR + 1)
 
 
 @pytest.mark.parametrize("n", [1, 4, 7])
@@ -133,17 +133,45 @@ def test_narrow_runs_are_noise():
     assert metrics(build(chan), min_width=3 * DY)["finger_count"] == 4
 
 
-def test_median_over_lines():
-    # lines at x_f- + (0.25, 0.5, 0.75) x_l = 0.5025, 0.6, 0.6975 m: columns 50, 59 or 60, 69
+def test_persistent_count_and_median_lines():
+    # the band x_f- .. x_f+ spans columns 40..79 (40 lines); four fingers
     chan = equal_channels(4)
     h, u, v, phi = build(chan)
-    phi[10:15, 45:56] = 0.1         # a coarse island splits the first channel on the first line
-    h[50:80, 66:] = 0.0             # the second finger ends at column 65, before the last line
+    phi[10:15, 45:56] = 0.1         # a coarse island splits the first channel on columns 45..55
+    h[50:80, 71:] = 0.0             # the second finger ends at column 70
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
-    assert m["line_counts"] == [5, 4, 3]
-    assert m["finger_count"] == 4
+    assert m["line_x"] == pytest.approx(X[40:80])
+    expect = [4] * 5 + [5] * 11 + [4] * 15 + [3] * 9
+    assert m["line_counts"] == expect
+    assert m["finger_count"] == 4 and m["count_length"] == pytest.approx(20 * DX)
+    # the median of three lines (columns 50, 59 or 60, 69 -> counts 5, 4, 4)
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
+                          line_fractions=[0.25, 0.5, 0.75])["finger_count"] == 4
     assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
                           line_fractions=[0.25])["finger_count"] == 5
+    # the island now covers most of the band: 5 persists longest
+    phi[10:15, 41:71] = 0.1
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 5
+
+
+def test_persistent_count_tie_goes_to_more_fingers():
+    chan = equal_channels(4)
+    h, u, v, phi = build(chan)
+    h[150:180, 60:] = 0.0           # the fourth finger ends at column 59: 4 on 20 columns, 3 on 20
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["line_counts"] == [4] * 20 + [3] * 20
+    assert m["finger_count"] == 4
+
+
+def test_count_must_persist():
+    # two fingers only on the last 3 of 40 columns (a short-lived incursion): not enough by
+    # default (10 % = 4 columns), enough with a lower persistence
+    h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)       # coarse head, no fingers
+    phi[20:40, 77:80] = 0.9
+    phi[120:140, 77:80] = 0.9
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 0
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0, min_persistence=0.05)
+    assert m["finger_count"] == 2 and m["wavelength"] == pytest.approx(LY / 2)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -341,6 +369,7 @@ def test_cli_errors(tmp_path, run_dir, capsys):
     _fails(capsys, ["fingers", str(junk)], "cannot read")
     _fails(capsys, ["fingers", str(run_dir), "--time", "2.5"], "not an output time", "2.5")
     _fails(capsys, ["fingers", str(run_dir), "--lines", "0.5", "1.5"], "--lines")
+    _fails(capsys, ["fingers", str(run_dir), "--min-persistence", "2"], "--min-persistence")
 
     from tiseg.output import FieldsWriter
     nophi = tmp_path / "nophi"

@@ -235,3 +235,17 @@ def test_active_region_is_exact(ti_cpu):
     assert act[1] - act[0] < full[1] - full[0]          # the range really was restricted
     assert na == nf
     assert np.abs(qa - qf).max() <= 1e-15 * np.abs(qf).max()
+
+
+def test_filling_an_empty_chute_takes_cfl_steps(ti_cpu):
+    """At t = 0 the chute is empty and the ramped inflow has h = 0: the step must still obey
+    the CFL limit of the inflow state, not jump to the end time."""
+    sc = load_scene("fingers", {"domain.resolution": 40, "time.t_end": 1.0, "output.times": [],
+                                "output.interval": 0.5})
+    sim = Simulation(sc)
+    info = sim.step(1.0)
+    u0 = sc.flow.u0
+    c = math.sqrt(9.81 * math.cos(math.radians(27)) * sc.flow.h0)
+    assert info.dt <= sc.numerics.cfl * sc.dx / (u0 + c) * (1 + 1e-12)
+    sim.advance(1.0)
+    assert sim.conserved()[0].max() < 3 * sc.flow.h0

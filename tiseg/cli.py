@@ -13,7 +13,7 @@ from .errors import TisegError
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
-COMMAND_MODULES = ["steady", "stability", "figures", "run", "fingers"]
+COMMAND_MODULES = ["steady", "stability", "figures", "run", "fingers", "render", "view"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -24,7 +24,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="tiseg", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="tiseg", description=(
+        "tiseg: segregation-induced finger formation in granular avalanches "
+        "(Baker, Johnson & Gray 2016). Run `tiseg COMMAND --help` for each command."))
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in COMMAND_MODULES:

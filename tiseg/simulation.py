@@ -117,13 +117,12 @@ class Simulation:
         return out
 
     def totals(self) -> dict[str, float]:
-        """Total mass and small-particle mass [m^3] (summed in NumPy: deterministic)."""
+        """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
+        fixed order on the device: deterministic for any thread count."""
         lay = self.layout
-        q = self.conserved()
+        sh, shphi = self.op.sums(0)
         cell = self.scene.dx * (self.scene.dy if not lay.is_1d else 1.0)
-        out = {"mass": float(np.sum(q[lay.H]) * cell)}
-        out["small_mass"] = float(np.sum(q[lay.HPHI]) * cell) if lay.segregation else float("nan")
-        return out
+        return {"mass": sh * cell, "small_mass": shphi * cell if lay.segregation else float("nan")}
 
     def budget(self) -> dict[str, float]:
         """Mass and small-particle mass that entered through the boundaries since the start."""
@@ -140,6 +139,7 @@ class Simulation:
             self._set_active(extent, self._last_stages)
         stab = self.op.stability(0, self.t)
         ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
+        ax = max(ax, self._inflow_speed())
         inv = ax / sc.dx + (ay / sc.dy if not self.layout.is_1d else 0.0)
         # KT positivity limit dt <= C min(dx / a_x, dy / a_y) (Kurganov & Petrova 2007; C = 1/4
         # in 2D); the KT dissipation 2 (a_x/dx + a_y/dy) enters the spectral radius.
@@ -151,6 +151,7 @@ class Simulation:
         if not math.isfinite(dt_cfl) and rho == 0:
             dt_cfl = remaining
         dt, stages = self.stepper.plan(dt_cfl, rho, dt_max)
+        self.last_stability = stab
         # avoid a sliver step just before an output time
         if 0 < remaining - dt < 1e-9 * max(1.0, remaining):
             dt = remaining
@@ -158,6 +159,18 @@ class Simulation:
             self._set_active(extent, stages)     # wet cells spread at most one cell per stage
         self._last_stages = stages
         return dt, stages, stab
+
+    def _inflow_speed(self) -> float:
+        """Wave speed of the full (un-ramped) inflow state: an empty chute being filled must
+        not be allowed one huge step just because nothing inside moves yet."""
+        c = self.cfg
+        if c.bc[0] != "inflow" or self.t > c.inflow_stop:
+            return 0.0
+        a = abs(c.inflow_u) + math.sqrt(c.g_cos * c.inflow_h)
+        if c.segregation:
+            phi = c.inflow_phi
+            a = max(a, abs(c.inflow_u * (1.0 - (1.0 - c.alpha) * (1.0 - 2.0 * phi))))
+        return a
 
     def _set_active(self, extent: tuple[int, int], stages: int) -> None:
         lay = self.layout
@@ -208,9 +221,11 @@ class Simulation:
                                   f"at t={self.t:.6g} s")
 
     # ------------------------------------------------------------------ run with output
-    def run(self, out_dir=None, progress: bool = True, t_end: float | None = None) -> RunStats:
+    def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
+            on_output=None) -> RunStats:
         """Run to t_end writing snapshots at the scene's output times into ``out_dir``
-        (scene.toml, fields.nc, diagnostics.csv); without ``out_dir`` nothing is written."""
+        (scene.toml, fields.nc, diagnostics.csv); without ``out_dir`` nothing is written.
+        ``on_output(sim)``, if given, is called after each snapshot (e.g. to render a frame)."""
         from .output import DiagnosticsWriter, FieldsWriter, write_text_atomic
 
         sc = self.scene
@@ -233,18 +248,20 @@ class Simulation:
             diag = DiagnosticsWriter(out / "diagnostics.csv")
         bar = _progress(progress, t_end, sc.name)
         wall0 = _time.perf_counter()
-        last = {"dt": 0.0, "stages": 0, "speed": 0.0}
 
         def record(info: StepInfo | None):
+            """One diagnostics row: after every step, and at t = 0."""
             if diag is None:
                 return
             tot = self.totals()
-            diag.write(time=self.t, dt=last["dt"], stages=last["stages"], mass=tot["mass"],
-                       small_mass=tot["small_mass"], max_speed=last["speed"],
+            stab = getattr(self, "last_stability", None)
+            diag.write(time=self.t, dt=info.dt if info else 0.0, stages=info.stages if info else 0,
+                       mass=tot["mass"], small_mass=tot["small_mass"],
+                       max_speed=stab.max_speed if stab is not None else float("nan"),
                        wall_time=_time.perf_counter() - wall0)
 
         def on_step(info: StepInfo):
-            last["dt"], last["stages"] = info.dt, info.stages
+            record(info)
             if bar is not None:
                 bar.update(info.t - bar.n)
                 bar.set_postfix(steps=self.stats.steps, stages=info.stages, dt=f"{info.dt:.2e}",
@@ -252,12 +269,12 @@ class Simulation:
 
         try:
             if self.t <= times[0] + 1e-15:
-                self._snapshot(writer, record)
+                self._snapshot(writer, record, on_output)
             for t_out in times:
                 if t_out <= self.t + 1e-12:
                     continue
                 self.advance(t_out, on_step)
-                self._snapshot(writer, record)
+                self._snapshot(writer, record, on_output)
         finally:
             self.stats.wall += _time.perf_counter() - wall0
             if bar is not None:
@@ -268,11 +285,14 @@ class Simulation:
                 diag.close()
         return self.stats
 
-    def _snapshot(self, writer, record) -> None:
+    def _snapshot(self, writer, record, on_output=None) -> None:
         self.check_state()
         if writer is not None:
             writer.write(self.t, **self.fields())
-        record(None)
+        if on_output is not None:
+            on_output(self)
+        if self.stats.steps == 0:
+            record(None)
 
 
 def _progress(enabled: bool, total: float, name: str):

@@ -12,8 +12,9 @@ def register(sub) -> None:
         description="Per output time: front positions x_f+ (6.10), x_f- (6.11), elongation x_l "
                     "(6.12), number of fingers and mean wavelength Lambda = Ly / count, front "
                     "speed dx_f+/dt and the maximum channel speed over u0. Fingers are counted "
-                    "as fine-rich wet channels between coarse levees on cross-slope lines at "
-                    "x_f- + f x_l (periodic in y; median over the lines).")
+                    "as fine-rich wet channels between coarse levees on cross-slope lines "
+                    "(periodic in y) between x_f- and x_f+: the non-zero count that persists "
+                    "over the longest downslope distance, or the median over --lines.")
     p.add_argument("dir", metavar="DIR", help="run folder with fields.nc, or a fields.nc file")
     p.add_argument("--time", type=float, default=None, metavar="T",
                    help="only the output time T [s]")
@@ -22,7 +23,11 @@ def register(sub) -> None:
     g.add_argument("--phi-threshold", type=float, default=None, metavar="PHI",
                    help="channel cells have phi above PHI (default phi0/2)")
     g.add_argument("--lines", type=float, nargs="+", default=None, metavar="F",
-                   help="sample lines at x_f- + F x_l (default 0.25 0.5 0.75)")
+                   help="count on the lines x_f- + F x_l only and take the median (default: "
+                        "every column between x_f- and x_f+, persistent count)")
+    g.add_argument("--min-persistence", type=float, default=None, metavar="FRAC",
+                   help="the persistent count must hold on this fraction of the columns "
+                        "(default 0.1)")
     g.add_argument("--min-width", type=float, default=None, metavar="M",
                    help="ignore channels narrower than M metres (default 2 cells)")
     g.add_argument("--min-gap", type=float, default=None, metavar="M",
@@ -43,6 +48,10 @@ def run(args) -> int:
         require(all(0 <= f <= 1 for f in args.lines),
                 f"--lines {' '.join(f'{f:g}' for f in args.lines)}: fractions must lie in [0, 1]")
         opts["line_fractions"] = args.lines
+    if args.min_persistence is not None:
+        require(0 <= args.min_persistence <= 1,
+                f"--min-persistence={args.min_persistence!r} must lie in [0, 1]")
+        opts["min_persistence"] = args.min_persistence
     for name in ("min_width", "min_gap"):
         value = getattr(args, name)
         if value is not None:
@@ -58,9 +67,13 @@ def run(args) -> int:
     u0 = "-" if res["u0"] is None else f"{res['u0']:.4g} m/s"
     print(f"{res['file']}: phi0 = {res['phi0']:g}, u0 = {u0}, h_min = {res['h_min']:g} m, "
           f"Ly = {res['Ly']:g} m")
-    print(f"channels: wet, phi > {o['phi_threshold']:g}, lines at x_f- + "
-          f"{'/'.join(f'{f:g}' for f in o['line_fractions'])} x_l, min width "
-          f"{o['min_width']:.3g} m, min gap {o['min_gap']:.3g} m")
+    if o["line_fractions"] is None:
+        lines = (f"count persisting on >= {o['min_persistence']:g} of the columns in "
+                 f"[x_f-, x_f+]")
+    else:
+        lines = f"median count on x_f- + {'/'.join(f'{f:g}' for f in o['line_fractions'])} x_l"
+    print(f"channels: wet, phi > {o['phi_threshold']:g}, min width {o['min_width']:.3g} m, "
+          f"min gap {o['min_gap']:.3g} m; {lines}")
     if not res["time"]:
         print("no snapshots")
         return 0

@@ -71,6 +71,8 @@ class TaichiOperator:
         # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
         self.act = ti.field(ti.i32, shape=2)
+        self.rowsum = ti.field(ti.f64, shape=(NX, 2))
+        self.total = ti.field(ti.f64, shape=2)
         self.wet = ti.field(ti.i32, shape=2)
         self.set_active(self.gx, self.gx + self.nx)
         # Boundary budgets per slot: rates of (mass, small-particle mass) entering through the
@@ -441,6 +443,26 @@ class TaichiOperator:
             ti.atomic_max(self.red[4], m4)
 
     @ti.kernel
+    def _totals(self, s: ti.i32):
+        """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
+        summed serially, then the rows serially): the same bits for any thread count."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        for i in range(gx, gx + nx):
+            a = ti.cast(0.0, ti.f64)
+            b = ti.cast(0.0, ti.f64)
+            for j in range(gy, gy + ny):
+                v = self.q[s, i, j]
+                a += ti.cast(v[0], ti.f64)
+                if ti.static(self.seg):
+                    b += ti.cast(v[self.HPHI], ti.f64)
+            self.rowsum[i, 0] = a
+            self.rowsum[i, 1] = b
+        ti.loop_config(serialize=True)
+        for i in range(gx, gx + nx):
+            self.total[0] += self.rowsum[i, 0]
+            self.total[1] += self.rowsum[i, 1]
+
+    @ti.kernel
     def _wet_extent(self, s: ti.i32):
         """Smallest and largest x index (ghosts included) of a cell with h >= h_min."""
         self.wet[0] = self.NX
@@ -485,6 +507,13 @@ class TaichiOperator:
         b = self.bud.to_numpy()
         b[0] = 0.0 if values is None else values
         self.bud.from_numpy(b)
+
+    def sums(self, slot: int = 0) -> tuple[float, float]:
+        """(sum of h, sum of h phi) over interior cells, deterministic, in f64."""
+        self.total.fill(0.0)
+        self._totals(slot)
+        t = self.total.to_numpy()
+        return float(t[0]), float(t[1])
 
     def set_active(self, a: int, b: int) -> None:
         """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted)."""

@@ -16,8 +16,10 @@ a linear blend in between, turquoise where the chute is empty (h < h_min). The f
 use the viridis table. Optional relief shading lights the thickness from the upper left of the
 picture so levees and the bulbous front read as relief::
 
-    f = 1 + S tanh(R grad(h) . l),   l = (-1, 1) / sqrt(2)  (towards the light, picture axes)
+    f = 1 - S tanh(R grad(h) . l),   l = (-1, 1) / sqrt(2)  (towards the light, picture axes)
 
+i.e. a flank whose surface normal (-grad h, 1) leans towards the light is brightened and a flank
+leaning away is darkened, as in a hill-shaded map (Lambert's law to first order in the slope),
 with strength S (default 0.35) and vertical exaggeration R (default 10, i.e. a slope dh/dx = 0.1
 gives tanh(1)). Flat flow keeps f = 1 exactly, so shading changes brightness only where h varies;
 the saturating tanh keeps the steep front (dh/dx ~ 1) from turning black. f < 1 darkens (c f),
@@ -26,7 +28,7 @@ f > 1 brightens towards white (c + (1 - c)(f - 1)). The empty chute is never sha
 Captions are burned in with :func:`annotate` (time stamp and scale bar) and :func:`add_colourbar`,
 using glyphs rasterised once by matplotlib's FreeType wrapper (no figure, sub-millisecond).
 """
-from __future__ import annotations
+# (no "from __future__ import annotations": Taichi reads kernel annotations as objects)
 
 import math
 from functools import lru_cache
@@ -52,6 +54,8 @@ _BIG = 3.0e38
 @ti.data_oriented
 class _ArraySource:
     """Fields handed over as NumPy arrays, uploaded into one (nx, ny) vector field."""
+
+    has_phi = True      # a missing phi array is refused by render_fields for field="phi"
 
     def __init__(self, nx: int, ny: int):
         self.nx, self.ny = nx, ny
@@ -121,13 +125,15 @@ class _Painter:
     def __init__(self, source):
         self.src = source
         self.nx, self.ny = source.nx, source.ny
-        self.par = ti.field(ti.f32, shape=P_COUNT)
+        # parameters in the simulation's float type, so h >= h_min decides exactly as the solver
+        self.par = ti.field(float, shape=P_COUNT)
+        self._np_fp = np.float64 if backend.state().precision == "f64" else np.float32
         self.lut = ti.Vector.field(3, ti.f32, shape=C.LUT_SIZE)
         self.lut.from_numpy(np.asarray(C.viridis_table(C.LUT_SIZE), dtype=np.float32))
         self.red = ti.field(ti.f32, shape=2)
         self._images: dict[tuple[int, int], object] = {}
         self.generation = backend.state().generation
-        self._par = np.zeros(P_COUNT, dtype=np.float32)
+        self._par = None
 
     def image(self, w: int, h: int):
         """A cached (w, h) RGB image field (one per size, so kernels compile once per size)."""
@@ -138,7 +144,7 @@ class _Painter:
 
     def set_params(self, *, h_min, field="phi", vrange=(0.0, 1.0), shade=DEFAULT_SHADE,
                    relief=DEFAULT_RELIEF, dx=1.0, dy=1.0, phi_const=1.0) -> None:
-        p = np.zeros(P_COUNT, dtype=np.float32)
+        p = np.zeros(P_COUNT, dtype=self._np_fp)
         lo, hi = vrange if vrange is not None else (0.0, 1.0)
         p[P_HMIN], p[P_VMIN], p[P_VMAX] = h_min, lo, hi
         p[P_MODE] = C.FIELD_CODES[C.canonical_field(field)]
@@ -146,7 +152,7 @@ class _Painter:
         # unit vector towards the light in picture axes (x right, y up): the upper left
         p[P_LX], p[P_LY] = -math.sqrt(0.5), math.sqrt(0.5)
         p[P_DX], p[P_DY], p[P_PHI] = dx, dy, phi_const
-        if not np.array_equal(p, self._par):      # skip the upload when nothing changed
+        if self._par is None or not np.array_equal(p, self._par):   # upload only changes
             self.par.from_numpy(p)
             self._par = p
 
@@ -165,14 +171,14 @@ class _Painter:
 
     @ti.func
     def _lut(self, t):
-        x = ti.min(ti.max(t, 0.0), 1.0) * (C.LUT_SIZE - 1)
+        x = ti.cast(ti.min(ti.max(t, 0.0), 1.0) * (C.LUT_SIZE - 1), ti.f32)
         i0 = ti.min(ti.cast(ti.floor(x), ti.i32), C.LUT_SIZE - 2)
-        w = x - i0
+        w = x - ti.cast(i0, ti.f32)
         return (1.0 - w) * self.lut[i0] + w * self.lut[i0 + 1]
 
     @ti.func
     def _shade_factor(self, i, j):
-        """1 + S tanh(R grad(h) . l), central differences (one-sided at the edges)."""
+        """1 - S tanh(R grad(h) . l), central differences (one-sided at the edges)."""
         nx, ny = ti.static(self.nx, self.ny)
         im, ip = ti.max(i - 1, 0), ti.min(i + 1, nx - 1)
         jm, jp = ti.max(j - 1, 0), ti.min(j + 1, ny - 1)
@@ -185,31 +191,32 @@ class _Painter:
             gy = (self.src.thickness(i, jp) - self.src.thickness(i, jm)) / (
                 (jp - jm) * self.par[P_DY])
         d = gx * self.par[P_LX] + gy * self.par[P_LY]
-        return 1.0 + self.par[P_SHADE] * ti.tanh(self.par[P_RELIEF] * d)
+        return 1.0 - self.par[P_SHADE] * ti.tanh(self.par[P_RELIEF] * d)
 
     @ti.func
     def colour(self, i, j):
         """RGB (f32) of cell (i, j) under the current parameters."""
         s = self.src.sample(i, j)
         mode = ti.cast(self.par[P_MODE], ti.i32)
-        c = ti.Vector([C.CHUTE_RGB[0], C.CHUTE_RGB[1], C.CHUTE_RGB[2]], ti.f32)
+        # colour arithmetic in the default float type; the image stores f32
+        c = ti.Vector([C.CHUTE_RGB[0], C.CHUTE_RGB[1], C.CHUTE_RGB[2]], float)
         if mode != 0:
-            c = ti.Vector([C.EMPTY_MAP_RGB[0], C.EMPTY_MAP_RGB[1], C.EMPTY_MAP_RGB[2]], ti.f32)
+            c = ti.Vector([C.EMPTY_MAP_RGB[0], C.EMPTY_MAP_RGB[1], C.EMPTY_MAP_RGB[2]], float)
         if s[0] >= self.par[P_HMIN]:
             if mode == 0:
-                phi = ti.cast(s[1], ti.f32)
-                if ti.static(isinstance(self.src, _StateSource) and not self.src.has_phi):
+                phi = s[1]
+                if ti.static(not self.src.has_phi):   # no segregation: a constant mixture
                     phi = self.par[P_PHI]
                 phi = ti.min(ti.max(phi, 0.0), 1.0)
-                coarse = ti.Vector([C.COARSE_RGB[0], C.COARSE_RGB[1], C.COARSE_RGB[2]], ti.f32)
-                fines = ti.Vector([C.FINES_RGB[0], C.FINES_RGB[1], C.FINES_RGB[2]], ti.f32)
+                coarse = ti.Vector([C.COARSE_RGB[0], C.COARSE_RGB[1], C.COARSE_RGB[2]], float)
+                fines = ti.Vector([C.FINES_RGB[0], C.FINES_RGB[1], C.FINES_RGB[2]], float)
                 c = (1.0 - phi) * coarse + phi * fines
             else:
                 lo, hi = self.par[P_VMIN], self.par[P_VMAX]
-                t = (ti.cast(self._value(s, mode), ti.f32) - lo) / ti.max(hi - lo, 1e-30)
-                c = self._lut(t)
+                t = (self._value(s, mode) - lo) / ti.max(hi - lo, 1e-30)
+                c = ti.cast(self._lut(t), float)
             if self.par[P_SHADE] > 0.0:
-                f = ti.cast(self._shade_factor(i, j), ti.f32)
+                f = self._shade_factor(i, j)
                 if f < 1.0:
                     c = c * f
                 else:
@@ -225,21 +232,28 @@ class _Painter:
         for p, q in ti.ndrange(w, h):
             i = ti.min(ti.cast((p + 0.5) * nx / w, ti.i32), nx - 1)
             j = ti.min(ti.cast((q + 0.5) * ny / h, ti.i32), ny - 1)
-            img[x0 + p, y0 + q] = self.colour(i, j)
+            img[x0 + p, y0 + q] = ti.cast(self.colour(i, j), ti.f32)
 
     @ti.kernel
     def value_range(self):
-        """Min and max of the colour-mapped quantity over cells with h >= h_min into red[0:2]
-        (atomic min/max: deterministic, unlike float sums)."""
-        self.red[0] = _BIG
-        self.red[1] = -_BIG
+        """Min and max of the colour-mapped quantity over cells with h >= h_min into red[0:2].
+
+        Columns in parallel, each scanned serially, then one atomic min/max per column: far less
+        contention than one atomic per cell, and deterministic (min/max do not depend on order)."""
+        self.red[0] = ti.cast(_BIG, ti.f32)
+        self.red[1] = ti.cast(-_BIG, ti.f32)
         mode = ti.cast(self.par[P_MODE], ti.i32)
-        for i, j in ti.ndrange(self.nx, self.ny):
-            s = self.src.sample(i, j)
-            if s[0] >= self.par[P_HMIN]:
-                v = ti.cast(self._value(s, mode), ti.f32)
-                ti.atomic_min(self.red[0], v)
-                ti.atomic_max(self.red[1], v)
+        for i in range(self.nx):
+            lo = ti.cast(_BIG, ti.f32)
+            hi = ti.cast(-_BIG, ti.f32)
+            for j in range(self.ny):
+                s = self.src.sample(i, j)
+                if s[0] >= self.par[P_HMIN]:
+                    v = ti.cast(self._value(s, mode), ti.f32)
+                    lo = ti.min(lo, v)
+                    hi = ti.max(hi, v)
+            ti.atomic_min(self.red[0], lo)
+            ti.atomic_max(self.red[1], hi)
 
     @ti.kernel
     def fill(self, img: ti.template(), x0: ti.i32, y0: ti.i32, w: ti.i32, h: ti.i32,
@@ -251,14 +265,14 @@ class _Painter:
     def colourbar(self, img: ti.template(), x0: ti.i32, y0: ti.i32, w: ti.i32, h: ti.i32):
         """A vertical colour bar of the current field, low values at the bottom."""
         mode = ti.cast(self.par[P_MODE], ti.i32)
-        coarse = ti.Vector([C.COARSE_RGB[0], C.COARSE_RGB[1], C.COARSE_RGB[2]], ti.f32)
-        fines = ti.Vector([C.FINES_RGB[0], C.FINES_RGB[1], C.FINES_RGB[2]], ti.f32)
+        coarse = ti.Vector([C.COARSE_RGB[0], C.COARSE_RGB[1], C.COARSE_RGB[2]], float)
+        fines = ti.Vector([C.FINES_RGB[0], C.FINES_RGB[1], C.FINES_RGB[2]], float)
         for p, q in ti.ndrange(w, h):
             t = (q + 0.5) / h
             c = (1.0 - t) * coarse + t * fines
             if mode != 0:
-                c = self._lut(t)
-            img[x0 + p, y0 + q] = c
+                c = ti.cast(self._lut(t), float)
+            img[x0 + p, y0 + q] = ti.cast(c, ti.f32)
 
 
 def _image_to_numpy(img, w: int | None = None, h: int | None = None, x0: int = 0,
@@ -287,17 +301,25 @@ def _array_painter(nx: int, ny: int) -> _Painter:
     return _painters[key]
 
 
+MIN_1D_HEIGHT = 40          # a 1D run (one row of cells) is drawn as a band this tall
+
+
 def image_size(nx: int, ny: int, scale: float = 1.0, aspect: float = 1.0) -> tuple[int, int]:
     """(width, height) in pixels of a map of nx x ny cells: ``scale`` pixels per cell along x,
-    ``aspect = dy / dx`` keeps cells of other shapes true to size."""
+    ``aspect = dy / dx`` keeps cells of other shapes true to size. A 1D run (ny = 1) becomes a
+    band at least MIN_1D_HEIGHT pixels tall, so that it can be seen."""
     if not (scale > 0 and math.isfinite(scale)):
         raise ValueError(f"scale={scale!r} must be a positive number")
-    return max(1, int(round(nx * scale))), max(1, int(round(ny * scale * aspect)))
+    h = max(1, int(round(ny * scale * aspect)))
+    if ny == 1:
+        h = max(h, MIN_1D_HEIGHT)
+    return max(1, int(round(nx * scale))), h
 
 
 def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, scale: float = 1,
                   vrange=None, colourbar: bool | None = None, relief: float = DEFAULT_RELIEF,
-                  aspect: float = 1.0, dx: float = 1.0, dy: float | None = None) -> np.ndarray:
+                  aspect: float = 1.0, dx: float | None = None,
+                  dy: float | None = None) -> np.ndarray:
     """Render a snapshot of (ny, nx) arrays to an RGB image, uint8 (H, W, 3), row 0 at the top.
 
     ``fields``: "h" and, as needed, "phi", "u", "v" (a dict as from ``Simulation.fields()`` or one
@@ -305,7 +327,8 @@ def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, sc
     "u" or "v" (viridis). ``shade``: True, False or a strength S in [0, 1]. ``scale``: pixels per
     cell. ``vrange``: (vmin, vmax) of a colour-mapped field; default the data range of the
     flowing cells. ``colourbar``: add a colour bar at the right; default for the mapped fields
-    only. ``dx``, ``dy``: cell sizes [m], which matter only for the slope of the relief shading.
+    only. ``dx``, ``dy``: cell sizes [m], which set the slopes of the relief shading; by default
+    the spacing of ``fields["x"]`` / ``fields["y"]`` when given, else the paper's 1/750 m.
     """
     field = C.canonical_field(field)
     h = np.asarray(fields["h"])
@@ -322,8 +345,10 @@ def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, sc
     painter = _array_painter(nx, ny)
     painter.src.upload(h, fields.get("phi"), fields.get("u"), fields.get("v"))
     strength = _shade_strength(shade)
+    dx = _spacing(fields.get("x"), dx, PAPER_DX)
+    dy = _spacing(fields.get("y"), dy, dx)
     painter.set_params(h_min=h_min, field=field, vrange=vrange, shade=strength, relief=relief,
-                       dx=dx, dy=dx if dy is None else dy)
+                       dx=dx, dy=dy)
     w, hh = image_size(nx, ny, scale, aspect)
     img = painter.image(w, hh)
     painter.paint(img, 0, 0, w, hh)
@@ -333,6 +358,19 @@ def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, sc
     if colourbar:
         out = add_colourbar(out, field, *(vrange or (0.0, 1.0)))
     return out
+
+
+PAPER_DX = 1.0 / 750.0     # N_x / L_x = 750 per metre (figure 12)
+
+
+def _spacing(coord, given, fallback):
+    """Cell size: the given one, else the spacing of a coordinate array, else fallback."""
+    if given is not None:
+        return float(given)
+    if coord is not None and np.size(coord) > 1:
+        return float(abs(np.asarray(coord, dtype=np.float64).ravel()[1]
+                         - np.asarray(coord, dtype=np.float64).ravel()[0]))
+    return float(fallback)
 
 
 def _shade_strength(shade) -> float:
@@ -469,7 +507,6 @@ def _font_path() -> str:
 def _glyph(ch: str, size: int):
     """(mask float32 (rows, cols), left bearing, top above baseline, advance) of one character,
     rasterised once by FreeType (matplotlib's wrapper; the same code path as its Agg backend)."""
-    from matplotlib.ft2font import FT2Font
     font = _font(size)
     try:
         from matplotlib.ft2font import LoadFlags
@@ -486,7 +523,6 @@ def _glyph(ch: str, size: int):
         mask = np.zeros((0, 0), np.float32)
     else:
         mask = bmp[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1].copy()
-    del FT2Font
     return mask, int(round(g.horiBearingX / 64)), int(round(g.horiBearingY / 64)), \
         int(round(g.horiAdvance / 64))
 
