@@ -13,7 +13,7 @@ from .errors import TisegError
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
-COMMAND_MODULES = ["steady", "stability", "figures", "run", "fingers", "render", "view"]
+COMMAND_MODULES = ["steady", "stability", "figures", "run", "fingers", "render", "view", "demo"]
 
 
 class _Parser(argparse.ArgumentParser):
