@@ -432,7 +432,9 @@ class TaichiOperator:
                             hs = self.w[i, j - 1][0]
                             sys = (self._face_K(h, hn) * (inv + 1.0 / ti.max(hn, hmin))
                                    + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin)))
-                            cross = 0.5 * (sxs + sys) / (dx * dy)
+                            # the mixed derivatives couple u to 8 values of v with weights
+                            # K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h
+                            cross = 0.125 * (sxs + sys) / (dx * dy)
                             rho = ti.max(sxs / (dx * dx) + 0.5 * sys / (dy * dy),
                                          0.5 * sxs / (dx * dx) + sys / (dy * dy)) + cross
                         m2 = ti.max(m2, rho)
