@@ -7,6 +7,7 @@ import sys
 
 from ..errors import InputError
 from ..material import Material
+from ..output.diagnostics import json_clean
 
 
 def add_material_options(p) -> None:
@@ -26,26 +27,8 @@ def material_from_args(args) -> Material:
     return m.with_(**changes) if changes else m
 
 
-def _clean(obj):
-    """JSON-safe copy: non-finite floats become null (JSON has no inf/nan)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
-        try:
-            return _clean(obj.item())
-        except (ValueError, AttributeError):
-            pass
-    if hasattr(obj, "tolist"):
-        return _clean(obj.tolist())
-    return obj
-
-
 def print_json(obj) -> None:
-    json.dump(_clean(obj), sys.stdout, indent=2)
+    json.dump(json_clean(obj), sys.stdout, indent=2)
     sys.stdout.write("\n")
 
 

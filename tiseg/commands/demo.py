@@ -6,7 +6,6 @@ writes its movie (coloured like the experiments), the paper-style panels of phi,
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
@@ -29,6 +28,7 @@ def run(args) -> int:
     from ..analysis import analyse_run
     from ..errors import InputError
     from ..figures.stability import make_all
+    from ..output import write_json_atomic
     from ..render.movie import MovieWriter
     from ..render.frame import FrameRenderer, annotate
     from ..render.panels import plot_panels
@@ -61,7 +61,7 @@ def run(args) -> int:
                     title=f"{field} at {args.resolution:g} cells/m (cf. figure {fig})")
         written.append(path)
     metrics = analyse_run(out)
-    (out / "fingers.json").write_text(json.dumps(_jsonable(metrics), indent=2))
+    write_json_atomic(out / "fingers.json", metrics)
     written.append(out / "fingers.json")
     written += make_all(out / "stability", scene.material)
     last = {k: metrics[k][-1] for k in ("time", "finger_count", "wavelength", "elongation")}
@@ -74,15 +74,3 @@ def run(args) -> int:
         print(p)
     return 0
 
-
-def _jsonable(obj):
-    import math
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if hasattr(obj, "tolist"):
-        return _jsonable(obj.tolist())
-    return obj

@@ -13,7 +13,7 @@ run is 1D (``ny == 1``: one row, no ghosts, no v component, no cross-slope work)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")

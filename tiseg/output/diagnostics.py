@@ -117,10 +117,12 @@ def write_text_atomic(path, text: str) -> Path:
 def write_json_atomic(path, obj, **json_kw) -> Path:
     """:func:`write_text_atomic` of ``obj`` as JSON (non-finite floats become null)."""
     json_kw.setdefault("indent", 2)
-    return write_text_atomic(path, json.dumps(_json_clean(obj), **json_kw) + "\n")
+    return write_text_atomic(path, json.dumps(json_clean(obj), **json_kw) + "\n")
 
 
-def _json_clean(obj):
+def json_clean(obj):
+    """A JSON-safe copy: NumPy scalars and arrays become Python values, non-finite floats
+    become null (JSON has no inf/nan), paths become strings."""
     if isinstance(obj, (float, np.floating)):
         f = float(obj)
         return f if math.isfinite(f) else None
@@ -129,15 +131,15 @@ def _json_clean(obj):
     if isinstance(obj, (int, np.integer)):
         return int(obj)
     if isinstance(obj, dict):
-        return {str(k): _json_clean(v) for k, v in obj.items()}
+        return {str(k): json_clean(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_json_clean(v) for v in obj]
+        return [json_clean(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _json_clean(obj.tolist())
+        return json_clean(obj.tolist())
     if isinstance(obj, Path):
         return str(obj)
     return obj
 
 
 __all__ = ["DiagnosticsWriter", "read_diagnostics", "DEFAULT_COLUMNS", "write_text_atomic",
-           "write_json_atomic"]
+           "write_json_atomic", "json_clean"]

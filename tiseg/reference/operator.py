@@ -214,7 +214,7 @@ class ReferenceOperator:
     def face_fluxes(self, w: np.ndarray, axis: int) -> np.ndarray:
         """KT numerical flux at faces between cells m and m+1 along axis; shape like w with the
         face m+1/2 stored at index m (last index unused)."""
-        c, lay = self.cfg, self.lay
+        c = self.cfg
         direction = axis - 1
         s = self.slopes(w, axis)
         n = w.shape[axis]
