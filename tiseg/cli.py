@@ -13,13 +13,13 @@ from .errors import TisegError
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
-COMMAND_MODULES = ["steady", "stability", "figures", "run", "fingers", "render", "view", "demo"]
+COMMAND_MODULES = ["steady", "stability", "figures", "run", "fingers", "render", "view", "demo",
+                   "sweep", "bench", "estimate"]
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # argparse's own errors: one line, exit 2
-        self.print_usage(sys.stderr)
-        sys.stderr.write(f"tiseg: error: {message}\n")
+    def error(self, message):  # argparse's own errors: one line (no usage block), exit 2
+        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
         raise SystemExit(2)
 
 

@@ -95,14 +95,19 @@ class FlowConfig:
     """Reference steady uniform flow of section 4.
 
     ``u0`` and ``F`` are derived from (4.3), (4.9) when ``effects.friction`` is
-    "pouliquen-mixture"; for the other friction laws ``u0`` may be given (``flow.u0``) and ``F``
-    follows from it, otherwise both are None.
+    "pouliquen-mixture" and a steady uniform flow exists; for the other friction laws ``u0`` may
+    be given (``flow.u0``) and ``F`` follows from it, otherwise both are None. A scene without a
+    steady flow (e.g. a release on a slope below zeta1^S or above zeta2^L, where material must
+    stop or accelerate) is valid as long as nothing needs u0; ``no_steady`` then says why there
+    is none, for the error of whatever does need it (an inflow without inflow.u, a uniform
+    initial state).
     """
     h0: float = 0.002          # [m]
     phi0: float = 0.8
     nu: float = 0.01           # [m^(3/2)/s], coefficient of the viscous term of (6.2)
     u0: float | None = None    # [m/s]
     F: float | None = None     # Froude number (4.3)
+    no_steady: str | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -640,12 +645,14 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
         try:
             st = steady_state(h0, phi0, material)
         except InputError as exc:
-            raise InputError(f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; "
-                             "effects.friction='pouliquen-mixture' needs a steady uniform flow "
-                             "to define u0 (raise flow.phi0 or change material.zeta_deg)") from None
+            why = (f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; effects.friction="
+                   "'pouliquen-mixture' defines u0 only from a steady uniform flow (raise "
+                   "flow.phi0 or change material.zeta_deg)")
+            return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         except (ArithmeticError, ValueError) as exc:
-            raise InputError(f"flow.h0={h0!r}, flow.phi0={phi0!r}: no steady uniform flow for "
-                             f"this material ({exc})") from None
+            why = (f"flow.h0={h0!r}, flow.phi0={phi0!r}: no steady uniform flow for this "
+                   f"material ({exc})")
+            return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         return FlowConfig(h0=h0, phi0=phi0, nu=nu, u0=st.u0, F=st.F)
     u0 = t.number("u0", None, positive=True)
     F = None if u0 is None else u0 / math.sqrt(material.g * h0 * material.cos_zeta)
@@ -759,6 +766,9 @@ def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: Dom
         return None
     h = t.number("h", flow.h0, positive=True)
     if not t.has("u") and flow.u0 is None:
+        if flow.no_steady:
+            raise InputError(f"{flow.no_steady}; the inflow velocity defaults to that u0, so "
+                             "give inflow.u")
         raise InputError("inflow.u is required: without the 'pouliquen-mixture' friction there is "
                          "no derived steady velocity (give inflow.u or flow.u0)")
     u = t.number("u", flow.u0, positive=True)
@@ -790,6 +800,9 @@ def _read_initial(t: "_Table", kind: str, wavelengths: float | None, domain: Dom
     if kind == "empty":
         return InitialConfig(kind="empty")
     if kind == "uniform":
+        if flow.no_steady:
+            raise InputError(f"initial.kind='uniform' needs the steady uniform flow: "
+                             f"{flow.no_steady}")
         if flow.u0 is None:
             raise InputError("initial.kind='uniform' needs the steady velocity u0: give flow.u0 "
                              f"(effects.friction={effects.friction!r} does not define one)")

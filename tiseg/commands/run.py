@@ -1,14 +1,24 @@
-"""`tiseg run SCENE`: simulate a scene and write scene.toml, fields.nc, diagnostics.csv."""
+"""`tiseg run SCENE`: simulate a scene and write scene.toml, fields.nc, diagnostics.csv.
+
+`tiseg run --resume DIR` continues a run that was killed, from its checkpoint.npz (see
+:mod:`tiseg.checkpoint`), appending to its fields.nc and diagnostics.csv.
+
+Every user mistake is refused before anything heavy starts (Taichi, compilation) with one line
+naming the option, the value and what is allowed.
+"""
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from pathlib import Path
 
 from .common import print_json
 
 
-def add_scene_arguments(p) -> None:
-    p.add_argument("scene", help="built-in scene name (e.g. fingers) or path to a TOML file")
+def add_scene_arguments(p, scene_optional: bool = False) -> None:
+    p.add_argument("scene", nargs="?" if scene_optional else None, default=None,
+                   help="built-in scene name (e.g. fingers) or path to a TOML file")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override a scene value, e.g. --set domain.resolution=250 (repeatable)")
     p.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu",
@@ -23,17 +33,23 @@ def register(sub) -> None:
                        description="Simulate a scene (built-in name or TOML file) and write the "
                                    "resolved scene, NetCDF snapshots at the output times and a "
                                    "diagnostics table into the output folder.")
-    add_scene_arguments(p)
+    add_scene_arguments(p, scene_optional=True)
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default: runs/<scene name>)")
+    p.add_argument("--resume", default=None, metavar="DIR",
+                   help="continue the killed run in DIR from its checkpoint.npz (no SCENE, "
+                        "--set, --precision, --out or --movie: the run keeps its own settings)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--estimate", action="store_true",
+                   help="print the predicted steps, RKC stages and wall time (as `tiseg "
+                        "estimate`) and exit without running")
     p.add_argument("--json", action="store_true", help="print a JSON summary at the end")
     p.add_argument("--movie", default=None, metavar="OUT.mp4",
                    help="also write a movie (mp4, or .gif), one frame per output time, rendered "
                         "from the running simulation (no display or Vulkan needed)")
-    p.add_argument("--movie-field", default="phi", metavar="FIELD",
+    p.add_argument("--movie-field", default=None, metavar="FIELD",
                    help="field of the movie: phi (default), h, speed, u or v")
-    p.add_argument("--fps", type=float, default=10.0, help="movie frames per second (10)")
+    p.add_argument("--fps", type=float, default=None, help="movie frames per second (10)")
     p.set_defaults(func=run)
 
 
@@ -45,16 +61,107 @@ def load(args):
     return load_scene(args.scene, overrides)
 
 
-def run(args) -> int:
+def check_output_folder(out: Path, what: str = "--out") -> None:
+    """Refuse an output folder that cannot be created or written, before any work is done."""
     from ..errors import InputError
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what}={str(out)!r} is a file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=out, prefix=".tiseg-write-test.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"{what}={str(out)!r}: cannot write there ({exc.strerror or exc})") from None
+
+
+def _check_args(args) -> None:
+    """Options that are wrong whatever the scene."""
+    from ..errors import InputError
+    if args.threads < 0:
+        raise InputError(f"--threads={args.threads}: must be >= 0 (0 = all cores)")
+    if args.movie is None:
+        unused = [n for n, v in (("--movie-field", args.movie_field), ("--fps", args.fps))
+                  if v is not None]
+        if unused:
+            raise InputError(f"{', '.join(unused)} given without --movie (they only set up the "
+                             "movie): add --movie OUT.mp4 or leave them out")
+    else:
+        args.movie_field = "phi" if args.movie_field is None else args.movie_field
+        args.fps = 10.0 if args.fps is None else args.fps
+        if not (args.fps > 0 and math.isfinite(args.fps)):
+            raise InputError(f"--fps={args.fps!r} must be a positive number")
+    if args.resume is not None:
+        given = [name for name, v in (("SCENE", args.scene), ("--set", args.overrides),
+                                      ("--precision", args.precision), ("--out", args.out),
+                                      ("--movie", args.movie),
+                                      ("--estimate", getattr(args, "estimate", False))) if v]
+        if given:
+            raise InputError(f"--resume {args.resume!r} continues the run with its own scene and "
+                             f"files; {', '.join(given)} cannot be given with it")
+    elif args.scene is None:
+        raise InputError("give a SCENE (a built-in name such as fingers, or a .toml file), or "
+                         "--resume DIR to continue a killed run")
+    if args.movie is not None:
+        from ..render.colours import canonical_field
+        try:
+            canonical_field(args.movie_field)
+        except ValueError as exc:
+            raise InputError(f"--movie-field: {exc}") from None
+        suffix = Path(args.movie).suffix.lower()
+        if suffix not in (".mp4", ".gif", ".mov", ".mkv", ".avi", ".webm"):
+            raise InputError(f"--movie={args.movie!r}: the file name must end in .mp4 or .gif "
+                             "(or .mov, .mkv, .avi, .webm)")
+
+
+def _refuse_unfinished(out: Path) -> None:
+    """A fresh run must not overwrite a killed one that could still be resumed."""
+    from ..checkpoint import CHECKPOINT_NAME
+    from ..errors import InputError
+    if (out / CHECKPOINT_NAME).is_file():
+        raise InputError(f"--out {str(out)!r} holds an unfinished run ({CHECKPOINT_NAME}); "
+                         f"continue it with `tiseg run --resume {out}`, or delete "
+                         f"{out / CHECKPOINT_NAME} (or the folder) to start over there")
+
+
+def _backend_first(args, precision: str) -> None:
+    """Refuse --arch gpu where there is no GPU before any folder is made (this initialises
+    Taichi for gpu/auto; the CPU is left to Simulation)."""
+    from .. import backend
+    if args.arch != "cpu":
+        backend.init(args.arch, precision, args.threads)
+
+
+def run(args) -> int:
     from ..simulation import Simulation
 
-    if args.threads < 0:
-        raise InputError(f"--threads={args.threads}: must be >= 0")
-    scene = load(args)
-    out = Path(args.out) if args.out else Path("runs") / scene.name
-    sim = Simulation(scene, arch=args.arch, threads=args.threads)
-    before = sim.totals()
+    _check_args(args)
+    if args.resume is not None:
+        from ..checkpoint import CHECKPOINT_NAME, open_run_dir
+        out = Path(args.resume)
+        scene, ck = open_run_dir(out)             # a clear error if DIR is not a killed run
+        _backend_first(args, ck["precision"])
+        check_output_folder(out, "--resume")
+        sim = Simulation.resume(out, arch=args.arch, threads=args.threads)
+        scene = sim.scene
+        if not args.json:                         # keep --json output pure JSON
+            print(f"{scene.name}: resuming from {out / CHECKPOINT_NAME} at t = {sim.t:.6g} s "
+                  f"(step {sim.stats.steps})")
+    else:
+        scene = load(args)
+        if args.estimate:
+            from .estimate import print_estimate
+            print_estimate(scene, args.arch, args.threads, as_json=args.json)
+            return 0
+        out = Path(args.out) if args.out else Path("runs") / scene.name
+        _refuse_unfinished(out)
+        _backend_first(args, scene.numerics.precision)
+        check_output_folder(out)
+        if args.movie is not None:
+            check_output_folder(Path(args.movie).parent if Path(args.movie).parent != Path("")
+                                else Path("."), "--movie")
+        sim = Simulation(scene, arch=args.arch, threads=args.threads)
+    before = sim.initial_totals
     movie = _movie(args, sim)
     try:
         stats = sim.run(out_dir=out, progress=not args.no_progress,
@@ -69,7 +176,7 @@ def run(args) -> int:
         "rhs_evaluations": stats.stages, "wall_time_s": stats.wall,
         "arch": sim.backend.arch, "precision": sim.backend.precision,
         "grid": [scene.domain.nx, scene.domain.ny],
-        "mass": after["mass"], "mass_in": bud["mass_in"],
+        "mass": after["mass"], "mass_in": bud["mass_in"], "resumed": args.resume is not None,
         "mass_balance_error": after["mass"] - before["mass"] - bud["mass_in"],
         "cell_updates_per_s": scene.domain.nx * scene.domain.ny * stats.stages / max(stats.wall, 1e-12),
     }
@@ -125,6 +232,4 @@ def _movie(args, sim):
         field = "h"                      # no concentration without segregation
     if field == "v" and sim.layout.is_1d:
         raise InputError("--movie-field=v: a 1D run has no v")
-    if not (args.fps > 0 and math.isfinite(args.fps)):
-        raise InputError(f"--fps={args.fps!r} must be a positive number")
     return _MovieRecorder(sim, Path(args.movie), field, args.fps)

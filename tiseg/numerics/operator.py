@@ -204,7 +204,12 @@ class TaichiOperator:
         for c in ti.static(range(1, self.nc)):
             w[c] = ti.sqrt(2.0) * h * q[c] / denom
         if ti.static(self.seg):
-            w[self.HPHI] = ti.min(ti.max(w[self.HPHI], 0.0), 1.0)
+            # phi is bounded (0 <= h phi <= h after every stage), so it needs no
+            # desingularisation, which would pull it towards 0 in thin films
+            phi = 0.0 * h
+            if h > 0:
+                phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
+            w[self.HPHI] = phi
         return w
 
     @ti.func
@@ -386,7 +391,7 @@ class TaichiOperator:
         hmin = self.par[Params.H_MIN]
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
             v = self.q[s, i, j]
-            h = ti.max(v[0], 0.0)
+            h = ti.select(v[0] < 0.0, 0.0, v[0])     # unlike max(), lets a NaN through to the guard
             v[0] = h
             if h < hmin:
                 v[1] = 0.0

@@ -4,12 +4,20 @@ Layout: dimensions ``time`` (unlimited), ``y``, ``x``; coordinate variables of t
 data variables (time, y, x). Every :meth:`FieldsWriter.write` ends with a sync, which flushes the
 HDF5 metadata and data to disk: if the process is killed later, the file still opens with every
 snapshot written before the kill (the run is then restartable from the last snapshot).
+
+:meth:`FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
+(:mod:`tiseg.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
+after it (and a record left half-written by the kill) by copying the kept records into a new
+file that replaces the old one atomically, so the file on disk is always either the old or the
+new complete file.
 """
 from __future__ import annotations
 
 import datetime as _dt
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -93,6 +101,49 @@ class FieldsWriter:
                                     shuffle=True, chunksizes=(1, ny, nx))
             var.setncatts(FIELD_ATTRS[name])
 
+    @classmethod
+    def append(cls, path, keep: int, t_max: float | None = None) -> "FieldsWriter":
+        """Reopen the file of an interrupted run to append snapshots after its first ``keep``.
+
+        Records beyond ``keep`` (written after the checkpoint the run resumes from, or left
+        half-written by a kill: the data of a record is written before its time) are dropped,
+        by rewriting the file through a temporary copy and ``os.replace``. Raises
+        :class:`FieldsFileError` when the file cannot be read or holds fewer than ``keep``
+        complete records (or a kept time after ``t_max``).
+        """
+        path = Path(path)
+        try:
+            with netCDF4.Dataset(path, "r") as ds:
+                fields = tuple(v for v in ds.variables if v in FIELD_ATTRS)
+                times = np.ma.filled(ds.variables["time"][:].astype("f8"), np.nan)
+                n = ds.dimensions["time"].size
+                dtype = ds.variables[fields[0]].dtype.str[1:] if fields else "f8"
+        except (OSError, KeyError, IndexError, RuntimeError) as exc:
+            raise FieldsFileError(f"{path}: cannot be read as a tiseg fields file ({exc})") from None
+        kept = times[:keep]
+        if (len(kept) < keep or not np.isfinite(kept).all() or np.any(np.diff(kept) <= 0)
+                or (t_max is not None and keep and kept[-1] > t_max * (1 + 1e-12))):
+            raise FieldsFileError(f"{path}: holds {n} records with times {kept.tolist()[:8]}, "
+                                  f"but the checkpoint expects {keep} complete snapshots"
+                                  + (f" up to t={t_max!r}" if t_max is not None else ""))
+        if n != keep:
+            _truncate_copy(path, keep, fields, dtype)
+        self = cls.__new__(cls)
+        self.path = path
+        self.fields = fields
+        self.dtype = _DTYPES.get(dtype, "f8")
+        self._ds = ds = netCDF4.Dataset(path, "a")
+        self.shape = (ds.dimensions["y"].size, ds.dimensions["x"].size)
+        self.count = keep
+        self._last_t = float(kept[-1]) if keep else -math.inf
+        from .. import __version__
+        now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+        history = str(getattr(ds, "history", ""))
+        ds.setncattr("history", (history + "\n" if history else "")
+                     + f"{now} resumed by tiseg {__version__} after {keep} snapshots")
+        ds.sync()
+        return self
+
     def write(self, t: float, **arrays) -> None:
         """Append the snapshot at time ``t`` [s]; give exactly the writer's fields, each (ny, nx)
         (a 1D run has ny = 1; arrays of shape (nx,) are accepted then)."""
@@ -140,6 +191,40 @@ class FieldsWriter:
             pass
 
 
+class FieldsFileError(Exception):
+    """A fields file that cannot be continued (unreadable, or fewer records than expected)."""
+
+
+def _truncate_copy(path: Path, keep: int, fields, dtype: str) -> None:
+    """Replace ``path`` by a copy holding only its first ``keep`` records (atomic replace)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        with netCDF4.Dataset(path, "r") as src:
+            attrs = {k: src.getncattr(k) for k in src.ncattrs()}
+            x = src.variables["x"][:]
+            y = src.variables["y"][:]
+            w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype)
+            try:
+                for k, v in attrs.items():      # the original title, history, scene, ...
+                    w._ds.setncattr(k, v)
+                for i in range(keep):
+                    w.write(float(src.variables["time"][i]),
+                            **{f: np.ma.filled(src.variables[f][i], np.nan) for f in fields})
+            finally:
+                w.close()
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.chmod(tmp, path.stat().st_mode & 0o777)     # keep the file's permissions
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
 def read_fields(path):
     """Open a fields file as an :class:`xarray.Dataset` (time stays float seconds)."""
     import xarray as xr
@@ -161,4 +246,4 @@ def _attr_value(value):
     return json.dumps(value, default=str)
 
 
-__all__ = ["FieldsWriter", "read_fields", "FIELD_ATTRS"]
+__all__ = ["FieldsWriter", "FieldsFileError", "read_fields", "FIELD_ATTRS"]

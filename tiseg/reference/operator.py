@@ -107,7 +107,9 @@ class ReferenceOperator:
         for comp in range(1, lay.nc):
             w[comp] = SQRT2 * h * q[comp] / denom
         if lay.segregation:
-            w[lay.HPHI] = np.clip(w[lay.HPHI], 0.0, 1.0)
+            # phi = h phi / h, bounded; no desingularisation (it would bias thin films to 0)
+            safe = np.where(h > 0, h, 1.0)
+            w[lay.HPHI] = np.where(h > 0, np.clip(q[lay.HPHI] / safe, 0.0, 1.0), 0.0)
         return w
 
     def G(self, phi):
@@ -309,7 +311,7 @@ class ReferenceOperator:
     def postprocess(self, q: np.ndarray) -> None:
         """Stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
         c, lay = self.cfg, self.lay
-        h = np.maximum(q[lay.H], 0.0)
+        h = np.where(q[lay.H] < 0.0, 0.0, q[lay.H])     # NaN passes through to the guard
         q[lay.H] = h
         dry = h < c.h_min
         q[lay.HU][dry] = 0.0

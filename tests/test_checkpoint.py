@@ -1,0 +1,179 @@
+"""Checkpoints and restart: a run killed with SIGKILL and resumed with `tiseg run --resume DIR`
+ends with exactly the files of a run that was never interrupted (bitwise in f64), and no crash
+leaves an output file that cannot be read."""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import netCDF4
+import numpy as np
+import pytest
+
+from tiseg import checkpoint
+from tiseg.cli import main
+from tiseg.output import read_diagnostics
+from tiseg.scene import load_scene
+from tiseg.simulation import Simulation
+
+# A small 2D fingers run (24 x 8 cells, inflow, segregation, viscosity, RKC): output every
+# 0.1 s, a checkpoint also every 0.05 s of simulated time.
+SETS = ["domain.resolution=40", "domain.Lx=0.6", "domain.Ly=0.2", "time.t_end=1.0",
+        "output.times=[]", "output.interval=0.1", "output.checkpoint_interval=0.05"]
+
+
+def _cli_args(out) -> list[str]:
+    args = ["run", "fingers", "--out", str(out), "--no-progress"]
+    for s in SETS:
+        args += ["--set", s]
+    return args
+
+
+def assert_same_run(a, b) -> None:
+    """fields.nc identical bit for bit (every variable, every record), times strictly increasing
+    (no duplicates); diagnostics.csv identical except the wall-time column."""
+    with netCDF4.Dataset(a / "fields.nc") as A, netCDF4.Dataset(b / "fields.nc") as B:
+        ta, tb = A["time"][:], B["time"][:]
+        assert np.all(np.diff(ta) > 0), ta
+        np.testing.assert_array_equal(ta, tb)
+        assert set(A.variables) == set(B.variables)
+        for name in A.variables:
+            np.testing.assert_array_equal(A[name][:], B[name][:], err_msg=name)
+    da, db = read_diagnostics(a / "diagnostics.csv"), read_diagnostics(b / "diagnostics.csv")
+    assert list(da) == list(db)
+    for col in da:
+        if col != "wall_time":
+            np.testing.assert_array_equal(da[col], db[col], err_msg=col)
+    assert np.all(np.diff(da["time"]) > 0)
+    assert np.all(np.diff(da["wall_time"]) >= 0)     # continues from the checkpoint's wall
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory, ti_cpu):
+    """The uninterrupted run."""
+    out = tmp_path_factory.mktemp("ref") / "run"
+    assert main(_cli_args(out)) == 0
+    assert not (out / checkpoint.CHECKPOINT_NAME).exists()     # finished: nothing to resume
+    return out
+
+
+def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsys):
+    """`python -m tiseg.cli run ...` is killed with SIGKILL as soon as its first checkpoint
+    exists; the files it leaves are readable; `tiseg run --resume DIR` finishes the run, and
+    the result is bitwise the uninterrupted run's."""
+    out = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    ck = out / checkpoint.CHECKPOINT_NAME
+    deadline = time.monotonic() + 300
+    while not ck.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    proc.send_signal(signal.SIGKILL)
+    _, err = proc.communicate()
+    assert proc.returncode == -signal.SIGKILL, f"run ended before it was killed: {err}"
+    # nothing left corrupt: the checkpoint, the NetCDF file and the CSV all read back
+    state = checkpoint.load(ck)
+    assert 0 < state["t"] < 1.0
+    with netCDF4.Dataset(out / "fields.nc") as nc:
+        assert nc.dimensions["time"].size >= 1 and np.isfinite(nc["h"][:]).all()
+    assert read_diagnostics(out / "diagnostics.csv")["time"].size >= state["diag_rows"]
+
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert f"resuming from {ck}" in capsys.readouterr().out
+    assert_same_run(reference, out)
+    assert not ck.exists()
+    with netCDF4.Dataset(out / "fields.nc") as nc:
+        assert "resumed" in nc.history
+
+
+def test_resume_drops_output_written_after_the_checkpoint(tmp_path, reference):
+    """A run killed after writing snapshots and diagnostics rows its last checkpoint does not
+    know of (and half a CSV line): the resume drops them (rewriting the files atomically)
+    instead of duplicating times, and still ends bitwise equal to the uninterrupted run."""
+    sc = load_scene("fingers", SETS)
+    out = tmp_path / "run"
+    Simulation(sc).run(out_dir=out, progress=False, t_end=0.2)     # checkpoint at t = 0.2
+    early = checkpoint.load(out / checkpoint.CHECKPOINT_NAME)
+    assert early["t"] == 0.2 and early["snapshots"] == 3
+    shutil.copy(out / checkpoint.CHECKPOINT_NAME, tmp_path / "early.npz")
+    sim = Simulation.resume(out)
+    sim.run(out_dir=out, progress=False, t_end=0.4)                # snapshots 0.3, 0.4 ...
+    shutil.copy(tmp_path / "early.npz", out / checkpoint.CHECKPOINT_NAME)   # ... unknown to it
+    with open(out / "diagnostics.csv", "a") as fh:
+        fh.write("0.41,1e-3,2")                                    # a row cut by the kill
+    with netCDF4.Dataset(out / "fields.nc") as nc:
+        assert nc.dimensions["time"].size == 5
+    sim = Simulation.resume(out)
+    assert sim.t == 0.2 and sim.stats.steps == early["steps"]
+    sim.run(out_dir=out, progress=False)
+    assert_same_run(reference, out)
+    assert not [p for p in os.listdir(out) if p.endswith(".tmp")]
+
+
+def test_checkpoint_contents_and_atomic_write(tmp_path, ti_cpu):
+    """The checkpoint holds slot 0 with its ghost cells in the run's precision, the boundary
+    budget, time and counters, and the resolved scene; it is replaced atomically (no temporary
+    file is left) and restoring it gives back the same state bit for bit."""
+    sc = load_scene("fingers", SETS)
+    sim = Simulation(sc)
+    sim.run(out_dir=tmp_path, progress=False, t_end=0.3)
+    ck = checkpoint.load(tmp_path / checkpoint.CHECKPOINT_NAME)
+    assert ck["format"] == "tiseg-checkpoint" and ck["version"] == 1
+    assert ck["q"].dtype == np.float64 and ck["q"].shape == (4, 24 + 4, 8 + 4)
+    np.testing.assert_array_equal(ck["q"], sim.op.get(0))
+    np.testing.assert_array_equal(ck["budget"], sim.op.budget(0))
+    assert ck["t"] == sim.t == 0.3 and ck["steps"] == sim.stats.steps
+    assert ck["last_stages"] == sim._last_stages and ck["precision"] == "f64"
+    assert load_scene("fingers", SETS) == load_scene(str(tmp_path / "scene.toml"))
+    assert ck["scene"] == sc.to_toml()
+    assert ck["snapshots"] == 4 and ck["diag_rows"] == sim.stats.steps + 1
+    assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]
+    other = Simulation(sc)
+    checkpoint.restore(other, ck)
+    np.testing.assert_array_equal(other.op.get(0), sim.op.get(0))
+    assert other.budget() == sim.budget() and other.t == sim.t
+
+
+def test_damaged_fields_file_is_kept_aside(tmp_path, ti_cpu, capsys):
+    """A fields.nc that cannot be read any more (here: overwritten with junk) does not block
+    the resume: it is moved to fields.damaged-1.nc, a new fields.nc starts at the checkpoint,
+    and a warning says so."""
+    sc = load_scene("fingers", SETS + ["time.t_end=0.4"])
+    out = tmp_path / "run"
+    Simulation(sc).run(out_dir=out, progress=False, t_end=0.2)
+    (out / "fields.nc").write_bytes(b"not a netcdf file")
+    Simulation.resume(out).run(out_dir=out, progress=False)
+    assert "fields.damaged-1.nc" in capsys.readouterr().err
+    assert (out / "fields.damaged-1.nc").read_bytes() == b"not a netcdf file"
+    with netCDF4.Dataset(out / "fields.nc") as nc:
+        np.testing.assert_allclose(nc["time"][:], [0.3, 0.4])
+
+
+def test_wall_clock_checkpoints(tmp_path, reference):
+    """With checkpoint_wall = 0 a checkpoint is written after every step, and the results do
+    not depend on it (checkpoints never shorten a step): the snapshot at t = 0.1 s is the
+    uninterrupted run's, bit for bit."""
+    sc = load_scene("fingers", SETS)
+    out = tmp_path / "run"
+    sim = Simulation(sc)
+    writes = []
+    orig = checkpoint.save
+
+    def counting(path, s, **kw):
+        writes.append(s.t)
+        return orig(path, s, **kw)
+
+    checkpoint.save = counting
+    try:
+        sim.run(out_dir=out, progress=False, checkpoint_wall=0.0, t_end=0.1)
+    finally:
+        checkpoint.save = orig
+    assert len(writes) >= sim.stats.steps
+    with netCDF4.Dataset(out / "fields.nc") as A, netCDF4.Dataset(reference / "fields.nc") as B:
+        np.testing.assert_array_equal(A["time"][:], B["time"][:2])
+        for name in ("h", "u", "v", "phi"):
+            np.testing.assert_array_equal(A[name][1], B[name][1])

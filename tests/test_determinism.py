@@ -1,0 +1,95 @@
+"""Determinism: the same scene, backend, precision and thread count give bitwise identical
+output, and so do different thread counts.
+
+Why it holds: every floating-point reduction of the solver runs in a fixed order (the mass
+totals sum rows in parallel but each row serially and then the rows serially; the boundary
+budget is a serial loop), and the only atomics are max/min (wave speeds, stiffness, the wet
+range) and integer counts (the guard), which do not depend on the order of the threads. So
+the result cannot depend on how Taichi splits the loops among threads.
+
+Each run is its own process (`python -m tiseg.cli run ... --threads N`, i.e.
+``tiseg.init(threads=N)`` -> Taichi's ``cpu_max_num_threads``); the runs are started together
+so that they share the machine's cores.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import netCDF4
+import numpy as np
+import pytest
+
+from tiseg.output import read_diagnostics
+
+# 2D fingers set-up, 36 x 12 cells: inflow, active x range, segregation with feedback,
+# viscosity, WENO, RKC, output every 0.1 s.
+SETS = ["domain.resolution=60", "domain.Lx=0.6", "domain.Ly=0.2", "time.t_end=0.8",
+        "output.times=[]", "output.interval=0.1"]
+RUNS = {"f64-2a": ("f64", 2), "f64-2b": ("f64", 2), "f64-1": ("f64", 1),
+        "f32-2": ("f32", 2), "f32-1": ("f32", 1)}
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("determinism")
+    procs = {}
+    for name, (precision, threads) in RUNS.items():
+        cmd = [sys.executable, "-m", "tiseg.cli", "run", "fingers", "--out", str(root / name),
+               "--no-progress", "--precision", precision, "--threads", str(threads)]
+        for s in SETS:
+            cmd += ["--set", s]
+        procs[name] = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                       text=True)
+    for name, proc in procs.items():
+        out, err = proc.communicate(timeout=900)
+        assert proc.returncode == 0, f"{name}: {err}"
+    return root
+
+
+def _read(run_dir):
+    with netCDF4.Dataset(run_dir / "fields.nc") as nc:
+        fields = {name: np.asarray(nc[name][:]) for name in nc.variables}
+        attrs = {k: nc.getncattr(k) for k in nc.ncattrs() if k != "history"}
+    diag = read_diagnostics(run_dir / "diagnostics.csv")
+    diag.pop("wall_time")
+    return fields, attrs, diag
+
+
+def _assert_identical(a, b) -> None:
+    fa, aa, da = a
+    fb, ab, db = b
+    assert fa.keys() == fb.keys() and da.keys() == db.keys()
+    for name in fa:
+        assert fa[name].dtype == fb[name].dtype
+        np.testing.assert_array_equal(fa[name], fb[name], err_msg=name)   # bitwise
+    for name in da:
+        np.testing.assert_array_equal(da[name], db[name], err_msg=name)
+    assert aa == ab
+
+
+def test_same_settings_give_identical_output(runs):
+    """Two runs with 2 threads (f64): fields and diagnostics (all but wall time) identical."""
+    a, b = _read(runs / "f64-2a"), _read(runs / "f64-2b")
+    assert a[0]["time"].size == 9 and a[2]["time"].size > 20
+    _assert_identical(a, b)
+
+
+@pytest.mark.parametrize("precision", ["f64", "f32"])
+def test_thread_count_does_not_change_the_result(runs, precision):
+    """1 thread against 2 threads: identical in f64 and in f32 (fixed-order sums, order-free
+    max/min atomics)."""
+    two = f"{precision}-2" + ("a" if precision == "f64" else "")
+    one, two = _read(runs / f"{precision}-1"), _read(runs / two)
+    assert one[0]["h"].dtype == (np.float64 if precision == "f64" else np.float32)
+    _assert_identical(one, two)
+
+
+def test_in_process_run_matches_the_subprocess(runs, ti_cpu, tmp_path):
+    """The same scene run here (Taichi's default thread count, f64) gives the same bits too."""
+    from tiseg.cli import main
+    args = ["run", "fingers", "--out", str(tmp_path / "here"), "--no-progress"]
+    for s in SETS:
+        args += ["--set", s]
+    assert main(args) == 0
+    _assert_identical(_read(tmp_path / "here"), _read(runs / "f64-2a"))

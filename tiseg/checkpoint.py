@@ -1,0 +1,278 @@
+"""Checkpoints: everything a run needs to continue bit for bit after it was killed.
+
+File
+----
+``DIR/checkpoint.npz``, a NumPy ``.npz`` archive (read with ``numpy.load(path,
+allow_pickle=False)``; no pickles, so loading a checkpoint runs no code). It holds:
+
+============== =================================================================================
+``q``          slot 0 of the operator, ghost cells included, shape (nc, NX, NY), in the run's
+               precision (float64 or float32: the exact bits, nothing is rounded)
+``budget``     the boundary budget of slot 0 (mass and small-particle mass that entered through
+               the x and y faces, see ``TaichiOperator.budget``), same precision
+``t``          simulated time [s] (float64)
+``steps``      steps taken; ``stages``: operator evaluations; ``last_stages``: the stage count of
+               the last step (it sets the margin of the active x range of the next step)
+``wall``       wall time of the run so far [s] (the diagnostics column continues from it)
+``initial``    [mass, small-particle mass] at t = 0 (for the mass balance)
+``snapshots``  records of ``fields.nc`` written so far; ``diag_rows``: rows of
+               ``diagnostics.csv`` (the t = 0 row included)
+``next_sim``   simulated time of the next interval checkpoint (NaN when there is no interval)
+``scene``      the resolved scene TOML (``Scene.to_toml()``), ``precision``, ``arch``,
+               ``layout`` (nc, NX, NY), ``format`` = "tiseg-checkpoint", ``version`` = 1,
+               ``tiseg_version``
+============== =================================================================================
+
+Nothing else is needed: the RKC stepper keeps no state between steps (every slot but 0 is
+overwritten before it is read), the stage coefficients are a pure function of the stage count,
+the inflow parameters are a function of t, and the active x range is recomputed from slot 0 and
+``last_stages`` at the start of each step. Restoring these numbers therefore continues the
+run exactly as if it had not been interrupted (``tests/test_checkpoint.py`` checks bitwise
+equality of fields and diagnostics in f64).
+
+When
+----
+With an output folder, :meth:`tiseg.simulation.Simulation.run` writes a checkpoint
+
+* at every output time, right after the snapshot (so ``fields.nc`` and the checkpoint agree);
+* if ``output.checkpoint_interval`` is set, also after the first step that ends at or past each
+  multiple of that many seconds of *simulated* time;
+* and after any step that ends more than ``checkpoint_wall`` seconds of *wall* time after the
+  previous checkpoint (default :data:`DEFAULT_WALL_INTERVAL` = 300 s), so that a slow run with
+  sparse output times loses at most a few minutes of work.
+
+Checkpoints are taken at step boundaries and never shorten a step, so a run's results do not
+depend on when (or whether) it was checkpointed. The checkpoint is removed when the run reaches
+the scene's end time: a finished run has nothing to resume.
+
+Writing is atomic: the archive goes to a temporary file in the same folder, is flushed and
+fsync'ed, then renamed over the previous checkpoint with ``os.replace``; a kill at any moment
+leaves either the old or the new checkpoint, never a half-written one.
+
+Resume
+------
+``tiseg run --resume DIR`` (or :meth:`Simulation.resume`) reads ``DIR/checkpoint.npz`` (whose
+scene must agree with ``DIR/scene.toml``), restores the state, trims ``fields.nc`` and
+``diagnostics.csv`` to what the checkpoint knows of (dropping anything written after it by the
+killed run), and appends from there.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, TisegError
+
+CHECKPOINT_NAME = "checkpoint.npz"
+FORMAT = "tiseg-checkpoint"
+VERSION = 1
+DEFAULT_WALL_INTERVAL = 300.0     # [s] of wall time between checkpoints at most (see above)
+
+
+class CheckpointError(TisegError):
+    """A checkpoint or run folder that cannot be resumed; the message says why."""
+
+
+# =================================================================================================
+# The file
+# =================================================================================================
+def write_npz_atomic(path, arrays: dict) -> Path:
+    """Write ``arrays`` as an uncompressed .npz via a temporary file and ``os.replace``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, _default_mode())          # mkstemp makes 0600; use what open() would
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+        _fsync_dir(path.parent)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def _default_mode() -> int:
+    """Permission bits a new file gets from open(): 0o666 less the umask."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Make the rename itself durable (best effort: not every file system allows it)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def state_arrays(sim, q: np.ndarray | None = None, budget: np.ndarray | None = None,
+                 meta: dict | None = None, **extra) -> dict:
+    """The checkpoint dict of ``sim`` (its current state unless q/budget/meta are given)."""
+    from . import __version__
+    op = sim.op
+    meta = dict(meta) if meta is not None else sim.checkpoint_meta()
+    q = op.get(0) if q is None else q
+    budget = op.budget(0) if budget is None else budget
+    d = {
+        "format": np.array(FORMAT), "version": np.array(VERSION),
+        "tiseg_version": np.array(__version__),
+        "q": np.asarray(q).astype(op.np_fp), "budget": np.asarray(budget).astype(op.np_fp),
+        "t": np.array(float(meta["t"])), "steps": np.array(int(meta["steps"])),
+        "stages": np.array(int(meta["stages"])), "last_stages": np.array(int(meta["last_stages"])),
+        "wall": np.array(float(meta.get("wall", 0.0))),
+        "initial": np.array([meta["initial_mass"], meta["initial_small_mass"]], dtype=float),
+        "snapshots": np.array(int(meta.get("snapshots", 0))),
+        "diag_rows": np.array(int(meta.get("diag_rows", 0))),
+        "next_sim": np.array(float(meta.get("next_sim", math.nan))),
+        "scene": np.array(sim.scene.to_toml()), "precision": np.array(sim.backend.precision),
+        "arch": np.array(sim.backend.arch),
+        "layout": np.array([op.nc, op.NX, op.NY]),
+    }
+    for k, v in extra.items():
+        d[k] = np.asarray(v)
+    return d
+
+
+def save(path, sim, **meta_updates) -> Path:
+    """Write the current state of ``sim`` as a checkpoint (atomically)."""
+    meta = sim.checkpoint_meta()
+    meta.update(meta_updates)
+    return write_npz_atomic(path, state_arrays(sim, meta=meta))
+
+
+def load(path) -> dict:
+    """Read and check a checkpoint; plain Python values for the scalars."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except FileNotFoundError:
+        raise CheckpointError(f"no checkpoint {str(path)!r}") from None
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise CheckpointError(f"{str(path)!r} is not a readable checkpoint ({exc})") from None
+    if str(data.get("format", "")) != FORMAT:
+        raise CheckpointError(f"{str(path)!r} is not a tiseg checkpoint")
+    if int(data.get("version", -1)) != VERSION:
+        raise CheckpointError(f"{str(path)!r} has checkpoint version {int(data['version'])}; "
+                              f"this tiseg reads version {VERSION}")
+    out = {}
+    for k, v in data.items():
+        if v.ndim > 0:                       # q, budget, initial, layout, saved fields
+            out[k] = v
+        elif v.dtype.kind == "U":
+            out[k] = str(v)
+        elif v.dtype.kind in "iu":
+            out[k] = int(v)
+        else:
+            out[k] = float(v)
+    return out
+
+
+def restore(sim, ck: dict) -> None:
+    """Put a loaded checkpoint into ``sim`` (same scene, layout and precision)."""
+    op = sim.op
+    shape = (op.nc, op.NX, op.NY)
+    if tuple(int(n) for n in ck["layout"]) != shape or ck["q"].shape != shape:
+        raise CheckpointError(f"checkpoint layout {tuple(ck['layout'])} does not match this "
+                              f"scene's {shape}")
+    if ck["precision"] != sim.backend.precision:
+        raise CheckpointError(f"checkpoint precision {ck['precision']} differs from the run's "
+                              f"{sim.backend.precision}: resume in {ck['precision']}")
+    op.set(0, ck["q"])
+    op.reset_budget(ck["budget"])
+    sim.restore_meta(ck)
+
+
+# =================================================================================================
+# Run folders
+# =================================================================================================
+def open_run_dir(run_dir) -> tuple[object, dict]:
+    """(scene, checkpoint) of a run folder to resume; a clear error if it is not one."""
+    from .scene import load_scene, scene_from_text
+    d = Path(run_dir)
+    if not d.is_dir():
+        raise InputError(f"--resume {str(run_dir)!r}: no such folder")
+    missing = [n for n in ("scene.toml", "fields.nc", "diagnostics.csv") if not (d / n).is_file()]
+    if missing:
+        raise InputError(f"--resume {str(run_dir)!r} is not a tiseg run folder (missing "
+                         f"{', '.join(missing)})")
+    if not (d / CHECKPOINT_NAME).is_file():
+        raise InputError(f"--resume {str(run_dir)!r}: the run has no {CHECKPOINT_NAME} (it "
+                         "finished, or was stopped before its first checkpoint); nothing to resume")
+    try:
+        ck = load(d / CHECKPOINT_NAME)
+    except CheckpointError as exc:
+        raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
+    try:
+        saved = load_scene(str(d / "scene.toml"))
+        scene = scene_from_text(ck["scene"], name=saved.name, source=str(d / "scene.toml"))
+    except InputError as exc:
+        raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
+    if saved.to_dict() != scene.to_dict():
+        raise InputError(f"--resume {str(run_dir)!r}: scene.toml was changed after the run "
+                         "started (it differs from the scene in the checkpoint); restore it")
+    return scene, ck
+
+
+def append_diagnostics(path, keep_rows: int):
+    """A diagnostics writer that continues ``path`` after its first ``keep_rows`` rows.
+
+    Rows written after the checkpoint by the killed run (and a half-written last line) are
+    dropped by rewriting the file atomically; new rows are appended to it."""
+    import csv
+    import io
+
+    from .output import DiagnosticsWriter, write_text_atomic
+    path = Path(path)
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as exc:
+        raise CheckpointError(f"cannot read {str(path)!r}: {exc.strerror or exc}") from None
+    if not rows:
+        raise CheckpointError(f"{str(path)!r} has no header row")
+    header = rows[0]
+    body = [r for r in rows[1:] if len(r) == len(header)][:keep_rows]
+    if len(body) < keep_rows:
+        raise CheckpointError(f"{str(path)!r} has {len(body)} complete rows, the checkpoint "
+                              f"expects {keep_rows}")
+    buf = io.StringIO(newline="")
+    csv.writer(buf).writerows([header] + body)
+    mode = path.stat().st_mode & 0o777
+    write_text_atomic(path, buf.getvalue())
+    os.chmod(path, mode)                        # the rewrite keeps the file's permissions
+
+    class _Appending(DiagnosticsWriter):
+        """DiagnosticsWriter that opens for appending instead of writing a new header."""
+
+        def __init__(self):
+            self.path = path
+            self.columns = tuple(header)
+            self._fh = open(path, "a", newline="", encoding="utf-8")
+            self._writer = csv.writer(self._fh)
+            self.rows = keep_rows
+
+    return _Appending()
+
+
+__all__ = ["CHECKPOINT_NAME", "DEFAULT_WALL_INTERVAL", "CheckpointError", "save", "load",
+           "restore", "state_arrays", "write_npz_atomic", "open_run_dir", "append_diagnostics"]

@@ -1,0 +1,115 @@
+"""`tiseg bench accuracy|throughput`: what accuracy costs in time, and how fast the operator runs.
+
+Both measure every precision (and the GPU where there is one) in child processes of their own,
+because Taichi's precision is fixed per process; see :mod:`tiseg.bench`.
+"""
+from __future__ import annotations
+
+import contextlib
+import sys
+from pathlib import Path
+
+from .common import print_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser("bench", help="benchmarks: accuracy against wall time, operator throughput",
+                       description=__doc__.splitlines()[0])
+    bsub = p.add_subparsers(dest="bench_command", metavar="BENCHMARK")
+    bsub.required = True
+
+    a = bsub.add_parser(
+        "accuracy", help="error against wall time on problems with known answers, Pareto fronts",
+        description="Error against wall time on reference problems with known answers (T6b "
+                    "transport, Ritter dam break, linear growth rate, fingers front position) "
+                    "for every resolution x reconstruction x stepper x precision x backend; "
+                    "writes accuracy.csv, one PNG per problem with the Pareto front, and "
+                    "summary.json/summary.md (do the scene defaults sit on the front?).")
+    a.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    a.add_argument("--quick", action="store_true",
+                   help="a small subset for CI: two resolutions per problem, minmod/weno x rkc/ssprk3, "
+                        "fingers to t = 1 s")
+    a.add_argument("--problems", nargs="+", default=None, metavar="NAME",
+                   help="transport, ritter, growth, fingers (default: all)")
+    a.add_argument("--precisions", nargs="+", default=["f32", "f64"], choices=("f32", "f64"))
+    a.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
+                   help="default: cpu, and gpu where one is present")
+    a.add_argument("--reconstructions", nargs="+", default=None,
+                   choices=("first-order", "minmod", "weno"))
+    a.add_argument("--steppers", nargs="+", default=None, choices=("rkc", "ssprk3", "ssprk2", "euler"))
+    a.add_argument("--cfl", nargs="+", type=float, default=[0.25], help="Courant numbers (0.25)")
+    a.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+    a.add_argument("--json", action="store_true", help="print the summary as JSON")
+    a.set_defaults(func=run_accuracy)
+
+    t = bsub.add_parser(
+        "throughput", help="cell-updates/s and steps/s per effect vs NumPy and a bandwidth bound",
+        description="Cell-updates per second of the operator (one evaluation per cell) and full "
+                    "steps per second, for the full physics and with each effect switched off "
+                    "in turn, on each backend and precision, against the NumPy reference and a "
+                    "memory-bandwidth bound measured in the same run; plus the cost of each "
+                    "effect per step.")
+    t.add_argument("--nx", type=int, default=None, help="cells downslope (default 1125, the paper's)")
+    t.add_argument("--ny", type=int, default=None, help="cells across (default 375)")
+    t.add_argument("--quick", action="store_true", help="small grid and few repeats, for CI")
+    t.add_argument("--precisions", nargs="+", default=["f64", "f32"], choices=("f32", "f64"))
+    t.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
+                   help="default: cpu, and gpu where one is present")
+    t.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+    t.add_argument("--out", default=None, metavar="DIR",
+                   help="also write throughput.json, throughput.md and effects.md there")
+    t.add_argument("--json", action="store_true", help="print the full report as JSON")
+    t.set_defaults(func=run_throughput)
+
+
+def run_accuracy(args) -> int:
+    from ..bench import accuracy
+    from ..errors import InputError
+
+    if args.threads < 0:
+        raise InputError(f"--threads={args.threads}: must be >= 0")
+    for c in args.cfl:
+        if not 0 < c <= 1:
+            raise InputError(f"--cfl {c!r}: must be in (0, 1]")
+    quiet = contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext()
+    with quiet:                # Taichi greets on stdout when it starts: keep it for the JSON
+        summary = accuracy.run_study(
+            args.out, quick=args.quick, problems=args.problems, precisions=args.precisions,
+            backends=args.backends, reconstructions=args.reconstructions, steppers=args.steppers,
+            cfls=args.cfl, threads=args.threads, log=_log)
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"{summary['points']} points in {summary['study_wall_s']:.0f} s; "
+              f"written to {Path(args.out)}/: {', '.join(summary['files'])}")
+        print("Do the defaults (weno + rkc + f64, cfl 0.25) sit on the Pareto front?")
+        print(summary["verdict"])
+    return 0
+
+
+def run_throughput(args) -> int:
+    from ..bench import throughput
+    from ..errors import InputError
+
+    for name in ("nx", "ny"):
+        v = getattr(args, name)
+        if v is not None and v < 1:
+            raise InputError(f"--{name}={v}: must be >= 1")
+    if args.threads < 0:
+        raise InputError(f"--threads={args.threads}: must be >= 0")
+    quiet = contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext()
+    with quiet:                # Taichi greets on stdout when it starts: keep it for the JSON
+        report = throughput.run_benchmark(
+            nx=args.nx, ny=args.ny, quick=args.quick, precisions=args.precisions,
+            backends=args.backends, threads=args.threads, out_dir=args.out, log=_log)
+    if args.json:
+        print_json(report)
+    else:
+        print(throughput.markdown(report))
+    return 0
+
+
+def _log(message: str) -> None:
+    """Progress lines go to stderr (stdout carries the result)."""
+    sys.stderr.write(message + "\n")
+    sys.stderr.flush()

@@ -1,0 +1,47 @@
+"""`tiseg estimate SCENE [--set ...]`: predicted steps, RKC stages and wall time, before running.
+
+The prediction combines a model of the flow's wave speeds and stiffness over time (from the
+scene's steady state h0, u0) with a quick calibration of the scene's kernels on its own grid in
+this process; see :mod:`tiseg.estimate`. ``tiseg run SCENE --estimate`` prints the same.
+"""
+from __future__ import annotations
+
+from .common import print_json
+from .run import add_scene_arguments
+
+
+def register(sub) -> None:
+    p = sub.add_parser("estimate", help="predict steps, RKC stages and wall time of a run",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1]
+                       + " The flow model and the calibration are described in tiseg/estimate.py.")
+    add_scene_arguments(p)
+    p.add_argument("--no-output", action="store_true",
+                   help="estimate a run without files (no snapshots, checkpoints, diagnostics)")
+    p.add_argument("--json", action="store_true", help="print the estimate as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..errors import InputError
+    from .run import load
+
+    if args.threads < 0:
+        raise InputError(f"--threads={args.threads}: must be >= 0 (0 = all cores)")
+    scene = load(args)
+    print_estimate(scene, args.arch, args.threads, output=not args.no_output, as_json=args.json)
+    return 0
+
+
+def print_estimate(scene, arch: str, threads: int, output: bool = True,
+                   as_json: bool = False) -> None:
+    """Compute and print the estimate of a scene (shared with ``tiseg run --estimate``)."""
+    import contextlib
+    import sys
+    from ..estimate import estimate
+    # Taichi greets on stdout when it starts: keep stdout for the JSON alone
+    with contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext():
+        est = estimate(scene, arch=arch, threads=threads, output=output)
+    if as_json:
+        print_json(est.as_dict())
+    else:
+        print("\n".join(est.lines()))

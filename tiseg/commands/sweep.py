@@ -1,0 +1,71 @@
+"""`tiseg sweep SWEEP.toml`: run a parameter sweep on Dask and collect one table.
+
+The sweep file format is described in :mod:`tiseg.sweep`; examples are in ``assets/sweeps/``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "sweep", help="run a grid of scene overrides on Dask; writes DIR/sweep.csv",
+        description="Run every combination of a sweep file's [grid] overrides (applied to its "
+                    "base scene together with the [set] overrides) as independent tasks on Dask, "
+                    "each into its own run folder, and collect the finger metrics and run costs "
+                    "into DIR/sweep.csv (and DIR/sweep.json). Finished runs (folders with "
+                    "done.json) are reused, so an interrupted sweep resumes where it stopped. "
+                    "Every combination is validated before anything runs.")
+    p.add_argument("sweep", metavar="SWEEP.toml", help="sweep file (see assets/sweeps/)")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="output folder (default: runs/sweeps/<sweep name>)")
+    p.add_argument("--set", dest="overrides", action="append", default=[],
+                   metavar="SECTION.KEY=VALUE",
+                   help="add a fixed override to every run, e.g. --set time.t_end=5 (repeatable)")
+    p.add_argument("--grid", dest="grid", action="append", default=[],
+                   metavar="SECTION.KEY=[V1,V2,...]",
+                   help="replace (or add) a grid axis, e.g. --grid 'domain.resolution=[250,375]' "
+                        "(repeatable)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of an existing Dask scheduler (e.g. tcp://host:8786); default: "
+                        "start a local cluster of worker processes")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes, i.e. runs at the same time (default: CPU "
+                        "cores, at most the number of runs)")
+    p.add_argument("--threads-per-task", type=int, default=None, metavar="N",
+                   help="Taichi CPU threads per run (default: cores / workers locally; all "
+                        "cores on a remote cluster; 0 = all cores)")
+    p.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu",
+                   help="Taichi backend of each run (default cpu)")
+    p.add_argument("--check", action="store_true",
+                   help="validate the sweep file and list its runs, run nothing")
+    p.add_argument("--progress-interval", type=float, default=30.0, metavar="S",
+                   help="seconds between progress lines of one running run (default 30)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..errors import InputError
+    from ..scene import parse_override
+    from ..sweep import load_sweep, read_marker, run_sweep
+
+    extra = dict(parse_override(text) for text in args.overrides)
+    grid = {}
+    for text in args.grid:
+        key, values = parse_override(text)
+        if not isinstance(values, list):
+            raise InputError(f"--grid {text!r}: give a list of values, e.g. {key}=[1, 2]")
+        grid[key] = values
+    sweep = load_sweep(args.sweep, extra_overrides=extra, grid_overrides=grid)
+    out = Path(args.out) if args.out else Path("runs") / "sweeps" / sweep.name
+    if args.check:
+        print(f"sweep {sweep.name!r}: base scene {sweep.scene}, {len(sweep.runs)} runs, valid")
+        for r in sweep.runs:
+            done = read_marker(out / r.name, r.scene) is not None
+            print(f"  {r.name}: {r.scene.domain.nx} x {r.scene.domain.ny} cells, t_end "
+                  f"{r.scene.t_end:g} s{' (finished)' if done else ''}")
+        return 0
+    result = run_sweep(sweep, out, scheduler=args.scheduler, workers=args.workers,
+                       threads_per_task=args.threads_per_task, arch=args.arch,
+                       progress_interval=args.progress_interval)
+    return 1 if result.count("failed") else 0

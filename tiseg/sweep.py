@@ -1,0 +1,692 @@
+"""Parameter sweeps: many runs of one scene, on Dask, collected into one table.
+
+A sweep file (TOML) names a base scene, overrides applied to every run and a grid of overrides
+whose Cartesian product gives the runs::
+
+    name = "grid-study"                    # optional; default: the file name without .toml
+    description = "Figure 16: wavelength and elongation against the grid resolution"
+    scene = "fingers"                      # built-in scene name, or a path (relative to this file)
+    times = [2.5, 5.0, 7.5]                # optional: also tabulate the metrics at these times
+
+    [set]                                  # overrides applied to every run (any scene key)
+    "time.t_end" = 7.5
+    output.interval = 0.25                 # dotted keys may be written bare or quoted
+
+    [grid]                                 # each key takes a non-empty list; runs = product
+    "domain.resolution" = [250, 375, 500]
+    "flow.nu" = [0.005, 0.01]
+
+Every run writes its own folder ``OUT/<run name>/`` (``scene.toml``, ``fields.nc``,
+``diagnostics.csv`` as ``tiseg run`` does, ``fingers.json`` with the finger diagnostics of every
+output time, and last the completion marker ``done.json``). The run name is built from the grid
+values only (``resolution-250_nu-0.01``), so it is stable across re-runs and safe as a file name.
+
+Why a completion marker: a sweep can take hours. ``done.json`` is written atomically after
+everything else, so a folder with a marker is complete and is reused on the next invocation,
+while a folder without one (an interrupted run) is simply run again. A folder is reused only if
+the resolved scene stored in it (``scene.toml``, re-read with the current code) equals the scene
+the sweep asks for now; if the sweep file changed so that the same folder name means a different
+scene, the run is repeated.
+
+Why validate everything first: a typo in the fifth of eight long runs must not surface after the
+first four have run for an hour. :func:`load_sweep` builds and validates the scene of every
+combination (and checks the tabulation times against each scene's output times) before anything
+is submitted.
+
+Why Dask: runs are independent, and the same code scales from a laptop (a
+``LocalCluster(processes=True, threads_per_worker=1)``: one process per concurrent run, because
+Taichi's runtime is per process) to an existing cluster (``scheduler=ADDRESS``). Each task
+(:func:`execute_run`) re-initialises Taichi (:func:`tiseg.backend.init`, the only place ti.init is
+called) with the thread count asked for, so that consecutive runs in one worker do not keep the
+previous run's fields alive. Runs report progress as Dask worker events (topic
+:data:`PROGRESS_TOPIC`), which reach the client without a shared file system; the run folders
+themselves must however be on a file system the workers share with the client for re-runs to be
+skipped and for the figures to be drawn.
+
+The table ``OUT/sweep.csv`` has one row per run (grid order): the run name, the grid values,
+status (done / reused / failed), grid size, the finger metrics at the final time and at the
+extra ``times`` (``wavelength@7.5``), and the run costs (simulation wall time, task time, steps,
+operator evaluations, cells). ``OUT/sweep.json`` holds the same plus every run's full time
+series of the finger diagnostics and the sweep definition.
+"""
+from __future__ import annotations
+
+import csv
+import difflib
+import hashlib
+import io
+import itertools
+import json
+import logging
+import math
+import os
+import re
+import socket
+import time as _time
+import tomllib
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import tomli_w
+
+from .errors import InputError, TisegError
+from .scene import Scene, list_builtin_scenes, load_scene
+
+SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid")
+DONE_MARKER = "done.json"
+FINGERS_FILE = "fingers.json"
+PROGRESS_TOPIC = "tiseg-sweep-progress"
+MAX_RUNS = 10_000                 # a guard against a grid that multiplies out by mistake
+MAX_NAME = 120                    # longest run-folder name before it is shortened with a hash
+MARKER_VERSION = 1
+
+# Metrics tabulated at the final time and at each extra time (a subset of analyse_run's keys).
+FINAL_METRICS = ("finger_count", "wavelength", "elongation", "x_front_max", "x_front_min",
+                 "front_speed", "max_channel_speed_over_u0")
+TIME_METRICS = ("finger_count", "wavelength", "elongation", "x_front_max", "x_front_min")
+COST_COLUMNS = ("wall_s", "task_s", "steps", "rhs_evaluations", "cell_updates_per_s")
+
+log = logging.getLogger(__name__)
+
+
+# =================================================================================================
+# The sweep definition
+# =================================================================================================
+@dataclass(frozen=True)
+class SweepRun:
+    """One member of a sweep: its folder name, its grid values and its validated scene."""
+    name: str
+    values: dict            # grid key -> value for this run (grid order)
+    overrides: dict         # fixed overrides and grid values, as applied to the base scene
+    scene: Scene
+
+    @property
+    def cells(self) -> int:
+        return self.scene.domain.nx * self.scene.domain.ny
+
+    @property
+    def cost(self) -> float:
+        """Rough relative cost (cells x steps ~ cells x nx x t_end): longest runs start first."""
+        return float(self.cells) * self.scene.domain.nx * self.scene.t_end
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep file (see the module docstring)."""
+    name: str
+    description: str
+    source: str | None      # the sweep file
+    scene: str              # base scene as resolved (built-in name or absolute path)
+    fixed: dict             # dotted key -> value
+    grid: dict              # dotted key -> list of values
+    times: tuple[float, ...]
+    runs: tuple[SweepRun, ...]
+
+    def to_dict(self) -> dict:
+        """The definition as plain data (for sweep.json)."""
+        return {"name": self.name, "description": self.description, "source": self.source,
+                "scene": self.scene, "set": self.fixed, "grid": self.grid,
+                "times": list(self.times), "runs": [r.name for r in self.runs]}
+
+
+def load_sweep(path, extra_overrides: Mapping | None = None,
+               grid_overrides: Mapping | None = None) -> Sweep:
+    """Read and strictly validate a sweep file, building the scene of every combination.
+
+    ``extra_overrides`` (``{"section.key": value}``) are added to the file's ``[set]`` table
+    (a key of the grid may not be given again); ``grid_overrides`` (``{"section.key": [values]}``)
+    replace a grid axis of the file or add one (e.g. fewer resolutions for a quick look).
+    Raises :class:`InputError` with one line naming the file, the key and what is allowed.
+    """
+    p = Path(path).expanduser()
+    where = f"sweep file {str(p)!r}"
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{where} not found") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where} is not UTF-8 text: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"cannot read {where}: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{where} is not valid TOML: {exc}") from None
+    return sweep_from_dict(data, default_name=p.stem, source=str(p), base_dir=p.parent,
+                           extra_overrides=extra_overrides, grid_overrides=grid_overrides)
+
+
+def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | None = None,
+                    base_dir=None, extra_overrides: Mapping | None = None,
+                    grid_overrides: Mapping | None = None) -> Sweep:
+    """Validate a sweep given as the dict a sweep file parses to (see :func:`load_sweep`)."""
+    where = f"sweep file {source!r}" if source else "sweep"
+
+    def fail(msg: str):
+        raise InputError(f"{where}: {msg}")
+
+    if not isinstance(data, Mapping):
+        fail(f"expected a table of keys, got {type(data).__name__}")
+    for key in data:
+        if key not in SWEEP_KEYS:
+            close = difflib.get_close_matches(str(key), SWEEP_KEYS, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            fail(f"unknown key {key!r}{hint}; allowed keys: {', '.join(SWEEP_KEYS)}")
+
+    name = data.get("name", default_name)
+    if not isinstance(name, str) or not name.strip() or not _SAFE_NAME.fullmatch(name):
+        fail(f"name={name!r} must be a non-empty name of letters, digits, '.', '_', '+' or '-' "
+             "(it names the default output folder)")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        fail(f"description={description!r} must be a string")
+
+    if "scene" not in data:
+        fail("the key 'scene' is required: a built-in scene name "
+             f"({', '.join(list_builtin_scenes())}) or a path to a scene .toml file")
+    scene_ref = data["scene"]
+    if not isinstance(scene_ref, str) or not scene_ref.strip():
+        fail(f"scene={scene_ref!r} must be a built-in scene name or a path")
+    scene_ref = _resolve_scene_ref(scene_ref, base_dir)
+
+    fixed = _flatten(data.get("set", {}), "set", fail)
+    grid = _flatten(data.get("grid", {}), "grid", fail)
+    for key, values in (grid_overrides or {}).items():
+        grid[key] = values          # replaces the file's axis, or makes a fixed value an axis
+        fixed.pop(key, None)
+    for key, value in (extra_overrides or {}).items():
+        fixed[key] = value
+    for key, values in grid.items():
+        if not isinstance(values, list) or not values:
+            fail(f"grid key {key!r} = {_show(values)}: give a non-empty list of values, "
+                 f"e.g. {key} = [a, b, c]")
+        canon = [_canonical(v) for v in values]
+        dup = next((v for v, c in zip(values, canon) if canon.count(c) > 1), None)
+        if dup is not None:
+            fail(f"grid key {key!r} lists the value {_show(dup)} more than once")
+        if key in fixed:
+            fail(f"{key!r} is both in [set] and in [grid]; give it in one of them")
+    n_runs = math.prod(len(v) for v in grid.values())
+    if n_runs > MAX_RUNS:
+        fail(f"the grid multiplies out to {n_runs} runs; at most {MAX_RUNS} are allowed")
+
+    times = data.get("times", [])
+    if not isinstance(times, list) or not all(
+            isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t) and t >= 0
+            for t in times):
+        fail(f"times={_show(times)} must be a list of times >= 0 [s], e.g. times = [2.5, 5.0]")
+    times = tuple(sorted({float(t) for t in times}))
+
+    # Build and validate every combination before anything runs (see the module docstring).
+    keys = list(grid)
+    combos = [dict(zip(keys, vals)) for vals in itertools.product(*(grid[k] for k in keys))]
+    names = _run_names(combos)
+    runs = []
+    for run_name, values in zip(names, combos):
+        overrides = {**fixed, **values}
+        label = f"run {run_name!r}" if values else "the base run"
+        try:
+            scene = load_scene(scene_ref, overrides)
+        except InputError as exc:
+            problem = str(exc)
+        else:
+            problem = None
+        if problem is not None:         # raised here, not inside except: one clean error
+            fail(f"{label}: {problem}")
+        for t in times:
+            if t > scene.t_end * (1 + 1e-12):
+                fail(f"{label}: times lists {t:g} s, after time.t_end = {scene.t_end:g} s")
+            if not any(abs(t - s) <= 1e-9 * max(1.0, t) for s in scene.output_times):
+                fail(f"{label}: times lists {t:g} s, which is not an output time of the scene; "
+                     f"add it to output.times in [set]")
+        runs.append(SweepRun(run_name, values, overrides, scene))
+    return Sweep(name=name, description=description, source=source, scene=scene_ref,
+                 fixed=fixed, grid=grid, times=times, runs=tuple(runs))
+
+
+_SAFE_NAME = re.compile(r"[A-Za-z0-9._+-]+")
+_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")
+
+
+def _resolve_scene_ref(ref: str, base_dir) -> str:
+    """A built-in name stays a name; a path is taken relative to the sweep file's folder."""
+    is_name = "/" not in ref and "\\" not in ref and not ref.endswith(".toml")
+    if is_name or base_dir is None:
+        return ref
+    p = Path(ref).expanduser()
+    if not p.is_absolute():
+        p = Path(base_dir) / p
+    return str(p.resolve())
+
+
+def _flatten(table, section: str, fail) -> dict:
+    """``{"domain": {"resolution": [..]}}`` -> ``{"domain.resolution": [..]}`` (leaf values)."""
+    if not isinstance(table, Mapping):
+        fail(f"[{section}] must be a table of 'section.key = value' entries, got {_show(table)}")
+    out: dict[str, Any] = {}
+
+    def walk(node, prefix):
+        for k, v in node.items():
+            key = f"{prefix}.{k}" if prefix else str(k)
+            if isinstance(v, Mapping):
+                if not v:
+                    fail(f"[{section}] {key!r} is an empty table")
+                walk(v, key)
+            else:
+                if "." not in key:
+                    fail(f"[{section}] key {key!r} must be a dotted scene key such as "
+                         f"'domain.resolution' or 'flow.nu'")
+                out[key] = v
+    walk(table, "")
+    return out
+
+
+def _canonical(v) -> str:
+    return json.dumps(v, sort_keys=True, default=str)
+
+
+def _show(v) -> str:
+    text = _canonical(v) if not isinstance(v, str) else repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _format_value(v) -> str:
+    """A grid value as part of a folder name: short, stable, file-system safe."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return format(v, ".12g")
+    if isinstance(v, str):
+        return _UNSAFE.sub("_", v).strip("_") or "_"
+    if isinstance(v, list):
+        return "+".join(_format_value(x) for x in v) or "empty"
+    return hashlib.sha256(_canonical(v).encode()).hexdigest()[:8]
+
+
+def _run_names(combos: list[dict]) -> list[str]:
+    """Folder names from the grid values: ``resolution-250_nu-0.01``.
+
+    A key is shown by its last part (``flow.nu`` -> ``nu``) unless two grid keys share it, then
+    in full. Names that still collide (values equal after formatting) or are too long get a
+    hash of the exact values appended, so every combination has its own stable folder.
+    """
+    if not combos or not combos[0]:
+        return ["base"] * len(combos)
+    keys = list(combos[0])
+    last = [k.rsplit(".", 1)[-1] for k in keys]
+    labels = {k: (s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
+    names = ["_".join(f"{_UNSAFE.sub('_', labels[k])}-{_format_value(v)}" for k, v in c.items())
+             for c in combos]
+    out = []
+    for name, c in zip(names, combos):
+        if names.count(name) > 1 or len(name) > MAX_NAME:
+            digest = hashlib.sha256(_canonical(c).encode()).hexdigest()[:8]
+            name = f"{name[:MAX_NAME - 9]}-{digest}"
+        out.append(name)
+    return out
+
+
+def scene_fingerprint(scene: Scene) -> str:
+    """sha256 of the resolved scene (without its source path): what a run folder computed."""
+    return hashlib.sha256(tomli_w.dumps(scene.to_dict()).encode()).hexdigest()
+
+
+# =================================================================================================
+# One run (a Dask task)
+# =================================================================================================
+def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
+    """The completion record of a finished run folder, or None when it is absent or unreadable,
+    or (with ``scene``) when the folder's stored ``scene.toml`` is not that scene.
+
+    Why compare scenes rather than a hash of their text: the stored scene is re-read with the
+    current code, so a new scene key with a default (which does not change what was computed)
+    does not invalidate finished runs, while any changed value does."""
+    from .scene import scene_from_text
+    run_dir = Path(run_dir)
+    try:
+        rec = json.loads((run_dir / DONE_MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(rec, dict) or rec.get("marker_version") != MARKER_VERSION:
+        return None
+    if scene is not None:
+        try:
+            stored = scene_from_text((run_dir / "scene.toml").read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, InputError):
+            return None
+        if stored != scene:
+            return None
+    return rec
+
+
+def execute_run(spec: dict) -> dict:
+    """Run one sweep member into ``spec["dir"]`` unless a valid completion marker is there.
+
+    ``spec``: ``name``, ``dir``, ``scene_toml`` (the resolved scene), ``fingerprint`` (for the
+    record), ``arch``, ``threads`` (Taichi CPU threads; 0 = all cores), ``report`` (send progress events).
+    Returns the completion record (also stored as ``done.json``) with ``status`` "done", or the
+    stored one with ``status`` "reused". Runs in a Dask worker or in the calling process.
+    """
+    from . import backend
+    from .analysis.fingers import analyse_run
+    from .output import write_json_atomic
+    from .scene import scene_from_text
+    from .simulation import Simulation
+
+    run_dir = Path(spec["dir"])
+    scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
+    rec = read_marker(run_dir, scene)
+    if rec is not None:                     # checked again here: the worker's view counts
+        return {**rec, "status": "reused"}
+    (run_dir / DONE_MARKER).unlink(missing_ok=True)   # a stale marker of another scene
+    t0 = _time.perf_counter()
+    # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
+    backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(spec.get("threads", 0)),
+                 force=True)
+    sim = Simulation(scene)
+    report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
+    stats = sim.run(out_dir=run_dir, progress=False,
+                    on_output=(lambda s: report(s)) if report else None)
+    metrics = analyse_run(run_dir)
+    write_json_atomic(run_dir / FINGERS_FILE, metrics)
+    nx, ny = scene.domain.nx, scene.domain.ny
+    rec = {
+        "marker_version": MARKER_VERSION,
+        "name": spec["name"],
+        "scene_sha256": spec["fingerprint"],
+        "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+        "arch": sim.backend.arch, "precision": sim.backend.precision,
+        "threads": sim.backend.threads,
+        "nx": nx, "ny": ny, "cells": nx * ny, "dx": scene.dx, "t_end": sim.t,
+        "wall_s": stats.wall, "task_s": _time.perf_counter() - t0,
+        "steps": stats.steps, "rhs_evaluations": stats.stages,
+        "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
+        "metrics": {k: metrics[k] for k in ("time", *FINAL_METRICS)},
+    }
+    write_json_atomic(run_dir / DONE_MARKER, rec)   # last: its presence means "complete"
+    return {**rec, "status": "done"}
+
+
+def _reporter(name: str, t_end: float) -> Callable | None:
+    """A callback sending (run, t, steps, wall) to the client as a Dask worker event."""
+    try:
+        from distributed import get_worker
+        worker = get_worker()
+    except (ImportError, ValueError):
+        return None                         # not inside a Dask worker
+    t0 = _time.perf_counter()
+
+    def report(sim) -> None:
+        try:
+            worker.log_event(PROGRESS_TOPIC, {"run": name, "t": sim.t, "t_end": t_end,
+                                              "steps": sim.stats.steps,
+                                              "wall": _time.perf_counter() - t0})
+        except Exception:                   # progress is best effort, never fails a run
+            pass
+    return report
+
+
+# =================================================================================================
+# The whole sweep
+# =================================================================================================
+@dataclass
+class SweepResult:
+    out: Path
+    table: Path
+    records: list[dict]      # one per run, grid order; status done / reused / failed
+
+    def count(self, status: str) -> int:
+        return sum(1 for r in self.records if r.get("status") == status)
+
+
+def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int | None = None,
+              threads_per_task: int | None = None, arch: str = "cpu",
+              echo: Callable[[str], None] | None = print,
+              progress_interval: float = 30.0) -> SweepResult:
+    """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
+
+    ``scheduler``: address of an existing Dask scheduler (``tcp://host:8786``); default: a
+    ``LocalCluster(processes=True, threads_per_worker=1, n_workers=workers)`` started and
+    stopped here. ``workers``: local worker processes (default: as many as CPU cores, at most
+    the number of runs). ``threads_per_task``: Taichi CPU threads per run (default: cores /
+    workers locally, all cores of the worker's machine on a remote cluster). ``echo``: where
+    progress lines go (None: silent). ``progress_interval``: seconds between progress lines
+    of one running run.
+
+    The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
+    calling script: call this from under ``if __name__ == "__main__":`` in a script.
+    """
+    out = Path(out)
+    say = echo or (lambda _s: None)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers={workers}: must be at least 1")
+    if threads_per_task is not None and threads_per_task < 0:
+        raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
+
+    records: dict[str, dict] = {}
+    pending: list[SweepRun] = []
+    for run in sweep.runs:
+        rec = read_marker(out / run.name, run.scene)
+        if rec is not None:
+            records[run.name] = {**rec, "status": "reused"}
+        else:
+            pending.append(run)
+    say(f"sweep {sweep.name!r}: {len(sweep.runs)} runs, {len(records)} already finished, "
+        f"{len(pending)} to run; output in {out}/")
+    _write_outputs(sweep, out, records)
+    if pending:
+        _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_task, arch,
+                     say, progress_interval)
+    table = _write_outputs(sweep, out, records)
+    result = SweepResult(out, table, [records.get(r.name, {"name": r.name, "status": "missing"})
+                                      for r in sweep.runs])
+    say(f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
+        f"{result.count('failed')} failed; table {table}")
+    return result
+
+
+def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_task, arch,
+                 say, progress_interval) -> None:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise TisegError("sweeps need Dask: pip install 'tiseg[sweep]' "
+                         "(dask[distributed])") from None
+    cores = os.cpu_count() or 1
+    cluster = None
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"cannot connect to the Dask scheduler at {scheduler!r}: "
+                             f"{exc}") from None
+        threads = 0 if threads_per_task is None else threads_per_task
+        where = f"Dask scheduler {scheduler}"
+    else:
+        n = workers or max(1, min(cores, len(pending)))
+        threads = max(1, cores // n) if threads_per_task is None else threads_per_task
+        # processes=True: Taichi's runtime is per process, one run per worker at a time.
+        # The scheduler always serves HTTP; ":0" picks a free port so that several sweeps
+        # (or other Dask users) on one machine never collide on 8787.
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR)
+        client = Client(cluster)
+        where = f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)"
+    say(f"running {len(pending)} runs on the {where}, {threads or 'all'} Taichi thread"
+        f"{'' if threads == 1 else 's'} per run")
+
+    last_report: dict[str, float] = {}
+
+    def on_progress(event) -> None:
+        # event = (timestamp, msg); throttled per run so long sweeps stay readable
+        msg = event[1] if isinstance(event, tuple) else event
+        try:
+            name, now = msg["run"], _time.monotonic()
+            if now - last_report.get(name, -math.inf) < progress_interval:
+                return
+            last_report[name] = now
+            say(f"  running {name}: t = {msg['t']:.2f} / {msg['t_end']:.2f} s "
+                f"({100 * msg['t'] / msg['t_end']:.0f} %), {msg['steps']} steps, "
+                f"{msg['wall']:.0f} s")
+        except Exception:
+            pass
+
+    futures = {}
+    try:
+        try:
+            client.subscribe_topic(PROGRESS_TOPIC, on_progress)
+        except Exception:       # older distributed: no events, only completion lines
+            pass
+        for run in sorted(pending, key=lambda r: -r.cost):   # longest first: better packing
+            spec = {"name": run.name, "dir": str((out / run.name).resolve()),
+                    "scene_toml": run.scene.to_toml(), "scene_name": run.scene.name,
+                    "fingerprint": scene_fingerprint(run.scene), "arch": arch,
+                    "threads": threads, "report": True}
+            fut = client.submit(execute_run, spec, key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
+                                pure=False, priority=int(run.cost // 1e6))
+            futures[fut] = run
+        done = 0
+        for fut in as_completed(list(futures)):
+            run = futures[fut]
+            done += 1
+            try:
+                rec = fut.result()
+            except Exception as exc:      # a failed run is reported, the others go on
+                first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
+                rec = {"name": run.name, "status": "failed",
+                       "error": f"{type(exc).__name__}: {first.strip()}"}
+                say(f"[{done}/{len(futures)}] {run.name}: FAILED ({rec['error']})")
+            else:
+                say(f"[{done}/{len(futures)}] {run.name}: {_summary(rec)}")
+            records[run.name] = rec
+            _write_outputs(sweep, out, records)    # a partial table survives an interruption
+    except BaseException:
+        for fut in futures:
+            fut.cancel()
+        raise
+    finally:
+        try:
+            client.unsubscribe_topic(PROGRESS_TOPIC)
+        except Exception:
+            pass
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _summary(rec: dict) -> str:
+    m = rec.get("metrics") or {}
+    last = {k: (m.get(k) or [None])[-1] for k in ("time", "finger_count", "wavelength",
+                                                   "elongation")}
+    wl = last["wavelength"]
+    xl = last["elongation"]
+    verb = "reused" if rec.get("status") == "reused" else "done"
+    return (f"{verb} in {rec.get('wall_s', 0):.1f} s ({rec.get('steps')} steps, "
+            f"{rec.get('rhs_evaluations')} operator evaluations); at t = {last['time']:g} s: "
+            f"{last['finger_count']} fingers, wavelength "
+            f"{'-' if wl is None else f'{100 * wl:.1f} cm'}, elongation "
+            f"{'-' if xl is None else f'{xl:.3f} m'}")
+
+
+# =================================================================================================
+# The table
+# =================================================================================================
+def table_columns(sweep: Sweep) -> list[str]:
+    cols = ["run", *sweep.grid, "status", "nx", "ny", "cells", "dx", "t_final",
+            *FINAL_METRICS]
+    for t in sweep.times:
+        cols += [f"{m}@{t:g}" for m in TIME_METRICS]
+    return cols + [*COST_COLUMNS, "dir", "error"]
+
+
+def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
+    """One row per run (grid order) with the columns of :func:`table_columns`."""
+    rows = []
+    for run in sweep.runs:
+        rec = records.get(run.name)
+        row: dict[str, Any] = {"run": run.name, **{k: _cell(v) for k, v in run.values.items()},
+                               "status": "pending" if rec is None else rec.get("status"),
+                               "nx": run.scene.domain.nx, "ny": run.scene.domain.ny,
+                               "cells": run.cells, "dx": run.scene.dx, "dir": run.name}
+        if rec is not None:
+            m = rec.get("metrics") or {}
+            times = m.get("time") or []
+            if times:
+                row["t_final"] = times[-1]
+                for k in FINAL_METRICS:
+                    row[k] = m[k][-1]
+            for t in sweep.times:
+                i = _nearest(times, t)
+                for k in TIME_METRICS:
+                    row[f"{k}@{t:g}"] = m[k][i] if i is not None else None
+            for k in COST_COLUMNS:
+                row[k] = rec.get(k)
+            row["error"] = rec.get("error")
+        rows.append(row)
+    return rows
+
+
+def _nearest(times, t) -> int | None:
+    for i, s in enumerate(times):
+        if abs(s - t) <= 1e-9 * max(1.0, t):
+            return i
+    return None
+
+
+def _cell(v):
+    return v if isinstance(v, (int, float, str)) else _canonical(v)
+
+
+def _write_outputs(sweep: Sweep, out: Path, records: Mapping[str, dict]) -> Path:
+    """Write sweep.csv (the table) and sweep.json (definition and full records) atomically."""
+    from .output import write_json_atomic, write_text_atomic
+    cols = table_columns(sweep)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for row in table_rows(sweep, records):
+        w.writerow({k: _csv_value(row.get(k)) for k in cols})
+    table = out / "sweep.csv"
+    write_text_atomic(table, buf.getvalue())
+    write_json_atomic(out / "sweep.json", {"sweep": sweep.to_dict(), "runs": [
+        {"run": r.name, "values": r.values, **records.get(r.name, {"status": "pending"})}
+        for r in sweep.runs]})
+    return table
+
+
+def _csv_value(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return "" if not math.isfinite(v) else repr(v)
+    return str(v)
+
+
+def read_table(path) -> list[dict]:
+    """Rows of a sweep.csv with numbers parsed (empty cells -> None)."""
+    with open(path, newline="", encoding="utf-8") as fh:
+        return [{k: _parse(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+
+
+def _parse(v: str):
+    if v == "":
+        return None
+    for conv in (int, float):
+        try:
+            return conv(v)
+        except ValueError:
+            pass
+    return v
+
+
+__all__ = ["Sweep", "SweepRun", "SweepResult", "load_sweep", "sweep_from_dict", "run_sweep",
+           "execute_run", "read_marker", "read_table", "scene_fingerprint", "table_columns",
+           "DONE_MARKER", "FINGERS_FILE"]
