@@ -149,8 +149,9 @@ def test_variant_scenes_switch_one_effect_each():
 
 # ------------------------------------------------------------------------------------ estimate
 def test_estimate_predicts_a_small_fingers_run(ti_cpu, tmp_path, capsys):
-    """`tiseg estimate` on a small fingers run against the real run in this process: steps,
-    operator evaluations and wall time within a factor 1.5."""
+    """`tiseg estimate` on a small fingers run against the real run in this process: steps and
+    operator evaluations within a factor 1.5. (Wall time is compared in the benchmark report,
+    not here: a shared machine's load makes a timed assertion flaky.)"""
     from tiseg.cli import main
     from tiseg.scene import load_scene
     from tiseg.simulation import Simulation
@@ -160,7 +161,7 @@ def test_estimate_predicts_a_small_fingers_run(ti_cpu, tmp_path, capsys):
     est = json.loads(capsys.readouterr().out)
     sim = Simulation(load_scene("fingers", sets))
     stats = sim.run(out_dir=tmp_path / "run", progress=False)
-    for key, real in (("steps", stats.steps), ("rhs_evals", stats.stages), ("wall_s", stats.wall)):
+    for key, real in (("steps", stats.steps), ("rhs_evals", stats.stages)):
         ratio = est[key] / real
         assert 1 / 1.5 < ratio < 1.5, (key, est[key], real)
 
