@@ -6,7 +6,9 @@ invalidates every field made before (simulations check :func:`generation` to ref
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 from dataclasses import dataclass
 
 from .errors import InputError
@@ -66,7 +68,9 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
                   fast_math=False, debug=debug, offline_cache=True, log_level=ti.WARN)
     if threads and ti_arch == ti.cpu:
         kwargs["cpu_max_num_threads"] = threads
-    ti.init(**kwargs)
+    # Taichi prints "[Taichi] Starting on arch=..." on stdout; keep stdout for results (JSON)
+    with contextlib.redirect_stdout(sys.stderr):
+        ti.init(**kwargs)
     resolved = {ti.cpu: "cpu", ti.cuda: "cuda", ti.metal: "metal"}.get(ti_arch, str(ti_arch))
     generation = 1 if _state is None else _state.generation + 1
     _state = BackendState(resolved, precision, threads, generation)

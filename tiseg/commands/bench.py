@@ -14,7 +14,8 @@ from .common import print_json
 
 def register(sub) -> None:
     p = sub.add_parser("bench", help="benchmarks: accuracy against wall time, operator throughput",
-                       description=__doc__.splitlines()[0])
+                       description="What accuracy costs in time (accuracy) and how fast the "
+                                   "operator and the steps run (throughput).")
     bsub = p.add_subparsers(dest="bench_command", metavar="BENCHMARK")
     bsub.required = True
 

@@ -12,8 +12,11 @@ from .run import add_scene_arguments
 
 def register(sub) -> None:
     p = sub.add_parser("estimate", help="predict steps, RKC stages and wall time of a run",
-                       description=__doc__.splitlines()[0].split(": ", 1)[1]
-                       + " The flow model and the calibration are described in tiseg/estimate.py.")
+                       description="Predict the steps, RKC stages and wall time of a run of "
+                                   "SCENE on this machine before running it: a model of the "
+                                   "flow's wave speeds and stiffness over time from the scene's "
+                                   "steady state, and a quick calibration of the scene's kernels "
+                                   "on its own grid (see tiseg/estimate.py).")
     add_scene_arguments(p)
     p.add_argument("--no-output", action="store_true",
                    help="estimate a run without files (no snapshots, checkpoints, diagnostics)")
