@@ -60,13 +60,13 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError, TisegError
+from .output.atomic import replacing
 
 CHECKPOINT_NAME = "checkpoint.npz"
 FORMAT = "tiseg-checkpoint"
@@ -84,44 +84,10 @@ class CheckpointError(TisegError):
 def write_npz_atomic(path, arrays: dict) -> Path:
     """Write ``arrays`` as an uncompressed .npz via a temporary file and ``os.replace``."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, _default_mode())          # mkstemp makes 0600; use what open() would
-        with os.fdopen(fd, "wb") as fh:
+    with replacing(path) as tmp:
+        with open(tmp, "wb") as fh:        # a file object: np.savez(name) would add ".npz"
             np.savez(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-        _fsync_dir(path.parent)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
     return path
-
-
-def _default_mode() -> int:
-    """Permission bits a new file gets from open(): 0o666 less the umask."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
-def _fsync_dir(folder: Path) -> None:
-    """Make the rename itself durable (best effort: not every file system allows it)."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def state_arrays(sim, q: np.ndarray | None = None, budget: np.ndarray | None = None,

@@ -16,13 +16,13 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Mapping, Sequence
 
 import netCDF4
 import numpy as np
+
+from .atomic import replacing
 
 # CF attributes of the primitive fields of (6.1)-(6.3).
 FIELD_ATTRS = {
@@ -197,32 +197,19 @@ class FieldsFileError(Exception):
 
 def _truncate_copy(path: Path, keep: int, fields, dtype: str) -> None:
     """Replace ``path`` by a copy holding only its first ``keep`` records (atomic replace)."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        with netCDF4.Dataset(path, "r") as src:
-            attrs = {k: src.getncattr(k) for k in src.ncattrs()}
-            x = src.variables["x"][:]
-            y = src.variables["y"][:]
-            w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype)
-            try:
-                for k, v in attrs.items():      # the original title, history, scene, ...
-                    w._ds.setncattr(k, v)
-                for i in range(keep):
-                    w.write(float(src.variables["time"][i]),
-                            **{f: np.ma.filled(src.variables[f][i], np.nan) for f in fields})
-            finally:
-                w.close()
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.chmod(tmp, path.stat().st_mode & 0o777)     # keep the file's permissions
-        os.replace(tmp, path)
-    except BaseException:
+    with replacing(path) as tmp, netCDF4.Dataset(path, "r") as src:
+        attrs = {k: src.getncattr(k) for k in src.ncattrs()}
+        x = src.variables["x"][:]
+        y = src.variables["y"][:]
+        w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype)
         try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+            for k, v in attrs.items():      # the original title, history, scene, ...
+                w._ds.setncattr(k, v)
+            for i in range(keep):
+                w.write(float(src.variables["time"][i]),
+                        **{f: np.ma.filled(src.variables[f][i], np.nan) for f in fields})
+        finally:
+            w.close()
 
 
 def read_fields(path):
