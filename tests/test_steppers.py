@@ -20,11 +20,8 @@ class ArrayOperator:
         r = self.apply(self.s[src])
         self.s[dst] = r + (self.forcing(t) if self.forcing else 0.0)
 
-    def combine(self, dst, terms):
-        self.s[dst] = sum(c * self.s[k] for c, k in terms)
-
-    def postprocess(self, slot):
-        pass
+    def combine(self, dst, terms, limit=False):
+        self.s[dst] = sum(c * self.s[k] for c, k in terms)   # no limiter for a linear ODE
 
 
 def _integrate(stepper, op, y0, t_end, n, stages):

@@ -9,8 +9,10 @@ ingredients:
    active region the operator computes) as functions of time. The step and stage count then
    follow from exactly the rules the run uses (:meth:`Simulation.plan_step` and the stepper's
    ``plan``): dt = cfl / max(a_x/dx, a_y/dy) and, for RKC, s from dt * rho with
-   rho = rho_visc + rho_fric + 2 (a_x/dx + a_y/dy), rho_visc the Gershgorin bound of the viscous
-   term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow. Steps are counted per
+   rho = max(rho_visc, rho_fric) + 2 (a_x/dx + a_y/dy), rho_visc the Gershgorin bound of the
+   viscous term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow (the run bounds
+   the two terms together cell by cell, and they peak in different cells: viscosity in thick
+   channels, friction in slow thin levees, so the larger one stands for both). Steps are counted per
    output interval (each ends with a trimmed step).
 
    For an inflow into an empty chute with segregation-mobility feedback (the fingers scene) the
@@ -255,7 +257,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
             rate = max(ax / dx, (ay / dy if not scene.is_1d else 0.0))
             dt_cfl = num.cfl / rate if rate > 0 else math.inf
             inv = ax / dx + (ay / dy if not scene.is_1d else 0.0)
-            rho = rv + rf + 2.0 * inv
+            rho = max(rv, rf) + 2.0 * inv
             if not math.isfinite(dt_cfl) and rho == 0:
                 dt_cfl = b - a
             dt, s = stepper.plan(dt_cfl, rho, t1 - t0)
@@ -385,8 +387,7 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
 
     def stage():
         op.rhs(0, 1, sim.t)
-        op.combine(spare, terms)
-        op.postprocess(spare)
+        op.combine(spare, terms, limit=True)
 
     # the step at a fixed stage count: its time less that many stages is the per-step work
     s_cal = 2 if rkc else stepper.stages

@@ -208,7 +208,7 @@ class Simulation:
         # in 2D); the KT dissipation 2 (a_x/dx + a_y/dy) enters the spectral radius.
         rate = max(ax / sc.dx, (ay / sc.dy if not self.layout.is_1d else 0.0))
         dt_cfl = sc.numerics.cfl / rate if rate > 0 else math.inf
-        rho = stab.rho_visc + stab.rho_fric + 2.0 * inv
+        rho = stab.rho_stiff + 2.0 * inv
         remaining = (t_target if t_target is not None else sc.t_end) - self.t
         dt_max = remaining if remaining > 0 else 0.0
         if not math.isfinite(dt_cfl) and rho == 0:

@@ -25,6 +25,12 @@ on four problems:
                ``tiseg.analysis.fingers.front_max`` refined to the h = h_min crossing between
                the last wet cell and the next (:func:`front_position`): the cell centre alone
                moves in steps of dx and made the errors 0 or multiples of dx by accident.
+``fingers-late``  the same front after it has broken into fingers: the fingers scene on its own
+               1.5 m chute, 0.25 m wide (two to three fingers), at t = 7.5 s, the scene's end
+               time, against a 300 cells/m weno + rkc + f64 run. Late in the run the viscous
+               and friction stiffness of the thin levees set dt rho ~ 2-4, where the single-stage
+               steppers must shorten their steps and RKC does not: this problem decides which
+               stepper the scene should use, the early front above cannot.
 
 Wall time is the time of the simulation alone (Taichi kernels compiled beforehand by one
 warm-up step, error evaluation excluded), the minimum over 3 repeats for runs under 1 s and 2
@@ -235,6 +241,19 @@ def _fingers_build(res, rec, stepper, cfl, quick):
                                      for k, v in _numerics(rec, stepper, cfl).items()}})
 
 
+FINGERS_LATE_T = {"full": 7.5, "quick": 5.5}
+FINGERS_LATE_LY = 0.25
+
+
+def _fingers_late_build(res, rec, stepper, cfl, quick):
+    from ..scene import load_scene
+    t = FINGERS_LATE_T["quick" if quick else "full"]
+    return load_scene("fingers", {"domain.resolution": res, "domain.Ly": FINGERS_LATE_LY,
+                                  "time.t_end": t, "output.times": [], "output.interval": t,
+                                  **{f"numerics.{k}": v
+                                     for k, v in _numerics(rec, stepper, cfl).items()}})
+
+
 def _fingers_run(sim, on_step):
     sim.advance(sim.scene.t_end, on_step)
     return sim.fields()["h"]
@@ -280,6 +299,10 @@ PROBLEMS: dict[str, Problem] = {p.name: p for p in (
     Problem("fingers", "fingers: front position x_f+ (sub-cell) at t = 2 s vs the finest run",
             "|x_f+ - x_f+,ref| / x_f+,ref", "cells per metre", (50, 100, 150, 200), (40, 60),
             _fingers_build, _fingers_run, _fingers_score,
+            reference_resolution={"full": 300, "quick": 80}),
+    Problem("fingers-late", "fingers: front position x_f+ (sub-cell) at t = 7.5 s, after "
+            "fingering, vs the finest run", "|x_f+ - x_f+,ref| / x_f+,ref", "cells per metre",
+            (100, 150, 200), (40, 60), _fingers_late_build, _fingers_run, _fingers_score,
             reference_resolution={"full": 300, "quick": 80}),
 )}
 

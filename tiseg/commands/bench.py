@@ -22,16 +22,16 @@ def register(sub) -> None:
     a = bsub.add_parser(
         "accuracy", help="error against wall time on problems with known answers, Pareto fronts",
         description="Error against wall time on reference problems with known answers (T6b "
-                    "transport, Ritter dam break, linear growth rate, fingers front position) "
+                    "transport, Ritter dam break, linear growth rate, fingers front position early and late) "
                     "for every resolution x reconstruction x stepper x precision x backend; "
                     "writes accuracy.csv, one PNG per problem with the Pareto front, and "
                     "summary.json/summary.md (do the scene defaults sit on the front?).")
     a.add_argument("--out", required=True, metavar="DIR", help="output folder")
     a.add_argument("--quick", action="store_true",
                    help="a small subset for CI: two resolutions per problem, minmod/weno x rkc/ssprk3, "
-                        "fingers to t = 1 s")
+                        "fingers to t = 1 s (late: 5.5 s)")
     a.add_argument("--problems", nargs="+", default=None, metavar="NAME",
-                   help="transport, ritter, growth, fingers (default: all)")
+                   help="transport, ritter, growth, fingers, fingers-late (default: all)")
     a.add_argument("--precisions", nargs="+", default=["f32", "f64"], choices=("f32", "f64"))
     a.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
                    help="default: cpu, and gpu where one is present")

@@ -34,6 +34,8 @@ class StabilityNumbers:
     rho_visc: float    # Gershgorin bound of the viscous Jacobian [1/s]
     rho_fric: float    # friction stiffness [1/s]
     max_speed: float   # max |u| [m/s]
+    rho_stiff: float   # Gershgorin bound of viscous + friction together: max over cells of the
+                       # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
 
 
 @ti.data_oriented
@@ -67,7 +69,7 @@ class TaichiOperator:
             self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
             self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
         self.par = ti.field(self.fp, shape=Params.COUNT)
-        self.red = ti.field(self.fp, shape=5)
+        self.red = ti.field(self.fp, shape=6)
         # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
         self.act = ti.field(ti.i32, shape=2)
@@ -101,6 +103,8 @@ class TaichiOperator:
                                   f.L_l, f.coulomb_mu]
         p[P.IN_U], p[P.IN_PHI], p[P.IN_DELTA] = cfg.inflow_u, cfg.inflow_phi, cfg.inflow_delta
         p[P.IN_K] = 2.0 * math.pi * cfg.inflow_modes / cfg.Ly
+        p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
+        p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
         self.cfg = cfg
         self._prepared = None
         self.par.from_numpy(p.astype(self.np_fp))
@@ -201,8 +205,9 @@ class TaichiOperator:
         denom = ti.sqrt(h4 + ti.max(h4, self.par[Params.H_EPS4]))
         w = q
         w[0] = h
+        r = ti.sqrt(2.0) * h / denom
         for c in ti.static(range(1, self.nc)):
-            w[c] = ti.sqrt(2.0) * h * q[c] / denom
+            w[c] = r * q[c]
         if ti.static(self.seg):
             # phi is bounded (0 <= h phi <= h after every stage), so it needs no
             # desingularisation, which would pull it towards 0 in thin films
@@ -231,17 +236,24 @@ class TaichiOperator:
             s = ti.select(pos, mn, ti.select(neg, mx, 0.0))
         else:  # WENO-type weighted slope with dimensionless smoothness indicators
             eps = self.par[Params.WENO_EPS]
-            sc = ti.Vector.zero(self.fp, self.nc) + self.par[Params.U_REF]
-            sc[0] = self.par[Params.H_REF]
+            isc = ti.Vector.zero(self.fp, self.nc) + self.par[Params.INV_U_REF]
+            isc[0] = self.par[Params.INV_H_REF]
             if ti.static(self.seg):
-                sc[self.HPHI] = 1.0
-            bm = dm / sc
-            bp = dp / sc
-            bc = dc / sc
-            am = 0.25 / ((eps + bm * bm) * (eps + bm * bm))
-            ap = 0.25 / ((eps + bp * bp) * (eps + bp * bp))
-            ac = 0.5 / ((eps + bc * bc) * (eps + bc * bc))
-            s = (am * dm + ap * dp + ac * dc) / (am + ap + ac)
+                isc[self.HPHI] = 1.0
+            bm = dm * isc
+            bp = dp * isc
+            bc = dc * isc
+            # weights a_m = 1/4 P_m^-1, a_p = 1/4 P_p^-1, a_c = 1/2 P_c^-1 with P = (eps + b^2)^2;
+            # multiplying the weighted mean through by P_m P_p P_c leaves one division. P >=
+            # eps^2 = 1e-12 and |b| stays far below 1e9, so the products neither under- nor
+            # overflow, even in f32.
+            pm = (eps + bm * bm) * (eps + bm * bm)
+            pp = (eps + bp * bp) * (eps + bp * bp)
+            pc = (eps + bc * bc) * (eps + bc * bc)
+            wm = 0.25 * pp * pc
+            wp = 0.25 * pm * pc
+            wc = 0.5 * pm * pp
+            s = (wm * dm + wp * dp + wc * dc) / (wm + wp + wc)
         # positivity of h and 0 <= phi <= 1 at the edges
         s[0] = ti.min(ti.max(s[0], -2.0 * w0[0]), 2.0 * w0[0])
         if ti.static(self.seg):
@@ -286,8 +298,8 @@ class TaichiOperator:
     def _face_fluxes(self):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         hmin = self.par[Params.H_MIN]
-        dx = self.par[Params.DX]
-        dy = self.par[Params.DY]
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
         a, b = self.act[0], self.act[1]
         for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
             w0 = self.w[i, j]
@@ -302,13 +314,13 @@ class TaichiOperator:
                 F = self._kt_flux(wl, wr, 0)
             if ti.static(self.visc):
                 K = self._face_K(w0[0], w1[0])
-                F[1] -= K * (w1[1] - w0[1]) / dx
+                F[1] -= K * (w1[1] - w0[1]) * idx
                 if ti.static(not self.is_1d):
                     HV = ti.static(self.HV)
                     # paired differences: exactly zero for y-independent data
                     dudy = ((self.w[i, j + 1][1] - self.w[i, j - 1][1])
-                            + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])) / (4.0 * dy)
-                    F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) / dx + dudy)
+                            + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])) * (0.25 * idy)
+                    F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) * idx + dudy)
             self.fx[i, j] = F
         if ti.static(not self.is_1d):
             HV = ti.static(self.HV)
@@ -325,34 +337,60 @@ class TaichiOperator:
                     F = self._kt_flux(wl, wr, 1)
                 if ti.static(self.visc):
                     K = self._face_K(w0[0], w1[0])
-                    F[HV] -= K * (w1[HV] - w0[HV]) / dy
+                    F[HV] -= K * (w1[HV] - w0[HV]) * idy
                     dvdx = ((self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
-                            + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])) / (4.0 * dx)
-                    F[1] -= 0.5 * K * ((w1[1] - w0[1]) / dy + dvdx)
+                            + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])) * (0.25 * idx)
+                    F[1] -= 0.5 * K * ((w1[1] - w0[1]) * idy + dvdx)
                 self.fy[i, j] = F
 
     @ti.kernel
     def _divergence(self, d: ti.i32):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        dx = self.par[Params.DX]
-        dy = self.par[Params.DY]
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
         a, b = self.act[0], self.act[1]
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
             r = ti.Vector.zero(self.fp, self.nc)
             if a <= i < b:
-                r = -(self.fx[i, j] - self.fx[i - 1, j]) / dx
+                r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
                 if ti.static(not self.is_1d):
-                    r -= (self.fy[i, j] - self.fy[i, j - 1]) / dy
+                    r -= (self.fy[i, j] - self.fy[i, j - 1]) * idy
                 r += self.phys.source(self.w[i, j])
             self.q[d, i, j] = r
 
+    @ti.func
+    def _limit(self, v):
+        """The stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
+        h = ti.select(v[0] < 0.0, 0.0, v[0])     # unlike max(), lets a NaN through to the guard
+        v[0] = h
+        if h < self.par[Params.H_MIN]:
+            v[1] = 0.0
+            if ti.static(not self.is_1d):
+                v[self.HV] = 0.0
+        if ti.static(self.seg):
+            v[self.HPHI] = ti.min(ti.max(v[self.HPHI], 0.0), h)
+        return v
+
     @ti.kernel
-    def _combine(self, d: ti.i32, n: ti.template()):
+    def _combine(self, d: ti.i32, n: ti.template(), limit: ti.template()):
+        """slot d := sum of coef * slot, then the stage limiter if ``limit``, on the active
+        x range widened by the 3 cells either side that the next evaluation's stencil reads.
+
+        Why that is enough: the active range is fixed for the whole step (set_active runs
+        between steps), every rate slot is zero outside it (_divergence), and the first stage
+        combines from slot 0, which is valid everywhere. So within a step every slot is valid
+        on the widened range, and nothing beyond it is read. Cells further out are dry films
+        that the step does not change; skipping them saves two passes over the dry chute per
+        stage."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
+        lo = ti.max(self.act[0] - 3, gx)
+        hi = ti.min(self.act[1] + 3, gx + nx)
+        for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
             acc = self.coef[0] * self.q[self.src[0], i, j]
             for k in ti.static(range(1, n)):
                 acc += self.coef[k] * self.q[self.src[k], i, j]
+            if ti.static(limit):
+                acc = self._limit(acc)
             self.q[d, i, j] = acc
         for b in range(NBUDGET):
             acc = self.coef[0] * self.bud[self.src[0], b]
@@ -388,30 +426,27 @@ class TaichiOperator:
     @ti.kernel
     def _postprocess(self, s: ti.i32):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        hmin = self.par[Params.H_MIN]
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
-            v = self.q[s, i, j]
-            h = ti.select(v[0] < 0.0, 0.0, v[0])     # unlike max(), lets a NaN through to the guard
-            v[0] = h
-            if h < hmin:
-                v[1] = 0.0
-                if ti.static(not self.is_1d):
-                    v[self.HV] = 0.0
-            if ti.static(self.seg):
-                v[self.HPHI] = ti.min(ti.max(v[self.HPHI], 0.0), h)
-            self.q[s, i, j] = v
+            self.q[s, i, j] = self._limit(self.q[s, i, j])
 
     @ti.kernel
     def _stability(self):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
         from the primitives of the current state. Rows run in parallel and reduce locally, so
-        there is one atomic per row (maxima are order independent: deterministic)."""
+        there is one atomic per row (maxima are order independent: deterministic).
+
+        The friction Jacobian is local to a cell (a 2 x 2 block in (hu, hv) bounded by the
+        friction rate), so it adds to the diagonal of that cell's viscous rows: Gershgorin's
+        theorem bounds the spectrum of both terms together by the largest per-cell sum
+        (red[5]). The friction peaks in slow thin margins and levees, the viscosity in thick
+        fast channels, so the sum of the two maxima (red[2] + red[3]) overestimates it by up
+        to 2x, and the RKC stage count with it."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        for k in range(5):
+        for k in range(6):
             self.red[k] = 0.0
         hmin = self.par[Params.H_MIN]
-        dx = self.par[Params.DX]
-        dy = self.par[Params.DY]
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
         # include the first ghost layer in x so that an inflow into an empty chute sets a speed
         for i in range(ti.max(self.act[0] - 1, gx - 1), ti.min(self.act[1] + 1, gx + nx + 1)):
             m0 = 0.0
@@ -419,13 +454,16 @@ class TaichiOperator:
             m2 = 0.0
             m3 = 0.0
             m4 = 0.0
+            m5 = 0.0
             for j in range(gy, gy + ny):
                 w = self.w[i, j]
                 m0 = ti.max(m0, self.phys.speed(w, 0))
                 if ti.static(not self.is_1d):
                     m1 = ti.max(m1, self.phys.speed(w, 1))
                 m4 = ti.max(m4, self.phys.speed_mag(w))
-                m3 = ti.max(m3, self.phys.friction_rate(w))
+                fr = self.phys.friction_rate(w)
+                m3 = ti.max(m3, fr)
+                rho = 0.0 * fr
                 if ti.static(self.visc):
                     h = w[0]
                     if h >= hmin and gx <= i < gx + nx:
@@ -434,7 +472,7 @@ class TaichiOperator:
                         hm = self.w[i - 1, j][0]
                         sxs = (self._face_K(h, hp) * (inv + 1.0 / ti.max(hp, hmin))
                                + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin)))
-                        rho = sxs / (dx * dx)
+                        rho = sxs * (idx * idx)
                         if ti.static(not self.is_1d):
                             hn = self.w[i, j + 1][0]
                             hs = self.w[i, j - 1][0]
@@ -442,15 +480,17 @@ class TaichiOperator:
                                    + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin)))
                             # the mixed derivatives couple u to 8 values of v with weights
                             # K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h
-                            cross = 0.125 * (sxs + sys) / (dx * dy)
-                            rho = ti.max(sxs / (dx * dx) + 0.5 * sys / (dy * dy),
-                                         0.5 * sxs / (dx * dx) + sys / (dy * dy)) + cross
+                            cross = 0.125 * (sxs + sys) * (idx * idy)
+                            rho = ti.max(sxs * (idx * idx) + 0.5 * sys * (idy * idy),
+                                         0.5 * sxs * (idx * idx) + sys * (idy * idy)) + cross
                         m2 = ti.max(m2, rho)
+                m5 = ti.max(m5, rho + fr)
             ti.atomic_max(self.red[0], m0)
             ti.atomic_max(self.red[1], m1)
             ti.atomic_max(self.red[2], m2)
             ti.atomic_max(self.red[3], m3)
             ti.atomic_max(self.red[4], m4)
+            ti.atomic_max(self.red[5], m5)
 
     @ti.kernel
     def _totals(self, s: ti.i32):
@@ -511,8 +551,10 @@ class TaichiOperator:
         self._divergence(dst)
         self._boundary_rates(dst)
 
-    def combine(self, dst: int, terms) -> None:
-        """slot dst := sum(c * slot) over terms [(c, slot), ...] on interior cells.
+    def combine(self, dst: int, terms, limit: bool = False) -> None:
+        """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
+        can touch (the active range and its stencil halo; all cells without an active range);
+        ``limit=True`` applies the stage limiter (:meth:`postprocess`) in the same pass.
 
         dst may be one of the sources: the update is element-wise.
         """
@@ -523,7 +565,7 @@ class TaichiOperator:
             self.src[k] = s
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
-        self._combine(dst, n)
+        self._combine(dst, n, bool(limit))
 
     def budget(self, slot: int = 0) -> np.ndarray:
         """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
@@ -568,4 +610,5 @@ class TaichiOperator:
         self._prepare(slot, t)
         self._stability()
         r = self.red.to_numpy().astype(float)
-        return StabilityNumbers(ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4])
+        return StabilityNumbers(ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4],
+                                rho_stiff=r[5])

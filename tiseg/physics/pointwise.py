@@ -17,7 +17,10 @@ class Params:
     ALPHA1, PHI_REF, DX, DY = range(10, 14)
     MU1S, MU2S, BETAS, LS, MU1L, MU2L, BETAL, LL, MUC = range(14, 23)
     IN_H, IN_U, IN_PHI, IN_DELTA, IN_K, IN_ON = range(23, 29)
-    COUNT = 29
+    # reciprocals, so that the kernels multiply instead of divide (a division costs several
+    # multiplications on a CPU, and the inner loops are bound by arithmetic, not memory)
+    INV_DX, INV_DY, INV_H_REF, INV_U_REF = range(29, 33)
+    COUNT = 33
 
 
 @ti.data_oriented

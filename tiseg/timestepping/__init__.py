@@ -3,8 +3,9 @@
 Every stepper advances slot 0 of an operator offering
 
 * ``rhs(src, dst, t)``: slot dst := L(slot src, t),
-* ``combine(dst, [(c, slot), ...])``: slot dst := sum c * slot (element-wise, dst may be a source),
-* ``postprocess(slot)``: the stage limiter (h >= 0, phi in [0, 1]),
+* ``combine(dst, [(c, slot), ...], limit)``: slot dst := sum c * slot (element-wise, dst may be
+  a source), followed with ``limit=True`` by the stage limiter (h >= 0, phi in [0, 1]) in the
+  same pass over memory (``postprocess(slot)`` is the limiter alone),
 
 and chooses its step from two numbers the caller measures on the current state: the convective
 step ``dt_cfl`` and the spectral radius ``rho`` of the operator's Jacobian on the negative real

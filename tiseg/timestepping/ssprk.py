@@ -29,8 +29,7 @@ class Euler(_ExplicitRK):
 
     def step(self, op, t, dt, stages):
         op.rhs(0, 1, t)
-        op.combine(0, [(1.0, 0), (dt, 1)])
-        op.postprocess(0)
+        op.combine(0, [(1.0, 0), (dt, 1)], limit=True)
 
 
 @register
@@ -42,11 +41,9 @@ class SSPRK2(_ExplicitRK):
 
     def step(self, op, t, dt, stages):
         op.rhs(0, 1, t)
-        op.combine(2, [(1.0, 0), (dt, 1)])
-        op.postprocess(2)
+        op.combine(2, [(1.0, 0), (dt, 1)], limit=True)
         op.rhs(2, 1, t + dt)
-        op.combine(0, [(0.5, 0), (0.5, 2), (0.5 * dt, 1)])
-        op.postprocess(0)
+        op.combine(0, [(0.5, 0), (0.5, 2), (0.5 * dt, 1)], limit=True)
 
 
 @register
@@ -59,11 +56,8 @@ class SSPRK3(_ExplicitRK):
 
     def step(self, op, t, dt, stages):
         op.rhs(0, 1, t)
-        op.combine(2, [(1.0, 0), (dt, 1)])
-        op.postprocess(2)
+        op.combine(2, [(1.0, 0), (dt, 1)], limit=True)
         op.rhs(2, 1, t + dt)
-        op.combine(2, [(0.75, 0), (0.25, 2), (0.25 * dt, 1)])
-        op.postprocess(2)
+        op.combine(2, [(0.75, 0), (0.25, 2), (0.25 * dt, 1)], limit=True)
         op.rhs(2, 1, t + 0.5 * dt)
-        op.combine(0, [(1.0 / 3.0, 0), (2.0 / 3.0, 2), (2.0 / 3.0 * dt, 1)])
-        op.postprocess(0)
+        op.combine(0, [(1.0 / 3.0, 0), (2.0 / 3.0, 2), (2.0 / 3.0 * dt, 1)], limit=True)
