@@ -82,8 +82,6 @@ class TaichiOperator:
         # x faces and the y faces. combine() applies the same linear combination to them as to
         # the states, so slot 0 accumulates exactly the time integral the scheme uses.
         self.bud = ti.field(self.fp, shape=(nslots, NBUDGET))
-        self.coef = ti.field(self.fp, shape=MAX_TERMS)
-        self.src = ti.field(ti.i32, shape=MAX_TERMS)
         self.phys = Physics(cfg, self.par)
         self.set_params(cfg)
         self.t = 0.0
@@ -147,8 +145,9 @@ class TaichiOperator:
         r[comp] = -v[comp]
         return r
 
-    @ti.kernel
-    def _fill_ghosts(self, s: ti.i32):
+    @ti.func
+    def _ghosts(self, s):
+        """Ghost cells of slot s from the boundary conditions (two top-level loops)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         lo, hi = ti.static(self.bcc[0], self.bcc[1])
         for k, j in ti.ndrange(gx, (0, self.NY)):
@@ -263,7 +262,19 @@ class TaichiOperator:
         return s
 
     @ti.kernel
-    def _primitives_and_slopes(self, s: ti.i32):
+    def _fill_ghosts(self, s: ti.i32):
+        self._ghosts(s)
+
+    @ti.kernel
+    def _ghosts_primitives_slopes(self, s: ti.i32):
+        """Everything an evaluation needs from slot s before the fluxes, in one launch (each
+        launch costs tens of microseconds of Python and thread start-up: on small grids
+        that, not arithmetic, sets the pace). Top-level loops run in order."""
+        self._ghosts(s)
+        self._primitives_and_slopes(s)
+
+    @ti.func
+    def _primitives_and_slopes(self, s):
         a, b = self.act[0], self.act[1]
         for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
@@ -295,6 +306,14 @@ class TaichiOperator:
         return k
 
     @ti.kernel
+    def _rates(self, d: ti.i32):
+        """slot d := L from the prepared primitives and slopes: face fluxes, their divergence
+        plus sources, and the boundary budget rates, in one launch."""
+        self._face_fluxes()
+        self._divergence(d)
+        self._boundary_rates(d)
+
+    @ti.func
     def _face_fluxes(self):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         hmin = self.par[Params.H_MIN]
@@ -343,8 +362,8 @@ class TaichiOperator:
                     F[1] -= 0.5 * K * ((w1[1] - w0[1]) * idy + dvdx)
                 self.fy[i, j] = F
 
-    @ti.kernel
-    def _divergence(self, d: ti.i32):
+    @ti.func
+    def _divergence(self, d):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
@@ -372,8 +391,10 @@ class TaichiOperator:
         return v
 
     @ti.kernel
-    def _combine(self, d: ti.i32, n: ti.template(), limit: ti.template()):
-        """slot d := sum of coef * slot, then the stage limiter if ``limit``, on the active
+    def _combine(self, d: ti.i32, n: ti.template(), limit: ti.template(),
+                 c0: float, c1: float, c2: float, c3: float, c4: float, c5: float,
+                 s0: ti.i32, s1: ti.i32, s2: ti.i32, s3: ti.i32, s4: ti.i32, s5: ti.i32):
+        """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the active
         x range widened by the 3 cells either side that the next evaluation's stencil reads.
 
         Why that is enough: the active range is fixed for the whole step (set_active runs
@@ -381,25 +402,30 @@ class TaichiOperator:
         combines from slot 0, which is valid everywhere. So within a step every slot is valid
         on the widened range, and nothing beyond it is read. Cells further out are dry films
         that the step does not change; skipping them saves two passes over the dry chute per
-        stage."""
+        stage.
+
+        The coefficients come as kernel arguments: writing them into a field from Python
+        costs a launch each, which dominated small grids."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        cs = ti.Vector([c0, c1, c2, c3, c4, c5])
+        ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
         lo = ti.max(self.act[0] - 3, gx)
         hi = ti.min(self.act[1] + 3, gx + nx)
         for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
-            acc = self.coef[0] * self.q[self.src[0], i, j]
+            acc = cs[0] * self.q[ss[0], i, j]
             for k in ti.static(range(1, n)):
-                acc += self.coef[k] * self.q[self.src[k], i, j]
+                acc += cs[k] * self.q[ss[k], i, j]
             if ti.static(limit):
                 acc = self._limit(acc)
             self.q[d, i, j] = acc
         for b in range(NBUDGET):
-            acc = self.coef[0] * self.bud[self.src[0], b]
+            acc = cs[0] * self.bud[ss[0], b]
             for k in ti.static(range(1, n)):
-                acc += self.coef[k] * self.bud[self.src[k], b]
+                acc += cs[k] * self.bud[ss[k], b]
             self.bud[d, b] = acc
 
-    @ti.kernel
-    def _boundary_rates(self, d: ti.i32):
+    @ti.func
+    def _boundary_rates(self, d):
         """Net inflow rates through the domain's faces, summed in a fixed order."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         dx = self.par[Params.DX]
@@ -430,7 +456,7 @@ class TaichiOperator:
             self.q[s, i, j] = self._limit(self.q[s, i, j])
 
     @ti.kernel
-    def _stability(self):
+    def _stability(self) -> ti.types.vector(6, float):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
         from the primitives of the current state. Rows run in parallel and reduce locally, so
         there is one atomic per row (maxima are order independent: deterministic).
@@ -491,12 +517,15 @@ class TaichiOperator:
             ti.atomic_max(self.red[3], m3)
             ti.atomic_max(self.red[4], m4)
             ti.atomic_max(self.red[5], m5)
+        return ti.Vector([self.red[k] for k in ti.static(range(6))])
 
     @ti.kernel
-    def _totals(self, s: ti.i32):
+    def _totals(self, s: ti.i32) -> ti.types.vector(2, ti.f64):
         """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
         summed serially, then the rows serially): the same bits for any thread count."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        self.total[0] = 0.0
+        self.total[1] = 0.0
         for i in range(gx, gx + nx):
             a = ti.cast(0.0, ti.f64)
             b = ti.cast(0.0, ti.f64)
@@ -511,10 +540,13 @@ class TaichiOperator:
         for i in range(gx, gx + nx):
             self.total[0] += self.rowsum[i, 0]
             self.total[1] += self.rowsum[i, 1]
+        return ti.Vector([self.total[0], self.total[1]])
 
     @ti.kernel
-    def _wet_extent(self, s: ti.i32):
-        """Smallest and largest x index (ghosts included) of a cell with h >= h_min."""
+    def _wet_extent(self, s: ti.i32) -> ti.types.vector(2, ti.i32):
+        """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
+        cell with h >= h_min, returned (one launch, no field read-back)."""
+        self._ghosts(s)
         self.wet[0] = self.NX
         self.wet[1] = -1
         hmin = self.par[Params.H_MIN]
@@ -526,6 +558,7 @@ class TaichiOperator:
             if wet == 1:
                 ti.atomic_min(self.wet[0], i)
                 ti.atomic_max(self.wet[1], i)
+        return ti.Vector([self.wet[0], self.wet[1]])
 
     # ------------------------------------------------------------------ stepper interface
     def _prepare(self, slot: int, t: float) -> None:
@@ -538,8 +571,7 @@ class TaichiOperator:
         if self._prepared == key:
             return
         self._set_time(t)
-        self._fill_ghosts(slot)
-        self._primitives_and_slopes(slot)
+        self._ghosts_primitives_slopes(slot)
         self._prepared = key
 
     def rhs(self, src: int, dst: int, t: float) -> None:
@@ -547,9 +579,7 @@ class TaichiOperator:
         self._prepare(src, t)
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
-        self._face_fluxes()
-        self._divergence(dst)
-        self._boundary_rates(dst)
+        self._rates(dst)
 
     def combine(self, dst: int, terms, limit: bool = False) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
@@ -560,12 +590,11 @@ class TaichiOperator:
         """
         n = len(terms)
         assert 1 <= n <= MAX_TERMS
-        for k, (c, s) in enumerate(terms):
-            self.coef[k] = c
-            self.src[k] = s
+        cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
+        ss = [int(s) for _, s in terms] + [0] * (MAX_TERMS - n)
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
-        self._combine(dst, n, bool(limit))
+        self._combine(dst, n, bool(limit), *cs, *ss)
 
     def budget(self, slot: int = 0) -> np.ndarray:
         """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
@@ -578,27 +607,24 @@ class TaichiOperator:
 
     def sums(self, slot: int = 0) -> tuple[float, float]:
         """(sum of h, sum of h phi) over interior cells, deterministic, in f64."""
-        self.total.fill(0.0)
-        self._totals(slot)
-        t = self.total.to_numpy()
+        t = self._totals(slot)
         return float(t[0]), float(t[1])
 
     def set_active(self, a: int, b: int) -> None:
         """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted)."""
         a = max(self.gx, int(a))
-        b = min(self.gx + self.nx, int(b))
-        if getattr(self, "active", None) != (a, max(a, b)):
-            self._prepared = None
+        b = max(a, min(self.gx + self.nx, int(b)))
+        if getattr(self, "active", None) == (a, b):
+            return                      # each field write from Python is a kernel launch
+        self._prepared = None
         self.act[0] = a
-        self.act[1] = max(a, b)
-        self.active = (a, max(a, b))
+        self.act[1] = b
+        self.active = (a, b)
 
     def wet_extent(self, slot: int, t: float) -> tuple[int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts; (NX, -1) if none."""
         self._set_time(t)
-        self._fill_ghosts(slot)
-        self._wet_extent(slot)
-        w = self.wet.to_numpy()
+        w = self._wet_extent(slot)
         return int(w[0]), int(w[1])
 
     def postprocess(self, slot: int) -> None:
@@ -608,7 +634,6 @@ class TaichiOperator:
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         self._prepare(slot, t)
-        self._stability()
-        r = self.red.to_numpy().astype(float)
+        r = [float(v) for v in self._stability()]
         return StabilityNumbers(ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4],
                                 rho_stiff=r[5])
