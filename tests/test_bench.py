@@ -210,3 +210,38 @@ def test_front_position_interpolates_between_cell_centres():
     # crossing of h_min between x = 0.45 (5.5e-4) and 0.55 (0): 0.45 + 0.1 * 4.5/5.5
     assert xf == pytest.approx(0.45 + 0.1 * 4.5 / 5.5)
     assert math.isnan(accuracy.front_position(np.zeros((2, 10)), x, 1e-4))
+
+
+# ------------------------------------------------------------------------------- steppers
+def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
+    """tiseg bench steppers restarts from a run's snapshots: each stepper against SSP-RK3 at a
+    5x smaller Courant number on the same grid. The time errors must rank by order: forward
+    Euler (first order) well above RKC and SSP-RK3 (second/third order); everything finite;
+    the report names the run's stepper and whether it is on the front."""
+    from tiseg.cli import main
+    from tiseg.errors import InputError
+    from tiseg.bench import steppers
+    run = tmp_path / "run"
+    assert main(["run", "fingers", "--set", "domain.resolution=40", "--set", "time.t_end=1.5",
+                 "--set", "output.interval=0.5", "--set", "output.times=[]", "--out", str(run),
+                 "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["bench", "steppers", str(run), "--times", "1.5", "--repeats", "1",
+                 "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    (start,) = rep["starts"]
+    assert start["time"] == 1.5 and start["span"] > 0
+    rows = {r["stepper"]: r for r in start["rows"]}
+    assert set(rows) == {"rkc", "ssprk3", "ssprk2", "euler"}
+    for r in rows.values():
+        assert r["status"] == "ok" and r["steps"] > 0 and r["wall_s"] > 0
+        assert 0 < r["error"] < 0.05, r
+    assert rows["euler"]["error"] > 3 * max(rows["rkc"]["error"], rows["ssprk3"]["error"]), rows
+    assert rows["ssprk3"]["evaluations"] == 3 * rows["ssprk3"]["steps"]
+    assert any(r["pareto"] for r in rows.values())
+    assert rep["own_stepper"] == "rkc" and "t = 1.5 s: rkc" in rep["verdict"]
+    assert (run / "bench-steppers" / "steppers.md").read_text().count("| rkc (run) |") == 1
+    with pytest.raises(InputError, match="no snapshot at that time"):
+        steppers.measure(run, times=[0.7])
+    with pytest.raises(InputError, match="no scene.toml"):
+        steppers.measure(tmp_path)

@@ -6,6 +6,8 @@
 * :mod:`tiseg.bench.throughput`: cell-updates per second of the operator and steps per second,
   with each effect switched off in turn, against the NumPy reference and a memory-bandwidth bound
   measured in the same run; the cost of each effect (``tiseg bench throughput``).
+* :mod:`tiseg.bench.steppers`: time-stepping error and cost of each stepper restarted from a
+  run's own saved states, on its own grid (``tiseg bench steppers RUN_DIR``).
 
 Taichi's precision is fixed when it is initialised, so every (precision, backend) combination is
 measured in a child process of its own (:func:`run_child`); this module holds the small pieces

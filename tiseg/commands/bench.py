@@ -62,6 +62,30 @@ def register(sub) -> None:
     t.add_argument("--json", action="store_true", help="print the full report as JSON")
     t.set_defaults(func=run_throughput)
 
+    s = bsub.add_parser(
+        "steppers", help="time-stepping error and cost of each stepper from a run's own states",
+        description="Restart from snapshots of a run (its grid, physics and precision), advance "
+                    "each stepper over the same short span at the run's Courant number and "
+                    "compare with SSP-RK3 at a five times smaller one: the time-stepping error "
+                    "alone, against wall time, where the run's own stiffness sets the steps. "
+                    "Writes steppers.json and steppers.md; says whether the run's stepper is on "
+                    "the Pareto front.")
+    s.add_argument("run_dir", metavar="RUN_DIR", help="folder of a tiseg run (scene.toml, fields.nc)")
+    s.add_argument("--times", nargs="+", type=float, default=None, metavar="T",
+                   help="snapshot times to start from (default: the last snapshot and the one "
+                        "half-way)")
+    s.add_argument("--span", type=float, default=None, metavar="S",
+                   help="seconds to advance (default: about 40 steps of the run's stepper)")
+    s.add_argument("--steppers", nargs="+", default=None,
+                   choices=("rkc", "ssprk3", "ssprk2", "euler"), help="default: all four")
+    s.add_argument("--repeats", type=int, default=2, help="timed repeats, the minimum is kept (2)")
+    s.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu")
+    s.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+    s.add_argument("--out", default=None, metavar="DIR",
+                   help="where steppers.json/.md go (default: RUN_DIR/bench-steppers)")
+    s.add_argument("--json", action="store_true", help="print the report as JSON")
+    s.set_defaults(func=run_steppers)
+
 
 def run_accuracy(args) -> int:
     from ..bench import accuracy
@@ -107,6 +131,30 @@ def run_throughput(args) -> int:
         print_json(report)
     else:
         print(throughput.markdown(report))
+    return 0
+
+
+def run_steppers(args) -> int:
+    from ..bench import steppers
+    from ..errors import InputError
+
+    if args.threads < 0:
+        raise InputError(f"--threads={args.threads}: must be >= 0")
+    run_dir = Path(args.run_dir)
+    if not run_dir.is_dir():
+        raise InputError(f"{run_dir}: not a folder; give the folder of a tiseg run")
+    quiet = contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext()
+    with quiet:
+        report = steppers.measure(run_dir, times=args.times, span=args.span,
+                                  steppers=args.steppers or steppers.STEPPERS,
+                                  repeats=args.repeats, arch=args.arch, threads=args.threads,
+                                  log=_log)
+        files = steppers.write(report, args.out or run_dir / "bench-steppers")
+    if args.json:
+        print_json(report)
+    else:
+        print(steppers.markdown(report))
+        print(f"written: {', '.join(str(f) for f in files)}")
     return 0
 
 
