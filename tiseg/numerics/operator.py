@@ -368,7 +368,9 @@ class TaichiOperator:
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
         a, b = self.act[0], self.act[1]
-        for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
+        # rates on the active range and zero on the 3 cells either side that _combine also
+        # reads; further out nothing reads them while this range holds (see _combine)
+        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
             r = ti.Vector.zero(self.fp, self.nc)
             if a <= i < b:
                 r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
@@ -398,9 +400,9 @@ class TaichiOperator:
         x range widened by the 3 cells either side that the next evaluation's stencil reads.
 
         Why that is enough: the active range is fixed for the whole step (set_active runs
-        between steps), every rate slot is zero outside it (_divergence), and the first stage
-        combines from slot 0, which is valid everywhere. So within a step every slot is valid
-        on the widened range, and nothing beyond it is read. Cells further out are dry films
+        between steps), every rate slot is zero on the widened range outside the active one
+        (_divergence), and the first stage combines from slot 0, which is valid everywhere. So
+        within a step every slot is valid on the widened range, and nothing beyond it is read. Cells further out are dry films
         that the step does not change; skipping them saves two passes over the dry chute per
         stage.
 
