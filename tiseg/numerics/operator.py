@@ -74,6 +74,9 @@ class TaichiOperator:
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
         self.act = ti.field(ti.i32, shape=2)
         self.rowsum = ti.field(ti.f64, shape=(NX, 2))
+        # rows reduced by one thread before one atomic (_stability, _wet_extent): a row in 2D,
+        # 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
+        self.rows_per_block = max(1, 256 // NY)
         self.total = ti.field(ti.f64, shape=2)
         self.wet = ti.field(ti.i32, shape=2)
         self._prepared = None     # (slot, t, active range) whose primitives are in w
@@ -460,8 +463,10 @@ class TaichiOperator:
     @ti.kernel
     def _stability(self) -> ti.types.vector(6, float):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
-        from the primitives of the current state. Rows run in parallel and reduce locally, so
-        there is one atomic per row (maxima are order independent: deterministic).
+        from the primitives of the current state. Blocks of rows run in parallel and reduce
+        locally, so there is one atomic per block (maxima are order independent:
+        deterministic); a block is one row in 2D and 256 cells of the row in 1D, where an
+        atomic per cell would serialise the threads on one address.
 
         The friction Jacobian is local to a cell (a 2 x 2 block in (hu, hv) bounded by the
         friction rate), so it adds to the diagonal of that cell's viscous rows: Gershgorin's
@@ -476,43 +481,49 @@ class TaichiOperator:
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
         # include the first ghost layer in x so that an inflow into an empty chute sets a speed
-        for i in range(ti.max(self.act[0] - 1, gx - 1), ti.min(self.act[1] + 1, gx + nx + 1)):
+        lo = ti.max(self.act[0] - 1, gx - 1)
+        hi = ti.min(self.act[1] + 1, gx + nx + 1)
+        B = ti.static(self.rows_per_block)
+        for blk in range((hi - lo + B - 1) // B):
             m0 = 0.0
             m1 = 0.0
             m2 = 0.0
             m3 = 0.0
             m4 = 0.0
             m5 = 0.0
-            for j in range(gy, gy + ny):
-                w = self.w[i, j]
-                m0 = ti.max(m0, self.phys.speed(w, 0))
-                if ti.static(not self.is_1d):
-                    m1 = ti.max(m1, self.phys.speed(w, 1))
-                m4 = ti.max(m4, self.phys.speed_mag(w))
-                fr = self.phys.friction_rate(w)
-                m3 = ti.max(m3, fr)
-                rho = 0.0 * fr
-                if ti.static(self.visc):
-                    h = w[0]
-                    if h >= hmin and gx <= i < gx + nx:
-                        inv = 1.0 / h
-                        hp = self.w[i + 1, j][0]
-                        hm = self.w[i - 1, j][0]
-                        sxs = (self._face_K(h, hp) * (inv + 1.0 / ti.max(hp, hmin))
-                               + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin)))
-                        rho = sxs * (idx * idx)
+            for r in range(B):
+                i = lo + blk * B + r
+                if i < hi:
+                    for j in range(gy, gy + ny):
+                        w = self.w[i, j]
+                        m0 = ti.max(m0, self.phys.speed(w, 0))
                         if ti.static(not self.is_1d):
-                            hn = self.w[i, j + 1][0]
-                            hs = self.w[i, j - 1][0]
-                            sys = (self._face_K(h, hn) * (inv + 1.0 / ti.max(hn, hmin))
-                                   + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin)))
-                            # the mixed derivatives couple u to 8 values of v with weights
-                            # K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h
-                            cross = 0.125 * (sxs + sys) * (idx * idy)
-                            rho = ti.max(sxs * (idx * idx) + 0.5 * sys * (idy * idy),
-                                         0.5 * sxs * (idx * idx) + sys * (idy * idy)) + cross
-                        m2 = ti.max(m2, rho)
-                m5 = ti.max(m5, rho + fr)
+                            m1 = ti.max(m1, self.phys.speed(w, 1))
+                        m4 = ti.max(m4, self.phys.speed_mag(w))
+                        fr = self.phys.friction_rate(w)
+                        m3 = ti.max(m3, fr)
+                        rho = 0.0 * fr
+                        if ti.static(self.visc):
+                            h = w[0]
+                            if h >= hmin and gx <= i < gx + nx:
+                                inv = 1.0 / h
+                                hp = self.w[i + 1, j][0]
+                                hm = self.w[i - 1, j][0]
+                                sxs = (self._face_K(h, hp) * (inv + 1.0 / ti.max(hp, hmin))
+                                       + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin)))
+                                rho = sxs * (idx * idx)
+                                if ti.static(not self.is_1d):
+                                    hn = self.w[i, j + 1][0]
+                                    hs = self.w[i, j - 1][0]
+                                    sys = (self._face_K(h, hn) * (inv + 1.0 / ti.max(hn, hmin))
+                                           + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin)))
+                                    # the mixed derivatives couple u to 8 values of v with weights
+                                    # K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h
+                                    cross = 0.125 * (sxs + sys) * (idx * idy)
+                                    rho = ti.max(sxs * (idx * idx) + 0.5 * sys * (idy * idy),
+                                                 0.5 * sxs * (idx * idx) + sys * (idy * idy)) + cross
+                                m2 = ti.max(m2, rho)
+                        m5 = ti.max(m5, rho + fr)
             ti.atomic_max(self.red[0], m0)
             ti.atomic_max(self.red[1], m1)
             ti.atomic_max(self.red[2], m2)
@@ -552,14 +563,20 @@ class TaichiOperator:
         self.wet[0] = self.NX
         self.wet[1] = -1
         hmin = self.par[Params.H_MIN]
-        for i in range(self.NX):
-            wet = 0
-            for j in range(self.gy, self.gy + self.ny):
-                if self.q[s, i, j][0] >= hmin:
-                    wet = 1
-            if wet == 1:
-                ti.atomic_min(self.wet[0], i)
-                ti.atomic_max(self.wet[1], i)
+        B = ti.static(self.rows_per_block)
+        for blk in range((self.NX + B - 1) // B):
+            first = self.NX
+            last = -1
+            for r in range(B):
+                i = blk * B + r
+                if i < self.NX:
+                    for j in range(self.gy, self.gy + self.ny):
+                        if self.q[s, i, j][0] >= hmin:
+                            first = ti.min(first, i)
+                            last = ti.max(last, i)
+            if last >= 0:                       # one atomic per block of rows (see _stability)
+                ti.atomic_min(self.wet[0], first)
+                ti.atomic_max(self.wet[1], last)
         return ti.Vector([self.wet[0], self.wet[1]])
 
     # ------------------------------------------------------------------ stepper interface
