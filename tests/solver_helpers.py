@@ -44,3 +44,15 @@ def random_state(lay, rng, wet_dry=False, smooth=False):
     if lay.segregation:
         q[lay.HPHI] = h * phi
     return q
+
+
+# A small valid 2D scene file (no name): the base of the malformed-text cases of the scene and
+# bad-input tests.
+MINIMAL_SCENE = """
+[domain]
+Lx = 0.2
+Ly = 0.05
+resolution = 200
+[time]
+t_end = 0.5
+"""

@@ -18,15 +18,9 @@ from tiseg.cli import main
 from tiseg.errors import InputError
 from tiseg.scene import load_scene
 
-GOOD = """
-name = "good"
-[domain]
-Lx = 0.2
-Ly = 0.05
-resolution = 200
-[time]
-t_end = 0.5
-"""
+from solver_helpers import MINIMAL_SCENE
+
+GOOD = '\nname = "good"' + MINIMAL_SCENE
 
 # (scene file text, a word the message must contain)
 BAD_SCENES = [

@@ -411,17 +411,22 @@ def test_pure_mixture_stays_pure_with_full_physics(ti_cpu, phi):
     assert mass_error(sim)[0] < 1e-13
 
 
+def _small_uniform_scene(phi0=0.8, t_end=1.0, name="guarded"):
+    """A 16 x 4 periodic uniform flow (h0 = 2 mm, full physics): the smallest 2D scene."""
+    return scene_from_dict({
+        "flow": {"h0": 0.002, "phi0": phi0, "nu": 0.01},
+        "domain": {"nx": 16, "ny": 4, "Lx": 0.016, "Ly": 0.004},
+        "boundary": dict(PERIODIC),
+        "initial": {"kind": "uniform"},
+        "time": {"t_end": t_end}}, name=name)
+
+
 def test_round_off_past_one_stays_in_bounds(ti_cpu):
     """h phi = h (1 + 1e-15) everywhere (phi just past 1 by round-off) in a pure-small uniform
     flow: the guard tolerates it (a few ulps), one step clamps it back to h phi <= h exactly,
     and phi then stays 1 to round-off (measured |phi - 1| <= 1.1e-15: the RKC combinations of
     equal values round differently for h and h phi)."""
-    sc = scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": 1.0, "nu": 0.01},
-        "domain": {"nx": 16, "ny": 4, "Lx": 0.016, "Ly": 0.004},
-        "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform"},
-        "time": {"t_end": 0.05}}, name="past-one")
+    sc = _small_uniform_scene(phi0=1.0, t_end=0.05, name="past-one")
     sim = Simulation(sc, check_every=1)
     q = sim.conserved().copy()
     q[-1] = q[0] * (1 + 1e-15)
@@ -580,13 +585,7 @@ def test_block_accelerates_above_zeta2_large(ti_cpu):
 
 # ================================================================================== guards
 def _small_uniform(**kw):
-    sc = scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.01},
-        "domain": {"nx": 16, "ny": 4, "Lx": 0.016, "Ly": 0.004},
-        "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform"},
-        "time": {"t_end": 1.0}}, name="guarded")
-    return Simulation(sc, **kw)
+    return Simulation(_small_uniform_scene(), **kw)
 
 
 @pytest.fixture(scope="module")

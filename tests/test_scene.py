@@ -13,17 +13,11 @@ from tiseg.scene import (SCENE_DIR, Scene, list_builtin_scenes, load_scene, pars
                          scene_from_text, scene_to_dict)
 from tiseg.steady import steady_state
 
+from solver_helpers import MINIMAL_SCENE
+
 BUILTINS = ["fingers", "uniform-flow", "dam-break", "monodisperse-front", "finite-release"]
 
-# A small valid 2D scene used as the base of the malformed-text cases.
-MINIMAL = """
-[domain]
-Lx = 0.2
-Ly = 0.05
-resolution = 200
-[time]
-t_end = 0.5
-"""
+MINIMAL = MINIMAL_SCENE      # a small valid 2D scene, the base of the malformed-text cases
 
 
 def test_scene_dir_is_repo_assets():

@@ -82,6 +82,12 @@ def available_backends() -> list[str]:
     return ["cpu"] + (["gpu"] if backend._probe_gpu(ti) is not None else [])
 
 
+def log_stderr(message: str) -> None:
+    """Progress lines of the benchmarks: stderr, flushed (stdout carries results and JSON)."""
+    sys.stderr.write(message + "\n")
+    sys.stderr.flush()
+
+
 def run_child(module: str, task: dict, work_dir: Path, tag: str) -> dict:
     """Run ``python -m module --child TASK.json`` and return the JSON it wrote.
 

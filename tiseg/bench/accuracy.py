@@ -53,7 +53,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import available_backends, machine_info, machine_line, run_child
+from . import available_backends, log_stderr, machine_info, machine_line, run_child
 
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 STEPPERS = ("rkc", "ssprk3", "euler")
@@ -756,12 +756,8 @@ def write_outputs(rows: list[dict], out_dir, machine: dict, **extra) -> dict:
 def _child(task_path: str) -> int:
     task = json.loads(Path(task_path).read_text())
 
-    def log(msg):
-        sys.stderr.write(msg + "\n")
-        sys.stderr.flush()
-
     rows = run_points(task["points"], task["quick"], task["precision"], task["backend"],
-                      task.get("threads", 0), reinit=True, log=log)
+                      task.get("threads", 0), reinit=True, log=log_stderr)
     Path(task["result"]).write_text(json.dumps({"rows": rows}, default=_json_default))
     return 0
 

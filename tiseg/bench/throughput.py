@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import available_backends, machine_info, machine_line, run_child
+from . import available_backends, log_stderr, machine_info, machine_line, run_child
 
 PAPER_GRID = (1125, 375)           # 750 cells per metre on 1.5 m x 0.5 m
 QUICK_GRID = (96, 32)
@@ -456,12 +456,8 @@ def markdown(report: dict) -> str:
 def _child(task_path: str) -> int:
     task = json.loads(Path(task_path).read_text())
 
-    def log(msg):
-        sys.stderr.write(msg + "\n")
-        sys.stderr.flush()
-
     res = measure(task["nx"], task["ny"], task["precision"], task["backend"],
-                  task.get("threads", 0), task.get("quick", False), task.get("variants"), log)
+                  task.get("threads", 0), task.get("quick", False), task.get("variants"), log_stderr)
     Path(task["result"]).write_text(json.dumps(res))
     return 0
 

@@ -1,21 +1,23 @@
-"""`tiseg bench accuracy|throughput`: what accuracy costs in time, and how fast the operator runs.
+"""`tiseg bench accuracy|throughput|steppers`: what accuracy costs in time, how fast the operator
+runs, and what each time stepper costs and loses on a run's own states.
 
-Both measure every precision (and the GPU where there is one) in child processes of their own,
-because Taichi's precision is fixed per process; see :mod:`tiseg.bench`.
+accuracy and throughput measure every precision (and the GPU where there is one) in child
+processes of their own, because Taichi's precision is fixed per process; see :mod:`tiseg.bench`.
 """
 from __future__ import annotations
 
-import contextlib
-import sys
 from pathlib import Path
 
-from .common import print_json
+from .common import check_threads, print_json, stdout_for_json
 
 
 def register(sub) -> None:
-    p = sub.add_parser("bench", help="benchmarks: accuracy against wall time, operator throughput",
-                       description="What accuracy costs in time (accuracy) and how fast the "
-                                   "operator and the steps run (throughput).")
+    p = sub.add_parser("bench", help="benchmarks: accuracy against wall time, operator "
+                                     "throughput, time steppers on a run's states",
+                       description="What accuracy costs in time (accuracy), how fast the "
+                                   "operator and the steps run (throughput), and what each "
+                                   "time stepper costs and loses on a run's own states "
+                                   "(steppers).")
     bsub = p.add_subparsers(dest="bench_command", metavar="BENCHMARK")
     bsub.required = True
 
@@ -32,14 +34,11 @@ def register(sub) -> None:
                         "fingers to t = 1 s (late: 5.5 s)")
     a.add_argument("--problems", nargs="+", default=None, metavar="NAME",
                    help="transport, ritter, growth, fingers, fingers-late (default: all)")
-    a.add_argument("--precisions", nargs="+", default=["f32", "f64"], choices=("f32", "f64"))
-    a.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
-                   help="default: cpu, and gpu where one is present")
+    _add_machine_options(a, precisions=["f32", "f64"])
     a.add_argument("--reconstructions", nargs="+", default=None,
                    choices=("first-order", "minmod", "weno"))
     a.add_argument("--steppers", nargs="+", default=None, choices=("rkc", "ssprk3", "ssprk2", "euler"))
     a.add_argument("--cfl", nargs="+", type=float, default=[0.25], help="Courant numbers (0.25)")
-    a.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
     a.add_argument("--json", action="store_true", help="print the summary as JSON")
     a.set_defaults(func=run_accuracy)
 
@@ -53,10 +52,7 @@ def register(sub) -> None:
     t.add_argument("--nx", type=int, default=None, help="cells downslope (default 1125, the paper's)")
     t.add_argument("--ny", type=int, default=None, help="cells across (default 375)")
     t.add_argument("--quick", action="store_true", help="small grid and few repeats, for CI")
-    t.add_argument("--precisions", nargs="+", default=["f64", "f32"], choices=("f32", "f64"))
-    t.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
-                   help="default: cpu, and gpu where one is present")
-    t.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+    _add_machine_options(t, precisions=["f64", "f32"])
     t.add_argument("--out", default=None, metavar="DIR",
                    help="also write throughput.json, throughput.md and effects.md there")
     t.add_argument("--json", action="store_true", help="print the full report as JSON")
@@ -87,21 +83,27 @@ def register(sub) -> None:
     s.set_defaults(func=run_steppers)
 
 
+def _add_machine_options(p, precisions) -> None:
+    """Where a benchmark measures: precisions (each in a child process), backends, threads."""
+    p.add_argument("--precisions", nargs="+", default=precisions, choices=("f32", "f64"))
+    p.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
+                   help="default: cpu, and gpu where one is present")
+    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+
+
 def run_accuracy(args) -> int:
-    from ..bench import accuracy
+    from ..bench import accuracy, log_stderr
     from ..errors import InputError
 
-    if args.threads < 0:
-        raise InputError(f"--threads={args.threads}: must be >= 0")
+    check_threads(args.threads)
     for c in args.cfl:
         if not 0 < c <= 1:
             raise InputError(f"--cfl {c!r}: must be in (0, 1]")
-    quiet = contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext()
-    with quiet:                # Taichi greets on stdout when it starts: keep it for the JSON
+    with stdout_for_json(args.json):
         summary = accuracy.run_study(
             args.out, quick=args.quick, problems=args.problems, precisions=args.precisions,
             backends=args.backends, reconstructions=args.reconstructions, steppers=args.steppers,
-            cfls=args.cfl, threads=args.threads, log=_log)
+            cfls=args.cfl, threads=args.threads, log=log_stderr)
     if args.json:
         print_json(summary)
     else:
@@ -113,20 +115,18 @@ def run_accuracy(args) -> int:
 
 
 def run_throughput(args) -> int:
-    from ..bench import throughput
+    from ..bench import log_stderr, throughput
     from ..errors import InputError
 
     for name in ("nx", "ny"):
         v = getattr(args, name)
         if v is not None and v < 1:
             raise InputError(f"--{name}={v}: must be >= 1")
-    if args.threads < 0:
-        raise InputError(f"--threads={args.threads}: must be >= 0")
-    quiet = contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext()
-    with quiet:                # Taichi greets on stdout when it starts: keep it for the JSON
+    check_threads(args.threads)
+    with stdout_for_json(args.json):
         report = throughput.run_benchmark(
             nx=args.nx, ny=args.ny, quick=args.quick, precisions=args.precisions,
-            backends=args.backends, threads=args.threads, out_dir=args.out, log=_log)
+            backends=args.backends, threads=args.threads, out_dir=args.out, log=log_stderr)
     if args.json:
         print_json(report)
     else:
@@ -135,20 +135,18 @@ def run_throughput(args) -> int:
 
 
 def run_steppers(args) -> int:
-    from ..bench import steppers
+    from ..bench import log_stderr, steppers
     from ..errors import InputError
 
-    if args.threads < 0:
-        raise InputError(f"--threads={args.threads}: must be >= 0")
+    check_threads(args.threads)
     run_dir = Path(args.run_dir)
     if not run_dir.is_dir():
         raise InputError(f"{run_dir}: not a folder; give the folder of a tiseg run")
-    quiet = contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext()
-    with quiet:
+    with stdout_for_json(args.json):
         report = steppers.measure(run_dir, times=args.times, span=args.span,
                                   steppers=args.steppers or steppers.STEPPERS,
                                   repeats=args.repeats, arch=args.arch, threads=args.threads,
-                                  log=_log)
+                                  log=log_stderr)
         files = steppers.write(report, args.out or run_dir / "bench-steppers")
     if args.json:
         print_json(report)
@@ -156,9 +154,3 @@ def run_steppers(args) -> int:
         print(steppers.markdown(report))
         print(f"written: {', '.join(str(f) for f in files)}")
     return 0
-
-
-def _log(message: str) -> None:
-    """Progress lines go to stderr (stdout carries the result)."""
-    sys.stderr.write(message + "\n")
-    sys.stderr.flush()

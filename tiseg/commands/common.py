@@ -1,6 +1,7 @@
 """Small helpers shared by the sub-commands."""
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -36,3 +37,15 @@ def positive(name: str, value: float) -> float:
     if not (math.isfinite(value) and value > 0):
         raise InputError(f"--{name}={value!r} must be a positive number")
     return value
+
+
+def check_threads(threads: int) -> None:
+    """The --threads option of every command that runs kernels."""
+    if threads < 0:
+        raise InputError(f"--threads={threads}: must be >= 0 (0 = all cores)")
+
+
+def stdout_for_json(as_json: bool):
+    """Context for the work before a command prints JSON: Taichi greets on stdout when it
+    starts, so anything printed meanwhile goes to stderr and stdout carries the JSON alone."""
+    return contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext()

@@ -6,7 +6,7 @@ this process; see :mod:`tiseg.estimate`. ``tiseg run SCENE --estimate`` prints t
 """
 from __future__ import annotations
 
-from .common import print_json
+from .common import check_threads, print_json, stdout_for_json
 from .run import add_scene_arguments
 
 
@@ -25,11 +25,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
     from .run import load
 
-    if args.threads < 0:
-        raise InputError(f"--threads={args.threads}: must be >= 0 (0 = all cores)")
+    check_threads(args.threads)
     scene = load(args)
     print_estimate(scene, args.arch, args.threads, output=not args.no_output, as_json=args.json)
     return 0
@@ -38,11 +36,8 @@ def run(args) -> int:
 def print_estimate(scene, arch: str, threads: int, output: bool = True,
                    as_json: bool = False) -> None:
     """Compute and print the estimate of a scene (shared with ``tiseg run --estimate``)."""
-    import contextlib
-    import sys
     from ..estimate import estimate
-    # Taichi greets on stdout when it starts: keep stdout for the JSON alone
-    with contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext():
+    with stdout_for_json(as_json):
         est = estimate(scene, arch=arch, threads=threads, output=output)
     if as_json:
         print_json(est.as_dict())

@@ -13,7 +13,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from .common import print_json
+from .common import check_threads, print_json
 
 
 def add_scene_arguments(p, scene_optional: bool = False) -> None:
@@ -78,8 +78,7 @@ def check_output_folder(out: Path, what: str = "--out") -> None:
 def _check_args(args) -> None:
     """Options that are wrong whatever the scene."""
     from ..errors import InputError
-    if args.threads < 0:
-        raise InputError(f"--threads={args.threads}: must be >= 0 (0 = all cores)")
+    check_threads(args.threads)
     if args.movie is None:
         unused = [n for n, v in (("--movie-field", args.movie_field), ("--fps", args.fps))
                   if v is not None]
