@@ -59,7 +59,6 @@ killed run), and appends from there.
 from __future__ import annotations
 
 import math
-import os
 import zipfile
 from pathlib import Path
 
@@ -223,9 +222,7 @@ def append_diagnostics(path, keep_rows: int):
                               f"expects {keep_rows}")
     buf = io.StringIO(newline="")
     csv.writer(buf).writerows([header] + body)
-    mode = path.stat().st_mode & 0o777
-    write_text_atomic(path, buf.getvalue())
-    os.chmod(path, mode)                        # the rewrite keeps the file's permissions
+    write_text_atomic(path, buf.getvalue())     # keeps the file's permissions
 
     class _Appending(DiagnosticsWriter):
         """DiagnosticsWriter that opens for appending instead of writing a new header."""

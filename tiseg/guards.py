@@ -20,12 +20,11 @@ scheme itself; the guard still checks them with a round-off tolerance (a few ulp
 reference thickness for h, a few ulps relative for phi, where phi = h phi / h is a division) so
 that a future stepper or a state set by hand is caught too, while round-off is not.
 
-A NaN is the failure that matters in practice. Note that ``max(NaN, 0) = 0`` in the operator's
-clamp, so a NaN thickness produced *inside* a step is turned into an empty cell by
-``postprocess`` before slot 0 is written; such a NaN is invisible in the state and shows up only
-as lost mass. The guard therefore also checks the mass balance (total mass against the initial
-mass plus what entered through the boundaries) with a loose tolerance, see
-:attr:`StateGuard.mass_tol`.
+A NaN is the failure that matters in practice. The operator's stage limiter clamps h >= 0 with a
+select that lets a NaN through (``max(NaN, 0)`` would give 0 and hide it as an empty cell), so a
+NaN made inside a step reaches slot 0 and the scan names its cell. The guard also checks the
+mass balance (total mass against the initial mass plus what entered through the boundaries)
+with a loose tolerance, see :attr:`StateGuard.mass_tol`: mass lost by any other route shows there.
 """
 # (no "from __future__ import annotations": Taichi reads kernel annotations as objects)
 
@@ -64,8 +63,7 @@ class Violation:
                     if math.isfinite(self.value) else
                     "is not finite (NaN in the total or in the boundary budget)")
             return (f"mass balance broken at t={self.t:.9g} s (step {self.step}): the {self.field} "
-                    f"{what}; a NaN made inside a step is turned into an empty cell by the "
-                    "h >= 0 clamp, so lost mass is how it shows")
+                    f"{what}")
         more = f" (and {self.count - 1} more cells)" if self.count > 1 else ""
         return (f"{self.rule} {self.field}={self.value!r} at t={self.t:.9g} s (step {self.step}) "
                 f"in cell (i={self.i}, j={self.j}) at x={self.x:.6g} m, y={self.y:.6g} m{more}")
@@ -153,7 +151,7 @@ class StateGuard:
 
     def check_mass(self, totals: dict, initial: dict, budget: dict, t: float,
                    step: int) -> Violation | None:
-        """Total mass against initial + inflow (a NaN turned into an empty cell loses mass)."""
+        """Total mass against initial + inflow (a backstop for losses the scan cannot see)."""
         if not self.mass_tol > 0:
             return None
         expected = initial["mass"] + budget["mass_in"]

@@ -7,7 +7,7 @@ face coefficients, and the friction source.
 
 States live in one field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field
 passed as template, so buffers are slots selected by an integer). Time steppers
-(:mod:`tiseg.timestepping`) see only :meth:`rhs`, :meth:`combine`, :meth:`postprocess` and
+(:mod:`tiseg.timestepping`) see only :meth:`rhs`, :meth:`combine` (with the stage limiter) and
 :meth:`stability`.
 """
 
@@ -96,7 +96,7 @@ class TaichiOperator:
         p = np.zeros(P.COUNT)
         p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
         p[P.NU], p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.nu, cfg.h_min, cfg.h_eps ** 4, cfg.u_eps
-        p[P.THETA], p[P.WENO_EPS], p[P.H_REF], p[P.U_REF] = cfg.theta, cfg.weno_eps, cfg.h_ref, cfg.u_ref
+        p[P.THETA], p[P.WENO_EPS] = cfg.theta, cfg.weno_eps
         p[P.ALPHA1], p[P.PHI_REF], p[P.DX], p[P.DY] = 1.0 - cfg.alpha, cfg.phi_ref, cfg.dx, cfg.dy
         f = cfg.fric
         if f is not None:
@@ -263,10 +263,6 @@ class TaichiOperator:
             lim = 2.0 * ti.min(p, 1.0 - p)
             s[self.HPHI] = ti.min(ti.max(s[self.HPHI], -lim), lim)
         return s
-
-    @ti.kernel
-    def _fill_ghosts(self, s: ti.i32):
-        self._ghosts(s)
 
     @ti.kernel
     def _ghosts_primitives_slopes(self, s: ti.i32):
@@ -455,12 +451,6 @@ class TaichiOperator:
                     self.bud[d, 3] += (self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]) * dx
 
     @ti.kernel
-    def _postprocess(self, s: ti.i32):
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
-            self.q[s, i, j] = self._limit(self.q[s, i, j])
-
-    @ti.kernel
     def _stability(self) -> ti.types.vector(6, float):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
         from the primitives of the current state. Blocks of rows run in parallel and reduce
@@ -603,7 +593,7 @@ class TaichiOperator:
     def combine(self, dst: int, terms, limit: bool = False) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
         can touch (the active range and its stencil halo; all cells without an active range);
-        ``limit=True`` applies the stage limiter (:meth:`postprocess`) in the same pass.
+        ``limit=True`` applies the stage limiter (:meth:`_limit`) in the same pass.
 
         dst may be one of the sources: the update is element-wise.
         """
@@ -645,11 +635,6 @@ class TaichiOperator:
         self._set_time(t)
         w = self._wet_extent(slot)
         return int(w[0]), int(w[1])
-
-    def postprocess(self, slot: int) -> None:
-        if self._prepared is not None and self._prepared[0] == slot:
-            self._prepared = None
-        self._postprocess(slot)
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         self._prepare(slot, t)
