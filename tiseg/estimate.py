@@ -229,16 +229,16 @@ def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, flo
 
 def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = None) -> dict:
     """Steps, operator evaluations and the per-step (t, dt, stages, active cells) of a run."""
-    from .timestepping import make_stepper
+    from .simulation import ACTIVE_MARGIN, step_limits
+    from .timestepping import stepper_for
     model = model or flow_model(scene)
     num = scene.numerics
-    stepper = make_stepper(num.stepper, **({"max_stages": num.max_stages}
-                                           if num.stepper == "rkc" else {}))
+    stepper = stepper_for(num)
     t_end = scene.t_end if t_end is None else t_end
     times = [t for t in scene.output_times if 1e-12 < t <= t_end + 1e-12]
     if not times or times[-1] < t_end - 1e-12:
         times.append(t_end)
-    dx, dy = scene.dx, scene.dy
+    dx = scene.dx
     nx, ny = scene.domain.nx, scene.domain.ny
     periodic = scene.boundary.x_lo == "periodic"
     inflow = scene.has_inflow
@@ -254,10 +254,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
         for a, b in zip(edges[:-1], edges[1:]):
             tm = 0.5 * (a + b)
             ax, ay, rv, rf = spectral_radii(scene, model, tm)
-            rate = max(ax / dx, (ay / dy if not scene.is_1d else 0.0))
-            dt_cfl = num.cfl / rate if rate > 0 else math.inf
-            inv = ax / dx + (ay / dy if not scene.is_1d else 0.0)
-            rho = max(rv, rf) + 2.0 * inv
+            dt_cfl, rho = step_limits(ax, ay, max(rv, rf), scene)
             if not math.isfinite(dt_cfl) and rho == 0:
                 dt_cfl = b - a
             dt, s = stepper.plan(dt_cfl, rho, t1 - t0)
@@ -272,7 +269,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
                 active = nx
             else:
                 lo, hi = model.wet(tm) or (0.0, scene.domain.Lx)
-                pad = s + 3
+                pad = s + ACTIVE_MARGIN
                 first = 0 if inflow else max(0, int(lo / dx) - pad)
                 last = min(nx, int(math.ceil(hi / dx)) + 1 + pad)
                 active = max(0, last - first)

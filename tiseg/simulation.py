@@ -29,7 +29,24 @@ from .errors import InputError, TisegError
 from .guards import StateGuard, Violation
 from .initial import initial_state
 from .numerics.config import config_from_scene
-from .timestepping import make_stepper
+from .timestepping import stepper_for
+
+# Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
+# (the stencil's reach): the range stays exact (see TaichiOperator._combine).
+ACTIVE_MARGIN = 3
+
+
+def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, float]:
+    """(dt_cfl, rho): the rules every step is planned with, shared with tiseg.estimate.
+
+    dt_cfl is the KT positivity limit dt <= C min(dx / a_x, dy / a_y) (Kurganov & Petrova
+    2007; C = cfl = 1/4 in 2D), infinite when nothing moves; rho is the spectral radius the
+    steppers plan with: the viscous + friction stiffness plus the KT dissipation
+    2 (a_x/dx + a_y/dy) (NUMERICS finding 6)."""
+    inv = ax / scene.dx + (ay / scene.dy if not scene.is_1d else 0.0)
+    rate = max(ax / scene.dx, (ay / scene.dy if not scene.is_1d else 0.0))
+    dt_cfl = scene.numerics.cfl / rate if rate > 0 else math.inf
+    return dt_cfl, rho_stiff + 2.0 * inv
 
 
 @dataclass
@@ -82,9 +99,7 @@ class Simulation:
         self.backend = backend.state()
         self.cfg = config_from_scene(scene)
         self.layout = self.cfg.layout
-        num = scene.numerics
-        kw = {"max_stages": num.max_stages} if num.stepper == "rkc" else {}
-        self.stepper = make_stepper(num.stepper, **kw)
+        self.stepper = stepper_for(scene.numerics)
         self.op = TaichiOperator(self.cfg, nslots=max(self.stepper.slots, 2))
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
@@ -203,12 +218,7 @@ class Simulation:
         stab = self.op.stability(0, self.t)
         ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
         ax = max(ax, self._inflow_speed())
-        inv = ax / sc.dx + (ay / sc.dy if not self.layout.is_1d else 0.0)
-        # KT positivity limit dt <= C min(dx / a_x, dy / a_y) (Kurganov & Petrova 2007; C = 1/4
-        # in 2D); the KT dissipation 2 (a_x/dx + a_y/dy) enters the spectral radius.
-        rate = max(ax / sc.dx, (ay / sc.dy if not self.layout.is_1d else 0.0))
-        dt_cfl = sc.numerics.cfl / rate if rate > 0 else math.inf
-        rho = stab.rho_stiff + 2.0 * inv
+        dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc)
         remaining = (t_target if t_target is not None else sc.t_end) - self.t
         dt_max = remaining if remaining > 0 else 0.0
         if not math.isfinite(dt_cfl) and rho == 0:
@@ -238,7 +248,7 @@ class Simulation:
     def _set_active(self, extent: tuple[int, int], stages: int) -> None:
         lay = self.layout
         first, last = extent
-        pad = stages + 3
+        pad = stages + ACTIVE_MARGIN
         inflow = self.scene.boundary.x_lo == "inflow"
         if last < 0:                              # nothing wet: only an inflow can wet cells
             a, b = lay.gx, (lay.gx + pad if inflow else lay.gx)

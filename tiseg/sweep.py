@@ -236,7 +236,7 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
         for t in times:
             if t > scene.t_end * (1 + 1e-12):
                 fail(f"{label}: times lists {t:g} s, after time.t_end = {scene.t_end:g} s")
-            if not any(abs(t - s) <= 1e-9 * max(1.0, t) for s in scene.output_times):
+            if time_index(scene.output_times, t) is None:
                 fail(f"{label}: times lists {t:g} s, which is not an output time of the scene; "
                      f"add it to output.times in [set]")
         runs.append(SweepRun(run_name, values, overrides, scene))
@@ -388,7 +388,7 @@ def execute_run(spec: dict) -> dict:
     sim = Simulation(scene)
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
     stats = sim.run(out_dir=run_dir, progress=False,
-                    on_output=(lambda s: report(s)) if report else None)
+                    on_output=report)
     metrics = analyse_run(run_dir)
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
     nx, ny = scene.domain.nx, scene.domain.ny
@@ -481,11 +481,11 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
             pending.append(run)
     say(f"sweep {sweep.name!r}: {len(sweep.runs)} runs, {len(records)} already finished, "
         f"{len(pending)} to run; output in {out}/")
-    _write_outputs(sweep, out, records)
+    # written now and after every finished run (a partial table survives an interruption)
+    table = _write_outputs(sweep, out, records)
     if pending:
         _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_task, arch,
                      say, progress_interval)
-    table = _write_outputs(sweep, out, records)
     result = SweepResult(out, table, [records.get(r.name, {"name": r.name, "status": "missing"})
                                       for r in sweep.runs])
     say(f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
@@ -624,7 +624,7 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
                 for k in FINAL_METRICS:
                     row[k] = m[k][-1]
             for t in sweep.times:
-                i = _nearest(times, t)
+                i = time_index(times, t)
                 for k in TIME_METRICS:
                     row[f"{k}@{t:g}"] = m[k][i] if i is not None else None
             for k in COST_COLUMNS:
@@ -634,7 +634,8 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
     return rows
 
 
-def _nearest(times, t) -> int | None:
+def time_index(times, t) -> int | None:
+    """Index of the output time equal to t (to 1e-9 relative), or None."""
     for i, s in enumerate(times):
         if abs(s - t) <= 1e-9 * max(1.0, t):
             return i

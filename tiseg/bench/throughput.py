@@ -361,12 +361,12 @@ def run_benchmark(nx=None, ny=None, quick: bool = False, precisions=("f64", "f32
         raise InputError("in-process runs take one precision and one backend")
     t0 = time.perf_counter()
     results = []
+    work = None if in_process else (Path(out_dir) / ".work" if out_dir else _tmp_work())
     for prec, be in combos:
         if in_process:
             thr = threads or (_backend.state().threads if _backend.is_initialised() else 0)
             results.append(measure(nx, ny, prec, be, thr, quick, variants, log))
         else:
-            work = Path(out_dir or ".") / ".work" if out_dir else _tmp_work()
             results.append(run_child("tiseg.bench.throughput",
                                      {"nx": nx, "ny": ny, "precision": prec, "backend": be,
                                       "threads": threads, "quick": quick,

@@ -157,8 +157,7 @@ def run(args) -> int:
         _backend_first(args, scene.numerics.precision)
         check_output_folder(out)
         if args.movie is not None:
-            check_output_folder(Path(args.movie).parent if Path(args.movie).parent != Path("")
-                                else Path("."), "--movie")
+            check_output_folder(Path(args.movie).parent, "--movie")
         sim = Simulation(scene, arch=args.arch, threads=args.threads)
     before = sim.initial_totals
     movie = _movie(args, sim)

@@ -84,10 +84,9 @@ class StudyRun:
             return None
         if t is None:
             return m[key][-1]
-        for i, s in enumerate(times):
-            if abs(s - t) <= 1e-9 * max(1.0, t):
-                return m[key][i]
-        return None
+        from ..sweep import time_index
+        i = time_index(times, t)
+        return None if i is None else m[key][i]
 
     def onset(self) -> float | None:
         """First output time with fingers (finger_count > 0), or None."""
@@ -201,7 +200,7 @@ def fig12_14(study: Study, out: Path, dpi: int) -> list[Path]:
 
 
 def _render_phi(run: StudyRun, t: float):
-    """(RGB image in the experiment colours, imshow extent [m], scene) of phi at the output
+    """(RGB image in the experiment colours, imshow extent [m]) of phi at the output
     time nearest t of a run; the same frame kernel as the movies and plot_panels."""
     from ..output.netcdf import read_fields
     from ..render.frame import render_fields
@@ -213,7 +212,7 @@ def _render_phi(run: StudyRun, t: float):
         snap = _snapshot(ds, k)
     img = render_fields(snap, sc.numerics.h_min, field="phi", colourbar=False,
                         aspect=sc.dy / sc.dx)
-    return img, (0.0, sc.domain.Lx, 0.0, sc.domain.Ly), sc
+    return img, (0.0, sc.domain.Lx, 0.0, sc.domain.Ly)
 
 
 def _phi_stack(items, path: Path, dpi: int, title: str) -> Path:
@@ -228,7 +227,7 @@ def _phi_stack(items, path: Path, dpi: int, title: str) -> Path:
                         size=(width, sum(h * width * 0.9 + 0.45 for h in heights) + 0.5),
                         gridspec_kw={"height_ratios": heights})
     for ax, (label, run, t) in zip(axes[:, 0], items):
-        img, extent, sc = _render_phi(run, t)
+        img, extent = _render_phi(run, t)
         ax.imshow(img, extent=extent, interpolation="nearest", aspect="equal")
         for key in ("x_front_max", "x_front_min"):
             x = run.at(key, t)

@@ -5,14 +5,14 @@ Every stepper advances slot 0 of an operator offering
 * ``rhs(src, dst, t)``: slot dst := L(slot src, t),
 * ``combine(dst, [(c, slot), ...], limit)``: slot dst := sum c * slot (element-wise, dst may be
   a source), followed with ``limit=True`` by the stage limiter (h >= 0, phi in [0, 1]) in the
-  same pass over memory (``postprocess(slot)`` is the limiter alone),
+  same pass over memory,
 
 and chooses its step from two numbers the caller measures on the current state: the convective
 step ``dt_cfl`` and the spectral radius ``rho`` of the operator's Jacobian on the negative real
 axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
 """
-from .base import STEPPERS, Stepper, make_stepper
+from .base import STEPPERS, Stepper, make_stepper, stepper_for
 from .rkc import RKC
 from .ssprk import SSPRK2, SSPRK3, Euler
 
-__all__ = ["Stepper", "STEPPERS", "make_stepper", "RKC", "SSPRK2", "SSPRK3", "Euler"]
+__all__ = ["Stepper", "STEPPERS", "make_stepper", "stepper_for", "RKC", "SSPRK2", "SSPRK3", "Euler"]

@@ -27,6 +27,12 @@ class Stepper:
         raise NotImplementedError
 
 
+def stepper_for(numerics, name: str | None = None) -> Stepper:
+    """The stepper of a scene's [numerics] (or the one named), with the scene's RKC stage cap."""
+    name = name or numerics.stepper
+    return make_stepper(name, **({"max_stages": numerics.max_stages} if name == "rkc" else {}))
+
+
 def make_stepper(name: str, **kwargs) -> Stepper:
     if name not in STEPPERS:
         raise InputError(f"numerics.stepper={name!r} is not known; choose one of "
