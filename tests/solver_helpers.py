@@ -56,3 +56,14 @@ resolution = 200
 [time]
 t_end = 0.5
 """
+
+PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
+
+
+def exit_code(argv) -> int:
+    """tiseg's main(argv), with argparse's SystemExit(2) turned into its exit code."""
+    from tiseg.cli import main
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code

@@ -14,11 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tiseg.cli import main
 from tiseg.errors import InputError
 from tiseg.scene import load_scene
 
-from solver_helpers import MINIMAL_SCENE
+from solver_helpers import MINIMAL_SCENE, exit_code as _call
 
 GOOD = '\nname = "good"' + MINIMAL_SCENE
 
@@ -139,13 +138,6 @@ def _one_line_error(capfd, rc_or_exit) -> str:
     assert len(lines) == 1, err
     assert lines[0].startswith("tiseg") and "error:" in lines[0], err
     return lines[0]
-
-
-def _call(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:             # argparse's errors leave through SystemExit(2)
-        return exc.code
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,8 @@ from tiseg.stability import dispersion2d as d2
 from tiseg.stability.base import base_state
 from tiseg.steady import steady_state
 
+from solver_helpers import exit_code
+
 
 def run_json(capsys, argv):
     rc = main(argv)
@@ -133,17 +135,10 @@ PARSER_ERRORS = [    # rejected by argparse: its usage line plus one error line
 ]
 
 
-def _exit_code(argv):
-    try:
-        return main(argv)
-    except SystemExit as exc:          # argparse exits through SystemExit(2)
-        return exc.code
-
-
 @pytest.mark.parametrize("argv", LIBRARY_ERRORS)
 def test_bad_input_one_line_error(capsys, argv, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)        # nothing may be written, but stay out of the checkout
-    rc = _exit_code(argv)
+    rc = exit_code(argv)
     out, err = capsys.readouterr()
     assert rc == 2
     assert out == ""
@@ -154,7 +149,7 @@ def test_bad_input_one_line_error(capsys, argv, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("argv", PARSER_ERRORS)
 def test_bad_arguments_usage_error(capsys, argv):
-    rc = _exit_code(argv)
+    rc = exit_code(argv)
     _, err = capsys.readouterr()
     assert rc == 2
     assert "Traceback" not in err

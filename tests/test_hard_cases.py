@@ -25,7 +25,8 @@ from tiseg.scene import load_scene, scene_from_dict
 from tiseg.simulation import Simulation, SimulationError
 from tiseg.steady import steady_state
 
-PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
+from solver_helpers import PERIODIC
+
 OPEN = {"x_lo": "outflow", "x_hi": "outflow", "y_lo": "periodic", "y_hi": "periodic"}
 G = 9.81
 
@@ -411,14 +412,16 @@ def test_pure_mixture_stays_pure_with_full_physics(ti_cpu, phi):
     assert mass_error(sim)[0] < 1e-13
 
 
-def _small_uniform_scene(phi0=0.8, t_end=1.0, name="guarded"):
-    """A 16 x 4 periodic uniform flow (h0 = 2 mm, full physics): the smallest 2D scene."""
-    return scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": phi0, "nu": 0.01},
-        "domain": {"nx": 16, "ny": 4, "Lx": 0.016, "Ly": 0.004},
-        "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform"},
-        "time": {"t_end": t_end}}, name=name)
+def _small_uniform_scene(phi0=0.8, t_end=1.0, name="guarded", nx=16, precision=None):
+    """An nx x 4 periodic uniform flow on 1 mm cells (h0 = 2 mm, full physics)."""
+    d = {"flow": {"h0": 0.002, "phi0": phi0, "nu": 0.01},
+         "domain": {"nx": nx, "ny": 4, "Lx": nx * 0.001, "Ly": 0.004},
+         "boundary": dict(PERIODIC),
+         "initial": {"kind": "uniform"},
+         "time": {"t_end": t_end}}
+    if precision is not None:
+        d["numerics"] = {"precision": precision}
+    return scene_from_dict(d, name=name)
 
 
 def test_round_off_past_one_stays_in_bounds(ti_cpu):
@@ -447,13 +450,7 @@ def long_run(precision: str, steps: int) -> dict:
     drift from the initial values and its spread across cells, relative, per component."""
     import tiseg
     tiseg.init("cpu", precision)
-    sc = scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.01},
-        "domain": {"nx": 8, "ny": 4, "Lx": 0.008, "Ly": 0.004},
-        "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform"},
-        "numerics": {"precision": precision},
-        "time": {"t_end": 100.0}}, name="long")
+    sc = _small_uniform_scene(nx=8, t_end=100.0, name="long", precision=precision)
     sim = Simulation(sc)
     q0 = sim.conserved().copy()
     for _ in range(steps):

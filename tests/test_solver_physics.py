@@ -10,7 +10,8 @@ from scipy.optimize import brentq
 from tiseg.scene import load_scene, scene_from_dict
 from tiseg.simulation import Simulation
 
-PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
+from solver_helpers import PERIODIC
+
 
 
 def uniform_scene(nx=16, ny=8, nu=0.001, amplitude=0.0, mode="h", k=0.2399, stepper="rkc",
