@@ -30,6 +30,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
+from . import new_figure, save_figure
 
 SWEEP_DIR = Path(__file__).resolve().parents[2] / "assets" / "sweeps"
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)        # panels of figures 12-14
@@ -166,17 +167,10 @@ def obtain_study(key: str, runs_root: Path, settings: dict | None = None, *,
 # Figures
 # =================================================================================================
 def _figure(nrows=1, ncols=1, size=(6.0, 4.2), **kw):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=size, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig, fig.subplots(nrows, ncols, squeeze=False, **kw)
+    return new_figure(nrows, ncols, size, layout="constrained", **kw)
 
 
-def _save(fig, path: Path, dpi: int) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
+_save = save_figure
 
 
 def _resolution(run: StudyRun) -> float:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..material import TABLE1, Material
+from . import new_figure, save_figure
 from ..stability import asymptotics as asy
 from ..stability import dispersion1d as d1
 from ..stability.base import BaseState, base_state, base_state_from_froude
@@ -30,20 +31,11 @@ S_LABEL = r"growth rate $\sigma_M$ [units of $u_0/h_0$]"
 
 
 def _figure(nrows=1, ncols=1, size=(6.0, 4.2)):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=size)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(nrows, ncols, squeeze=False)
-    return fig, axes
+    return new_figure(nrows, ncols, size)
 
 
 def _save(fig, path, dpi) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
-    return path
+    return save_figure(fig, path, dpi, tight=True)
 
 
 # ---- figure 8 ----------------------------------------------------------------------------------
