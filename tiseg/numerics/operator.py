@@ -48,6 +48,7 @@ class TaichiOperator:
         self.lay = lay
         self.nslots = nslots
         self.fp = ti.f64 if st.precision == "f64" else ti.f32
+        self._stability = self._stability_f64 if st.precision == "f64" else self._stability_f32
         self.np_fp = np.float64 if st.precision == "f64" else np.float32
         nc, NX, NY = lay.nc, lay.NX, lay.NY
         # compile-time constants
@@ -450,8 +451,20 @@ class TaichiOperator:
                 if ti.static(self.seg):
                     self.bud[d, 3] += (self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]) * dx
 
+    # The return type must follow the run's precision. A type built from ``float`` is fixed
+    # when this module is imported, i.e. before tiseg.init chooses the precision (Taichi's
+    # default is f32), which rounded every f64 run's step limits to f32. One kernel per
+    # precision, chosen in __init__; only the chosen one is ever compiled (Metal has no f64).
     @ti.kernel
-    def _stability(self) -> ti.types.vector(6, float):
+    def _stability_f64(self) -> ti.types.vector(6, ti.f64):
+        return self._stability_body()
+
+    @ti.kernel
+    def _stability_f32(self) -> ti.types.vector(6, ti.f32):
+        return self._stability_body()
+
+    @ti.func
+    def _stability_body(self):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
         from the primitives of the current state. Blocks of rows run in parallel and reduce
         locally, so there is one atomic per block (maxima are order independent:
