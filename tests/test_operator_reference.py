@@ -64,3 +64,20 @@ def test_taichi_matches_reference_effects(ti_cpu, effects):
     q = random_state(cfg.layout, rng, wet_dry=True)
     rel, _ = _compare(cfg, q)
     assert rel.max() < 1e-12, rel
+
+
+def test_inflow_noise_reaches_the_inflow_cells_as_in_the_reference(ti_cpu):
+    """inflow.noise: the Taichi operator's inflow ghost cells carry the same random profile as
+    the reference (both from tiseg.numerics.config.inflow_concentration), and it changes the
+    rates: the inflow column's h phi rate differs from the run without noise."""
+    rng = np.random.default_rng(4)
+    cfg = make_config(12, 16, reconstruction="weno", bc=BOUNDARIES[0], Ly=0.2, dy=0.2 / 16,
+                      inflow_noise=0.05, inflow_seed=11)
+    q = random_state(cfg.layout, rng, smooth=True)
+    rel, _ = _compare(cfg, q)
+    assert rel.max() < 1e-12, rel
+    quiet = make_config(12, 16, reconstruction="weno", bc=BOUNDARIES[0], Ly=0.2, dy=0.2 / 16)
+    ref = ReferenceOperator(cfg)
+    a, b = ref.rhs(q.copy(), 0.05), ReferenceOperator(quiet).rhs(q.copy(), 0.05)
+    gx = cfg.layout.gx
+    assert np.abs(a[cfg.layout.HPHI, gx] - b[cfg.layout.HPHI, gx]).max() > 1e-6

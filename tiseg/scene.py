@@ -68,7 +68,8 @@ SECTION_KEYS = {
     "effects": ("segregation", "mobility_feedback", "viscosity", "friction", "coulomb_mu"),
     "domain": ("Lx", "Ly", "resolution", "nx", "ny"),
     "boundary": ("x_lo", "x_hi", "y_lo", "y_hi"),
-    "inflow": ("h", "u", "phi", "ramp_rate", "perturbation", "modes", "stop_time"),
+    "inflow": ("h", "u", "phi", "ramp_rate", "perturbation", "modes", "stop_time", "noise",
+               "seed"),
     "initial": tuple(dict.fromkeys(k for keys in INITIAL_KEYS.values() for k in keys)),
     "numerics": ("reconstruction", "theta", "stepper", "cfl", "precision", "h_min", "h_eps",
                  "u_eps", "max_stages"),
@@ -170,10 +171,17 @@ class InflowConfig:
     """Inflow at x = 0, (6.8)-(6.9):
 
     h(0, y, t) = (1 - exp(-ramp_rate t)) h,  u = u,  v = 0,
-    phi(0, y, t) = phi + perturbation sin(2 pi modes y / Ly),
+    phi(0, y, t) = phi + perturbation sin(2 pi modes y / Ly) + noise phi r(y),
 
     switched off (h = 0) for t > stop_time when a finite release is modelled. In a 1D run the
     single cell row has its centre at y = Ly/2, where the perturbation sin(pi modes) vanishes.
+
+    ``noise`` (default 0) adds a random cross-slope profile r(y) of unit RMS, band-limited to
+    wavelengths of 2 cm and more and the same on every grid
+    (:func:`tiseg.numerics.config.inflow_noise`), drawn from ``seed``: without it the
+    symmetry of (6.9) is broken by round-off alone, so the finger pattern of one run is one
+    draw that changes with any change of the numerics; with it, runs that differ only in
+    ``seed`` are physically different realisations (ensembles, ``tiseg sweep``).
     """
     h: float
     u: float
@@ -182,6 +190,8 @@ class InflowConfig:
     perturbation: float = 8e-5        # delta of (6.9)
     modes: int = 1                    # number of sine periods across Ly
     stop_time: float | None = None    # [s]; None = continuous inflow
+    noise: float = 0.0                # relative RMS amplitude of the random profile
+    seed: int = 0                     # realisation of the random profile
 
     def thickness(self, t: float) -> float:
         """Inflow thickness at time t, (6.8a); 0 after ``stop_time``."""
@@ -191,9 +201,10 @@ class InflowConfig:
         return ramp * self.h
 
     def concentration(self, y, Ly: float):
-        """Inflow concentration (6.8d), (6.9) at cross-slope positions y [m]."""
-        y = np.asarray(y, dtype=float)
-        return self.phi + self.perturbation * np.sin(2.0 * np.pi * self.modes * y / Ly)
+        """Inflow concentration (6.8d), (6.9) plus the noise at cross-slope positions y [m]."""
+        from .numerics.config import inflow_concentration
+        return inflow_concentration(y, Ly, self.phi, self.perturbation, self.modes, self.noise,
+                                    self.seed)
 
 
 @dataclass(frozen=True)
@@ -518,7 +529,8 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
     if scene.inflow is not None:
         i = scene.inflow
         inflow = {"h": i.h, "u": i.u, "phi": i.phi, "ramp_rate": i.ramp_rate,
-                  "perturbation": i.perturbation, "modes": i.modes}
+                  "perturbation": i.perturbation, "modes": i.modes, "noise": i.noise,
+                  "seed": i.seed}
         if i.stop_time is not None:
             inflow["stop_time"] = i.stop_time
         d["inflow"] = inflow
@@ -782,6 +794,17 @@ def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: Dom
     if not (0.0 <= phi - abs(delta) and phi + abs(delta) <= 1.0):
         raise InputError(f"inflow.perturbation={delta!r}: phi = inflow.phi={phi!r} +- "
                          f"{abs(delta)!r} leaves [0, 1]; use a smaller perturbation (or 0)")
+    noise = t.number("noise", 0.0, nonneg=True)
+    seed = t.integer("seed", 0, lo=0)
+    if seed >= 2 ** 63:
+        raise InputError(f"inflow.seed={seed}: must be below 2**63")
+    # the random profile never exceeds sqrt(2 N) in magnitude (inflow_noise)
+    from .numerics.config import noise_modes
+    reach = abs(delta) + noise * phi * math.sqrt(2.0 * noise_modes(domain.Ly))
+    if noise and not (0.0 <= phi - reach and phi + reach <= 1.0):
+        raise InputError(f"inflow.noise={noise!r}: phi = inflow.phi={phi!r} + perturbation + "
+                         f"noise can reach {phi - reach:.4g}..{phi + reach:.4g}, outside [0, 1]; "
+                         "use a smaller noise (1e-4 is the scale of (6.9))")
     if delta != 0.0 and not domain.is_1d:
         cells = domain.ny / modes
         if cells < MIN_CELLS_PER_PERTURBATION:
@@ -791,7 +814,7 @@ def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: Dom
                 f"{MIN_CELLS_PER_PERTURBATION} cells are needed to resolve it (raise "
                 "domain.resolution or domain.ny, or lower inflow.modes)")
     return InflowConfig(h=h, u=u, phi=phi, ramp_rate=ramp, perturbation=delta, modes=modes,
-                        stop_time=stop)
+                        stop_time=stop, noise=noise, seed=seed)
 
 
 def _read_initial(t: "_Table", kind: str, wavelengths: float | None, domain: DomainConfig,

@@ -15,10 +15,54 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
 GHOST = 2
+NOISE_MIN_WAVELENGTH = 0.02   # [m] shortest cross-slope wavelength of the inflow noise
+
+
+def inflow_noise(y, Ly: float, seed: int) -> np.ndarray:
+    """Unit-RMS random cross-slope profile r(y) of the inflow noise (``inflow.noise``).
+
+    r(y) = sqrt(2 / N) sum_{n=1..N} cos(2 pi n y / Ly + theta_n), with N = floor(Ly / 2 cm)
+    (at least 1) and phases theta_n drawn uniformly from numpy's PCG64 generator seeded with
+    ``seed``. Periodic across Ly, band-limited, of mean 0 and RMS 1 over [0, Ly], and the same
+    function of y on every grid: a seed names one physical realisation, so a grid study with
+    seeds compares the same perturbations at every resolution. Its values never exceed
+    sqrt(2 N) in magnitude. Why a spectrum rather than a value per cell: white noise per cell
+    would put less and less of its variance into the resolved, physically unstable
+    wavelengths (~5 cm) as the grid is refined.
+    """
+    y = np.asarray(y, dtype=float)
+    n_modes = noise_modes(Ly)
+    theta = np.random.default_rng(int(seed)).uniform(0.0, 2.0 * np.pi, n_modes)
+    n = np.arange(1, n_modes + 1)
+    arg = 2.0 * np.pi * np.multiply.outer(y, n) / Ly + theta
+    return math.sqrt(2.0 / n_modes) * np.cos(arg).sum(axis=-1)
+
+
+def noise_modes(Ly: float) -> int:
+    """Number N of Fourier modes of :func:`inflow_noise` across Ly."""
+    return max(1, int(math.floor(Ly / NOISE_MIN_WAVELENGTH + 1e-9)))
+
+
+def inflow_concentration(y, Ly: float, phi: float, delta: float, modes: int,
+                         noise: float = 0.0, seed: int = 0) -> np.ndarray:
+    """Inflow concentration at cross-slope positions y [m]: (6.9) plus the optional noise,
+
+    phi(0, y) = phi + delta sin(2 pi modes y / Ly) + noise phi r(y)   (r: :func:`inflow_noise`),
+
+    clipped to [0, 1] (the scene keeps it inside; the clip only guards round-off). The one
+    definition used by the Taichi operator (as a field filled once), the NumPy reference and
+    the scene."""
+    y = np.asarray(y, dtype=float)
+    out = phi + delta * np.sin(2.0 * np.pi * modes * y / Ly)
+    if noise:
+        out = out + noise * phi * inflow_noise(y, Ly, seed)
+    return np.clip(out, 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -122,6 +166,8 @@ class OperatorConfig:
     inflow_ramp: float = 10.0
     inflow_delta: float = 0.0
     inflow_modes: int = 1
+    inflow_noise: float = 0.0         # relative amplitude of the random profile (inflow.noise)
+    inflow_seed: int = 0
     inflow_stop: float = math.inf
 
     def __post_init__(self):
@@ -141,6 +187,11 @@ class OperatorConfig:
     @property
     def segregation(self) -> bool:
         return self.layout.segregation
+
+    def inflow_phi_profile(self, y) -> np.ndarray:
+        """Inflow concentration (6.9) + noise at cross-slope positions y [m]."""
+        return inflow_concentration(y, self.Ly, self.inflow_phi, self.inflow_delta,
+                                    self.inflow_modes, self.inflow_noise, self.inflow_seed)
 
     def inflow_state(self, t: float) -> tuple[float, float, float]:
         """(h, u, phi) of the inflow (6.8) at time t; h = 0 once the inflow has stopped."""
@@ -167,7 +218,8 @@ def config_from_scene(scene) -> OperatorConfig:
     if inflow is not None:
         kw = dict(inflow_h=inflow.h, inflow_u=inflow.u, inflow_phi=inflow.phi,
                   inflow_ramp=inflow.ramp_rate, inflow_delta=inflow.perturbation,
-                  inflow_modes=inflow.modes,
+                  inflow_modes=inflow.modes, inflow_noise=inflow.noise,
+                  inflow_seed=inflow.seed,
                   inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time)
     num = scene.numerics
     return OperatorConfig(

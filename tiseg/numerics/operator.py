@@ -11,7 +11,6 @@ passed as template, so buffers are slots selected by an integer). Time steppers
 :meth:`stability`.
 """
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +69,9 @@ class TaichiOperator:
             self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
             self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
         self.par = ti.field(self.fp, shape=Params.COUNT)
+        # inflow concentration per cross-slope cell: only with an inflow that carries phi
+        self.inflow_prof = (ti.field(self.fp, shape=NY)
+                           if self.seg and cfg.bc[0] == "inflow" else None)
         self.red = ti.field(self.fp, shape=6)
         # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
@@ -103,13 +105,20 @@ class TaichiOperator:
         if f is not None:
             p[P.MU1S:P.MUC + 1] = [f.mu1_s, f.mu2_s, f.beta_s, f.L_s, f.mu1_l, f.mu2_l, f.beta_l,
                                   f.L_l, f.coulomb_mu]
-        p[P.IN_U], p[P.IN_PHI], p[P.IN_DELTA] = cfg.inflow_u, cfg.inflow_phi, cfg.inflow_delta
-        p[P.IN_K] = 2.0 * math.pi * cfg.inflow_modes / cfg.Ly
+        p[P.IN_U] = cfg.inflow_u
         p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
         self.cfg = cfg
         self._prepared = None
         self.par.from_numpy(p.astype(self.np_fp))
+        if self.inflow_prof is not None:
+            # the inflow concentration profile (6.9) + noise, computed once on the host: no
+            # 64-bit transcendental functions in the kernels (SPIR-V has none), and the same
+            # numbers as the NumPy reference
+            prof = np.zeros(self.NY)
+            y = (np.arange(self.ny) + 0.5) * cfg.dy
+            prof[self.gy:self.gy + self.ny] = cfg.inflow_phi_profile(y)
+            self.inflow_prof.from_numpy(prof.astype(self.np_fp))
         self._inflow_key = None
 
     def _set_time(self, t: float) -> None:
@@ -170,10 +179,7 @@ class TaichiOperator:
                         v[0] = h
                         v[1] = h * self.par[Params.IN_U]
                         if ti.static(self.seg):
-                            y = (j - gy + 0.5) * self.par[Params.DY]
-                            phi = self.par[Params.IN_PHI] + self.par[Params.IN_DELTA] * ti.sin(
-                                self.par[Params.IN_K] * y)
-                            v[self.HPHI] = h * phi
+                            v[self.HPHI] = h * self.inflow_prof[j]
                     self.q[s, il, j] = v
                 else:  # a stopped inflow is a wall: no material leaks upstream
                     self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)

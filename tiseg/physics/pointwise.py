@@ -16,12 +16,12 @@ class Params:
     G_COS, G_SIN, NU, H_MIN, H_EPS4, U_EPS, THETA, WENO_EPS = range(8)
     ALPHA1, PHI_REF, DX, DY = range(8, 12)
     MU1S, MU2S, BETAS, LS, MU1L, MU2L, BETAL, LL, MUC = range(12, 21)
-    IN_H, IN_U, IN_PHI, IN_DELTA, IN_K, IN_ON = range(21, 27)
+    IN_H, IN_U, IN_ON = range(21, 24)
     # reciprocals, so that the kernels multiply instead of divide (a division costs several
     # multiplications on a CPU, and the inner loops are bound by arithmetic, not memory); the
     # WENO smoothness indicators are scaled by 1/h_ref and 1/u_ref
-    INV_DX, INV_DY, INV_H_REF, INV_U_REF = range(27, 31)
-    COUNT = 31
+    INV_DX, INV_DY, INV_H_REF, INV_U_REF = range(24, 28)
+    COUNT = 28
 
 
 @ti.data_oriented

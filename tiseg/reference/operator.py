@@ -65,8 +65,7 @@ class ReferenceOperator:
                 q[lay.H, il, ys] = h
                 q[lay.HU, il, ys] = h * u
                 if lay.segregation:
-                    phis = phi + c.inflow_delta * np.sin(2 * np.pi * c.inflow_modes * self.y / c.Ly)
-                    q[lay.HPHI, il, ys] = h * phis
+                    q[lay.HPHI, il, ys] = h * c.inflow_phi_profile(self.y)
             if hi == "periodic":
                 q[:, ih] = q[:, g + k]
             elif hi == "outflow":
