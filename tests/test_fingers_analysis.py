@@ -149,9 +149,12 @@ def test_persistent_count_and_median_lines():
                           line_fractions=[0.25, 0.5, 0.75])["finger_count"] == 4
     assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
                           line_fractions=[0.25])["finger_count"] == 5
-    # the island now covers most of the band: 5 persists longest
+    assert m["finger_count_lines"] == 4
+    # the island now covers most of the band: 5 persists longest on the lines, but the split
+    # channel joins again at both ends of the island: still 4 fingers as 2D channels
     phi[10:15, 41:71] = 0.1
-    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 5
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count_lines"] == 5 and m["finger_count"] == 4
 
 
 def test_persistent_count_tie_goes_to_more_fingers():
@@ -165,12 +168,16 @@ def test_persistent_count_tie_goes_to_more_fingers():
 
 def test_count_must_persist():
     # two fingers only on the last 3 of 40 columns (a short-lived incursion): not enough by
-    # default (10 % = 4 columns), enough with a lower persistence
+    # default (channels: 10 % of x_l = 3.9 cm > 3 cells; lines: 10 % = 4 columns), enough with
+    # a lower min_span or persistence
     h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)       # coarse head, no fingers
     phi[20:40, 77:80] = 0.9
     phi[120:140, 77:80] = 0.9
-    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 0
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count"] == 0 and m["finger_count_lines"] == 0
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0, min_persistence=0.05)
+    assert m["finger_count_lines"] == 2 and m["finger_count"] == 0
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0, min_span=0.07)
     assert m["finger_count"] == 2 and m["wavelength"] == pytest.approx(LY / 2)
 
 
@@ -370,6 +377,7 @@ def test_cli_errors(tmp_path, run_dir, capsys):
     _fails(capsys, ["fingers", str(run_dir), "--time", "2.5"], "not an output time", "2.5")
     _fails(capsys, ["fingers", str(run_dir), "--lines", "0.5", "1.5"], "--lines")
     _fails(capsys, ["fingers", str(run_dir), "--min-persistence", "2"], "--min-persistence")
+    _fails(capsys, ["fingers", str(run_dir), "--min-span", "-0.1"], "--min-span")
 
     from tiseg.output import FieldsWriter
     nophi = tmp_path / "nophi"
@@ -386,3 +394,122 @@ def test_bad_options():
         finger_metrics(h, u, v, phi[:, :-1], X, Y, H_MIN, PHI0)
     with pytest.raises(ValueError, match="u0"):
         finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, min_speed_over_u0=1.0)
+
+
+# ---- the headline count as 2D channels, the spectral wavelength, channel numbers ------------
+def unequal_fingers(n, tips, i_rear=I_REAR):
+    """n equal channels whose k-th one is wet up to column tips[k] (levees to min(tips) - 10)."""
+    chan = equal_channels(n)
+    h, u, v, phi = build(chan, i_rear=i_rear, levee_tip=min(tips) - 10)
+    lam_rows = NY // n
+    for k, tip in enumerate(tips):
+        rows = slice(k * lam_rows, (k + 1) * lam_rows)
+        h[rows, tip + 1:] = 0.0
+        phi[rows, tip + 1:] = 0.0
+        u[rows, tip + 1:] = 0.0
+    return h, u, v, phi
+
+
+@pytest.mark.parametrize("n", [2, 5, 8])
+def test_unequal_finger_lengths_count_every_finger(n):
+    """Fingers of very different lengths: the lines near the front cross only the longest,
+    the 2D count finds all n, and with several fingers the spectral wavelength is Ly / n.
+    (With two fingers, one alone over half of the zone, the spectrum leans to mode 1: it
+    weighs every column, the count weighs every finger.)"""
+    tips = [I_TIP - (k * 23) % 30 for k in range(n)]          # tips 30 columns apart at most
+    m = metrics(unequal_fingers(n, tips))
+    assert m["finger_count"] == n
+    assert m["wavelength"] == pytest.approx(LY / n)
+    if n > 2:
+        assert m["wavelength_spectral"] == pytest.approx(LY / n, rel=0.05)
+    assert min(m["line_counts"]) < n                          # single lines do miss fingers
+
+
+def test_equal_fingers_spectral_wavelength_is_exact():
+    """n | NY: exactly n periods, no power in the neighbouring bins, Ly / n exactly; otherwise
+    the edges snap to cells and the peak moves by a little."""
+    for n in (1, 2, 4, 5, 8):
+        m = metrics(build(equal_channels(n)))
+        assert m["wavelength_spectral"] == pytest.approx(LY / n, rel=1e-12)
+    for n in (3, 7):
+        m = metrics(build(equal_channels(n)))
+        assert m["wavelength_spectral"] == pytest.approx(LY / n, rel=0.02)
+
+
+@pytest.mark.parametrize("n", [1, 4, 5])
+def test_seam_fingers_spectral(n):
+    chan = equal_channels(n, frac=0.5, y0=-0.25 * LY / n)
+    assert chan[0] and chan[-1]
+    m = metrics(build(chan))
+    assert m["finger_count"] == n
+    assert m["wavelength_spectral"] == pytest.approx(LY / n, rel=1e-12)
+
+
+def test_spectral_peak_is_refined_between_bins():
+    """A cross-slope pattern whose power spectrum is a Gaussian around mode 5.3: the Gaussian
+    interpolation of the peak gives Ly / 5.3, between the bins 5 and 6."""
+    h, u, v, _ = build(np.ones(NY, bool), levee_tip=I_TIP)
+    modes = np.arange(1, 20)
+    amp = np.exp(-(modes - 5.3) ** 2 / (2 * 1.2 ** 2))      # power exp(-(n - 5.3)^2 / 1.2^2)
+    prof = 0.25 + 0.04 * (amp[:, None] * np.cos(2 * np.pi * np.outer(modes, Y) / LY)).sum(axis=0)
+    phi = np.where(np.arange(NX)[None, :] < I_REAR, PHI0, prof[:, None]) * (h > 0)
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["wavelength_spectral"] == pytest.approx(LY / 5.3, rel=1e-9)
+
+
+def test_merging_pair_counts_two_and_split_channel_counts_one():
+    """A Y: two channels separate over the last 20 columns join into one behind: two fingers.
+    A channel split by a coarse island that joins again before its tip: one finger."""
+    chan = equal_channels(4)
+    h, u, v, phi = build(chan)
+    rows = np.flatnonzero(chan)
+    a = rows[rows < 50]                                      # the first channel: rows 0..29
+    lo, hi = a.max() + 1, 50                                 # its levee, rows 30..49
+    phi[lo:hi, I_REAR:60] = 0.95                             # ... fine behind column 60: a Y
+    u[lo:hi, I_REAR:60] = 2 * U0
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count"] == 4                            # the Y is two fingers
+    # ... while the same join at the tips (an island behind) makes one finger
+    h, u, v, phi = build(chan)
+    phi[lo:hi, 60:] = np.where(h[lo:hi, 60:] > 0, 0.95, 0.0)
+    h[lo:hi, 60:] = 0.002
+    phi[lo:hi, 60:] = 0.95
+    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 3
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_noise_keeps_the_count_and_the_spectral_wavelength(seed):
+    rng = np.random.default_rng(10 + seed)
+    tips = [I_TIP, I_TIP - 12, I_TIP - 5, I_TIP - 20, I_TIP - 8]
+    h, u, v, phi = unequal_fingers(5, tips)
+    phi = np.clip(phi + np.where(h > 0, rng.normal(0.0, 0.08, phi.shape), 0.0), 0, 1)
+    rows = np.arange(3, NY, 7)
+    cols = rng.integers(I_REAR, I_TIP - 30, rows.size)
+    phi[rows, cols] = np.where(phi[rows, cols] > 0.5, 0.05, 0.95)
+    m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
+    assert m["finger_count"] == 5
+    assert m["wavelength_spectral"] == pytest.approx(LY / 5, rel=0.05)
+
+
+def test_uniform_front_has_no_spectral_wavelength():
+    for chan in (np.zeros(NY, bool), np.ones(NY, bool)):
+        h, u, v, phi = build(chan, levee_tip=I_TIP)
+        m = metrics((h, u, v, phi))
+        assert m["wavelength_spectral"] is None and m["finger_count"] == 0
+
+
+def test_channel_and_levee_numbers():
+    """Channels at 2 u0 with phi = 0.95, levees at 0.1 u0: the medians and mean are exact
+    (the levees are sampled only on columns crossing fingers; the dry chute is left out)."""
+    m = metrics(build(equal_channels(4), u_channel=2.0 * U0, u_levee=0.1 * U0))
+    assert m["channel_speed_over_u0"] == pytest.approx(2.0)
+    assert m["channel_phi"] == pytest.approx(0.95)
+    assert m["levee_speed_over_u0"] == pytest.approx(0.1)
+    # centrelines: a slow margin does not move the median of the channel centres
+    h, u, v, phi = build(equal_channels(4), u_channel=2.0 * U0)
+    chan = equal_channels(4)
+    edges = np.flatnonzero(chan & ~np.roll(chan, 1))          # first row of each channel
+    u[edges, :] = 0.5 * U0
+    assert metrics((h, u, v, phi))["channel_speed_over_u0"] == pytest.approx(2.0)
+    none = metrics(build(np.zeros(NY, bool), levee_tip=I_TIP))
+    assert none["channel_speed_over_u0"] is None and none["channel_phi"] is None

@@ -15,7 +15,8 @@ import pytest
 
 from tiseg.errors import InputError
 from tiseg.sweep import (DONE_MARKER, _run_names, load_sweep, read_marker, read_table,
-                         run_sweep, sweep_from_dict, table_columns)
+                         run_sweep, summary_columns, summary_rows, sweep_from_dict,
+                         table_columns)
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ROOT / "assets" / "sweeps" / "tiny.toml"
@@ -72,6 +73,14 @@ def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
     full = json.loads((out / "sweep.json").read_text())
     assert [r["run"] for r in full["runs"]] == ["nu-0.01", "nu-0.02"]
     assert full["runs"][0]["metrics"]["time"][-1] == 0.5
+
+    # the ensemble summary: no seed axis here, so one row per run
+    with open(out / "summary.csv", newline="") as fh:
+        assert next(csv.reader(fh)) == summary_columns(sweep)
+    summ = read_table(out / "summary.csv")
+    assert [(r["flow.nu"], r["n"], r["finger_count_mean"]) for r in summ] == [
+        (0.01, 1, 0), (0.02, 1, 0)]
+    assert summ[0]["finger_count_std"] is None and summ[0]["wavelength_n"] == 0
 
     # Re-run: everything is reused, no cluster is started and no file is touched.
     before = _mtimes(out)
@@ -215,3 +224,60 @@ def test_run_names_are_stable_and_safe():
     assert len(set(a)) == 2 and a == _run_names([{"k.s": "a b"}, {"k.s": "a/b"}])
     assert all(n.startswith("s-a_b-") for n in a)
     assert _run_names([{}]) == ["base"]
+
+
+def test_ensemble_summary_statistics():
+    """summary.csv rows: one per nu, over the seeds; mean, sample sd (ddof 1) and the count of
+    runs where a metric is defined, from records with known numbers."""
+    sweep = sweep_from_dict({**BASE, "times": [0.25], "grid": {"flow.nu": [0.01, 0.02],
+                                              "inflow.seed": [1, 2, 3]}})
+    assert [r.name for r in sweep.runs][:3] == ["nu-0.01_seed-1", "nu-0.01_seed-2",
+                                                 "nu-0.01_seed-3"]
+    counts = {"nu-0.01_seed-1": 4, "nu-0.01_seed-2": 5, "nu-0.01_seed-3": 6,
+              "nu-0.02_seed-1": 2, "nu-0.02_seed-2": 0}          # seed 3 of nu 0.02 failed
+    records = {}
+    for name, c in counts.items():
+        wl = 0.1 / c if c else None
+        records[name] = {"status": "done", "wall_s": 10.0 + c, "metrics": {
+            "time": [0.25, 0.5], "finger_count": [0, c], "wavelength": [None, wl],
+            "elongation": [0.01, 0.02 * c]}}
+    records["nu-0.02_seed-3"] = {"status": "failed", "error": "x"}
+    rows = summary_rows(sweep, records)
+    assert [(r["flow.nu"], r["n"]) for r in rows] == [(0.01, 3), (0.02, 2)]
+    a, b = rows
+    assert a["runs"] == "nu-0.01_seed-1 nu-0.01_seed-2 nu-0.01_seed-3"
+    assert a["finger_count_mean"] == pytest.approx(5.0) and a["finger_count_std"] == 1.0
+    assert a["wavelength_n"] == 3
+    assert a["wavelength_mean"] == pytest.approx((0.025 + 0.02 + 0.1 / 6) / 3)
+    assert a["elongation_std"] == pytest.approx(0.02)
+    assert a["wall_s_mean"] == pytest.approx(15.0)
+    assert a["finger_count@0.25_mean"] == 0 and a["elongation@0.25_std"] == 0
+    # nu = 0.02: one run without fingers has no wavelength; the mean is over the defined ones
+    assert b["finger_count_mean"] == 1.0 and b["wavelength_n"] == 1
+    assert b["wavelength_mean"] == pytest.approx(0.05) and b["wavelength_std"] is None
+    assert b["channel_phi_n"] == 0 and b["channel_phi_mean"] is None
+
+
+def test_reused_run_with_old_diagnostics_is_analysed_again(tiny_sweep, tmp_path):
+    """A finished run whose fingers.json predates the current definitions (analysis_version)
+    is analysed again from its fields.nc when the sweep is re-run; nothing is simulated."""
+    import shutil
+    from tiseg.analysis.fingers import ANALYSIS_VERSION
+    src, _, _ = tiny_sweep
+    out = tmp_path / "tiny"
+    shutil.copytree(src, out)
+    marker = out / "nu-0.01" / DONE_MARKER
+    rec = json.loads(marker.read_text())
+    rec["metrics"] = {k: rec["metrics"][k] for k in ("time", "finger_count", "wavelength")}
+    marker.write_text(json.dumps(rec))
+    fields = (out / "nu-0.01" / "fields.nc").stat().st_mtime_ns
+    lines: list[str] = []
+    res = run_sweep(load_sweep(TINY), out, echo=lines.append)
+    assert [r["status"] for r in res.records] == ["reused", "reused"]
+    assert not any("Dask cluster" in s for s in lines)
+    new = json.loads(marker.read_text())
+    assert new["metrics"]["analysis_version"] == ANALYSIS_VERSION
+    assert "wavelength_spectral" in new["metrics"] and new["steps"] == rec["steps"]
+    assert json.loads((out / "nu-0.01" / "fingers.json").read_text())["analysis_version"] == \
+        ANALYSIS_VERSION
+    assert (out / "nu-0.01" / "fields.nc").stat().st_mtime_ns == fields

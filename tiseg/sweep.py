@@ -48,6 +48,18 @@ status (done / reused / failed), grid size, the finger metrics at the final time
 extra ``times`` (``wavelength@7.5``), and the run costs (simulation wall time, task time, steps,
 operator evaluations, cells). ``OUT/sweep.json`` holds the same plus every run's full time
 series of the finger diagnostics and the sweep definition.
+
+Ensembles: runs that differ only in ``inflow.seed`` (a grid key; see the scene's
+``inflow.noise``) are realisations of one experiment. ``OUT/summary.csv`` has one row per
+combination of the other grid keys, with ``n`` (finished runs) and, for each metric of
+:data:`SUMMARY_METRICS` at the final time and at each extra time (``wavelength@7.5``),
+``<metric>_mean``, ``<metric>_std`` (sample standard deviation, ddof = 1; empty for n < 2) and
+``<metric>_n`` (runs where the metric is defined: a wavelength is undefined without fingers),
+plus the mean wall time per run.
+
+Finished runs keep their diagnostics in ``fingers.json`` with the version of the definitions
+(:data:`tiseg.analysis.fingers.ANALYSIS_VERSION`); a reused run whose diagnostics are older is
+analysed again from its ``fields.nc`` (seconds, not a re-run).
 """
 from __future__ import annotations
 
@@ -83,10 +95,16 @@ MAX_NAME = 120                    # longest run-folder name before it is shorten
 MARKER_VERSION = 1
 
 # Metrics tabulated at the final time and at each extra time (a subset of analyse_run's keys).
-FINAL_METRICS = ("finger_count", "wavelength", "elongation", "x_front_max", "x_front_min",
-                 "front_speed", "max_channel_speed_over_u0")
-TIME_METRICS = ("finger_count", "wavelength", "elongation", "x_front_max", "x_front_min")
+FINAL_METRICS = ("finger_count", "wavelength", "wavelength_spectral", "elongation",
+                 "x_front_max", "x_front_min", "front_speed", "max_channel_speed_over_u0",
+                 "channel_speed_over_u0", "channel_phi", "levee_speed_over_u0")
+TIME_METRICS = ("finger_count", "wavelength", "wavelength_spectral", "elongation",
+                "x_front_max", "x_front_min", "channel_speed_over_u0")
 COST_COLUMNS = ("wall_s", "task_s", "steps", "rhs_evaluations", "cell_updates_per_s")
+# Ensemble statistics (summary.csv): over the runs that differ only in these grid keys.
+ENSEMBLE_KEYS = ("inflow.seed",)
+SUMMARY_METRICS = ("finger_count", "wavelength", "wavelength_spectral", "elongation",
+                   "channel_speed_over_u0", "channel_phi", "levee_speed_over_u0")
 
 log = logging.getLogger(__name__)
 
@@ -405,10 +423,36 @@ def execute_run(spec: dict) -> dict:
         "wall_s": stats.wall, "task_s": _time.perf_counter() - t0,
         "steps": stats.steps, "rhs_evaluations": stats.stages,
         "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
-        "metrics": {k: metrics[k] for k in ("time", *FINAL_METRICS)},
+        "metrics": _record_metrics(metrics),
     }
     write_json_atomic(run_dir / DONE_MARKER, rec)   # last: its presence means "complete"
     return {**rec, "status": "done"}
+
+
+def _record_metrics(metrics: dict) -> dict:
+    """What a completion record keeps of analyse_run's result: every per-time series."""
+    from .analysis.fingers import ANALYSIS_VERSION, RUN_KEYS
+    return {"analysis_version": ANALYSIS_VERSION, **{k: metrics[k] for k in RUN_KEYS}}
+
+
+def refresh_metrics(run_dir, rec: dict) -> dict:
+    """The completion record with finger diagnostics of the current definitions: a record of
+    older ones is analysed again from the run's fields.nc, and fingers.json and done.json are
+    rewritten (atomically). A run whose fields cannot be read keeps its old record."""
+    from .analysis.fingers import ANALYSIS_VERSION, analyse_run
+    from .output import write_json_atomic
+    if (rec.get("metrics") or {}).get("analysis_version") == ANALYSIS_VERSION:
+        return rec
+    run_dir = Path(run_dir)
+    try:
+        metrics = analyse_run(run_dir)
+    except InputError as exc:
+        log.warning("cannot analyse %s again: %s", run_dir, exc)
+        return rec
+    write_json_atomic(run_dir / FINGERS_FILE, metrics)
+    rec = {**{k: v for k, v in rec.items() if k != "status"}, "metrics": _record_metrics(metrics)}
+    write_json_atomic(run_dir / DONE_MARKER, rec)
+    return rec
 
 
 def _reporter(name: str, t_end: float) -> Callable | None:
@@ -476,6 +520,7 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
     for run in sweep.runs:
         rec = read_marker(out / run.name, run.scene)
         if rec is not None:
+            rec = refresh_metrics(out / run.name, rec)
             records[run.name] = {**rec, "status": "reused"}
         else:
             pending.append(run)
@@ -622,14 +667,56 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
             if times:
                 row["t_final"] = times[-1]
                 for k in FINAL_METRICS:
-                    row[k] = m[k][-1]
+                    row[k] = (m.get(k) or [None])[-1]
             for t in sweep.times:
                 i = time_index(times, t)
                 for k in TIME_METRICS:
-                    row[f"{k}@{t:g}"] = m[k][i] if i is not None else None
+                    series = m.get(k) or []
+                    row[f"{k}@{t:g}"] = series[i] if i is not None and i < len(series) else None
             for k in COST_COLUMNS:
                 row[k] = rec.get(k)
             row["error"] = rec.get("error")
+        rows.append(row)
+    return rows
+
+
+def summary_groups(sweep: Sweep) -> tuple[list[str], list[tuple[dict, list[SweepRun]]]]:
+    """(the grid keys that tell ensembles apart, [(their values, the member runs), ...]) in grid
+    order: runs that differ only in the keys of :data:`ENSEMBLE_KEYS` form one group."""
+    keys = [k for k in sweep.grid if k not in ENSEMBLE_KEYS]
+    groups: dict[str, tuple[dict, list]] = {}
+    for run in sweep.runs:
+        values = {k: run.values[k] for k in keys}
+        groups.setdefault(_canonical(values), (values, []))[1].append(run)
+    return keys, list(groups.values())
+
+
+def summary_columns(sweep: Sweep) -> list[str]:
+    keys, _ = summary_groups(sweep)
+    names = list(SUMMARY_METRICS) + [f"{m}@{t:g}" for t in sweep.times for m in SUMMARY_METRICS
+                                     if m in TIME_METRICS]
+    stats = [f"{m}_{s}" for m in names for s in ("mean", "std", "n")]
+    return [*keys, "n", "runs", *stats, "wall_s_mean", "wall_s_std"]
+
+
+def summary_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
+    """One row per ensemble (see the module docstring): n, mean, sd and count of each metric."""
+    import numpy as np
+    keys, groups = summary_groups(sweep)
+    by_run = {r["run"]: r for r in table_rows(sweep, records)}
+    rows = []
+    for values, runs in groups:
+        done = [by_run[r.name] for r in runs if by_run[r.name]["status"] in ("done", "reused")]
+        row: dict[str, Any] = {k: _cell(v) for k, v in values.items()}
+        row["n"] = len(done)
+        row["runs"] = " ".join(r["run"] for r in done)
+        for col in [c[:-5] for c in summary_columns(sweep) if c.endswith("_mean")]:
+            vals = np.array([r[col] for r in done if isinstance(r.get(col), (int, float))],
+                            dtype=float)
+            row[f"{col}_mean"] = float(vals.mean()) if vals.size else None
+            row[f"{col}_std"] = float(vals.std(ddof=1)) if vals.size > 1 else None
+            if col != "wall_s":
+                row[f"{col}_n"] = int(vals.size)
         rows.append(row)
     return rows
 
@@ -657,6 +744,13 @@ def _write_outputs(sweep: Sweep, out: Path, records: Mapping[str, dict]) -> Path
         w.writerow({k: _csv_value(row.get(k)) for k in cols})
     table = out / "sweep.csv"
     write_text_atomic(table, buf.getvalue())
+    cols = summary_columns(sweep)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for row in summary_rows(sweep, records):
+        w.writerow({k: _csv_value(row.get(k)) for k in cols})
+    write_text_atomic(out / "summary.csv", buf.getvalue())
     write_json_atomic(out / "sweep.json", {"sweep": sweep.to_dict(), "runs": [
         {"run": r.name, "values": r.values, **records.get(r.name, {"status": "pending"})}
         for r in sweep.runs]})
@@ -689,5 +783,6 @@ def _parse(v: str):
 
 
 __all__ = ["Sweep", "SweepRun", "SweepResult", "load_sweep", "sweep_from_dict", "run_sweep",
-           "execute_run", "read_marker", "read_table", "scene_fingerprint", "table_columns",
+           "execute_run", "read_marker", "read_table", "refresh_metrics", "scene_fingerprint",
+           "summary_columns", "summary_rows", "table_columns",
            "DONE_MARKER", "FINGERS_FILE"]

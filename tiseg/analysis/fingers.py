@@ -21,36 +21,44 @@ set definitions of the paper on its grid.
 
 Counting fingers (mean wavelength Lambda = Ly / count, section 6.3, figure 16a)
 ------------------------------------------------------------------------------------------
-A finger is a fine-rich, mobile channel bounded by coarse-rich levees (or by empty slope). The
-count is taken on cross-slope lines (grid columns) through the fingered zone x_f^- <= x <= x_f^+:
+A finger is a fine-rich, mobile channel bounded by coarse-rich levees (or by empty slope).
+Channel cells are wet (h >= h_min) and fine-rich (phi > ``phi_threshold``, default phi0/2, the
+same "coarse-rich" boundary as (6.11)), and, optionally, fast (|u| >= ``min_speed_over_u0``
+u0). On each cross-slope line (grid column) through the fingered zone x_f^- <= x <= x_f^+ they
+form runs:
 
-1. On a line, a cell is *channel* where it is wet (h >= h_min) and fine-rich
-   (phi > ``phi_threshold``, default phi0/2, the same "coarse-rich" boundary as (6.11)), and,
-   optionally, fast (|u| >= ``min_speed_over_u0`` u0).
-2. Channel cells form connected runs along y with **periodic wrap-around** (the domain is
+1. Channel cells form connected runs along y with **periodic wrap-around** (the domain is
    periodic in y, section 6.2), so a finger straddling the seam y = 0 = Ly counts once.
-3. Noise filters, in this order: runs narrower than ``min_width`` are dropped (isolated fine
+2. Noise filters, in this order: runs narrower than ``min_width`` are dropped (isolated fine
    cells in a levee are not fingers); then neighbouring runs separated by a gap narrower than
    ``min_gap`` are merged (an isolated coarse cell inside a channel does not split it). Both
    default to two grid cells, i.e. a single cell is treated as noise.
-4. A line whose channel covers the whole circumference (after merging) has no levees: the
+3. A line whose channel covers the whole circumference (after merging) has no levees: the
    front is uniform (e.g. monodisperse, phi = 1 everywhere) and the line counts 0; a line with no
    channel cell (all coarse, e.g. across the coarse head before break-up, or dry) also counts 0.
-5. Default (``line_fractions=None``): every grid column between x_f^- and x_f^+ is a line, and
-   the finger count is the non-zero line count that persists over the longest downslope
-   distance (the "plateau" along the finger bodies; ties go to the larger count). It must hold
-   on at least ``min_persistence`` (default 0.1) of those lines and on at least two lines, else
-   the count is 0. Why not a few fixed lines: the lines near the tips cross the coarse head or
-   miss the shorter fingers, the lines near x_f^- cross the islands at the rear of the levees;
-   along the finger bodies the count is constant. (In a run of the fingers scene at 250
-   cells/m, t = 6.5 s, six fingers held on a quarter of the columns, while the median of the
-   lines at 0.25/0.5/0.75 x_l gave 4.) Persistence as a fraction of x_l does not depend on the
-   grid.
-   With ``line_fractions`` given, only the lines x = x_f^- + f x_l (nearest column) are used and
+4. **The headline count** (default): the runs of neighbouring lines that touch are joined into
+   2D channels, and the count is the number of distinct channels, each reaching at least
+   ``min_span`` (default 0.1) of x_l downslope, before they join into the mixed flow behind
+   the fingers (:mod:`tiseg.analysis.channels`). Each finger counts once whatever its length,
+   so the count holds still while the fingers grow at different speeds.
+5. With ``line_fractions`` given, only the lines x = x_f^- + f x_l (nearest column) are used and
    the count is their median (the lower median for an even number of lines).
-6. Without a coarse-rich region (x_f^- undefined) there are no levees and the count is 0.
+6. ``finger_count_lines`` (a detail, the headline of earlier versions): the non-zero line count
+   that persists over the longest downslope distance (ties go to the larger count), on at
+   least ``min_persistence`` (default 0.1) of the lines and on at least two lines, else 0.
+   While the fingers differ much in length it follows the single longest finger's tip.
+7. Without a coarse-rich region (x_f^- undefined) there are no levees and the count is 0.
 
 ``wavelength`` = Ly / count, or None when the count is 0 (undefined).
+``wavelength_spectral``: the dominant cross-slope wavelength of phi over the fingered zone from
+its power spectrum, refined between the spectral bins (:mod:`tiseg.analysis.spectrum`): an
+independent check of the count that needs no channel detection.
+
+Channels and levees (:mod:`tiseg.analysis.channels`)
+---------------------------------------------------
+``channel_speed_over_u0`` (median speed on the channel centrelines over u0), ``channel_phi``
+(mean phi in the channels) and ``levee_speed_over_u0`` (median speed of the coarse cells beside
+them over u0), over the counted fingers.
 
 Speeds
 ------
@@ -73,14 +81,20 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import InputError
+from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels
+from .spectrum import spectral_wavelength
 
 DEFAULT_MIN_PERSISTENCE = 0.1    # fraction of the lines in [x_f^-, x_f^+] the count must hold on
 DEFAULT_NOISE_CELLS = 2          # default min_width and min_gap, in grid cells
 
 # Per-time keys of :func:`analyse_run` (in table order).
 RUN_KEYS = ("time", "x_front_max", "x_front_min", "elongation", "finger_count", "wavelength",
-            "front_speed", "front_speed_over_u0", "max_channel_speed",
-            "max_channel_speed_over_u0")
+            "wavelength_spectral", "front_speed", "front_speed_over_u0", "max_channel_speed",
+            "max_channel_speed_over_u0", "channel_speed_over_u0", "channel_phi",
+            "levee_speed_over_u0", "finger_count_lines")
+# Version of the definitions above: stored in fingers.json, so that results computed with
+# older definitions are recognised and recomputed from fields.nc (tiseg sweep does).
+ANALYSIS_VERSION = 2
 
 
 # =================================================================================================
@@ -154,6 +168,7 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
                    phi_threshold: float | None = None,
                    line_fractions: Sequence[float] | None = None,
                    min_persistence: float = DEFAULT_MIN_PERSISTENCE,
+                   min_span: float = DEFAULT_MIN_SPAN,
                    min_width: float | None = None, min_gap: float | None = None,
                    min_speed_over_u0: float | None = None, Ly: float | None = None) -> dict:
     """Finger diagnostics of one snapshot (see the module docstring for the definitions).
@@ -164,14 +179,17 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
     [m/s] (for the speed ratios; None leaves them undefined).
 
     Options: ``phi_threshold`` (channel cells have phi above it; default phi0/2),
-    ``line_fractions`` (None: every column in [x_f^-, x_f^+] and the persistent count; else
-    the median count on the lines x_f^- + f x_l), ``min_persistence`` (fraction of the columns
-    the persistent count must hold on; default 0.1), ``min_width`` / ``min_gap`` [m] (noise
+    ``line_fractions`` (None: the 2D channel count; else the median count on the lines
+    x_f^- + f x_l), ``min_span`` (fraction of x_l a counted channel must reach; default 0.1),
+    ``min_persistence`` (fraction of the columns the persistent line count
+    ``finger_count_lines`` must hold on; default 0.1), ``min_width`` / ``min_gap`` [m] (noise
     filters; default two cells, 2 dy), ``min_speed_over_u0`` (channel cells must also move at
     |u| >= this times u0; default off), ``Ly`` [m] (domain width; default ny dy).
 
     Returns a dict with ``x_front_max``, ``x_front_min``, ``elongation`` [m], ``finger_count``
-    (int), ``wavelength`` [m], ``max_channel_speed`` [m/s], ``max_channel_speed_over_u0``, and
+    (int), ``wavelength`` [m], ``wavelength_spectral`` [m], ``max_channel_speed`` [m/s],
+    ``max_channel_speed_over_u0``, ``channel_speed_over_u0``, ``channel_phi``,
+    ``levee_speed_over_u0``, ``finger_count_lines``, and
     the details ``line_x`` (x of the lines [m]), ``line_counts`` (count per line),
     ``count_length`` [m] (downslope length of the lines that show the chosen count) and
     ``channel_widths`` (widths [m] of the channels on the middle one of those lines).
@@ -202,6 +220,8 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
         raise InputError(f"line_fractions={list(line_fractions)!r}: give fractions in [0, 1]")
     if not (0.0 <= min_persistence <= 1.0):
         raise InputError(f"min_persistence={min_persistence!r} must lie in [0, 1]")
+    if not (0.0 <= min_span <= 1.0):
+        raise InputError(f"min_span={min_span!r} must lie in [0, 1]")
 
     dy = _spacing(y) if ny > 1 else (float(Ly) if Ly else 1.0)
     Ly = float(Ly) if Ly is not None else ny * dy
@@ -218,33 +238,39 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
     xf_min = front_min(h, phi, x, h_min, phi0)
     x_l = xf_max - xf_min            # NaN if either is undefined
 
-    cols: list[int] = []
+    band: list[int] = []                 # every column of the fingered zone
     if math.isfinite(x_l):
-        if fractions is None:
-            cols = [int(j) for j in np.flatnonzero((x >= xf_min) & (x <= xf_max))]
-        else:
-            cols = [int(np.argmin(np.abs(x - (xf_min + f * x_l)))) for f in fractions]
-    line_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in cols]
+        band = [int(j) for j in np.flatnonzero((x >= xf_min) & (x <= xf_max))]
+    band_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in band]
+    if fractions is None:
+        cols, line_runs = band, band_runs
+    else:
+        cols = ([int(np.argmin(np.abs(x - (xf_min + f * x_l)))) for f in fractions]
+                if band else [])
+        line_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in cols]
     line_counts = [len(r) for r in line_runs]
+    # the persistent line count: the non-zero count held over the longest downslope distance
+    count_lines = 0
+    values, hits = np.unique([len(r) for r in band_runs if r], return_counts=True)
+    if values.size:
+        best = int(np.flatnonzero(hits == hits.max())[-1])        # ties: the larger count
+        if hits[best] >= max(2, min_persistence * len(band_runs)):
+            count_lines = int(values[best])
     # no lines (x_f^- undefined: no coarse-rich region, no levees) -> no segregation fingers
-    count = 0
-    if line_counts and fractions is not None:
-        count = sorted(line_counts)[(len(line_counts) - 1) // 2]
-    elif line_counts:
-        # the persistent count: the non-zero count held over the longest downslope distance
-        values, hits = np.unique([c for c in line_counts if c > 0], return_counts=True)
-        if values.size:
-            best = int(np.flatnonzero(hits == hits.max())[-1])    # ties: the larger count
-            if hits[best] >= max(2, min_persistence * len(line_counts)):
-                count = int(values[best])
+    count, in_finger = 0, [[False] * len(r) for r in band_runs]
+    if band:
+        count, in_finger = count_channels(band_runs, band, x, ny, min_span * x_l)
+    if fractions is not None:
+        count = sorted(line_counts)[(len(line_counts) - 1) // 2] if line_counts else 0
     chosen = [k for k, c in enumerate(line_counts) if c == count] if count else []
     widths = line_runs[chosen[len(chosen) // 2]] if chosen else []
     count_length = len(chosen) * _spacing(x) if chosen else math.nan
+    numbers = channel_numbers(band_runs, in_finger, band, h, phi, speed, h_min, thr, u0)
 
     max_speed = math.nan
     if count > 0:
-        band = (x >= xf_min) & (x <= xf_max)
-        sel = channel & band[None, :]
+        zone = (x >= xf_min) & (x <= xf_max)
+        sel = channel & zone[None, :]
         if sel.any():
             max_speed = float(speed[sel].max())
 
@@ -254,8 +280,11 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
         "elongation": x_l,
         "finger_count": int(count),
         "wavelength": Ly / count if count > 0 else math.nan,
+        "wavelength_spectral": spectral_wavelength(h, phi, band, Ly, h_min),
         "max_channel_speed": max_speed,
         "max_channel_speed_over_u0": max_speed / u0 if u0 else math.nan,
+        **numbers,
+        "finger_count_lines": count_lines,
         "line_x": [float(x[j]) for j in cols],
         "line_counts": line_counts,
         "count_length": count_length,
@@ -365,10 +394,11 @@ def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None
     options = {"phi_threshold": thr,
                "line_fractions": None if fr is None else [float(f) for f in fr],
                "min_persistence": opts.get("min_persistence", DEFAULT_MIN_PERSISTENCE),
+               "min_span": opts.get("min_span", DEFAULT_MIN_SPAN),
                "min_width": w_cells * dy, "min_gap": g_cells * dy,
                "min_width_cells": w_cells, "min_gap_cells": g_cells,
                "min_speed_over_u0": opts.get("min_speed_over_u0")}
-    head = {"file": str(path), "phi0": float(phi0), "u0": None if u0 is None else float(u0),
+    head = {"analysis_version": ANALYSIS_VERSION, "file": str(path), "phi0": float(phi0), "u0": None if u0 is None else float(u0),
             "h_min": float(h_min), "Ly": float(Ly) if Ly is not None else len(y) * _spacing(y),
             "options": options, "times": len(idx)}
     return {**head, **result}
@@ -439,4 +469,5 @@ def _time_index(times: np.ndarray, t: float, path: Path) -> int:
 
 
 __all__ = ["finger_metrics", "analyse_run", "front_max", "front_min", "front_speed",
-           "periodic_runs", "RUN_KEYS", "DEFAULT_MIN_PERSISTENCE", "DEFAULT_NOISE_CELLS"]
+           "periodic_runs", "RUN_KEYS", "ANALYSIS_VERSION", "DEFAULT_MIN_PERSISTENCE",
+           "DEFAULT_MIN_SPAN", "DEFAULT_NOISE_CELLS"]

@@ -64,12 +64,16 @@ def run(args) -> int:
     write_json_atomic(out / "fingers.json", metrics)
     written.append(out / "fingers.json")
     written += make_all(out / "stability", scene.material)
-    last = {k: metrics[k][-1] for k in ("time", "finger_count", "wavelength", "elongation")}
+    last = {k: metrics[k][-1] for k in ("time", "finger_count", "wavelength",
+                                         "wavelength_spectral", "elongation")}
     print(f"simulated {sim.t:g} s of the fingers scene at {args.resolution:g} cells/m in "
           f"{stats.wall:.1f} s ({stats.steps} steps)")
-    wl = last["wavelength"]
+
+    def cm(v):
+        return "-" if v is None else f"{v * 100:.1f} cm"
     print(f"at t = {last['time']:g} s: {last['finger_count']} fingers, wavelength "
-          f"{'-' if wl is None else f'{wl * 100:.1f} cm'}, elongation {last['elongation'] or 0:.3f} m")
+          f"{cm(last['wavelength'])} (spectral {cm(last['wavelength_spectral'])}), elongation "
+          f"{last['elongation'] or 0:.3f} m")
     for p in written:
         print(p)
     return 0

@@ -10,11 +10,12 @@ def register(sub) -> None:
     p = sub.add_parser(
         "fingers", help="front positions, finger count and wavelength of a saved run",
         description="Per output time: front positions x_f+ (6.10), x_f- (6.11), elongation x_l "
-                    "(6.12), number of fingers and mean wavelength Lambda = Ly / count, front "
-                    "speed dx_f+/dt and the maximum channel speed over u0. Fingers are counted "
-                    "as fine-rich wet channels between coarse levees on cross-slope lines "
-                    "(periodic in y) between x_f- and x_f+: the non-zero count that persists "
-                    "over the longest downslope distance, or the median over --lines.")
+                    "(6.12), number of fingers and mean wavelength Lambda = Ly / count, the "
+                    "spectral wavelength of phi, front speed dx_f+/dt, channel and levee "
+                    "speeds over u0 and the channel phi. Fingers are the fine-rich wet "
+                    "channels between coarse levees in x_f- <= x <= x_f+, joined into 2D "
+                    "objects (periodic in y) and counted once each if they reach --min-span "
+                    "of x_l; or the median count on the cross-slope lines of --lines.")
     p.add_argument("dir", metavar="DIR", help="run folder with fields.nc, or a fields.nc file")
     p.add_argument("--time", type=float, default=None, metavar="T",
                    help="only the output time T [s]")
@@ -24,10 +25,13 @@ def register(sub) -> None:
                    help="channel cells have phi above PHI (default phi0/2)")
     g.add_argument("--lines", type=float, nargs="+", default=None, metavar="F",
                    help="count on the lines x_f- + F x_l only and take the median (default: "
-                        "every column between x_f- and x_f+, persistent count)")
+                        "the fine-rich channels as 2D objects)")
+    g.add_argument("--min-span", type=float, default=None, metavar="FRAC",
+                   help="a channel counts as a finger if it reaches this fraction of x_l "
+                        "downslope (default 0.1)")
     g.add_argument("--min-persistence", type=float, default=None, metavar="FRAC",
-                   help="the persistent count must hold on this fraction of the columns "
-                        "(default 0.1)")
+                   help="the persistent line count (finger_count_lines) must hold on this "
+                        "fraction of the columns (default 0.1)")
     g.add_argument("--min-width", type=float, default=None, metavar="M",
                    help="ignore channels narrower than M metres (default 2 cells)")
     g.add_argument("--min-gap", type=float, default=None, metavar="M",
@@ -48,6 +52,9 @@ def run(args) -> int:
         require(all(0 <= f <= 1 for f in args.lines),
                 f"--lines {' '.join(f'{f:g}' for f in args.lines)}: fractions must lie in [0, 1]")
         opts["line_fractions"] = args.lines
+    if args.min_span is not None:
+        require(0 <= args.min_span <= 1, f"--min-span={args.min_span!r} must lie in [0, 1]")
+        opts["min_span"] = args.min_span
     if args.min_persistence is not None:
         require(0 <= args.min_persistence <= 1,
                 f"--min-persistence={args.min_persistence!r} must lie in [0, 1]")
@@ -68,8 +75,7 @@ def run(args) -> int:
     print(f"{res['file']}: phi0 = {res['phi0']:g}, u0 = {u0}, h_min = {res['h_min']:g} m, "
           f"Ly = {res['Ly']:g} m")
     if o["line_fractions"] is None:
-        lines = (f"count persisting on >= {o['min_persistence']:g} of the columns in "
-                 f"[x_f-, x_f+]")
+        lines = f"2D channels reaching >= {o['min_span']:g} x_l in [x_f-, x_f+]"
     else:
         lines = f"median count on x_f- + {'/'.join(f'{f:g}' for f in o['line_fractions'])} x_l"
     print(f"channels: wet, phi > {o['phi_threshold']:g}, min width {o['min_width']:.3g} m, "
@@ -80,7 +86,11 @@ def run(args) -> int:
     cols = [("t [s]", "time", "{:.4g}"), ("x_f+ [m]", "x_front_max", "{:.4f}"),
             ("x_f- [m]", "x_front_min", "{:.4f}"), ("x_l [m]", "elongation", "{:.4f}"),
             ("fingers", "finger_count", "{:d}"), ("Lambda [m]", "wavelength", "{:.4f}"),
+            ("Lambda_spec [m]", "wavelength_spectral", "{:.4f}"),
             ("dx_f+/dt [m/s]", "front_speed", "{:.4f}"),
+            ("|u|_ch/u0", "channel_speed_over_u0", "{:.3f}"),
+            ("phi_ch", "channel_phi", "{:.3f}"),
+            ("|u|_lev/u0", "levee_speed_over_u0", "{:.3f}"),
             ("max|u|/u0", "max_channel_speed_over_u0", "{:.3f}")]
     rows = [[(fmt.format(res[key][i]) if res[key][i] is not None else "-")
              for _, key, fmt in cols] for i in range(len(res["time"]))]
