@@ -115,7 +115,7 @@ class Study:
 
 def load_study(key: str, out: Path) -> Study | None:
     """The finished runs of the sweep in ``out`` (from its sweep.json), or None without one."""
-    from ..sweep import read_marker
+    from ..sweep import read_marker, refresh_metrics
     path = out / "sweep.json"
     if not path.is_file():
         return None
@@ -128,6 +128,7 @@ def load_study(key: str, out: Path) -> Study | None:
         d = out / r["run"]
         rec = read_marker(d)
         if rec is not None:          # finished runs only: their marker is the record
+            rec = refresh_metrics(d, rec)        # diagnostics of the current definitions
             runs.append(StudyRun(r["run"], r.get("values") or {}, d, rec))
     return Study(key, STUDIES[key], out, runs, data.get("sweep") or {})
 
@@ -261,17 +262,47 @@ def fig15(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path 
                       f"Figure 15: φ at t = {FINAL_TIME:g} s, x_f+ and x_f- dotted")
 
 
-def _series(runs, xkey: Callable, ykey: str, t: float):
-    pts = sorted((xkey(r), r.at(ykey, t)) for r in runs)
-    x = np.array([p[0] for p in pts], dtype=float)
-    y = np.array([np.nan if p[1] is None else p[1] for p in pts], dtype=float)
-    return x, y
+@dataclass
+class Series:
+    """A metric against a study parameter, over the ensemble of runs at each value (the
+    seeds): mean, sample sd (0 for a single run) and the runs where it is defined."""
+    x: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    n: np.ndarray            # runs where the metric is defined
+    runs: np.ndarray         # runs at this value
+    undefined: int           # runs where it is not (no fingers: no wavelength)
 
 
-def _note_no_fingers(ax, wl) -> None:
+def _series(runs, xkey: Callable, ykey: str, t: float) -> Series:
+    groups: dict[float, list] = {}
+    for r in runs:
+        groups.setdefault(float(xkey(r)), []).append(r.at(ykey, t))
+    xs = sorted(groups)
+    vals = [np.array([v for v in groups[x] if v is not None], dtype=float) for x in xs]
+    return Series(
+        x=np.array(xs, dtype=float),
+        mean=np.array([v.mean() if v.size else np.nan for v in vals]),
+        std=np.array([v.std(ddof=1) if v.size > 1 else 0.0 for v in vals]),
+        n=np.array([v.size for v in vals]), runs=np.array([len(groups[x]) for x in xs]),
+        undefined=sum(len(groups[x]) - v.size for x, v in zip(xs, vals)))
+
+
+def _plot_series(ax, s: Series, scale: float = 1.0, **kw) -> None:
+    """Mean +- sd error bars (sd over the seeds at each value)."""
+    ok = s.n > 0
+    ax.errorbar(s.x[ok], scale * s.mean[ok], yerr=scale * s.std[ok], capsize=3, **kw)
+
+
+def _ensemble_label(s: Series) -> str:
+    sizes = sorted(set(int(k) for k in s.runs))
+    return f"mean ± sd of {'/'.join(map(str, sizes))} run{'s' if max(sizes) > 1 else ''}"
+
+
+def _note_no_fingers(ax, s: Series) -> None:
     """Say so where a run has no fingers (its wavelength is undefined and left out)."""
-    if np.isnan(wl).any():
-        n = int(np.isnan(wl).sum())
+    if s.undefined:
+        n = s.undefined
         ax.text(0.03, 0.04, f"{n} run{'s' if n > 1 else ''} without fingers (left out)",
                 transform=ax.transAxes, fontsize=7, color="0.3")
 
@@ -286,8 +317,10 @@ def fig16(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path 
     fig, axes = _figure(len(panels), 2, size=(8.0, 3.2 * len(panels)))
     for row, (study, xlabel, xfn) in enumerate(panels):
         ax = axes[row, 0]
-        x, wl = _series(study.runs, xfn, "wavelength", FINAL_TIME)
-        ax.plot(x, 100 * wl, "ko-")
+        wl = _series(study.runs, xfn, "wavelength", FINAL_TIME)
+        _plot_series(ax, wl, 100, fmt="ko-", label=f"Ly / count, {_ensemble_label(wl)}")
+        _plot_series(ax, _series(study.runs, xfn, "wavelength_spectral", FINAL_TIME), 100,
+                     fmt="s--", color="C0", mfc="none", label="spectral")
         _note_no_fingers(ax, wl)
         ax.axhline(100 * PAPER_WAVELENGTH, color="0.5", ls="--", lw=1,
                    label="paper: about 5 cm (ν = 0.01, 750/m)")
@@ -297,8 +330,8 @@ def fig16(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path 
         ax.legend(fontsize=7, loc="lower right")
         ax = axes[row, 1]
         for t, mk in zip(ELONGATION_TIMES, ("o", "s", "^")):
-            x, xl = _series(study.runs, xfn, "elongation", t)
-            ax.plot(x, xl, marker=mk, ls="-", label=f"t = {t:g} s")
+            _plot_series(ax, _series(study.runs, xfn, "elongation", t), marker=mk, ls="-",
+                         label=f"t = {t:g} s")
         ax.set_xlabel(xlabel)
         ax.set_ylabel("elongation x_l [m]")
         ax.set_ylim(bottom=0)
@@ -316,12 +349,14 @@ def fig17(nu: Study | None, out: Path, dpi: int) -> Path | None:
         return None
     res = sorted({_resolution(r) for r in nu.runs})
     fig, axes = _figure(1, 2, size=(8.0, 3.2))
-    x, wl = _series(nu.runs, _nu, "wavelength", FINAL_TIME)
-    axes[0, 0].plot(x, 100 * wl, "ko-")
+    wl = _series(nu.runs, _nu, "wavelength", FINAL_TIME)
+    _plot_series(axes[0, 0], wl, 100, fmt="ko-", label=f"Ly / count, {_ensemble_label(wl)}")
+    _plot_series(axes[0, 0], _series(nu.runs, _nu, "wavelength_spectral", FINAL_TIME), 100,
+                 fmt="s--", color="C0", mfc="none", label="spectral")
+    axes[0, 0].legend(fontsize=7, loc="lower right")
     _note_no_fingers(axes[0, 0], wl)
     axes[0, 0].set_ylabel(f"wavelength Λ at t = {FINAL_TIME:g} s [cm]")
-    x, xl = _series(nu.runs, _nu, "elongation", FINAL_TIME)
-    axes[0, 1].plot(x, xl, "ko-")
+    _plot_series(axes[0, 1], _series(nu.runs, _nu, "elongation", FINAL_TIME), fmt="ko-")
     axes[0, 1].set_ylabel(f"elongation x_l at t = {FINAL_TIME:g} s [m]")
     nus = sorted({_nu(r) for r in nu.runs})
     for ax in axes[0]:
@@ -405,8 +440,10 @@ def beyond_figures(finite: Study | None, mono: Study | None, out: Path, dpi: int
 # =================================================================================================
 # Summary table
 # =================================================================================================
-SUMMARY_COLUMNS = ("study", "run", "resolution", "Ly", "nu", "stop_time", "t_final",
-                   "finger_count", "wavelength", "elongation", "x_front_max", "x_front_min",
+SUMMARY_COLUMNS = ("study", "run", "resolution", "Ly", "nu", "stop_time", "seed", "t_final",
+                   "finger_count", "wavelength", "wavelength_spectral", "elongation",
+                   "x_front_max", "x_front_min", "channel_speed_over_u0", "channel_phi",
+                   "levee_speed_over_u0",
                    "onset", "front_speed_over_u0", "wall_s", "steps", "rhs_evaluations", "cells")
 
 
@@ -426,9 +463,12 @@ def summary_rows(studies: dict[str, Study | None]) -> list[dict]:
                 "study": study.name, "run": run.name, "resolution": _resolution(run),
                 "Ly": sc.domain.Ly, "nu": sc.flow.nu,
                 "stop_time": sc.inflow.stop_time if sc.inflow else None,
+                "seed": sc.inflow.seed if sc.inflow else None,
                 "t_final": m["time"][-1] if m.get("time") else None,
-                **{k: run.at(k) for k in ("finger_count", "wavelength", "elongation",
-                                          "x_front_max", "x_front_min")},
+                **{k: run.at(k) for k in ("finger_count", "wavelength", "wavelength_spectral",
+                                          "elongation", "x_front_max", "x_front_min",
+                                          "channel_speed_over_u0", "channel_phi",
+                                          "levee_speed_over_u0")},
                 "onset": run.onset(),
                 "front_speed_over_u0": fs / u0 if fs is not None and u0 else None,
                 **{k: run.record.get(k) for k in ("wall_s", "steps", "rhs_evaluations",
