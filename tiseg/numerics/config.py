@@ -59,7 +59,8 @@ def inflow_concentration(y, Ly: float, phi: float, delta: float, modes: int,
     definition used by the Taichi operator (as a field filled once), the NumPy reference and
     the scene."""
     y = np.asarray(y, dtype=float)
-    out = phi + delta * np.sin(2.0 * np.pi * modes * y / Ly)
+    k = 2.0 * math.pi * modes / Ly      # k y in this order, as the kernels once had it: the f64
+    out = phi + delta * np.sin(k * y)   # profile is bitwise the one computed there before
     if noise:
         out = out + noise * phi * inflow_noise(y, Ly, seed)
     return np.clip(out, 0.0, 1.0)
