@@ -8,8 +8,14 @@ os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "0")
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+# The backend of the in-process tests: the CPU, unless TISEG_TEST_ARCH names another (the
+# Vulkan tests run some test files again on software Vulkan this way, in a child process).
+TEST_ARCH = os.environ.get("TISEG_TEST_ARCH", "cpu")
+
+
 @pytest.fixture(scope="session")
 def ti_cpu():
-    """Taichi on the CPU, double precision (what the round-off-level tests need)."""
+    """Taichi on the CPU (or TISEG_TEST_ARCH), double precision (what the round-off-level
+    tests need)."""
     import tiseg
-    return tiseg.init("cpu", "f64")
+    return tiseg.init(TEST_ARCH, "f64")

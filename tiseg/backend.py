@@ -17,13 +17,13 @@ from .errors import InputError
 os.environ.setdefault("TI_SKIP_VERSION_CHECK", "ON")
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "0")
 
-ARCHS = ("cpu", "gpu", "auto")
+ARCHS = ("cpu", "gpu", "auto", "vulkan")
 PRECISIONS = ("f32", "f64")
 
 
 @dataclass(frozen=True)
 class BackendState:
-    arch: str          # resolved: "cpu", "cuda" or "metal"
+    arch: str          # resolved: "cpu", "cuda", "metal" or "vulkan"
     precision: str     # "f32" or "f64"
     threads: int       # CPU threads Taichi may use (0 = Taichi's default)
     generation: int    # increases with every (re)initialisation
@@ -36,8 +36,13 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
          force: bool = False) -> BackendState:
     """Initialise Taichi once for this process.
 
-    arch: "cpu", "gpu" (CUDA or Metal; an error when there is none) or "auto" (GPU if present).
-    precision: "f64" (default, needed for round-off-level tests) or "f32".
+    arch: "cpu", "gpu" (CUDA or Metal; an error when there is none), "auto" (GPU if present)
+    or "vulkan". Vulkan must be asked for by name: "gpu" and "auto" never pick it, because
+    the Vulkan device of a machine without a GPU is software Vulkan (Mesa's lavapipe), a CPU
+    in disguise that runs several times slower than the CPU backend; it serves to run the GPU
+    code generator (SPIR-V) where there is no GPU.
+    precision: "f64" (default, needed for round-off-level tests) or "f32". A device without
+    64-bit floats (Metal; a Vulkan device without shaderFloat64) refuses f64 with one line.
     threads: CPU thread count (0 = all cores).
     Calling again with the same settings is a no-op; other settings re-initialise Taichi.
     """
@@ -57,6 +62,11 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
 
     if arch == "cpu":
         ti_arch = ti.cpu
+    elif arch == "vulkan":
+        from taichi._lib import core as _ti_core
+        if not _ti_core.with_vulkan():
+            raise InputError("arch='vulkan': this Taichi build has no Vulkan backend")
+        ti_arch = ti.vulkan
     else:
         ti_arch = _probe_gpu(ti)
         if ti_arch is None:
@@ -64,6 +74,8 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
                 raise InputError("arch='gpu' was asked for but no CUDA or Metal GPU is available "
                                  "here; use --arch cpu (or auto)")
             ti_arch = ti.cpu
+    if ti_arch == ti.metal and precision == "f64":
+        raise InputError(NO_F64.format(device="Metal"))
     kwargs = dict(arch=ti_arch, default_fp=ti.f64 if precision == "f64" else ti.f32,
                   fast_math=False, debug=debug, offline_cache=True, log_level=ti.WARN)
     if threads and ti_arch == ti.cpu:
@@ -71,13 +83,60 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
     # Taichi prints "[Taichi] Starting on arch=..." on stdout; keep stdout for results (JSON)
     with contextlib.redirect_stdout(sys.stderr):
         ti.init(**kwargs)
-    resolved = {ti.cpu: "cpu", ti.cuda: "cuda", ti.metal: "metal"}.get(ti_arch, str(ti_arch))
+    if ti_arch == ti.vulkan:
+        _check_vulkan(ti, precision)
+    resolved = {ti.cpu: "cpu", ti.cuda: "cuda", ti.metal: "metal",
+                ti.vulkan: "vulkan"}.get(ti_arch, str(ti_arch))
     generation = 1 if _state is None else _state.generation + 1
     _state = BackendState(resolved, precision, threads, generation)
     return _state
 
 
+NO_F64 = ("the {device} device has no 64-bit floats, which precision 'f64' needs; use "
+          "--precision f32 (or precision='f32')")
+
+
+def _check_vulkan(ti, precision: str) -> None:
+    """Taichi falls back to the CPU when no Vulkan device works, and a device may lack f64:
+    refuse both with one line (after resetting Taichi, so nothing half-made stays)."""
+    from taichi.lang import impl
+    if impl.current_cfg().arch != ti.vulkan:
+        ti.reset()
+        raise InputError("arch='vulkan': no Vulkan device works here (install a driver, e.g. "
+                         "Debian's mesa-vulkan-drivers and libvulkan1 for software Vulkan)")
+    if precision == "f64" and not _f64_works(ti):
+        ti.reset()
+        raise InputError(NO_F64.format(device="Vulkan"))
+
+
+def _f64_works(ti) -> bool:
+    """Whether the device computes in 64-bit floats: a product and an atomic max that only f64
+    resolves (1 + 2^-40 is 1 in f32), as the solver's kernels use them."""
+    import numpy as np
+    a = ti.field(ti.f64, shape=2)
+    try:
+        @ti.kernel
+        def probe():
+            x = a[0]
+            a[1] = x * x
+            ti.atomic_max(a[1], x * x - 1.0)
+
+        a[0] = 1.0 + 2.0 ** -40
+        probe()
+        got = a.to_numpy()
+    except Exception:        # a device without shaderFloat64 fails to compile the kernel
+        return False
+    return bool(got[1] == np.float64(1.0 + 2.0 ** -40) ** 2)
+
+
+def requested_arch(resolved: str) -> str:
+    """The ``arch`` to ask :func:`init` for to get the resolved backend again."""
+    return resolved if resolved in ("cpu", "vulkan") else "gpu"
+
+
 def _requested_matches(requested: str, resolved: str) -> bool:
+    if requested == "vulkan" or resolved == "vulkan":
+        return requested == resolved
     return (requested == "cpu" and resolved == "cpu") or (requested == "gpu" and resolved != "cpu")
 
 

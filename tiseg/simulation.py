@@ -93,7 +93,7 @@ class Simulation:
         if backend.is_initialised() and arch is None:
             st = backend.state()
             if st.precision != prec:
-                backend.init(st.arch if st.arch == "cpu" else "gpu", prec, threads or st.threads)
+                backend.init(backend.requested_arch(st.arch), prec, threads or st.threads)
         else:
             backend.init(arch or "cpu", prec, threads)
         self.backend = backend.state()

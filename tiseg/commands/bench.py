@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..backend import ARCHS
 from .common import check_threads, print_json, stdout_for_json
 
 
@@ -75,7 +76,7 @@ def register(sub) -> None:
     s.add_argument("--steppers", nargs="+", default=None,
                    choices=("rkc", "ssprk3", "ssprk2", "euler"), help="default: all four")
     s.add_argument("--repeats", type=int, default=2, help="timed repeats, the minimum is kept (2)")
-    s.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu")
+    s.add_argument("--arch", choices=ARCHS, default="cpu")
     s.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
     s.add_argument("--out", default=None, metavar="DIR",
                    help="where steppers.json/.md go (default: RUN_DIR/bench-steppers)")

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..backend import ARCHS
+
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
 
 
@@ -19,7 +21,7 @@ def register(sub) -> None:
     p.add_argument("--resolution", type=float, default=200.0,
                    help="cells per metre (paper: 750; 200 forms fingers in about a minute on 2 cores)")
     p.add_argument("--t-end", type=float, default=7.5, help="end time [s] (7.5 as in the paper)")
-    p.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu")
+    p.add_argument("--arch", choices=ARCHS, default="cpu")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=run)
 

@@ -13,6 +13,7 @@ import os
 import tempfile
 from pathlib import Path
 
+from ..backend import ARCHS
 from .common import check_threads, print_json
 
 
@@ -21,8 +22,9 @@ def add_scene_arguments(p, scene_optional: bool = False) -> None:
                    help="built-in scene name (e.g. fingers) or path to a TOML file")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override a scene value, e.g. --set domain.resolution=250 (repeatable)")
-    p.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu",
-                   help="Taichi backend: cpu, gpu (CUDA/Metal; error if none) or auto (default cpu)")
+    p.add_argument("--arch", choices=ARCHS, default="cpu",
+                   help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
+                        "(software Vulkan where there is no GPU; default cpu)")
     p.add_argument("--precision", choices=("f32", "f64"), default=None,
                    help="floating-point precision (default: the scene's numerics.precision)")
     p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..backend import ARCHS
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -35,7 +37,7 @@ def register(sub) -> None:
     p.add_argument("--threads-per-task", type=int, default=None, metavar="N",
                    help="Taichi CPU threads per run (default: cores / workers locally; all "
                         "cores on a remote cluster; 0 = all cores)")
-    p.add_argument("--arch", choices=("cpu", "gpu", "auto"), default="cpu",
+    p.add_argument("--arch", choices=ARCHS, default="cpu",
                    help="Taichi backend of each run (default cpu)")
     p.add_argument("--check", action="store_true",
                    help="validate the sweep file and list its runs, run nothing")

@@ -191,7 +191,8 @@ class _Painter:
             gy = (self.src.thickness(i, jp) - self.src.thickness(i, jm)) / (
                 (jp - jm) * self.par[P_DY])
         d = gx * self.par[P_LX] + gy * self.par[P_LY]
-        return 1.0 - self.par[P_SHADE] * ti.tanh(self.par[P_RELIEF] * d)
+        # tanh in f32: SPIR-V (Vulkan) has no 64-bit tanh, and a colour needs no more
+        return 1.0 - self.par[P_SHADE] * ti.tanh(ti.cast(self.par[P_RELIEF] * d, ti.f32))
 
     @ti.func
     def colour(self, i, j):
