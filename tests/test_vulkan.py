@@ -192,3 +192,28 @@ def test_metal_f64_is_refused_before_taichi_starts(monkeypatch, ti_cpu):
         b.init("gpu", "f64")
     assert "Metal" in str(err.value) and "--precision f32" in str(err.value)
     assert b.state() is before
+
+
+@needs_vulkan
+def test_gpu_check_runs_on_vulkan(tmp_path):
+    """`tiseg bench gpu --arch vulkan --quick`: every part of the GPU check runs and reports
+    (throughput of both backends in both precisions, the fingers run, the headless viewer)."""
+    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--arch", "vulkan",
+                        "--quick", "--json", "--out", str(tmp_path)], env=_env(),
+                       capture_output=True, text=True, timeout=900)
+    assert p.returncode == 0, p.stderr[-2000:]
+    rep = json.loads(p.stdout)
+    assert rep == json.loads((tmp_path / "gpu_check.json").read_text())
+    rows = {(r["backend"], r["precision"]): r for r in rep["throughput"]}
+    assert set(rows) == {(b, q) for b in ("cpu", "vulkan") for q in ("f32", "f64")}
+    for (b, q), r in rows.items():
+        assert r["ok"] and r["rhs_cell_updates_per_s"] > 0 and r["step_s"] > 0, r
+        if b == "vulkan":
+            assert r["arch"] == "vulkan" and r["rhs_speedup_vs_cpu"] > 0
+    run = rep["fingers_run"]
+    assert run["ok"] and run["resolved_arch"] == "vulkan" and run["precision"] == "f64"
+    assert run["steps"] > 10 and abs(run["mass_balance_error"]) < 1e-15
+    view = rep["viewer"]
+    assert view["ok"] and view["steps"] > 0 and view["sim_s_per_wall_s"] > 0
+    md = (tmp_path / "gpu_check.md").read_text()
+    assert "| vulkan | f64 |" in md and "fingers run at 60 cells/m" in md

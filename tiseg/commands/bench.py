@@ -83,12 +83,29 @@ def register(sub) -> None:
     s.add_argument("--json", action="store_true", help="print the report as JSON")
     s.set_defaults(func=run_steppers)
 
+    g = bsub.add_parser(
+        "gpu", help="the GPU check: throughput against the CPU, the paper's run, the viewer",
+        description="On a GPU machine: operator and step throughput in f32 and f64 against the "
+                    "CPU in the same run, the fingers scene at 750 cells/m to t = 7.5 s with its "
+                    "wall time, the headless viewer's simulated seconds per wall second at "
+                    "250 cells/m, and Vulkan against CUDA where both exist. Prints a table, "
+                    "writes gpu_check.json and gpu_check.md.")
+    g.add_argument("--arch", choices=("gpu", "vulkan", "cpu"), default="gpu",
+                   help="the device to check (default gpu: CUDA or Metal; vulkan runs the same "
+                        "check on software Vulkan)")
+    g.add_argument("--quick", action="store_true",
+                   help="small grids and short runs (about a minute on software Vulkan)")
+    g.add_argument("--out", default=None, metavar="DIR",
+                   help="where gpu_check.json and gpu_check.md go (default: not written)")
+    g.add_argument("--json", action="store_true", help="print the report as JSON")
+    g.set_defaults(func=run_gpu)
+
 
 def _add_machine_options(p, precisions) -> None:
     """Where a benchmark measures: precisions (each in a child process), backends, threads."""
     p.add_argument("--precisions", nargs="+", default=precisions, choices=("f32", "f64"))
-    p.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu"),
-                   help="default: cpu, and gpu where one is present")
+    p.add_argument("--backends", nargs="+", default=None, choices=("cpu", "gpu", "vulkan"),
+                   help="default: cpu, and gpu where one is present (vulkan only when named)")
     p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
 
 
@@ -154,4 +171,16 @@ def run_steppers(args) -> int:
     else:
         print(steppers.markdown(report))
         print(f"written: {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def run_gpu(args) -> int:
+    from ..bench import gpu, log_stderr
+
+    with stdout_for_json(args.json):
+        report = gpu.run_check(args.arch, quick=args.quick, out_dir=args.out, log=log_stderr)
+    if args.json:
+        print_json(report)
+    else:
+        print(gpu.markdown(report))
     return 0
