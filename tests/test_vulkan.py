@@ -217,3 +217,19 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
     assert view["ok"] and view["steps"] > 0 and view["sim_s_per_wall_s"] > 0
     md = (tmp_path / "gpu_check.md").read_text()
     assert "| vulkan | f64 |" in md and "fingers run at 60 cells/m" in md
+
+
+def test_vulkan_without_a_driver_is_one_line(tmp_path):
+    """--arch vulkan where no Vulkan driver can be found (none named by VK_ICD_FILENAMES):
+    one line that names the driver packages, exit status 2 (needs no Vulkan to run)."""
+    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "run", "fingers", "--arch", "vulkan",
+                        "--no-progress", "--out", str(tmp_path / "run"), "--set",
+                        "domain.resolution=40", "--set", "time.t_end=0.05", "--set",
+                        "output.times=[]", "--set", "output.interval=0.05"],
+                       env=_env(VK_ICD_FILENAMES=str(tmp_path / "no-such-driver.json")),
+                       capture_output=True, text=True, timeout=300)
+    errors = _error_lines(p.stderr)
+    tiseg_errors = [ln for ln in errors if ln.startswith("tiseg run: error:")]
+    assert p.returncode == 2 and len(tiseg_errors) == 1, p.stderr
+    assert "no Vulkan device works here" in tiseg_errors[0]
+    assert "mesa-vulkan-drivers" in tiseg_errors[0]

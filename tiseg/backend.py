@@ -64,8 +64,8 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
         ti_arch = ti.cpu
     elif arch == "vulkan":
         from taichi._lib import core as _ti_core
-        if not _ti_core.with_vulkan():
-            raise InputError("arch='vulkan': this Taichi build has no Vulkan backend")
+        if not _ti_core.with_vulkan():          # no loader, no driver, or a build without it
+            raise InputError(NO_VULKAN)
         ti_arch = ti.vulkan
     else:
         ti_arch = _probe_gpu(ti)
@@ -92,6 +92,8 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
     return _state
 
 
+NO_VULKAN = ("arch='vulkan': no Vulkan device works here (install a driver, e.g. Debian's "
+             "mesa-vulkan-drivers and libvulkan1 for software Vulkan), or use --arch cpu")
 NO_F64 = ("the {device} device has no 64-bit floats, which precision 'f64' needs; use "
           "--precision f32 (or precision='f32')")
 
@@ -102,8 +104,7 @@ def _check_vulkan(ti, precision: str) -> None:
     from taichi.lang import impl
     if impl.current_cfg().arch != ti.vulkan:
         ti.reset()
-        raise InputError("arch='vulkan': no Vulkan device works here (install a driver, e.g. "
-                         "Debian's mesa-vulkan-drivers and libvulkan1 for software Vulkan)")
+        raise InputError(NO_VULKAN)
     if precision == "f64" and not _f64_works(ti):
         ti.reset()
         raise InputError(NO_F64.format(device="Vulkan"))

@@ -736,25 +736,24 @@ def _cell(v):
 def _write_outputs(sweep: Sweep, out: Path, records: Mapping[str, dict]) -> Path:
     """Write sweep.csv (the table) and sweep.json (definition and full records) atomically."""
     from .output import write_json_atomic, write_text_atomic
-    cols = table_columns(sweep)
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
-    w.writeheader()
-    for row in table_rows(sweep, records):
-        w.writerow({k: _csv_value(row.get(k)) for k in cols})
     table = out / "sweep.csv"
-    write_text_atomic(table, buf.getvalue())
-    cols = summary_columns(sweep)
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
-    w.writeheader()
-    for row in summary_rows(sweep, records):
-        w.writerow({k: _csv_value(row.get(k)) for k in cols})
-    write_text_atomic(out / "summary.csv", buf.getvalue())
+    write_text_atomic(table, _csv_text(table_columns(sweep), table_rows(sweep, records)))
+    write_text_atomic(out / "summary.csv",
+                      _csv_text(summary_columns(sweep), summary_rows(sweep, records)))
     write_json_atomic(out / "sweep.json", {"sweep": sweep.to_dict(), "runs": [
         {"run": r.name, "values": r.values, **records.get(r.name, {"status": "pending"})}
         for r in sweep.runs]})
     return table
+
+
+def _csv_text(cols: list[str], rows: list[dict]) -> str:
+    """CSV of rows under the header cols (missing and undefined values as empty cells)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for row in rows:
+        w.writerow({k: _csv_value(row.get(k)) for k in cols})
+    return buf.getvalue()
 
 
 def _csv_value(v) -> str:

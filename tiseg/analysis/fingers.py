@@ -329,10 +329,12 @@ def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None
     equal to it (within 1e-6 relative); the front speed still uses the neighbouring times.
     Further keyword options go to :func:`finger_metrics`.
 
-    Returns ``{"file", "phi0", "u0", "h_min", "Ly", "options", "times": n}`` plus per-time
-    lists under the keys of :data:`RUN_KEYS`: ``time``, ``x_front_max``, ``x_front_min``,
-    ``elongation``, ``finger_count``, ``wavelength``, ``front_speed``, ``front_speed_over_u0``,
-    ``max_channel_speed``, ``max_channel_speed_over_u0`` (None where undefined).
+    Returns ``{"analysis_version", "file", "phi0", "u0", "h_min", "Ly", "options", "times": n}``
+    plus per-time lists under the keys of :data:`RUN_KEYS`: ``time``, ``x_front_max``,
+    ``x_front_min``, ``elongation``, ``finger_count``, ``wavelength``, ``wavelength_spectral``,
+    ``front_speed``, ``front_speed_over_u0``, ``max_channel_speed``,
+    ``max_channel_speed_over_u0``, ``channel_speed_over_u0``, ``channel_phi``,
+    ``levee_speed_over_u0``, ``finger_count_lines`` (None where undefined).
     Raises :class:`tiseg.errors.InputError` for a missing or unreadable file, a file without h
     or phi, or a time that is not an output time.
     """
@@ -398,7 +400,8 @@ def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None
                "min_width": w_cells * dy, "min_gap": g_cells * dy,
                "min_width_cells": w_cells, "min_gap_cells": g_cells,
                "min_speed_over_u0": opts.get("min_speed_over_u0")}
-    head = {"analysis_version": ANALYSIS_VERSION, "file": str(path), "phi0": float(phi0), "u0": None if u0 is None else float(u0),
+    head = {"analysis_version": ANALYSIS_VERSION, "file": str(path), "phi0": float(phi0),
+            "u0": None if u0 is None else float(u0),
             "h_min": float(h_min), "Ly": float(Ly) if Ly is not None else len(y) * _spacing(y),
             "options": options, "times": len(idx)}
     return {**head, **result}

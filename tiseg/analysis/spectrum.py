@@ -33,17 +33,13 @@ def spectral_wavelength(h, phi, cols, Ly: float, h_min: float,
         return math.nan
     s = np.where(h[:, cols] >= h_min, phi[:, cols], 0.0)
     s = s - s.mean(axis=0)
-    ny = s.shape[0]
-    power = (np.abs(np.fft.rfft(s, axis=0)) ** 2).mean(axis=1) / ny ** 2
-    # Parseval: the mean variance across the slope is the sum over the modes (doubled for
-    # the modes with a conjugate partner)
-    var = float(np.mean(np.mean(s * s, axis=0)))
-    if not var > min_rms ** 2:
+    if not float(np.mean(s * s)) > min_rms ** 2:       # the mean cross-slope variance
         return math.nan
+    power = (np.abs(np.fft.rfft(s, axis=0)) ** 2).mean(axis=1)
     n = int(np.argmax(power[1:])) + 1
     shift = 0.0
     if n + 1 < power.size:
-        lo, mid, hi = power[n - 1] if n > 1 else 0.0, power[n], power[n + 1]
+        lo, mid, hi = power[n - 1], power[n], power[n + 1]   # power[0] = 0: the mean is out
         if lo > 1e-12 * mid and hi > 1e-12 * mid:
             a, b, c = math.log(lo), math.log(mid), math.log(hi)
             den = a - 2.0 * b + c
