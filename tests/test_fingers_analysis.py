@@ -525,7 +525,7 @@ def test_uniform_front_has_no_spectral_wavelength():
 
 def test_channel_and_levee_numbers():
     """Channels at 2 u0 with phi = 0.95, levees at 0.1 u0: the medians and mean are exact
-    (the levees are sampled only on columns crossing fingers; the dry chute is left out)."""
+    (levees are the coarse runs beside counted channels; the dry chute is left out)."""
     m = metrics(build(equal_channels(4), u_channel=2.0 * U0, u_levee=0.1 * U0))
     assert m["channel_speed_over_u0"] == pytest.approx(2.0)
     assert m["channel_phi"] == pytest.approx(0.95)
@@ -536,5 +536,15 @@ def test_channel_and_levee_numbers():
     edges = np.flatnonzero(chan & ~np.roll(chan, 1))          # first row of each channel
     u[edges, :] = 0.5 * U0
     assert metrics((h, u, v, phi))["channel_speed_over_u0"] == pytest.approx(2.0)
+    # coarse material moving with the front but not beside a channel (an island between the
+    # finger tips, dry all round) is not a levee
+    chan = equal_channels(4)
+    h, u, v, phi = build(chan, u_channel=2.0 * U0, u_levee=0.1 * U0)
+    mid = int(np.flatnonzero(~chan)[10])                     # a levee row
+    assert h[mid, I_TIP - 5] == 0 and not chan[mid - 3] and not chan[mid + 3]
+    h[mid - 2:mid + 3, I_TIP - 8:I_TIP] = 0.002
+    phi[mid - 2:mid + 3, I_TIP - 8:I_TIP] = 0.1
+    u[mid - 2:mid + 3, I_TIP - 8:I_TIP] = 1.0 * U0
+    assert metrics((h, u, v, phi))["levee_speed_over_u0"] == pytest.approx(0.1)
     none = metrics(build(np.zeros(NY, bool), levee_tip=I_TIP))
     assert none["channel_speed_over_u0"] is None and none["channel_phi"] is None

@@ -32,9 +32,10 @@ Over the runs that belong to counted fingers (objects of extent >= min_span afte
 * ``channel_speed_over_u0``: the median speed |u| at the centre cell of each run (the channel
   centrelines, one sample per run and column), over u0;
 * ``channel_phi``: the mean phi over the cells of those runs;
-* ``levee_speed_over_u0``: the median speed of the wet coarse-rich cells (phi <= threshold) on
-  the same columns (the levees beside the channels; columns crossing no finger, such as the
-  coarse head ahead of the tips, are left out), over u0.
+* ``levee_speed_over_u0``: the median speed of the levees, over u0: on each column, the runs
+  of wet coarse-rich cells (phi <= threshold) that touch a counted channel run. The coarse caps
+  of the finger tips and the coarse head ahead of them, which move with the front, border dry
+  slope or other coarse cells, not a channel, and are left out.
 """
 from __future__ import annotations
 
@@ -115,18 +116,23 @@ def count_channels(line_runs, cols, x, ny: int, min_span_m: float) -> tuple[int,
 def channel_numbers(line_runs, in_finger, cols, h, phi, speed, h_min: float, thr: float,
                     u0: float | None) -> dict:
     """Channel-centre speed, channel phi and levee speed over the counted fingers."""
+    from .fingers import periodic_runs
     ny = h.shape[0]
     centre_speed, chan_phi, levee_speed = [], [], []
     for k, j in enumerate(cols):
         runs = [r for r, ok in zip(line_runs[k], in_finger[k]) if ok]
         if not runs:
             continue
+        in_channel = np.zeros(ny, dtype=bool)
         for start, length in runs:
             rows = (start + np.arange(length)) % ny
+            in_channel[rows] = True
             centre_speed.append(speed[(start + length // 2) % ny, j])
             chan_phi.extend(phi[rows, j])
-        coarse = (h[:, j] >= h_min) & (phi[:, j] <= thr)
-        levee_speed.extend(speed[coarse, j])
+        coarse = (h[:, j] >= h_min) & (phi[:, j] <= thr) & ~in_channel
+        for start, length in periodic_runs(coarse):
+            if in_channel[(start - 1) % ny] or in_channel[(start + length) % ny]:
+                levee_speed.extend(speed[(start + np.arange(length)) % ny, j])
 
     def ratio(values):
         if not values or not u0:

@@ -94,7 +94,7 @@ RUN_KEYS = ("time", "x_front_max", "x_front_min", "elongation", "finger_count", 
             "levee_speed_over_u0", "finger_count_lines")
 # Version of the definitions above: stored in fingers.json, so that results computed with
 # older definitions are recognised and recomputed from fields.nc (tiseg sweep does).
-ANALYSIS_VERSION = 3
+ANALYSIS_VERSION = 4
 
 
 # =================================================================================================
