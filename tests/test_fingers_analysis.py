@@ -536,15 +536,16 @@ def test_channel_and_levee_numbers():
     edges = np.flatnonzero(chan & ~np.roll(chan, 1))          # first row of each channel
     u[edges, :] = 0.5 * U0
     assert metrics((h, u, v, phi))["channel_speed_over_u0"] == pytest.approx(2.0)
-    # coarse material moving with the front but not beside a channel (an island between the
-    # finger tips, dry all round) is not a levee
+    # coarse material moving with the front but not beside a channel (islands between the
+    # finger tips, dry all round, more cells than the levees) is not a levee
     chan = equal_channels(4)
-    h, u, v, phi = build(chan, u_channel=2.0 * U0, u_levee=0.1 * U0)
-    mid = int(np.flatnonzero(~chan)[10])                     # a levee row
-    assert h[mid, I_TIP - 5] == 0 and not chan[mid - 3] and not chan[mid + 3]
-    h[mid - 2:mid + 3, I_TIP - 8:I_TIP] = 0.002
-    phi[mid - 2:mid + 3, I_TIP - 8:I_TIP] = 0.1
-    u[mid - 2:mid + 3, I_TIP - 8:I_TIP] = 1.0 * U0
+    h, u, v, phi = build(chan, u_channel=2.0 * U0, u_levee=0.1 * U0, levee_tip=I_REAR + 2)
+    near = np.any([np.roll(chan, k) for k in range(-2, 3)], axis=0)   # within 2 rows (periodic)
+    island = ~near
+    h[np.ix_(island, np.arange(45, 76))] = 0.002
+    phi[np.ix_(island, np.arange(45, 76))] = 0.1
+    u[np.ix_(island, np.arange(45, 76))] = 1.0 * U0
+    assert island.sum() * 31 > (~chan).sum() * 3                # the islands outnumber the levees
     assert metrics((h, u, v, phi))["levee_speed_over_u0"] == pytest.approx(0.1)
     none = metrics(build(np.zeros(NY, bool), levee_tip=I_TIP))
     assert none["channel_speed_over_u0"] is None and none["channel_phi"] is None
