@@ -281,3 +281,17 @@ def test_reused_run_with_old_diagnostics_is_analysed_again(tiny_sweep, tmp_path)
     assert json.loads((out / "nu-0.01" / "fingers.json").read_text())["analysis_version"] == \
         ANALYSIS_VERSION
     assert (out / "nu-0.01" / "fields.nc").stat().st_mtime_ns == fields
+
+
+def test_figure_series_are_ensemble_means_with_sd():
+    """The error bars of figures 16-17: runs grouped by the study value, mean and sample sd
+    over the seeds, runs without the metric (no fingers) left out and counted."""
+    from tiseg.figures.fingers import StudyRun, _series
+    data = {(0.01, 1): 0.05, (0.01, 2): 0.06, (0.01, 3): 0.07, (0.02, 1): 0.1, (0.02, 2): None}
+    runs = [StudyRun(f"nu-{nu}_seed-{s}", {"flow.nu": nu}, Path("."),
+                     {"metrics": {"time": [7.5], "wavelength": [wl]}})
+            for (nu, s), wl in data.items()]
+    s = _series(runs, lambda r: r.values["flow.nu"], "wavelength", 7.5)
+    assert list(s.x) == [0.01, 0.02] and list(s.runs) == [3, 2] and list(s.n) == [3, 1]
+    assert s.mean == pytest.approx([0.06, 0.1]) and s.std == pytest.approx([0.01, 0.0])
+    assert s.undefined == 1
