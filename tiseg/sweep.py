@@ -534,7 +534,8 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
     result = SweepResult(out, table, [records.get(r.name, {"name": r.name, "status": "missing"})
                                       for r in sweep.runs])
     say(f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
-        f"{result.count('failed')} failed; table {table}, ensembles {table.parent / 'summary.csv'}")
+        f"{result.count('failed')} failed; table {table}, ensembles "
+        f"{table.parent / 'summary.csv'}")
     return result
 
 
