@@ -372,18 +372,23 @@ def fig17(nu: Study | None, out: Path, dpi: int) -> Path | None:
 
 def _fronts(study: Study, path: Path, dpi: int, label: Callable, title: str,
             marks: Callable | None = None, order: Callable | None = None) -> Path:
-    """x_f+ (solid) and x_f- (dashed) against t, and x_l against t, one colour per run."""
+    """x_f+ (solid) and x_f- (dashed) against t, and x_l against t, one colour per label:
+    the runs of one point of an ensemble (its seeds) share their colour and legend entry."""
     fig, axes = _figure(1, 2, size=(8.5, 3.4))
     runs = sorted(study.runs, key=order or (lambda r: r.name))
-    for k, run in enumerate(runs):
-        c = f"C{k % 10}"
+    colours: dict[str, str] = {}
+    for run in runs:
+        name = label(run)
+        first = name not in colours
+        c = colours.setdefault(name, f"C{len(colours) % 10}")
+        name = name if first else None
         m = run.metrics
         t = np.array(m["time"], dtype=float)
         arr = {k: np.array([np.nan if v is None else v for v in m[k]], dtype=float)
                for k in ("x_front_max", "x_front_min", "elongation")}
-        axes[0, 0].plot(t, arr["x_front_max"], "-", color=c, label=label(run))
+        axes[0, 0].plot(t, arr["x_front_max"], "-", color=c, label=name)
         axes[0, 0].plot(t, arr["x_front_min"], "--", color=c)
-        axes[0, 1].plot(t, arr["elongation"], "-", color=c, label=label(run))
+        axes[0, 1].plot(t, arr["elongation"], "-", color=c, label=name)
         on = run.onset()
         if on is not None:
             i = int(np.argmin(np.abs(t - on)))
