@@ -233,3 +233,13 @@ def test_vulkan_without_a_driver_is_one_line(tmp_path):
     assert p.returncode == 2 and len(tiseg_errors) == 1, p.stderr
     assert "no Vulkan device works here" in tiseg_errors[0]
     assert "mesa-vulkan-drivers" in tiseg_errors[0]
+
+
+def test_gpu_check_viewer_row_without_vulkan_times_the_loop(monkeypatch):
+    """Where GGUI cannot start (no Vulkan driver), the viewer row of the GPU check times the
+    same loop without a window and says so (needs no Vulkan)."""
+    from tiseg.bench.gpu import viewer_speed
+    monkeypatch.setenv("VK_ICD_FILENAMES", "/nonexistent/no-such-driver.json")
+    row = viewer_speed("cpu", "f64", 40, 3, 2)
+    assert row["ok"] and row["how"].startswith("steps + colour kernel, no window")
+    assert "Vulkan" in row["how"] and row["steps"] == 6 and row["sim_t"] > 0

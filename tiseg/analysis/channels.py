@@ -10,7 +10,7 @@ The count (:func:`count_channels`)
 ----------------------------------
 1. Channel cells are wet (h >= h_min) and fine-rich (phi > phi_threshold); on each grid column
    (cross-slope line) of the fingered zone they form periodic runs after the noise filters of
-   :func:`tiseg.analysis.fingers.periodic_runs` (runs narrower than ``min_width`` cells dropped,
+   :func:`periodic_runs` (runs narrower than ``min_width`` cells dropped,
    gaps narrower than ``min_gap`` cells closed; a line that is channel all across has no
    levee and no run).
 2. Runs on neighbouring columns that share a row are connected (4-connectivity, periodic in
@@ -44,6 +44,44 @@ import math
 import numpy as np
 
 DEFAULT_MIN_SPAN = 0.1     # fraction of x_l a finger must reach along x
+
+
+def periodic_runs(mask, min_width: int = 1, min_gap: int = 1) -> list[tuple[int, int]]:
+    """Connected runs of True in a periodic 1D boolean array, after the noise filters.
+
+    Returns ``(start, length)`` pairs in cells, start in [0, n) (a run may wrap past n - 1 to
+    0). Runs shorter than ``min_width`` cells are dropped first; then runs separated by a gap
+    shorter than ``min_gap`` cells are merged (the merged run includes the gap). A line that is
+    True everywhere, or becomes one run closing on itself through gaps shorter than ``min_gap``,
+    has no boundary and yields ``[]`` -- as does a line without any True cell.
+    """
+    m = np.asarray(mask, dtype=bool).reshape(-1)
+    n = m.size
+    if n == 0 or m.all() or not m.any():
+        return []
+    # Rotate so that index 0 is a gap cell: then no run wraps and plain linear runs suffice.
+    k = int(np.argmin(m))                      # first False
+    r = np.roll(m, -k)
+    edges = np.diff(np.concatenate(([0], r.astype(np.int8), [0])))
+    starts = np.flatnonzero(edges == 1)
+    ends = np.flatnonzero(edges == -1)         # exclusive
+    runs = [[int(s), int(e)] for s, e in zip(starts, ends) if e - s >= min_width]
+    if not runs:
+        return []
+    merged = [runs[0]]
+    for s, e in runs[1:]:
+        if s - merged[-1][1] < min_gap:
+            merged[-1][1] = e
+        else:
+            merged.append([s, e])
+    # the gap through the seam of the rotated line (from the last run back to the first)
+    wrap_gap = n - merged[-1][1] + merged[0][0]
+    if wrap_gap < min_gap:
+        if len(merged) == 1:
+            return []                          # closes on itself: no levee on this line
+        last = merged.pop()
+        merged[0] = [last[0], merged[0][1] + n]
+    return [((s + k) % n, e - s) for s, e in merged]
 
 
 class _Objects:
@@ -116,7 +154,6 @@ def count_channels(line_runs, cols, x, ny: int, min_span_m: float) -> tuple[int,
 def channel_numbers(line_runs, in_finger, cols, h, phi, speed, h_min: float, thr: float,
                     u0: float | None) -> dict:
     """Channel-centre speed, channel phi and levee speed over the counted fingers."""
-    from .fingers import periodic_runs
     ny = h.shape[0]
     centre_speed, chan_phi, levee_speed = [], [], []
     for k, j in enumerate(cols):
@@ -144,4 +181,4 @@ def channel_numbers(line_runs, in_finger, cols, h, phi, speed, h_min: float, thr
             "levee_speed_over_u0": ratio(levee_speed)}
 
 
-__all__ = ["count_channels", "channel_numbers", "DEFAULT_MIN_SPAN"]
+__all__ = ["periodic_runs", "count_channels", "channel_numbers", "DEFAULT_MIN_SPAN"]

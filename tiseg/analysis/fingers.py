@@ -81,7 +81,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import InputError
-from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels
+from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels, periodic_runs
 from .spectrum import spectral_wavelength
 
 DEFAULT_MIN_PERSISTENCE = 0.1    # fraction of the lines in [x_f^-, x_f^+] the count must hold on
@@ -118,47 +118,6 @@ def front_min(h, phi, x, h_min: float, phi0: float) -> float:
     if not cols.any():
         return math.nan
     return float(np.asarray(x, dtype=float)[cols].min())
-
-
-# =================================================================================================
-# Runs on a periodic line
-# =================================================================================================
-def periodic_runs(mask, min_width: int = 1, min_gap: int = 1) -> list[tuple[int, int]]:
-    """Connected runs of True in a periodic 1D boolean array, after the noise filters.
-
-    Returns ``(start, length)`` pairs in cells, start in [0, n) (a run may wrap past n - 1 to
-    0). Runs shorter than ``min_width`` cells are dropped first; then runs separated by a gap
-    shorter than ``min_gap`` cells are merged (the merged run includes the gap). A line that is
-    True everywhere, or becomes one run closing on itself through gaps shorter than ``min_gap``,
-    has no boundary and yields ``[]`` -- as does a line without any True cell.
-    """
-    m = np.asarray(mask, dtype=bool).reshape(-1)
-    n = m.size
-    if n == 0 or m.all() or not m.any():
-        return []
-    # Rotate so that index 0 is a gap cell: then no run wraps and plain linear runs suffice.
-    k = int(np.argmin(m))                      # first False
-    r = np.roll(m, -k)
-    edges = np.diff(np.concatenate(([0], r.astype(np.int8), [0])))
-    starts = np.flatnonzero(edges == 1)
-    ends = np.flatnonzero(edges == -1)         # exclusive
-    runs = [[int(s), int(e)] for s, e in zip(starts, ends) if e - s >= min_width]
-    if not runs:
-        return []
-    merged = [runs[0]]
-    for s, e in runs[1:]:
-        if s - merged[-1][1] < min_gap:
-            merged[-1][1] = e
-        else:
-            merged.append([s, e])
-    # the gap through the seam of the rotated line (from the last run back to the first)
-    wrap_gap = n - merged[-1][1] + merged[0][0]
-    if wrap_gap < min_gap:
-        if len(merged) == 1:
-            return []                          # closes on itself: no levee on this line
-        last = merged.pop()
-        merged[0] = [last[0], merged[0][1] + n]
-    return [((s + k) % n, e - s) for s, e in merged]
 
 
 # =================================================================================================

@@ -57,8 +57,10 @@ def _run(cmd: list[str], timeout: float) -> tuple[int, str, str, float]:
 
 
 def _last_error(stderr: str) -> str:
-    lines = [ln for ln in stderr.splitlines() if "error" in ln.lower()]
-    return (lines[-1] if lines else stderr.strip().splitlines()[-1:] or ["failed"])[-1].strip()
+    """The last line of a child's stderr that names an error (else its last line)."""
+    lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
+    errors = [ln for ln in lines if "error" in ln.lower()]
+    return (errors or lines or ["failed"])[-1]
 
 
 def fingers_run(arch: str, precision: str, resolution: float, t_end: float,
@@ -100,27 +102,37 @@ def viewer_speed(arch: str, precision: str, resolution: float, frames: int,
                 "wall_s": wall, "steps_per_s": steps / wall, "sim_s_per_wall_s": t / wall,
                 "real_time": t >= wall}
     # GGUI needs Vulkan: time the same loop (steps + colour kernel per frame) without it
-    code = ("import json, sys, time; import tiseg; from tiseg.simulation import Simulation; "
-            "from tiseg.render import FrameRenderer; "
-            "a, p, r, n, k = sys.argv[1], sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), "
-            "int(sys.argv[5]); tiseg.init(a, p); "
-            "sim = Simulation.from_scene('fingers', {'domain.resolution': r, "
-            "'output.times': []}); fr = FrameRenderer(sim, 'phi'); "
-            "sim.step(); fr.to_numpy(); t0 = time.perf_counter(); s0 = sim.stats.steps; "
-            "t_start = sim.t\n"
-            "for _ in range(n):\n"
-            "    [sim.step() for _ in range(k)]; fr.to_numpy()\n"
-            "w = time.perf_counter() - t0; print(json.dumps({'wall': w, 'steps': "
-            "sim.stats.steps - s0, 'sim_t': sim.t - t_start}))")
-    rc2, so2, se2, _ = _run([sys.executable, "-c", code, arch, precision, f"{resolution:g}",
-                             str(frames), str(steps_per_frame)], timeout)
+    rc2, so2, se2, _ = _run([sys.executable, "-m", "tiseg.bench.gpu", "viewer-loop", arch,
+                             precision, f"{resolution:g}", str(frames), str(steps_per_frame)],
+                            timeout)
     if rc2 != 0:
-        return {**row, "ok": False, "error": _last_error(se or se2)}
+        return {**row, "ok": False, "error": _last_error(se2)}
     d = json.loads(so2.strip().splitlines()[-1])
     return {**row, "ok": True, "how": f"steps + colour kernel, no window ({_last_error(se)})",
             "sim_t": d["sim_t"], "steps": d["steps"], "wall_s": d["wall"],
             "steps_per_s": d["steps"] / d["wall"], "sim_s_per_wall_s": d["sim_t"] / d["wall"],
             "real_time": d["sim_t"] >= d["wall"]}
+
+
+def viewer_loop(arch: str, precision: str, resolution: float, frames: int,
+                steps_per_frame: int) -> dict:
+    """The viewer's work without its window: per frame, steps and the colour kernel into a
+    NumPy image. Runs in its own process (``python -m tiseg.bench.gpu viewer-loop ...``)."""
+    from .. import backend
+    from ..render import FrameRenderer
+    from ..simulation import Simulation
+    backend.init(arch, precision)
+    sim = Simulation.from_scene("fingers", {"domain.resolution": resolution, "output.times": []})
+    renderer = FrameRenderer(sim, "phi")
+    sim.step()                               # compile outside the timing
+    renderer.to_numpy()
+    t0, steps0, sim_t0 = time.perf_counter(), sim.stats.steps, sim.t
+    for _ in range(frames):
+        for _ in range(steps_per_frame):
+            sim.step()
+        renderer.to_numpy()
+    return {"wall": time.perf_counter() - t0, "steps": sim.stats.steps - steps0,
+            "sim_t": sim.t - sim_t0}
 
 
 def throughput_rows(arch: str, grid, quick: bool, log) -> list[dict]:
@@ -231,4 +243,15 @@ def markdown(report: dict) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["run_check", "markdown", "fingers_run", "viewer_speed", "throughput_rows"]
+__all__ = ["run_check", "markdown", "fingers_run", "viewer_speed", "viewer_loop",
+           "throughput_rows"]
+
+
+if __name__ == "__main__":
+    # child entry: python -m tiseg.bench.gpu viewer-loop ARCH PRECISION RESOLUTION FRAMES STEPS
+    if len(sys.argv) == 7 and sys.argv[1] == "viewer-loop":
+        a, p, r, n, k = sys.argv[2:]
+        print(json.dumps(viewer_loop(a, p, float(r), int(n), int(k))))
+    else:
+        sys.exit("usage: python -m tiseg.bench.gpu viewer-loop ARCH PRECISION RESOLUTION "
+                 "FRAMES STEPS_PER_FRAME")
