@@ -243,3 +243,16 @@ def test_gpu_check_viewer_row_without_vulkan_times_the_loop(monkeypatch):
     row = viewer_speed("cpu", "f64", 40, 3, 2)
     assert row["ok"] and row["how"].startswith("steps + colour kernel, no window")
     assert "Vulkan" in row["how"] and row["steps"] == 6 and row["sim_t"] > 0
+
+
+def test_gpu_check_without_a_gpu_is_one_line():
+    """`tiseg bench gpu` (CUDA or Metal by default) on a machine without one stops at once with
+    one line that names the alternatives, instead of a table of failures."""
+    from tiseg.bench import available_backends
+    if "gpu" in available_backends():
+        pytest.skip("this machine has a CUDA or Metal GPU")
+    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--quick"],
+                       env=_env(), capture_output=True, text=True, timeout=300)
+    errors = [ln for ln in _error_lines(p.stderr) if ln.startswith("tiseg bench: error:")]
+    assert p.returncode == 2 and len(errors) == 1, p.stderr
+    assert "no CUDA or Metal GPU" in errors[0] and "--arch vulkan" in errors[0]

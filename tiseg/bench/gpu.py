@@ -173,6 +173,13 @@ def vulkan_available() -> bool:
 
 def run_check(arch: str = "gpu", quick: bool = False, out_dir=None, log=log_stderr) -> dict:
     """Every measurement of the module docstring; returns the report (and writes it)."""
+    if arch == "gpu":
+        from . import available_backends
+        if "gpu" not in available_backends():
+            from ..errors import InputError
+            raise InputError("no CUDA or Metal GPU is available here: run the GPU check on a "
+                             "machine with one, or check the code path with --arch vulkan "
+                             "(software Vulkan) or --arch cpu")
     cfg = QUICK if quick else FULL
     t0 = time.perf_counter()
     work = Path(tempfile.mkdtemp(prefix="tiseg-gpu-check-"))
