@@ -36,6 +36,7 @@ import tomli_w
 
 from .errors import InputError
 from .material import Material, Species
+from .numerics.config import inflow_concentration, noise_modes
 from .steady import steady_state
 
 # The repository root is the parent of the package folder: this is the same path as
@@ -202,7 +203,6 @@ class InflowConfig:
 
     def concentration(self, y, Ly: float):
         """Inflow concentration (6.8d), (6.9) plus the noise at cross-slope positions y [m]."""
-        from .numerics.config import inflow_concentration
         return inflow_concentration(y, Ly, self.phi, self.perturbation, self.modes, self.noise,
                                     self.seed)
 
@@ -799,7 +799,6 @@ def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: Dom
     if seed >= 2 ** 63:
         raise InputError(f"inflow.seed={seed}: must be below 2**63")
     # the random profile never exceeds sqrt(2 N) in magnitude (inflow_noise)
-    from .numerics.config import noise_modes
     reach = abs(delta) + noise * phi * math.sqrt(2.0 * noise_modes(domain.Ly))
     if noise and not (0.0 <= phi - reach and phi + reach <= 1.0):
         raise InputError(f"inflow.noise={noise!r}: phi = inflow.phi={phi!r} + perturbation + "
