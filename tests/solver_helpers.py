@@ -67,3 +67,12 @@ def exit_code(argv) -> int:
         return main(argv)
     except SystemExit as exc:
         return exc.code
+
+
+def child_env(**extra) -> dict:
+    """Environment for a test's child process: Taichi offline and quiet, no display backend."""
+    import os
+    env = dict(os.environ)
+    env.update(TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0", MPLBACKEND="Agg")
+    env.update(extra)
+    return env

@@ -5,7 +5,6 @@ GGUI needs Vulkan. Where software Vulkan (mesa-vulkan-drivers + libvulkan1) or X
 the tests that need them are skipped; the CI script installs both, so there they run.
 """
 import math
-import os
 import shutil
 import subprocess
 import sys
@@ -13,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from solver_helpers import child_env
 
 from viewer.app import display_problem, vulkan_problem
 
@@ -22,13 +23,6 @@ TINY_ARGS = ["--set", "domain.resolution=40", "--set", "time.t_end=0.3", "--set"
 
 VULKAN = vulkan_problem()
 needs_vulkan = pytest.mark.skipif(VULKAN is not None, reason=f"no Vulkan: {VULKAN}")
-
-
-def _env(**extra):
-    env = dict(os.environ)
-    env.update(TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0", MPLBACKEND="Agg")
-    env.update(extra)
-    return env
 
 
 def test_no_display_one_line_exit_2(monkeypatch, capsys):
@@ -41,7 +35,7 @@ def test_no_display_one_line_exit_2(monkeypatch, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "DISPLAY" in err and "tiseg run SCENE --movie" in err
     # the module entry point, in a fresh process
-    env = _env()
+    env = child_env()
     env.pop("DISPLAY", None)
     env.pop("WAYLAND_DISPLAY", None)
     p = subprocess.run([sys.executable, "-m", "viewer", "fingers"], cwd=ROOT, env=env,
@@ -141,7 +135,7 @@ def test_live_window_under_xvfb(tmp_path):
     cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", sys.executable, "-m", "viewer",
            "fingers", *TINY_ARGS, "--frames", "5", "--record", str(rec),
            "--save-dir", str(tmp_path)]
-    p = subprocess.run(cmd, cwd=ROOT, env=_env(), capture_output=True, text=True, timeout=180)
+    p = subprocess.run(cmd, cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=180)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "viewer: 5 frames" in p.stdout
     import imageio.v2 as iio2

@@ -10,7 +10,6 @@ with the reason.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +17,8 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 import pytest
+
+from solver_helpers import child_env
 
 from tiseg.output import read_diagnostics
 from viewer.app import vulkan_problem
@@ -28,13 +29,6 @@ VULKAN = vulkan_problem()
 needs_vulkan = pytest.mark.skipif(VULKAN is not None, reason=f"no Vulkan: {VULKAN}")
 
 
-def _env(**extra) -> dict:
-    env = dict(os.environ)
-    env.update(TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0", MPLBACKEND="Agg")
-    env.update(extra)
-    return env
-
-
 @needs_vulkan
 def test_operator_render_and_viewer_suites_pass_on_vulkan_f64():
     """The reference-equality tests (every reconstruction, wet/dry states, every boundary,
@@ -42,7 +36,7 @@ def test_operator_render_and_viewer_suites_pass_on_vulkan_f64():
     viewer tests, run again with arch=vulkan."""
     files = ["tests/test_operator_reference.py", "tests/test_render.py", "tests/test_viewer.py"]
     p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *files],
-                       cwd=ROOT, env=_env(TISEG_TEST_ARCH="vulkan"), capture_output=True,
+                       cwd=ROOT, env=child_env(TISEG_TEST_ARCH="vulkan"), capture_output=True,
                        text=True, timeout=900)
     tail = p.stdout[-3000:]
     assert p.returncode == 0, tail
@@ -92,7 +86,7 @@ def test_operator_matches_reference_in_f32_on_vulkan_and_cpu():
     """f32 kernels against the f64 reference of the same f32 state: within a few f32 ulps
     (measured 1.5e-7 .. 5e-7 relative on both backends), on Vulkan as on the CPU."""
     procs = {arch: subprocess.Popen([sys.executable, "-c", F32_SCRIPT, str(HERE), arch],
-                                    env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                    env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                     text=True) for arch in ("vulkan", "cpu")}
     rel = {}
     for arch, proc in procs.items():
@@ -119,7 +113,7 @@ def test_fingers_run_on_vulkan_matches_the_cpu(tmp_path):
                    "--precision", prec, "--no-progress", "--out", str(tmp_path / f"{arch}-{prec}")]
             for s in SETS:
                 cmd += ["--set", s]
-            procs[arch, prec] = subprocess.Popen(cmd, env=_env(), stdout=subprocess.PIPE,
+            procs[arch, prec] = subprocess.Popen(cmd, env=child_env(), stdout=subprocess.PIPE,
                                                  stderr=subprocess.PIPE, text=True)
     for key, proc in procs.items():
         out, err = proc.communicate(timeout=900)
@@ -146,7 +140,7 @@ def _error_lines(stderr: str) -> list[str]:
 
 
 def _run_code(code: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=_env(),
+    return subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=child_env(),
                           capture_output=True, text=True, timeout=300)
 
 
@@ -159,7 +153,7 @@ def test_gpu_and_auto_never_pick_vulkan():
     p = _run_code("import tiseg; print(tiseg.init('vulkan', 'f32').arch)")
     assert p.returncode == 0 and p.stdout.split()[-1] == "vulkan", p.stderr
     p = subprocess.run([sys.executable, "-m", "tiseg.cli", "run", "fingers", "--arch", "gpu",
-                        "--set", "domain.resolution=40"], env=_env(), capture_output=True,
+                        "--set", "domain.resolution=40"], env=child_env(), capture_output=True,
                        text=True, timeout=300)
     errors = _error_lines(p.stderr)
     assert p.returncode == 2 and len(errors) == 1 and "no CUDA or Metal" in errors[0]
@@ -174,13 +168,13 @@ def test_f64_on_a_device_without_it_is_one_line(tmp_path):
     base = [sys.executable, "-c", code, "run", "fingers", "--arch", "vulkan", "--no-progress",
             "--set", "domain.resolution=40", "--set", "time.t_end=0.05", "--set",
             "output.times=[]", "--set", "output.interval=0.05"]
-    p = subprocess.run(base + ["--out", str(tmp_path / "run")], env=_env(),
+    p = subprocess.run(base + ["--out", str(tmp_path / "run")], env=child_env(),
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 2, p.stderr
     errors = _error_lines(p.stderr)
     assert len(errors) == 1 and errors[0].startswith("tiseg run: error:")
     assert "64-bit floats" in errors[0] and "--precision f32" in errors[0]
-    p = subprocess.run(base + ["--precision", "f32", "--out", str(tmp_path / "f32")], env=_env(),
+    p = subprocess.run(base + ["--precision", "f32", "--out", str(tmp_path / "f32")], env=child_env(),
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
 
@@ -205,7 +199,7 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
     """`tiseg bench gpu --arch vulkan --quick`: every part of the GPU check runs and reports
     (throughput of both backends in both precisions, the fingers run, the headless viewer)."""
     p = subprocess.run([sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--arch", "vulkan",
-                        "--quick", "--json", "--out", str(tmp_path)], env=_env(),
+                        "--quick", "--json", "--out", str(tmp_path)], env=child_env(),
                        capture_output=True, text=True, timeout=900)
     assert p.returncode == 0, p.stderr[-2000:]
     rep = json.loads(p.stdout)
@@ -232,7 +226,7 @@ def test_vulkan_without_a_driver_is_one_line(tmp_path):
                         "--no-progress", "--out", str(tmp_path / "run"), "--set",
                         "domain.resolution=40", "--set", "time.t_end=0.05", "--set",
                         "output.times=[]", "--set", "output.interval=0.05"],
-                       env=_env(VK_ICD_FILENAMES=str(tmp_path / "no-such-driver.json")),
+                       env=child_env(VK_ICD_FILENAMES=str(tmp_path / "no-such-driver.json")),
                        capture_output=True, text=True, timeout=300)
     errors = _error_lines(p.stderr)
     tiseg_errors = [ln for ln in errors if ln.startswith("tiseg run: error:")]
@@ -258,7 +252,7 @@ def test_gpu_check_without_a_gpu_is_one_line():
     if "gpu" in available_backends():
         pytest.skip("this machine has a CUDA or Metal GPU")
     p = subprocess.run([sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--quick"],
-                       env=_env(), capture_output=True, text=True, timeout=300)
+                       env=child_env(), capture_output=True, text=True, timeout=300)
     errors = [ln for ln in _error_lines(p.stderr) if ln.startswith("tiseg bench: error:")]
     assert p.returncode == 2 and len(errors) == 1, p.stderr
     assert "no CUDA or Metal GPU" in errors[0] and "--arch vulkan" in errors[0]

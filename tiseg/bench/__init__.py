@@ -88,6 +88,12 @@ def log_stderr(message: str) -> None:
     sys.stderr.flush()
 
 
+def child_env(**extra) -> dict:
+    """The environment of a benchmark's child process: Taichi offline and quiet, no display."""
+    return dict(os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0",
+                MPLBACKEND="Agg", **extra)
+
+
 def run_child(module: str, task: dict, work_dir: Path, tag: str) -> dict:
     """Run ``python -m module --child TASK.json`` and return the JSON it wrote.
 
@@ -100,8 +106,7 @@ def run_child(module: str, task: dict, work_dir: Path, tag: str) -> dict:
     task_path.write_text(json.dumps(task))
     if result_path.exists():
         result_path.unlink()
-    env = dict(os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0",
-               MPLBACKEND="Agg")
+    env = child_env()
     proc = subprocess.run([sys.executable, "-m", module, "--child", str(task_path)],
                           stdout=subprocess.DEVNULL, env=env)
     if proc.returncode != 0 or not result_path.exists():

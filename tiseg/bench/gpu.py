@@ -26,7 +26,6 @@ minute on software Vulkan; it is what the tests run. It prints a short table and
 from __future__ import annotations
 
 import json
-import os
 import re
 import subprocess
 import sys
@@ -34,7 +33,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from . import log_stderr, machine_info
+from . import child_env, log_stderr, machine_info
 
 FULL = {"throughput_grid": None, "resolution": 750, "t_end": 7.5, "viewer_resolution": 250,
         "viewer_frames": 60, "steps_per_frame": 4, "compare_resolution": 250, "compare_t_end": 2.0}
@@ -42,15 +41,10 @@ QUICK = {"throughput_grid": (96, 32), "resolution": 60, "t_end": 0.5, "viewer_re
          "viewer_frames": 6, "steps_per_frame": 2, "compare_resolution": 40, "compare_t_end": 0.3}
 
 
-def _env() -> dict:
-    return dict(os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0",
-                MPLBACKEND="Agg")
-
-
 def _run(cmd: list[str], timeout: float) -> tuple[int, str, str, float]:
     t0 = time.perf_counter()
     try:
-        p = subprocess.run(cmd, capture_output=True, text=True, env=_env(), timeout=timeout)
+        p = subprocess.run(cmd, capture_output=True, text=True, env=child_env(), timeout=timeout)
     except subprocess.TimeoutExpired:
         return 124, "", f"timed out after {timeout:.0f} s", time.perf_counter() - t0
     return p.returncode, p.stdout, p.stderr, time.perf_counter() - t0
@@ -97,7 +91,7 @@ def viewer_speed(arch: str, precision: str, resolution: float, frames: int,
     rc, so, se, _ = _run(cmd, timeout)
     m = _VIEWER_LINE.search(so)
     if rc == 0 and m:
-        n, t, steps, wall = int(m[1]), float(m[2]), int(m[3]), float(m[4])
+        t, steps, wall = float(m[2]), int(m[3]), float(m[4])
         return {**row, "ok": True, "how": "GGUI viewer, offscreen", "sim_t": t, "steps": steps,
                 "wall_s": wall, "steps_per_s": steps / wall, "sim_s_per_wall_s": t / wall,
                 "real_time": t >= wall}
