@@ -53,6 +53,7 @@ def _read(run_dir):
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs() if k != "history"}
     diag = read_diagnostics(run_dir / "diagnostics.csv")
     diag.pop("wall_time")
+    diag.pop("wall_time_cumulative")
     return fields, attrs, diag
 
 

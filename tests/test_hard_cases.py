@@ -640,9 +640,9 @@ def test_guard_stops_a_run_that_produces_nan(ti_cpu, tmp_path):
                                 "time.t_end": 0.3, "output.times": [], "output.interval": 0.1})
     sim = Simulation(sc, check_every=2)
 
-    def poison(s):
-        if s.t >= 0.1:
-            s.op.par[Params.G_SIN] = float("nan")
+    def poison(snap):
+        if snap.t >= 0.1:
+            snap.sim.op.par[Params.G_SIN] = float("nan")
 
     with pytest.raises(SimulationError) as info:
         sim.run(out_dir=tmp_path, progress=False, on_output=poison)

@@ -121,9 +121,9 @@ def test_killed_writer_keeps_snapshots(tmp_path):
 def test_diagnostics_round_trip(tmp_path):
     path = tmp_path / "diag.csv"
     rows = [dict(time=0.0, dt=1e-4, stages=3, mass=0.0, small_mass=0.0, max_speed=0.0,
-                 wall_time=0.01, front=0.1),
+                 wall_time_cumulative=0.01, front=0.1),
             dict(time=0.1 + 1e-17, dt=1.2345678901234567e-4, stages=17, mass=1e-3,
-                 small_mass=8e-4, max_speed=0.208, wall_time=0.5, front=0.12)]
+                 small_mass=8e-4, max_speed=0.208, wall_time_cumulative=0.5, front=0.12)]
     with DiagnosticsWriter(path, extra=("front",)) as w:
         for r in rows:
             w.write(**r)
@@ -133,13 +133,15 @@ def test_diagnostics_round_trip(tmp_path):
         # flushed per row: readable while the writer is still open
         assert read_diagnostics(path)["time"].size == 3
     d = read_diagnostics(path)
-    assert list(d) == ["time", "dt", "stages", "mass", "small_mass", "max_speed", "wall_time",
-                       "front"]
+    assert list(d) == ["time", "dt", "stages", "mass", "small_mass", "max_speed",
+                       "wall_time_cumulative", "front", "wall_time"]   # + the old name
+    np.testing.assert_array_equal(d["wall_time"], d["wall_time_cumulative"])
     for key in rows[0]:
         np.testing.assert_array_equal(d[key][:2], [r[key] for r in rows])   # exact floats
     assert np.isnan(d["dt"][2]) and d["time"][2] == 0.2
     with open(path) as fh:
-        assert fh.readline().strip() == "time,dt,stages,mass,small_mass,max_speed,wall_time,front"
+        assert fh.readline().strip() == ("time,dt,stages,mass,small_mass,max_speed,"
+                                         "wall_time_cumulative,front")
 
 
 def test_custom_columns(tmp_path):

@@ -269,8 +269,10 @@ def test_plot_panels(tiny_run, tmp_path):
 def test_cli_run_movie(ti_cpu, tmp_path, capsys):
     from tiseg.cli import main
     movie = tmp_path / "run.mp4"
+    from tiseg import backend
     rc = main(["run", "fingers", "--set", "domain.resolution=40", "--set", "time.t_end=0.3",
                "--set", "output.times=[]", "--set", "output.interval=0.1",
+               "--arch", backend.requested_arch(backend.state().arch),   # the tests' backend
                "--out", str(tmp_path / "out"), "--no-progress", "--movie", str(movie), "--json"])
     out, err = capsys.readouterr()
     assert rc == 0, err

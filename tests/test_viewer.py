@@ -115,8 +115,13 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
         # screenshot and recording
         png = v.screenshot()
         assert png.is_file() and png.suffix == ".png"
+        # recording is a callback of the simulation: a frame per steps_per_frame steps,
+        # none while paused
         rec = v.start_recording(tmp_path / "rec.mp4", fps=5)
         v.paused = True
+        v.run_frames(2)
+        v.paused = False
+        v.steps_per_frame = 1
         v.run_frames(3)
         v.stop_recording()
         r = iio2.get_reader(str(rec))

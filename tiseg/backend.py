@@ -180,3 +180,25 @@ def state() -> BackendState:
 
 def is_initialised() -> bool:
     return _state is not None
+
+
+def conflict(arch: str | None, precision: str, threads: int = 0) -> str | None:
+    """None when the initialised backend serves ``arch`` (None: any), ``precision`` and
+    ``threads`` (0: any), else one line saying what differs and what to do. A simulation
+    never re-initialises Taichi by itself: that would destroy every other simulation's fields."""
+    if _state is None:
+        return None
+    diff = []
+    if precision != _state.precision:
+        diff.append(f"precision {precision}")
+    if arch is not None and arch != "auto" and not _requested_matches(arch, _state.arch):
+        diff.append(f"arch {arch}")
+    if threads and threads != _state.threads:
+        diff.append(f"{threads} threads")
+    if not diff:
+        return None
+    have = f"{_state.arch}/{_state.precision}" + (f" with {_state.threads} threads"
+                                                  if _state.threads else "")
+    return (f"Taichi is already initialised for {have} in this process, and this simulation "
+            f"asks for {' and '.join(diff)}; call tiseg.init(...) with the new settings first "
+            "(that invalidates every existing simulation), or use a new process")

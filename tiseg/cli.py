@@ -41,8 +41,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .log import cli_handler
     parser = build_parser()
     args = parser.parse_args(argv)
+    cli_handler()
     try:
         result = args.func(args)
     except TisegError as exc:

@@ -7,13 +7,14 @@ ingredients:
    set-up, the largest wave speeds a_x(t), a_y(t), the largest thickness h_max(t) (viscous
    stiffness), the slowest wet speed u_slow(t) (friction stiffness) and the wet x range (the
    active region the operator computes) as functions of time. The step and stage count then
-   follow from exactly the rules the run uses (:meth:`Simulation.plan_step` and the stepper's
+   follow from exactly the rules the run uses (:meth:`Simulation.plan` and the stepper's
    ``plan``): dt = cfl / max(a_x/dx, a_y/dy) and, for RKC, s from dt * rho with
    rho = max(rho_visc, rho_fric) + 2 (a_x/dx + a_y/dy), rho_visc the Gershgorin bound of the
    viscous term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow (the run bounds
    the two terms together cell by cell, and they peak in different cells: viscosity in thick
-   channels, friction in slow thin levees, so the larger one stands for both). Steps are counted per
-   output interval (each ends with a trimmed step).
+   channels, friction in slow thin levees, so the larger one stands for both). Output times do
+   not shorten steps (snapshots are interpolated, :mod:`tiseg.callbacks`): the steps are
+   counted over [0, t_end] in one piece, whose last step lands on t_end.
 
    For an inflow into an empty chute with segregation-mobility feedback (the fingers scene) the
    flow goes through three stages, with numbers taken from the paper (figure 12) and checked on
@@ -245,9 +246,9 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
     h_dt = t_end / SAMPLES
     steps, evals, t0 = 0, 0, 0.0
     rows = []                            # (t, dt, stages, active cells, steps in the piece)
-    for t1 in times:
-        # sample the interval in pieces of about t_end / SAMPLES; the interval's step count is
-        # the ceiling of the summed fractions (its last step is trimmed to land on t1)
+    for t1 in (t_end,):
+        # sample the run in pieces of about t_end / SAMPLES; the step count is the ceiling of
+        # the summed fractions (the last step is trimmed to land on t_end)
         n_piece = max(1, int(math.ceil((t1 - t0) / h_dt)))
         edges = np.linspace(t0, t1, n_piece + 1)
         frac_total, pieces = 0.0, []
@@ -390,18 +391,17 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
     s_cal = 2 if rkc else stepper.stages
     far = sim.t + 1e9                      # a target never reached: no trimmed steps
 
+    fixed = s_cal if rkc else None
+
     def steps(k):
         for _ in range(k):
-            sim.step(far)
+            sim.step(far, stages=fixed)
 
     fractions = (1.0,) if (scene.boundary.x_lo == "periodic" or lay.nx < 40) else (CAL_FRACTION, 1.0)
     actives = []
     med = {"stage": [], "over": []}
     low = {"stage": [], "over": []}
     compile_s = 0.0
-    old_fixed = getattr(stepper, "fixed_stages", None)
-    if rkc:
-        stepper.fixed_stages = s_cal
     check = getattr(sim, "check_every", 0) or 1
     # A short run with output on the fresh simulation compiles every kernel a run uses
     # (steps, snapshot, checkpoint); the same run again costs only its work: the difference
@@ -410,39 +410,35 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
     q_full = _wet_state(sim, 1.0, rng)
     first = _short_run(sim, q_full) if output else None
     second = _short_run(sim, q_full) if output else None
-    try:
-        for k, f in enumerate(fractions):
-            q_full = _wet_state(sim, f, rng)
-            _load(sim, q_full)
-            if k == 0 and not output:      # first calls compile: the compile time of a run
-                c0 = time.perf_counter()
-                steps(1)
-                compile_s = time.perf_counter() - c0
-                _load(sim, q_full)
-            sim.plan_step(far)             # sets the active range of this state
-            actives.append((op.active[1] - op.active[0]) * lay.ny)
-            st_med, st_min = _timed(stage, repeats, 0.05)
-            # whole steps, as many as the guard's period so that its check is counted once
-            t0 = time.perf_counter()
+    for k, f in enumerate(fractions):
+        q_full = _wet_state(sim, f, rng)
+        _load(sim, q_full)
+        if k == 0 and not output:      # first calls compile: the compile time of a run
+            c0 = time.perf_counter()
             steps(1)
-            one = time.perf_counter() - t0
-            n = check if one * check < 2.0 else 1
-            walls = []
-            for _ in range(repeats if one * n < 1.0 else 1):
-                _load(sim, q_full)
-                t0 = time.perf_counter()
-                steps(n)
-                walls.append((time.perf_counter() - t0) / n)
+            compile_s = time.perf_counter() - c0
             _load(sim, q_full)
-            med["stage"].append(st_med)
-            low["stage"].append(st_min)
-            med["over"].append(max(0.0, float(np.median(walls)) - s_cal * st_med))
-            low["over"].append(max(0.0, min(walls) - s_cal * st_min))
-            if k == 0 and not output:
-                compile_s = max(0.0, compile_s - float(np.median(walls)))
-    finally:
-        if rkc:
-            stepper.fixed_stages = old_fixed
+        sim.plan(far)                  # sets the active range of this state
+        actives.append((op.active[1] - op.active[0]) * lay.ny)
+        st_med, st_min = _timed(stage, repeats, 0.05)
+        # whole steps, as many as the guard's period so that its check is counted once
+        t0 = time.perf_counter()
+        steps(1)
+        one = time.perf_counter() - t0
+        n = check if one * check < 2.0 else 1
+        walls = []
+        for _ in range(repeats if one * n < 1.0 else 1):
+            _load(sim, q_full)
+            t0 = time.perf_counter()
+            steps(n)
+            walls.append((time.perf_counter() - t0) / n)
+        _load(sim, q_full)
+        med["stage"].append(st_med)
+        low["stage"].append(st_min)
+        med["over"].append(max(0.0, float(np.median(walls)) - s_cal * st_med))
+        low["over"].append(max(0.0, min(walls) - s_cal * st_min))
+        if k == 0 and not output:
+            compile_s = max(0.0, compile_s - float(np.median(walls)))
     diag, _ = _timed(lambda: sim.totals(), repeats, 0.02)
     out_s = 0.0
     if output:
@@ -466,7 +462,7 @@ def _short_run(sim, q_full) -> tuple[float, tuple[int, int]]:
         sim.reset()
         _load(sim, q_full)
         t0 = time.perf_counter()           # the planning compiles kernels too: timed
-        dt, _, _ = sim.plan_step(1e9)
+        dt = sim.plan(1e9).dt
         later = [t for t in sim.scene.output_times if t > 0]
         t_end = min(dt, 0.5 * min(later)) if later else dt
         sim.run(out_dir=Path(tmp) / "run", progress=False, t_end=t_end)

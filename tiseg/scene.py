@@ -904,8 +904,14 @@ def _read_output(t: "_Table", t_end: float) -> OutputConfig:
     interval = t.number("interval", None, positive=True)
     times = tuple(t.number_list("times", ()))
     for i, v in enumerate(times):
-        _require(0.0 <= v <= t_end * (1 + 1e-12), f"output.times[{i}]", v,
-                 f"output times must lie in [0, time.t_end={t_end!r}]")
+        _require(v >= 0.0, f"output.times[{i}]", v, "output times must be >= 0")
+    late = [v for v in times if v > t_end * (1 + 1e-12)]
+    if late:
+        # one override (time.t_end) shortens a run: its later snapshots go, with a note
+        from .log import note
+        note(f"output.times {', '.join(f'{v:g}' for v in late)} lie past time.t_end="
+             f"{t_end:g} s and are dropped")
+        times = tuple(v for v in times if v <= t_end * (1 + 1e-12))
     checkpoint = t.number("checkpoint_interval", None, positive=True)
     # (time, priority): explicit times, 0 and t_end win over a nearby multiple of the interval
     cands = [(0.0, 0), (t_end, 0)] + [(min(v, t_end), 0) for v in times]

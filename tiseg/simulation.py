@@ -1,21 +1,38 @@
-"""The run loop: a scene, its Taichi operator, a stepper, and callbacks on a schedule.
+"""The run loop: a scene, its Taichi operator, a stepper, and callbacks on schedules.
 
 Each step measures the wave speeds and stiffness of the current state, asks the stepper for
-(dt, stages) from the convective CFL and the spectral radius, trims dt to land exactly on the
-next output time, and advances. Output (NetCDF snapshots, diagnostics CSV), progress and the
-non-finite guard run as callbacks at output times.
+(dt, stages) from the convective CFL and the spectral radius, and advances. Nothing but the end
+of the run shortens a step: output, checkpoints, movies and the viewer are callbacks
+(:mod:`tiseg.callbacks`) on schedules (:mod:`tiseg.schedules`) that observe the steps, and a
+snapshot at an output time is interpolated between the two step states around it. Two runs
+that differ only in what they write therefore take the same steps and end in the same bits.
+Only ``t_end`` is landed on exactly; when less than two steps are left, the rest is split into
+two equal steps, so no sliver step is taken.
 
-Guards (:mod:`tiseg.guards`): every ``check_every`` steps (default 10) and at every output time
-the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and the mass balance;
-a breach stops the run with a :class:`SimulationError` naming time, step, cell and field, and
-(with an output folder) saves ``failure/last_good.npz`` and ``failure/offending.npz``.
+Guards (:mod:`tiseg.guards`): every ``check_every`` steps (default 10) and on every step that
+makes a snapshot the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and
+the mass balance; a breach stops the run with a :class:`SimulationError` naming time, step,
+cell and field, and (with an output folder) saves ``failure/last_good.npz`` and
+``failure/offending.npz``.
 
-Checkpoints (:mod:`tiseg.checkpoint`): with an output folder, ``checkpoint.npz`` is written at
-every output time, per ``output.checkpoint_interval`` and per ``checkpoint_wall`` seconds;
+Checkpoints (:mod:`tiseg.checkpoint`, :mod:`tiseg.output.run_folder`): with an output folder,
+``checkpoint.npz`` holds a step state, written after every step that crossed an output time,
+per ``output.checkpoint_interval`` and per ``checkpoint_wall`` seconds;
 :meth:`Simulation.resume` continues a killed run bit for bit.
+
+The Python API::
+
+    sim = Simulation.from_scene("fingers", {"domain.resolution": 250, "time.t_end": 2})
+    sim.add_callback(lambda snap: print(snap.t, snap.fields()["h"].max()),
+                     TimeInterval(0.5), snapshot=True)
+    sim.run(out_dir="runs/f250")
+
+with the explicit mutators :meth:`Simulation.set_parameters`, :meth:`Simulation.set_state`
+and :meth:`Simulation.reset`.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time as _time
 from dataclasses import dataclass, field
@@ -25,15 +42,23 @@ import numpy as np
 
 from . import backend
 from . import checkpoint as _ckpt
+from .callbacks import Callback, ProgressBar, Snapshot
 from .errors import InputError, TisegError
 from .guards import StateGuard, Violation
 from .initial import initial_state
 from .numerics.config import config_from_scene
+from .schedules import Schedule, SpecifiedTimes
 from .timestepping import stepper_for
 
 # Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
 # (the stencil's reach): the range stays exact (see TaichiOperator._combine).
 ACTIVE_MARGIN = 3
+
+# OperatorConfig fields the kernels are compiled for: set_parameters cannot change them
+COMPILED = {"layout": "the grid or the segregation switch", "dx": "the grid", "dy": "the grid",
+            "Ly": "the domain", "viscous": "effects.viscosity", "feedback":
+            "effects.mobility_feedback", "friction": "effects.friction",
+            "reconstruction": "numerics.reconstruction", "bc": "the boundaries"}
 
 
 def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, float]:
@@ -57,6 +82,19 @@ class StepInfo:
     rhs_evals: int
 
 
+@dataclass
+class StepPlan:
+    """The next step: ``dt``, ``stages``, the stability numbers it was planned from, and the
+    time it ends at (``t_next``, exactly the stop time when it lands there)."""
+    dt: float
+    stages: int
+    stability: object
+    t_next: float
+
+    def __iter__(self):          # dt, stages, stability = sim.plan_step(...) (older callers)
+        return iter((self.dt, self.stages, self.stability))
+
+
 class SimulationError(TisegError):
     """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
 
@@ -74,45 +112,52 @@ class SimulationError(TisegError):
 class RunStats:
     steps: int = 0
     stages: int = 0          # operator evaluations
-    wall: float = 0.0
+    wall: float = 0.0        # cumulative wall time of run() calls (resumed runs continue it)
     history: list = field(default_factory=list)
 
 
 class Simulation:
-    """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``."""
+    """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``.
+
+    Taichi is initialised on first use (``arch`` default cpu, the scene's precision). Once it
+    is, a simulation asking for another precision, arch or thread count is an
+    :class:`InputError`: switching means ``tiseg.init(...)``, which invalidates every
+    existing simulation, so it is never done behind the caller's back."""
 
     def __init__(self, scene, arch: str | None = None, precision: str | None = None,
                  threads: int = 0, active_region: bool = True, check_every: int = 10,
                  mass_tol: float | None = None):
-        """``check_every``: guard check every that many steps (0: only at output times);
-        ``mass_tol``: relative mass-balance tolerance of the guard (see tiseg.guards)."""
+        """``check_every``: guard check every that many steps (0: only on steps that make a
+        snapshot); ``mass_tol``: relative mass-balance tolerance of the guard (tiseg.guards)."""
         from .numerics.operator import TaichiOperator
 
         self.scene = scene
         prec = precision or scene.numerics.precision
-        if backend.is_initialised() and arch is None:
-            st = backend.state()
-            if st.precision != prec:
-                backend.init(backend.requested_arch(st.arch), prec, threads or st.threads)
-        else:
+        problem = backend.conflict(arch, prec, threads)
+        if problem:
+            raise InputError(problem)
+        if not backend.is_initialised():
             backend.init(arch or "cpu", prec, threads)
         self.backend = backend.state()
+        if not (isinstance(check_every, int) and check_every >= 0):
+            raise InputError(f"check_every={check_every!r} must be an integer >= 0")
         self.cfg = config_from_scene(scene)
         self.layout = self.cfg.layout
         self.stepper = stepper_for(scene.numerics)
-        self.op = TaichiOperator(self.cfg, nslots=max(self.stepper.slots, 2))
+        # two slots beyond the stepper's: the state before a step that crosses a snapshot
+        # time, and the snapshot interpolated from it and the state after the step
+        nstep = max(self.stepper.slots, 2)
+        self.PREV, self.SNAP = nstep, nstep + 1
+        self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
         self.active_region = active_region and scene.boundary.x_lo != "periodic"
-        self._last_stages = 8
-        self.t = 0.0
-        self.stats = RunStats()
-        if not (isinstance(check_every, int) and check_every >= 0):
-            raise InputError(f"check_every={check_every!r} must be an integer >= 0")
         self.check_every = check_every
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
+        self.callbacks: dict[str, Callback] = {}
         self.failure_dir: Path | None = None     # where a guard failure saves its states
         self._io_counts = (0, 0)                 # (snapshots, diagnostics rows) written
+        self._wall0: float | None = None         # perf_counter() at wall time 0 during run()
         self.reset()
 
     @classmethod
@@ -123,7 +168,7 @@ class Simulation:
         sim = cls(scene, arch=arch, precision=ck["precision"], threads=threads, **kwargs)
         _ckpt.restore(sim, ck)
         sim._resume = {"dir": Path(run_dir).resolve(), **{k: ck[k] for k in (
-            "snapshots", "diag_rows", "wall", "next_sim")}}
+            "snapshots", "diag_rows", "wall")}}
         return sim
 
     @classmethod
@@ -136,18 +181,110 @@ class Simulation:
             scene = scene.with_overrides(overrides)
         return cls(scene, **kwargs)
 
-    # ------------------------------------------------------------------ state
+    # ------------------------------------------------------------------ mutators
     def reset(self) -> None:
+        """Back to the initial state of the scene (with the parameters as set) at t = 0."""
         q0 = initial_state(self.scene, self.layout)
         self.op.set(0, q0)
         self.op.reset_budget()
         self.t = 0.0
         self._last_stages = 8
         self.stats = RunStats()
+        self.last_step: StepInfo | None = None
+        self.last_stability = None
         self.initial_totals = self.totals()
         self._resume = None
         self.guard.keep(self.checkpoint_meta())
 
+    def set_parameters(self, changes: dict | None = None, *, scene=None) -> None:
+        """Change run-time parameters: ``section.key`` overrides of the scene (e.g.
+        ``{"flow.nu": 0.02, "material.zeta_deg": 28, "inflow.h": 0.003}``), or a whole
+        ``scene`` to take the values of. The scene and the operator change together; the state
+        and the time stay. What the kernels were compiled for (grid, effects, boundaries,
+        reconstruction, stepper, precision) cannot change: that is an :class:`InputError`
+        naming it (build a new Simulation instead)."""
+        if scene is None:
+            if not changes:
+                return
+            scene = self.scene.with_overrides(changes)
+        old = self.scene
+        cfg = config_from_scene(scene)
+        if self.cfg.viscous and not cfg.viscous and scene.effects.viscosity:
+            cfg = dataclasses.replace(cfg, viscous=True, nu=0.0)   # nu = 0: the same kernels
+        what = sorted({v for k, v in COMPILED.items() if getattr(cfg, k) != getattr(self.cfg, k)})
+        for key in ("stepper", "max_stages", "precision"):
+            if getattr(scene.numerics, key) != getattr(old.numerics, key):
+                what.append(f"numerics.{key}")
+        if what:
+            raise InputError(f"set_parameters: this changes {', '.join(what)}, which the "
+                             "simulation was compiled for; build a new Simulation for that")
+        self.scene = scene
+        self.cfg = cfg
+        self.op.set_params(cfg)
+
+    def set_state(self, h, u=None, v=None, phi=None) -> None:
+        """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
+        (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
+        afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
+        lay = self.layout
+        shape = (lay.ny, lay.nx)
+
+        def arr(name, a, default):
+            if a is None:
+                return np.full(shape, float(default))
+            a = np.asarray(a, dtype=float)
+            if a.shape != shape:
+                raise InputError(f"set_state: {name} has shape {a.shape}, expected {shape} "
+                                 "(ny, nx)")
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"set_state: {name} holds NaN or Inf")
+            return a
+
+        h = arr("h", h, 0.0)
+        if np.any(h < 0):
+            raise InputError(f"set_state: h must be >= 0 (min {h.min():.3g})")
+        if v is not None and lay.is_1d:
+            raise InputError("set_state: a 1D simulation has no v")
+        if phi is not None and not lay.segregation:
+            raise InputError("set_state: this scene has no segregation, so no phi")
+        u = arr("u", u, 0.0)
+        q = np.zeros((lay.nc, lay.nx, lay.ny))
+        q[lay.H], q[lay.HU] = h.T, (h * u).T
+        if not lay.is_1d:
+            q[lay.HV] = (h * arr("v", v, 0.0)).T
+        if lay.segregation:
+            phi = arr("phi", phi, self.scene.flow.phi0)
+            if np.any((phi < 0) | (phi > 1)):
+                raise InputError("set_state: phi must lie in [0, 1]")
+            q[lay.HPHI] = (h * phi).T
+        self.set_conserved(q)
+        self.op.reset_budget()
+        self.initial_totals = self.totals()
+        self.guard.keep(self.checkpoint_meta())
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The primitive fields h, u[, v][, phi] shaped (ny, nx) (as :meth:`fields`)."""
+        return self.fields()
+
+    # ------------------------------------------------------------------ callbacks
+    def add_callback(self, func, schedule: Schedule | None = None, name: str | None = None,
+                     snapshot: bool = False, order: int = 0) -> Callback:
+        """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.callbacks`),
+        or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
+        if isinstance(func, Callback):
+            cb = func
+        elif schedule is None:
+            raise InputError("add_callback: give a schedule (e.g. IterationInterval(10) or "
+                             "TimeInterval(0.1) from tiseg.schedules)")
+        else:
+            cb = Callback(func, schedule, name, snapshot, order)
+        self.callbacks[cb.name] = cb
+        return cb
+
+    def remove_callback(self, name: str) -> None:
+        self.callbacks.pop(name, None)
+
+    # ------------------------------------------------------------------ state
     def checkpoint_meta(self) -> dict:
         """The numbers besides slot 0 and the budget that a checkpoint needs (tiseg.checkpoint)."""
         snaps, rows = self._io_counts
@@ -168,10 +305,10 @@ class Simulation:
         self._io_counts = (int(ck.get("snapshots", 0)), int(ck.get("diag_rows", 0)))
         self.guard.keep(self.checkpoint_meta())
 
-    def conserved(self) -> np.ndarray:
+    def conserved(self, slot: int = 0) -> np.ndarray:
         """Interior conserved variables (nc, nx, ny)."""
         ix, iy = self.layout.interior()
-        return self.op.get(0)[:, ix, iy]
+        return self.op.get(slot)[:, ix, iy]
 
     def set_conserved(self, q_interior: np.ndarray) -> None:
         full = self.op.get(0)
@@ -179,12 +316,12 @@ class Simulation:
         full[:, ix, iy] = q_interior
         self.op.set(0, full)
 
-    def fields(self) -> dict[str, np.ndarray]:
+    def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
         """Primitive fields h, u[, v][, phi] shaped (ny, nx) as in the output files.
 
         Velocities and phi are hu/h etc. where h > 0 and 0 on the empty chute."""
         lay = self.layout
-        q = self.conserved()
+        q = self.conserved(slot)
         h = q[lay.H]
         safe = np.where(h > 0, h, 1.0)
         out = {"h": h.T.copy(), "u": np.where(h > 0, q[lay.HU] / safe, 0.0).T.copy()}
@@ -194,23 +331,40 @@ class Simulation:
             out["phi"] = np.clip(np.where(h > 0, q[lay.HPHI] / safe, 0.0), 0.0, 1.0).T.copy()
         return out
 
-    def totals(self) -> dict[str, float]:
+    def totals(self, slot: int = 0) -> dict[str, float]:
         """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
         fixed order on the device: deterministic for any thread count."""
         lay = self.layout
-        sh, shphi = self.op.sums(0)
+        sh, shphi = self.op.sums(slot)
         cell = self.scene.dx * (self.scene.dy if not lay.is_1d else 1.0)
         return {"mass": sh * cell, "small_mass": shphi * cell if lay.segregation else float("nan")}
 
-    def budget(self) -> dict[str, float]:
+    def budget(self, slot: int = 0) -> dict[str, float]:
         """Mass and small-particle mass that entered through the boundaries since the start."""
-        b = self.op.budget(0)
+        b = self.op.budget(slot)
         scale = 1.0 if not self.layout.is_1d else 1.0 / self.scene.dy
         return {"mass_in": float((b[0] + b[2]) * scale), "small_mass_in": float((b[1] + b[3]) * scale)}
 
+    def wall_time(self) -> float:
+        """Cumulative wall time of the run [s] (continues across resumes)."""
+        if self._wall0 is None:
+            return self.stats.wall
+        return _time.perf_counter() - self._wall0
+
     # ------------------------------------------------------------------ stepping
-    def plan_step(self, t_target: float | None = None) -> tuple[float, int, object]:
-        """(dt, stages, stability numbers) for the next step from the current state."""
+    def _stop_time(self, t_stop: float | None) -> float:
+        """Where the next step must not go past: t_stop, else the scene's t_end while it is
+        ahead, else nowhere (a viewer running on)."""
+        if t_stop is not None:
+            return float(t_stop)
+        t_end = self.scene.t_end
+        return t_end if self.t < t_end - 1e-12 * max(1.0, t_end) else math.inf
+
+    def plan(self, t_stop: float | None = None, stages: int | None = None) -> StepPlan:
+        """The next step from the current state (sets the operator's active range for it).
+
+        ``t_stop``: a time the step must land on rather than pass (default the scene's
+        t_end); ``stages``: a fixed stage count (benchmarks), else the stiffness decides."""
         sc = self.scene
         if self.active_region:
             extent = self.op.wet_extent(0, self.t)
@@ -219,19 +373,30 @@ class Simulation:
         ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
         ax = max(ax, self._inflow_speed())
         dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc)
-        remaining = (t_target if t_target is not None else sc.t_end) - self.t
-        dt_max = remaining if remaining > 0 else 0.0
-        if not math.isfinite(dt_cfl) and rho == 0:
-            dt_cfl = remaining
-        dt, stages = self.stepper.plan(dt_cfl, rho, dt_max)
+        stop = self._stop_time(t_stop)
+        remaining = max(stop - self.t, 0.0)
+        if not math.isfinite(dt_cfl) and rho == 0:      # nothing moves and nothing is stiff
+            dt_cfl = remaining if math.isfinite(remaining) else 1.0
+        dt, s = self.stepper.plan(dt_cfl, rho, math.inf, stages)
+        t_next = self.t + dt
+        if remaining <= dt * (1.0 + 1e-9):               # the last step lands on the stop
+            dt, s = self.stepper.plan(dt_cfl, rho, remaining, stages)
+            if remaining - dt <= 1e-9 * remaining:     # (an RKC stage cap may trim it)
+                dt, t_next = remaining, stop
+            else:
+                t_next = self.t + dt
+        elif remaining < 2.0 * dt:                       # two equal steps rather than a sliver
+            dt, s = self.stepper.plan(dt_cfl, rho, 0.5 * remaining, stages)
+            t_next = self.t + dt
         self.last_stability = stab
-        # avoid a sliver step just before an output time
-        if 0 < remaining - dt < 1e-9 * max(1.0, remaining):
-            dt = remaining
-        if self.active_region and stages > self._last_stages:
-            self._set_active(extent, stages)     # wet cells spread at most one cell per stage
-        self._last_stages = stages
-        return dt, stages, stab
+        if self.active_region and s > self._last_stages:
+            self._set_active(extent, s)          # wet cells spread at most one cell per stage
+        self._last_stages = s
+        return StepPlan(dt, s, stab, t_next)
+
+    def plan_step(self, t_target: float | None = None):
+        """(dt, stages, stability) of :meth:`plan` (the older name)."""
+        return tuple(self.plan(t_target))
 
     def _inflow_speed(self) -> float:
         """Wave speed of the full (un-ramped) inflow state: an empty chute being filled must
@@ -257,32 +422,74 @@ class Simulation:
             b = last + 1 + pad
         self.op.set_active(a, b)
 
-    def step(self, t_target: float | None = None) -> StepInfo:
+    def step(self, t_stop: float | None = None, stages: int | None = None) -> StepInfo:
+        """One time step, then the callbacks that fell due. ``t_stop``: land there instead of
+        passing it (default the scene's t_end, nothing once it is passed); ``stages``: a fixed
+        stage count (benchmarks)."""
         self.op.check_alive()
-        dt, stages, _ = self.plan_step(t_target)
+        p = self.plan(t_stop, stages)
+        dt, s = p.dt, p.stages
         if not (dt > 0 and math.isfinite(dt)):
             # usually a NaN in the state: name it if the guard finds one
             self._guard(full=False)
             self._fail(None, f"time step collapsed to dt={dt!r} at t={self.t:.9g} s "
                              f"(step {self.stats.steps})")
-        self.stepper.step(self.op, self.t, dt, stages)
-        if t_target is not None and abs((self.t + dt) - t_target) <= 1e-12 * max(1.0, t_target):
-            self.t = t_target
-        else:
-            self.t += dt
-        evals = stages
+        t0, t1 = self.t, p.t_next
+        pending = self._pending_snapshots(t0, t1)
+        if any(tk < t1 for tk, _ in pending):
+            self.op.blend(self.PREV, 0, 0, 0.0)      # keep the state before the step
+        self.stepper.step(self.op, t0, dt, s)
+        self.t = t1
         self.stats.steps += 1
-        self.stats.stages += evals
-        if self.check_every and self.stats.steps % self.check_every == 0:
-            self._guard()
-        return StepInfo(self.t, dt, stages, evals)
+        self.stats.stages += s
+        self.last_step = StepInfo(t1, dt, s, s)
+        self._after_step(t0, t1, pending)
+        return self.last_step
 
     def advance(self, t_target: float, on_step=None) -> None:
-        """Step until t == t_target exactly (the last step is trimmed)."""
+        """Step until t == t_target exactly (the last step lands there)."""
         while self.t < t_target - 1e-12 * max(1.0, t_target):
             info = self.step(t_target)
             if on_step is not None:
                 on_step(info)
+
+    def _pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
+        """(time, snapshot callbacks) for every scheduled snapshot time in (t0, t1], in order."""
+        by_time: dict[float, list[Callback]] = {}
+        for cb in self.callbacks.values():
+            if cb.snapshot:
+                for tk in cb.schedule.times_in(t0, t1):
+                    by_time.setdefault(tk, []).append(cb)
+        return sorted(by_time.items(), key=lambda item: item[0])
+
+    def _snapshot(self, tk: float, t0: float, t1: float) -> Snapshot:
+        """The state at tk in (t0, t1]: slot 0 when tk is the step's end, else interpolated
+        linearly from the state before the step (slot PREV) into slot SNAP."""
+        if t1 - tk <= 1e-12 * max(1.0, abs(t1)):
+            return Snapshot(self, tk, 0, self.stats.steps, 1.0)
+        theta = (tk - t0) / (t1 - t0)
+        self.op.blend(self.SNAP, self.PREV, 0, theta)
+        return Snapshot(self, tk, self.SNAP, self.stats.steps, theta)
+
+    def _after_step(self, t0: float, t1: float, pending) -> None:
+        steps = self.stats.steps
+        if pending or (self.check_every and steps % self.check_every == 0):
+            self._guard()                   # nothing is written from an unchecked state
+        for tk, cbs in pending:
+            snap = self._snapshot(tk, t0, t1)
+            for cb in cbs:
+                cb(snap)
+        due = [cb for cb in self.callbacks.values()
+               if not cb.snapshot and cb.schedule.due(t0, t1, steps)]   # every schedule asked
+        for cb in sorted(due, key=lambda c: c.order):
+            cb(self)
+
+    def _initial_snapshots(self) -> None:
+        """Snapshot callbacks whose schedule holds the current time get the current state."""
+        snap = Snapshot(self, self.t, 0, self.stats.steps, 1.0)
+        for cb in list(self.callbacks.values()):
+            if cb.snapshot and cb.schedule.contains(self.t):
+                cb(snap)
 
     def check_state(self) -> None:
         """Stop with a :class:`SimulationError` naming time, step, cell and field when the state
@@ -327,163 +534,73 @@ class Simulation:
             self, reason=message, **self.fields())))
         return files
 
-    # ------------------------------------------------------------------ run with output
-    def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
-            on_output=None, checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL) -> RunStats:
-        """Run to t_end writing snapshots at the scene's output times into ``out_dir``
-        (scene.toml, fields.nc, diagnostics.csv, checkpoint.npz); without ``out_dir`` nothing is
-        written. ``on_output(sim)``, if given, is called after each snapshot (e.g. to render a
-        frame). A simulation made by :meth:`resume` appends to its run folder.
-        ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
-        output times and per ``output.checkpoint_interval``)."""
-        from .output import DiagnosticsWriter, FieldsWriter, write_text_atomic
-        from .output.netcdf import FieldsFileError
-
-        sc = self.scene
-        t_end = sc.t_end if t_end is None else t_end
-        times = [t for t in sc.output_times if t <= t_end + 1e-12]
+    # ------------------------------------------------------------------ the loop
+    def output_times(self, t_end: float | None = None) -> list[float]:
+        """The scene's output times up to t_end (default the scene's), t_end included."""
+        t_end = self.scene.t_end if t_end is None else float(t_end)
+        times = [t for t in self.scene.output_times if t <= t_end * (1 + 1e-12)]
         if not times or times[-1] < t_end - 1e-12 * max(1.0, t_end):
             times.append(t_end)               # an earlier end than the scene's is a snapshot too
-        writer = diag = ck_path = None
+        return times
+
+    def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
+            on_output=None, checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
+            callbacks=()) -> RunStats:
+        """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
+
+        * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
+          per step), checkpoint.npz (:mod:`tiseg.output.run_folder`); a simulation made by
+          :meth:`resume` appends to its run folder;
+        * ``on_output(snap)``: a snapshot callback at the output times (e.g. a movie frame);
+        * ``callbacks``: more :class:`tiseg.callbacks.Callback` objects;
+        * ``progress``: a progress bar.
+
+        ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
+        output times and per ``output.checkpoint_interval``). None of this changes the steps."""
+        from .output.run_folder import RunFolder
+
+        t_end = self.scene.t_end if t_end is None else float(t_end)
+        times = self.output_times(t_end)
         resume = self._resume
         if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
             resume = None                    # continuing elsewhere: a fresh set of files
-        interval = sc.output.checkpoint_interval
-        next_sim = math.inf
-        if interval:
-            next_sim = (math.floor(self.t / interval * (1 + 1e-12)) + 1) * interval
-        if out_dir is not None:
-            out = Path(out_dir)
-            try:
-                out.mkdir(parents=True, exist_ok=True)
-                if resume is None:
-                    write_text_atomic(out / "scene.toml", sc.to_toml())
-                    writer = self._new_fields_writer(out / "fields.nc")
-                    diag = DiagnosticsWriter(out / "diagnostics.csv")
-                else:
-                    diag = _ckpt.append_diagnostics(out / "diagnostics.csv", resume["diag_rows"])
-                    try:
-                        writer = FieldsWriter.append(out / "fields.nc", resume["snapshots"],
-                                                     self.t)
-                    except FieldsFileError as exc:
-                        writer = self._salvage_fields(out, exc)
-            except OSError as exc:
-                if writer is not None:
-                    writer.close()
-                raise InputError(f"cannot write to output folder {str(out)!r}: "
-                                 f"{exc.strerror or exc}") from None
-            ck_path = out / _ckpt.CHECKPOINT_NAME
-            self.failure_dir = out / "failure"
-            if resume is not None and math.isfinite(resume["next_sim"]):
-                next_sim = resume["next_sim"]
         self._resume = None
-        bar = _progress(progress, t_end, sc.name, self.t)
-        wall_start = _time.perf_counter()
-        wall0 = wall_start - self.stats.wall      # the diagnostics' wall time continues
-        last_ck = [_time.perf_counter()]
-
-        def counts():
-            self._io_counts = (writer.count if writer else 0, diag.rows if diag else 0)
-
-        def save_checkpoint():
-            nonlocal next_sim
-            if interval and self.t >= next_sim * (1 - 1e-12):
-                next_sim = (math.floor(self.t / interval * (1 + 1e-12)) + 1) * interval
-            counts()
-            self.stats.wall = _time.perf_counter() - wall0
-            _ckpt.save(ck_path, self, next_sim=next_sim if math.isfinite(next_sim) else math.nan)
-            last_ck[0] = _time.perf_counter()
-
-        def record(info: StepInfo | None):
-            """One diagnostics row: after every step, and at t = 0."""
-            if diag is None:
-                return
-            tot = self.totals()
-            stab = getattr(self, "last_stability", None)
-            diag.write(time=self.t, dt=info.dt if info else 0.0, stages=info.stages if info else 0,
-                       mass=tot["mass"], small_mass=tot["small_mass"],
-                       max_speed=stab.max_speed if stab is not None else float("nan"),
-                       wall_time=_time.perf_counter() - wall0)
-
-        target = [times[0]]
-
-        def on_step(info: StepInfo):
-            record(info)
-            if bar is not None:
-                bar.update(info.t - bar.n)
-                bar.set_postfix(steps=self.stats.steps, stages=info.stages, dt=f"{info.dt:.2e}",
-                                refresh=False)
-            # A step that lands on an output time is checkpointed after its snapshot (below),
-            # so that a checkpoint never claims a time whose snapshot is not yet written.
-            if ck_path is None or self.t >= target[0] - 1e-12 * max(1.0, target[0]):
-                return
-            due = self.t >= next_sim * (1 - 1e-12)
-            if due or (checkpoint_wall is not None
-                       and _time.perf_counter() - last_ck[0] >= checkpoint_wall):
-                save_checkpoint()
-
+        folder = None if out_dir is None else RunFolder(self, out_dir, resume)
+        extra = list(folder.callbacks(times, checkpoint_wall)) if folder else []
+        if on_output is not None:
+            extra.append(Callback(on_output, SpecifiedTimes(times), name="on_output",
+                                  snapshot=True))
+        extra += list(callbacks)
+        bar = ProgressBar(t_end, self.scene.name, self.t) if progress else None
+        if bar is not None:
+            from .schedules import IterationInterval
+            extra.append(Callback(bar, IterationInterval(1), name="progress"))
+        saved = dict(self.callbacks)
+        for cb in extra:
+            self.callbacks[f"run:{cb.name}"] = cb
+        for cb in self.callbacks.values():
+            cb.schedule.start()
+        self._wall0 = _time.perf_counter() - self.stats.wall
         try:
-            if self.t <= times[0] + 1e-15:
-                self._snapshot(writer, record, on_output)
-                counts()
-            for t_out in times:
-                if t_out <= self.t + 1e-12:
-                    continue
-                target[0] = t_out
-                self.advance(t_out, on_step)
-                self._snapshot(writer, record, on_output)
-                if ck_path is not None:
-                    save_checkpoint()
-            if ck_path is not None and self.t >= sc.t_end - 1e-12 * max(1.0, sc.t_end):
-                ck_path.unlink(missing_ok=True)      # finished: nothing left to resume
+            self._guard()
+            if resume is None:
+                self._initial_snapshots()
+                if folder is not None:
+                    folder.start()
+            while self.t < t_end - 1e-12 * max(1.0, t_end):
+                self.step(t_end)
+            if folder is not None:
+                folder.finish()
         finally:
-            self.stats.wall = _time.perf_counter() - wall0
-            counts()
+            self.stats.wall = self.wall_time()
+            self._wall0 = None
+            self.callbacks = saved
             if bar is not None:
                 bar.close()
-            if writer is not None:
-                writer.close()
-            if diag is not None:
-                diag.close()
+            if folder is not None:
+                folder.close()
         return self.stats
 
-    def _new_fields_writer(self, path: Path):
-        from .output import FieldsWriter
-        x, y = self.scene.domain.cell_centres()
-        return FieldsWriter(path, x, y, attrs={"scene": self.scene.to_toml(),
-                                               "tiseg_arch": self.backend.arch,
-                                               "tiseg_precision": self.backend.precision},
-                            fields=self.scene.fields,
-                            dtype="f8" if self.backend.precision == "f64" else "f4")
 
-    def _salvage_fields(self, out: Path, exc: Exception):
-        """Resume with a fields.nc that cannot be continued: keep it under another name and
-        start a new one from the checkpoint on (the state itself is safe in the checkpoint)."""
-        import sys
-        old = out / "fields.nc"
-        n = 1
-        while (out / f"fields.damaged-{n}.nc").exists():
-            n += 1
-        kept = out / f"fields.damaged-{n}.nc"
-        if old.exists():
-            old.replace(kept)
-        sys.stderr.write(f"tiseg: warning: {exc}; it was moved to {kept.name} and a new "
-                         f"fields.nc starts at t={self.t:.9g} s\n")
-        return self._new_fields_writer(old)
-
-    def _snapshot(self, writer, record, on_output=None) -> None:
-        self.check_state()
-        if writer is not None:
-            writer.write(self.t, **self.fields())
-        if on_output is not None:
-            on_output(self)
-        if self.stats.steps == 0:
-            record(None)
-
-
-def _progress(enabled: bool, total: float, name: str, start: float = 0.0):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, initial=start, unit="s", desc=f"{name}", bar_format=(
-        "{desc}: {percentage:3.0f}%|{bar}| t={n:.3f}/{total:.3f} s [{elapsed}<{remaining}{postfix}]"))
+__all__ = ["Simulation", "SimulationError", "StepInfo", "StepPlan", "RunStats", "step_limits",
+           "ACTIVE_MARGIN"]

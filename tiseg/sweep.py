@@ -464,10 +464,10 @@ def _reporter(name: str, t_end: float) -> Callable | None:
         return None                         # not inside a Dask worker
     t0 = _time.perf_counter()
 
-    def report(sim) -> None:
+    def report(snap) -> None:
         try:
-            worker.log_event(PROGRESS_TOPIC, {"run": name, "t": sim.t, "t_end": t_end,
-                                              "steps": sim.stats.steps,
+            worker.log_event(PROGRESS_TOPIC, {"run": name, "t": snap.t, "t_end": t_end,
+                                              "steps": snap.step,
                                               "wall": _time.perf_counter() - t0})
         except Exception:                   # progress is best effort, never fails a run
             pass

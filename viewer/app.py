@@ -7,11 +7,15 @@ field, which GGUI shows with ``canvas.set_image``. Below the picture, three cont
 * Run: pause/resume (space), single step (s), reset (r), screenshot (PNG), start/stop recording
   (mp4); simulated time, steps per second, real-time factor and frames per second.
 * View: field (phi, h, |u|, u, v), relief shading, steps per frame.
-* Parameters: inflow thickness and concentration, nu, slope angle. These are run-time numbers of
-  the operator (its parameter field): they change with ``dataclasses.replace`` on the
-  OperatorConfig and ``op.set_params``, without recompiling. The slope also changes g cos(zeta)
-  and g sin(zeta), which ``set_params`` derives from the config. Reset restores the initial state
-  and keeps the parameters; "scene values" restores the parameters.
+* Parameters: inflow thickness and concentration, nu, slope angle. These are run-time numbers:
+  :meth:`tiseg.simulation.Simulation.set_parameters` changes the scene and the operator
+  together, without recompiling (the slope also changes the steady velocity u0 the inflow
+  takes when the scene derives it). Reset restores the initial state and keeps the
+  parameters; "scene values" restores the scene's.
+
+Recording is a callback of the simulation (:class:`tiseg.render.movie.MovieRecorder`, the
+movie path of ``tiseg run --movie`` and ``tiseg demo``): one frame every ``steps_per_frame``
+steps, so a paused viewer records nothing.
 
 GGUI needs Vulkan and, for a visible window, a display. A GGUI window that cannot open can kill the
 process (no exception), so :func:`display_problem` checks both *before* any window is made; where
@@ -23,7 +27,6 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import dataclasses
 import glob
 import math
 import os
@@ -38,6 +41,9 @@ from tiseg.errors import TisegError
 OFFSCREEN_HINT = ("use the off-screen path instead: `tiseg run SCENE --movie out.mp4` or "
                   "`tiseg render RUN_DIR --movie out.mp4`")
 FIELDS = (("phi", "phi"), ("h", "h"), ("speed", "|u|"), ("u", "u"), ("v", "v"))
+# the older OperatorConfig names of set_params -> (scene key, value as the scene takes it)
+CFG_KEYS = {"nu": ("flow.nu", float), "zeta": ("material.zeta_deg", math.degrees),
+            "inflow_h": ("inflow.h", float), "inflow_phi": ("inflow.phi", float)}
 
 
 class DisplayUnavailable(TisegError):
@@ -187,7 +193,6 @@ class Viewer:
                 sc = sc.with_overrides({"numerics.precision": precision})
             sim = Simulation(sc, arch=arch, threads=threads)
         self.sim = sim
-        self.scene = sim.scene
         self.show_window = show_window
         self.save_dir = Path(save_dir)
         self.stop_at_end = stop_at_end
@@ -215,21 +220,14 @@ class Viewer:
         self.steps_per_frame = int(steps_per_frame)
         self.paused = False
         self.message = ""
-        self.recorder = None
         self.record_path: Path | None = None
         self.frames = 0
-        self.scene_cfg = sim.op.cfg
+        self.scene0 = sim.scene                  # what "scene values" restores
         self._clock: list[tuple[float, int, float]] = []   # (wall, steps, t) for the readouts
         self._captured = None
         self._clear_background()
 
     # ------------------------------------------------------------------ simulation control
-    def _target(self) -> float:
-        """Time to step towards: the scene's t_end, then open-ended (a one-second horizon that
-        never trims a step, since steps are far shorter)."""
-        t_end = self.scene.t_end
-        return t_end if self.sim.t < t_end - 1e-12 * max(1.0, t_end) else self.sim.t + 1.0
-
     def step(self, n: int = 1) -> int:
         """Advance n time steps (fewer if the scene's end is reached and stop_at_end is on)."""
         from tiseg.simulation import SimulationError
@@ -237,7 +235,7 @@ class Viewer:
         for _ in range(n):
             before_end = self.sim.t < self.scene.t_end - 1e-12
             try:
-                self.sim.step(self._target())
+                self.sim.step()      # lands on t_end, then runs on
             except SimulationError as exc:
                 self.paused = True
                 self.message = f"stopped: {exc}"
@@ -252,16 +250,21 @@ class Viewer:
     def reset(self) -> None:
         """Back to the initial state; the parameters stay as set."""
         self.sim.reset()
-        self.sim.op.set_params(self.sim.op.cfg)
         self._clock.clear()
         self.message = "reset"
 
-    def set_params(self, **changes) -> None:
-        """Change run-time parameters of the operator, e.g. ``set_params(nu=0.02,
-        zeta=math.radians(28), inflow_h=0.003)`` (OperatorConfig field names)."""
-        cfg = dataclasses.replace(self.sim.op.cfg, **changes)
-        self.sim.op.set_params(cfg)
-        self.sim.cfg = cfg
+    def set_params(self, changes: dict | None = None, **cfg_names) -> None:
+        """Change run-time parameters: scene keys, e.g. ``set_params({"flow.nu": 0.02,
+        "material.zeta_deg": 28, "inflow.h": 0.003})``, or the older OperatorConfig names
+        ``nu``, ``zeta`` [rad], ``inflow_h``, ``inflow_phi`` as keywords."""
+        changes = dict(changes or {})
+        for name, value in cfg_names.items():
+            if name not in CFG_KEYS:
+                raise TisegError(f"set_params: unknown parameter {name!r}; use scene keys "
+                                 f"or one of {', '.join(CFG_KEYS)}")
+            key, to_scene = CFG_KEYS[name]
+            changes[key] = to_scene(value)
+        self.sim.set_parameters(changes)
 
     def set_field(self, field: str) -> None:
         self.renderer.set_field(field)
@@ -290,11 +293,19 @@ class Viewer:
             self.step(self.steps_per_frame)
         self.draw()
         self._tick()
-        if self.recorder is not None:
-            self.recorder.append(self.renderer.to_numpy(annotate_frame=True))
         if self.show_window:
             self.window.show()        # never without a window: GGUI crashes on that
         self.frames += 1
+
+    @property
+    def scene(self):
+        """The simulation's scene (set_parameters replaces it)."""
+        return self.sim.scene
+
+    @property
+    def recorder(self):
+        cb = self.sim.callbacks.get("viewer:recording")
+        return None if cb is None else cb.func
 
     def run_frames(self, n: int) -> None:
         for _ in range(int(n)):
@@ -336,20 +347,32 @@ class Viewer:
         return path
 
     def start_recording(self, path=None, fps: float = 30.0) -> Path:
-        from tiseg.render.movie import MovieWriter
+        """Record a frame every ``steps_per_frame`` steps (a callback of the simulation)."""
+        from tiseg.render.movie import MovieRecorder
+        from tiseg.schedules import IterationInterval
         self.stop_recording()
         path = Path(path) if path else self.save_dir / (
             f"tiseg-{self.scene.name}-{time.strftime('%Y%m%d-%H%M%S')}.mp4")
-        self.recorder = MovieWriter(path, fps)
+        rec = MovieRecorder(self.renderer, path, fps)
+        self.sim.add_callback(rec.callback(IterationInterval(self.steps_per_frame),
+                                           name="viewer:recording"))
         self.record_path = path
         self.message = f"recording to {path}"
         return path
 
     def stop_recording(self) -> None:
-        if self.recorder is not None:
-            self.recorder.close()
-            self.message = f"saved {self.record_path} ({self.recorder.count} frames)"
-            self.recorder = None
+        rec = self.recorder
+        if rec is not None:
+            self.sim.remove_callback("viewer:recording")
+            rec.close()
+            self.message = f"saved {self.record_path} ({rec.count} frames)"
+
+    def set_steps_per_frame(self, n: int) -> None:
+        self.steps_per_frame = int(n)
+        cb = self.sim.callbacks.get("viewer:recording")
+        if cb is not None and cb.schedule.n != self.steps_per_frame:
+            from tiseg.schedules import IterationInterval
+            cb.schedule = IterationInterval(self.steps_per_frame)
 
     def close(self) -> None:
         self.stop_recording()
@@ -428,7 +451,7 @@ class Viewer:
                     self.set_field(name)
             self.renderer.shade = 0.35 if w.checkbox("relief shading", self.renderer.shade > 0) \
                 else 0.0
-            self.steps_per_frame = w.slider_int("steps/frame", self.steps_per_frame, 1, 100)
+            self.set_steps_per_frame(w.slider_int("steps/frame", self.steps_per_frame, 1, 100))
             lo, hi = self.renderer.vrange
             if self.renderer.field != "phi":
                 from tiseg.render.colours import FIELD_LABELS
@@ -441,30 +464,32 @@ class Viewer:
         cfg = self.sim.op.cfg
         changes = {}
         if cfg.bc[0] == "inflow":
-            h_mm = w.slider_float("inflow h [mm]", cfg.inflow_h * 1e3, 0.0, 6.0)
+            h_mm = w.slider_float("inflow h [mm]", cfg.inflow_h * 1e3, 0.1, 6.0)
             if abs(h_mm * 1e-3 - cfg.inflow_h) > 1e-9:
-                changes["inflow_h"] = h_mm * 1e-3
+                changes["inflow.h"] = h_mm * 1e-3
             if self.sim.layout.segregation:
                 ph = w.slider_float("inflow phi", cfg.inflow_phi, 0.0, 1.0)
                 if abs(ph - cfg.inflow_phi) > 1e-6:
-                    changes["inflow_phi"] = ph
+                    changes["inflow.phi"] = ph
         else:
             w.text("no inflow in this scene")
         if cfg.viscous:
             nu = w.slider_float("nu [m^1.5/s]", cfg.nu, 0.0, 0.05)
             if abs(nu - cfg.nu) > 1e-9:
-                changes["nu"] = nu
+                changes["flow.nu"] = nu
         else:
             w.text("viscosity off (compile-time)")
         deg = w.slider_float("slope [deg]", math.degrees(cfg.zeta), 15.0, 45.0)
         if abs(math.radians(deg) - cfg.zeta) > 1e-7:
-            changes["zeta"] = math.radians(deg)
+            changes["material.zeta_deg"] = deg
         if w.button("scene values"):
-            self.sim.op.set_params(self.scene_cfg)
-            self.sim.cfg = self.scene_cfg
+            self.sim.set_parameters(scene=self.scene0)
             return
         if changes:
-            self.set_params(**changes)
+            try:
+                self.set_params(changes)
+            except TisegError as exc:          # e.g. a perturbation that leaves [0, 1]
+                self.message = str(exc)
 
 
 # =================================================================================================
@@ -472,7 +497,7 @@ class Viewer:
 # =================================================================================================
 def add_arguments(p) -> None:
     """Options of the viewer (the scene options come from `tiseg run`)."""
-    from tiseg.commands.run import add_scene_arguments
+    from tiseg.commands.common import add_scene_arguments
     add_scene_arguments(p)
     p.add_argument("--field", default=None, help="phi (default), h, speed (|u|), u or v")
     p.add_argument("--scale", type=float, default=None, help="pixels per cell (default: fit)")

@@ -116,7 +116,8 @@ def viewer_loop(arch: str, precision: str, resolution: float, frames: int,
     from ..render import FrameRenderer
     from ..simulation import Simulation
     backend.init(arch, precision)
-    sim = Simulation.from_scene("fingers", {"domain.resolution": resolution, "output.times": []})
+    sim = Simulation.from_scene("fingers", {"domain.resolution": resolution, "output.times": []},
+                                precision=precision)
     renderer = FrameRenderer(sim, "phi")
     sim.step()                               # compile outside the timing
     renderer.to_numpy()

@@ -149,7 +149,7 @@ def measure(run_dir, times: Sequence[float] | None = None, span: float | None = 
         own = sim_for(scene.numerics.stepper, cfl)
         own.set_conserved(q0)
         own.t = t0
-        dt0, _, _ = own.plan_step()
+        dt0 = own.plan().dt
         sp = span if span is not None else 40 * dt0     # about 40 steps of the run's own stepper
         if log:
             log(f"t = {t0:g} s: span {sp:.3g} s; reference {REFERENCE_STEPPER} at cfl "

@@ -171,14 +171,17 @@ class _Variant:
     """One variant's simulation and the callables that are timed."""
 
     def __init__(self, name: str, nx: int, ny: int):
+        from .. import backend
         from ..simulation import Simulation
         self.name = name
         self.scene = variant_scene(name, nx, ny)
-        self.sim = sim = Simulation(self.scene)
+        # the precision measure() initialised, not the scene's (f64): this bench is per precision
+        self.sim = sim = Simulation(self.scene, precision=backend.state().precision)
         self.op = sim.op
         self.cells = self.scene.domain.nx * self.scene.domain.ny
         # the stage count of this state (RKC: from the viscous, friction and KT radii)
-        self.dt, self.stages, _ = sim.plan_step()
+        p = sim.plan()
+        self.dt, self.stages = p.dt, p.stages
         self.q0 = sim.op.get(0)
         self.q_ref = self.q0.copy()
 
@@ -186,7 +189,7 @@ class _Variant:
         self.op.rhs(0, 1, 0.0)
 
     def plan(self):
-        self.sim.plan_step()
+        self.sim.plan()
 
     def step(self):
         """A whole step at the stage count the state asks for."""
@@ -196,11 +199,7 @@ class _Variant:
         """A whole RKC step at a fixed stage count: two of these give the cost of one stage
         inside a step (operator, combination, limiter, with all five state slots in use,
         which is slower than the operator alone in a warm cache) and of the per-step work."""
-        self.sim.stepper.fixed_stages = stages
-        try:
-            self.sim.step()
-        finally:
-            self.sim.stepper.fixed_stages = None
+        self.sim.step(stages=stages)
 
     def restore(self):
         self.op.set(0, self.q0)

@@ -6,6 +6,7 @@ import json
 import math
 import sys
 
+from ..backend import ARCHS
 from ..errors import InputError
 from ..material import Material
 from ..output.diagnostics import json_clean
@@ -49,3 +50,26 @@ def stdout_for_json(as_json: bool):
     """Context for the work before a command prints JSON: Taichi greets on stdout when it
     starts, so anything printed meanwhile goes to stderr and stdout carries the JSON alone."""
     return contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext()
+
+
+def add_scene_arguments(p, scene_optional: bool = False) -> None:
+    """SCENE, --set, --arch, --precision, --threads: how every command that runs a scene picks it."""
+    p.add_argument("scene", nargs="?" if scene_optional else None, default=None,
+                   help="built-in scene name (e.g. fingers) or path to a TOML file")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override a scene value, e.g. --set domain.resolution=250 (repeatable)")
+    p.add_argument("--arch", choices=ARCHS, default="cpu",
+                   help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
+                        "(software Vulkan where there is no GPU; default cpu)")
+    p.add_argument("--precision", choices=("f32", "f64"), default=None,
+                   help="floating-point precision (default: the scene's numerics.precision)")
+    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+
+
+def load_scene_args(args):
+    """The scene named by SCENE, --set and --precision."""
+    from ..scene import load_scene
+    overrides = list(args.overrides)
+    if args.precision:
+        overrides.append(f"numerics.precision={args.precision}")
+    return load_scene(args.scene, overrides)

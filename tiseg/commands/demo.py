@@ -31,8 +31,7 @@ def run(args) -> int:
     from ..errors import InputError
     from ..figures.stability import make_all
     from ..output import write_json_atomic
-    from ..render.movie import MovieWriter
-    from ..render.frame import FrameRenderer, annotate
+    from ..render.movie import MovieRecorder
     from ..render.panels import plot_panels
     from ..scene import load_scene
     from ..simulation import Simulation
@@ -44,16 +43,11 @@ def run(args) -> int:
     scene = load_scene("fingers", {"domain.resolution": args.resolution, "time.t_end": args.t_end,
                                    "output.times": times, "output.interval": args.t_end / 75})
     sim = Simulation(scene, arch=args.arch)
-    renderer = FrameRenderer(sim, "phi")
     movie_path = out / "fingers.mp4"
     out.mkdir(parents=True, exist_ok=True)
-    movie = MovieWriter(movie_path, fps=12)
-
-    def frame(s):
-        movie.append(annotate(renderer.to_numpy(), s.t, scene.dx))
-
+    movie = MovieRecorder.for_simulation(sim, movie_path, "phi", fps=12)
     try:
-        stats = sim.run(out_dir=out, progress=not args.no_progress, on_output=frame)
+        stats = sim.run(out_dir=out, progress=not args.no_progress, on_output=movie)
     finally:
         movie.close()
     written = [movie_path]

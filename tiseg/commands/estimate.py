@@ -6,8 +6,7 @@ this process; see :mod:`tiseg.estimate`. ``tiseg run SCENE --estimate`` prints t
 """
 from __future__ import annotations
 
-from .common import check_threads, print_json, stdout_for_json
-from .run import add_scene_arguments
+from .common import add_scene_arguments, check_threads, load_scene_args, print_json, stdout_for_json
 
 
 def register(sub) -> None:
@@ -25,10 +24,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from .run import load
-
     check_threads(args.threads)
-    scene = load(args)
+    scene = load_scene_args(args)
     print_estimate(scene, args.arch, args.threads, output=not args.no_output, as_json=args.json)
     return 0
 

@@ -13,21 +13,9 @@ import os
 import tempfile
 from pathlib import Path
 
-from ..backend import ARCHS
-from .common import check_threads, print_json
+from .common import add_scene_arguments, check_threads, load_scene_args, print_json
 
-
-def add_scene_arguments(p, scene_optional: bool = False) -> None:
-    p.add_argument("scene", nargs="?" if scene_optional else None, default=None,
-                   help="built-in scene name (e.g. fingers) or path to a TOML file")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help="override a scene value, e.g. --set domain.resolution=250 (repeatable)")
-    p.add_argument("--arch", choices=ARCHS, default="cpu",
-                   help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
-                        "(software Vulkan where there is no GPU; default cpu)")
-    p.add_argument("--precision", choices=("f32", "f64"), default=None,
-                   help="floating-point precision (default: the scene's numerics.precision)")
-    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+load = load_scene_args          # the older name
 
 
 def register(sub) -> None:
@@ -53,14 +41,6 @@ def register(sub) -> None:
                    help="field of the movie: phi (default), h, speed, u or v")
     p.add_argument("--fps", type=float, default=None, help="movie frames per second (10)")
     p.set_defaults(func=run)
-
-
-def load(args):
-    from ..scene import load_scene
-    overrides = list(args.overrides)
-    if args.precision:
-        overrides.append(f"numerics.precision={args.precision}")
-    return load_scene(args.scene, overrides)
 
 
 def check_output_folder(out: Path, what: str = "--out") -> None:
@@ -149,7 +129,7 @@ def run(args) -> int:
             print(f"{scene.name}: resuming from {out / CHECKPOINT_NAME} at t = {sim.t:.6g} s "
                   f"(step {sim.stats.steps})")
     else:
-        scene = load(args)
+        scene = load_scene_args(args)
         if args.estimate:
             from .estimate import print_estimate
             print_estimate(scene, args.arch, args.threads, as_json=args.json)
@@ -165,7 +145,7 @@ def run(args) -> int:
     movie = _movie(args, sim)
     try:
         stats = sim.run(out_dir=out, progress=not args.no_progress,
-                        on_output=None if movie is None else movie.on_output)
+                        on_output=None if movie is None else movie)
     finally:
         if movie is not None:
             movie.close()
@@ -197,39 +177,17 @@ def run(args) -> int:
     return 0
 
 
-class _MovieRecorder:
-    """Renders one annotated frame per output time straight from the simulation's state."""
-
-    def __init__(self, sim, path, field: str, fps: float):
-        from ..render import FrameRenderer
-        from ..render.movie import MovieWriter
-        self.path = path
-        self.renderer = FrameRenderer(sim, field=field)
-        self.writer = MovieWriter(path, fps)
-
-    @property
-    def count(self) -> int:
-        return self.writer.count
-
-    def on_output(self, sim) -> None:
-        self.writer.append(self.renderer.to_numpy(annotate_frame=True))
-
-    def close(self) -> None:
-        self.writer.close()
-
-
 def _movie(args, sim):
-    """The movie recorder asked for with --movie, or None."""
+    """The movie recorder asked for with --movie (one frame per output time), or None."""
     if getattr(args, "movie", None) is None:
         return None
     from ..errors import InputError
     from ..render.colours import canonical_field
+    from ..render.movie import MovieRecorder
     try:
         field = canonical_field(args.movie_field)
     except ValueError as exc:
         raise InputError(f"--movie-field: {exc}") from None
-    if field == "phi" and not sim.layout.segregation:
-        field = "h"                      # no concentration without segregation
     if field == "v" and sim.layout.is_1d:
         raise InputError("--movie-field=v: a 1D run has no v")
-    return _MovieRecorder(sim, Path(args.movie), field, args.fps)
+    return MovieRecorder.for_simulation(sim, Path(args.movie), field, args.fps)

@@ -432,6 +432,15 @@ class TaichiOperator:
                 acc += cs[k] * self.bud[ss[k], b]
             self.bud[d, b] = acc
 
+    @ti.kernel
+    def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float):
+        """slot d := (1 - theta) slot a + theta slot b on every cell, ghosts included, and the
+        same for the budgets (no active range: a copy must be whole)."""
+        for i, j in ti.ndrange(self.NX, self.NY):
+            self.q[d, i, j] = (1.0 - theta) * self.q[a, i, j] + theta * self.q[b, i, j]
+        for k in range(NBUDGET):
+            self.bud[d, k] = (1.0 - theta) * self.bud[a, k] + theta * self.bud[b, k]
+
     @ti.func
     def _boundary_rates(self, d):
         """Net inflow rates through the domain's faces, summed in a fixed order."""
@@ -623,6 +632,13 @@ class TaichiOperator:
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
         self._combine(dst, n, bool(limit), *cs, *ss)
+
+    def blend(self, dst: int, a: int, b: int, theta: float) -> None:
+        """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
+        theta = 0 a copy of slot a. For snapshots between two step states (tiseg.callbacks)."""
+        if self._prepared is not None and self._prepared[0] == dst:
+            self._prepared = None
+        self._blend(dst, a, b, float(theta))
 
     def budget(self, slot: int = 0) -> np.ndarray:
         """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""

@@ -1,7 +1,23 @@
 """Per-step diagnostics as CSV, and atomic text files.
 
 The CSV is flushed after every row so that a running or killed simulation can be followed with
-``tail -f`` and read back with :func:`read_diagnostics`.
+``tail -f`` and read back with :func:`read_diagnostics`. Its units are stated beside it in
+``diagnostics.csv-metadata.json``, a W3C "CSV on the Web" metadata file (the name CSVW tools
+look for next to a CSV): per column a title, a description with the unit, the datatype and
+``"unit"`` (:func:`write_units`). The columns of a run (:data:`DEFAULT_COLUMNS`):
+
+======================== ======================================================================
+``time``                 simulated time at the end of the step [s]
+``dt``                   the step [s] (0 on the row of the initial state)
+``stages``               operator evaluations of the step (RKC stages) [1]
+``mass``                 total mass, the integral of h [m^3] (per metre of width in 1D: [m^2])
+``small_mass``           integral of h phi [m^3] (1D: [m^2])
+``max_speed``            max |u| over the wet cells at the start of the step [m/s]
+``wall_time_cumulative`` wall time since the run started, resumed runs included [s]
+======================== ======================================================================
+
+Files written before the column was renamed call it ``wall_time``; :func:`read_diagnostics`
+returns both names for either file, and a resumed old run keeps its old header.
 """
 from __future__ import annotations
 
@@ -15,7 +31,21 @@ import numpy as np
 
 from .atomic import replacing
 
-DEFAULT_COLUMNS = ("time", "dt", "stages", "mass", "small_mass", "max_speed", "wall_time")
+DEFAULT_COLUMNS = ("time", "dt", "stages", "mass", "small_mass", "max_speed",
+                   "wall_time_cumulative")
+# new name -> the name older files use for the same column
+ALIASES = {"wall_time_cumulative": "wall_time"}
+# column -> (unit in 2D, unit in 1D, description)
+UNITS = {
+    "time": ("s", "s", "simulated time at the end of the step"),
+    "dt": ("s", "s", "time step (0 on the row of the initial state)"),
+    "stages": ("1", "1", "operator evaluations of the step (RKC stages)"),
+    "mass": ("m3", "m2", "total mass: integral of the thickness h over the chute"),
+    "small_mass": ("m3", "m2", "small-particle mass: integral of h phi"),
+    "max_speed": ("m/s", "m/s", "largest |u| over wet cells at the start of the step"),
+    "wall_time_cumulative": ("s", "s", "wall time since the run started (resumed runs "
+                                       "continue it), cumulative"),
+}
 
 
 class DiagnosticsWriter:
@@ -42,6 +72,9 @@ class DiagnosticsWriter:
     def write(self, **values) -> None:
         if self._fh is None:
             raise ValueError(f"{self.path}: writer is closed")
+        for new_name, old_name in ALIASES.items():      # a resumed file with old names
+            if new_name in values and new_name not in self.columns and old_name in self.columns:
+                values[old_name] = values.pop(new_name)
         unknown = [k for k in values if k not in self.columns]
         if unknown:
             raise ValueError(f"write(): unknown columns {unknown}; columns are {self.columns}")
@@ -90,7 +123,32 @@ def read_diagnostics(path) -> dict[str, np.ndarray]:
             out[name] = np.array([float(c) if c != "" else math.nan for c in col], dtype=float)
         except ValueError:
             out[name] = np.array(col, dtype=str)
+    for new_name, old_name in ALIASES.items():         # both names, for old and new files
+        if new_name in out and old_name not in out:
+            out[old_name] = out[new_name]
+        elif old_name in out and new_name not in out:
+            out[new_name] = out[old_name]
     return out
+
+
+def write_units(csv_path, columns: Sequence[str], one_d: bool = False) -> Path:
+    """Write ``<csv>-metadata.json`` (CSV on the Web) stating each column's unit and meaning;
+    the units of mass are per metre of width in a 1D run (``one_d``). Columns not in
+    :data:`UNITS` are listed without a unit."""
+    csv_path = Path(csv_path)
+    cols = []
+    for c in columns:
+        unit_2d, unit_1d, text = UNITS.get(c, (None, None, ""))
+        unit = unit_1d if one_d else unit_2d
+        col = {"name": c, "titles": c, "datatype": "integer" if c == "stages" else "double"}
+        if unit is not None:
+            col["dc:description"] = f"{text} [{unit}]"
+            col["unit"] = unit
+        cols.append(col)
+    meta = {"@context": "http://www.w3.org/ns/csvw", "url": csv_path.name,
+            "dc:title": "tiseg per-step diagnostics",
+            "tableSchema": {"columns": cols}}
+    return write_json_atomic(csv_path.with_name(csv_path.name + "-metadata.json"), meta)
 
 
 def write_text_atomic(path, text: str) -> Path:
@@ -129,5 +187,5 @@ def json_clean(obj):
     return obj
 
 
-__all__ = ["DiagnosticsWriter", "read_diagnostics", "DEFAULT_COLUMNS", "write_text_atomic",
+__all__ = ["DiagnosticsWriter", "read_diagnostics", "write_units", "DEFAULT_COLUMNS", "UNITS", "write_text_atomic",
            "write_json_atomic", "json_clean"]

@@ -4,6 +4,7 @@
 * :class:`FrameRenderer` - the same picture straight from a running simulation's Taichi state.
 * :func:`annotate`, :func:`add_colourbar` - time stamp, scale bar, colour bar burned in.
 * :class:`MovieWriter`, :class:`FrameFolderWriter`, :func:`render_run` - mp4 / GIF / PNG frames.
+* :class:`MovieRecorder` - frames of a running simulation into a movie (run, demo, viewer).
 * :func:`plot_panels` - paper-style matplotlib panels (figures 12-14).
 
 Colours (``tiseg.render.colours``): phi = 1 white fines, phi = 0 brown coarse grains, turquoise
@@ -14,14 +15,14 @@ from .colours import (CHUTE_RGB, COARSE_RGB, FIELD_NAMES, FINES_RGB, canonical_f
 from .frame import FrameRenderer, add_colourbar, annotate, image_size, render_fields
 
 __all__ = ["render_fields", "FrameRenderer", "annotate", "add_colourbar", "image_size",
-           "MovieWriter", "FrameFolderWriter", "render_run", "plot_panels",
+           "MovieWriter", "MovieRecorder", "FrameFolderWriter", "render_run", "plot_panels",
            "FINES_RGB", "COARSE_RGB", "CHUTE_RGB", "FIELD_NAMES", "canonical_field",
            "viridis_table"]
 
 
 def __getattr__(name):
     # movie/panels pull in imageio and matplotlib.pyplot: import them only when asked for
-    if name in ("MovieWriter", "FrameFolderWriter", "render_run", "open_writer"):
+    if name in ("MovieWriter", "MovieRecorder", "FrameFolderWriter", "render_run", "open_writer"):
         from . import movie
         return getattr(movie, name)
     if name in ("plot_panels",):

@@ -82,24 +82,33 @@ class _ArraySource:
 
 @ti.data_oriented
 class _StateSource:
-    """A simulation's conserved state, slot 0 of ``op.q`` (ghost cells skipped), read in place:
-    rendering a frame moves no state through NumPy."""
+    """A simulation's conserved state, a slot of ``op.q`` (ghost cells skipped), read in place:
+    rendering a frame moves no state through NumPy. The slot is 0 (the step state) unless a
+    snapshot in another slot is drawn (:meth:`use_slot`)."""
 
     def __init__(self, op):
         lay = op.lay
         self.q = op.q
+        self.slot = ti.field(ti.i32, shape=())
+        self.slot[None] = 0           # written, not trusted to start at 0 (Vulkan does not)
+        self._slot = 0
         self.nx, self.ny = lay.nx, lay.ny
         self.gx, self.gy = lay.gx, lay.gy
         self.HU, self.HV, self.HPHI = lay.HU, lay.HV, lay.HPHI
         self.has_v, self.has_phi = not lay.is_1d, lay.segregation
 
+    def use_slot(self, slot: int) -> None:
+        if slot != self._slot:              # a field write from Python is a kernel launch
+            self.slot[None] = int(slot)
+            self._slot = int(slot)
+
     @ti.func
     def thickness(self, i, j):
-        return self.q[0, i + self.gx, j + self.gy][0]
+        return self.q[self.slot[None], i + self.gx, j + self.gy][0]
 
     @ti.func
     def sample(self, i, j):
-        q = self.q[0, i + self.gx, j + self.gy]
+        q = self.q[self.slot[None], i + self.gx, j + self.gy]
         h = q[0]
         inv = 0.0
         if h > 0:                      # as Simulation.fields(): hu/h where h > 0, else 0
@@ -389,9 +398,10 @@ def _shade_strength(shade) -> float:
 # Frames straight from a simulation
 # =================================================================================================
 class FrameRenderer:
-    """Render a :class:`tiseg.simulation.Simulation` 's current state without copying it to NumPy.
+    """Render a :class:`tiseg.simulation.Simulation` 's current state, or one of its snapshots
+    (``state=snap``, :class:`tiseg.callbacks.Snapshot`), without copying it to NumPy.
 
-    The kernel reads slot 0 of ``sim.op.q`` in place; only the finished picture comes back (or
+    The kernel reads the state's slot of ``sim.op.q`` in place; only the finished picture comes back (or
     nothing, when the viewer shows the image field directly). ``vrange`` for the mapped fields:
     None starts from a range suited to the scene's reference flow and widens it whenever the data
     leave it (colours stay comparable across a movie); "auto" fits every frame to its data; a
@@ -402,7 +412,8 @@ class FrameRenderer:
                  colourbar: bool | None = None, relief: float = DEFAULT_RELIEF):
         self.sim = sim
         sc = sim.scene
-        self.painter = _Painter(_StateSource(sim.op))
+        self.source = _StateSource(sim.op)
+        self.painter = _Painter(self.source)
         self.nx, self.ny = self.painter.nx, self.painter.ny
         self.h_min = float(sc.numerics.h_min)
         self.dx, self.dy = float(sc.dx), float(sc.dy)
@@ -468,21 +479,26 @@ class FrameRenderer:
             cur = self.vrange
             self.vrange = C._nondegenerate(min(cur[0], lo), max(cur[1], hi), self.field)
 
-    def render(self):
-        """Paint the current state into :attr:`image` (a Taichi field) and return it."""
-        self.paint_into(self.image, 0, 0, self.width, self.height)
+    def render(self, state=None):
+        """Paint the current state (or ``state``, a snapshot) into :attr:`image` (a Taichi
+        field) and return it."""
+        self.paint_into(self.image, 0, 0, self.width, self.height, state)
         return self.image
 
-    def paint_into(self, img, x0: int, y0: int, w: int, h: int) -> None:
-        """Paint the current state into a rectangle of another image field (the viewer's)."""
+    def paint_into(self, img, x0: int, y0: int, w: int, h: int, state=None) -> None:
+        """Paint the current state (or ``state``) into a rectangle of another image field (the
+        viewer's)."""
         self.sim.op.check_alive()
+        self.source.use_slot(0 if state is None else state.slot)
         self._update_range()
         self._update_params()
         self.painter.paint(img, x0, y0, w, h)
 
-    def to_numpy(self, annotate_frame: bool = False, colourbar: bool | None = None) -> np.ndarray:
-        """Render and return uint8 (H, W, 3); optionally with colour bar, time and scale bar."""
-        self.render()
+    def to_numpy(self, annotate_frame: bool = False, colourbar: bool | None = None,
+                 state=None) -> np.ndarray:
+        """Render and return uint8 (H, W, 3); optionally with colour bar, time and scale bar.
+        ``state``: a :class:`tiseg.callbacks.Snapshot` to draw instead of the current state."""
+        self.render(state)
         out = _image_to_numpy(self.image)
         cb = self.colourbar if colourbar is None else colourbar
         if cb is None:
@@ -491,7 +507,8 @@ class FrameRenderer:
         if cb:
             out = add_colourbar(out, self.field, *self.vrange)
         if annotate_frame:
-            out = annotate(out, self.sim.t, self.pixel_size, map_width=map_width)
+            t = self.sim.t if state is None else state.t
+            out = annotate(out, t, self.pixel_size, map_width=map_width)
         return out
 
 

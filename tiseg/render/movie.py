@@ -137,6 +137,55 @@ class FrameFolderWriter:
         self.close()
 
 
+class MovieRecorder:
+    """The one movie path from a running simulation (``tiseg run --movie``, ``tiseg demo``, the
+    viewer's recording): a :class:`tiseg.render.FrameRenderer` and a :class:`MovieWriter`.
+
+    Call it with a :class:`tiseg.callbacks.Snapshot` (as a snapshot callback at output times)
+    or with the simulation itself (as a plain callback, e.g. every n steps): each call appends
+    one frame with time stamp and scale bar. :meth:`callback` wraps it for
+    :meth:`tiseg.simulation.Simulation.add_callback`."""
+
+    def __init__(self, renderer, path, fps: float = DEFAULT_FPS):
+        self.renderer = renderer
+        self.path = Path(path)
+        self.writer = MovieWriter(self.path, fps)
+
+    @classmethod
+    def for_simulation(cls, sim, path, field: str = "phi", fps: float = DEFAULT_FPS,
+                       **renderer_kw) -> "MovieRecorder":
+        """A recorder with its own renderer of ``field`` (phi falls back to h without phi)."""
+        from .frame import FrameRenderer
+        field = C.canonical_field(field)
+        if field == "phi" and not sim.layout.segregation:
+            field = "h"                      # no concentration without segregation
+        return cls(FrameRenderer(sim, field=field, **renderer_kw), path, fps)
+
+    @property
+    def count(self) -> int:
+        return self.writer.count
+
+    def __call__(self, state) -> None:
+        snap = None if state is self.renderer.sim else state
+        self.writer.append(self.renderer.to_numpy(annotate_frame=True, state=snap))
+
+    def callback(self, schedule, snapshot: bool | None = None, name: str = "movie"):
+        """This recorder as a :class:`tiseg.callbacks.Callback` (a snapshot callback on a
+        time schedule unless ``snapshot=False``)."""
+        from ..callbacks import Callback
+        return Callback(self, schedule, name=name,
+                        snapshot=schedule.timed if snapshot is None else snapshot)
+
+    def close(self) -> None:
+        self.writer.close()
+
+    def __enter__(self) -> "MovieRecorder":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 def open_writer(path, fps: float = DEFAULT_FPS):
     """A :class:`MovieWriter` for a file path with a suffix, else a :class:`FrameFolderWriter`."""
     path = Path(path)

@@ -17,9 +17,12 @@ class Stepper:
     slots = 1
     order = 1
 
-    def plan(self, dt_cfl: float, rho: float, dt_max: float) -> tuple[float, int]:
+    def plan(self, dt_cfl: float, rho: float, dt_max: float,
+             stages: int | None = None) -> tuple[float, int]:
         """(dt, stages) for the next step given the convective limit, the spectral radius and
-        an upper bound (time left to the next output)."""
+        an upper bound (the time left to the end of the run). ``stages``: a fixed stage count
+        instead of the one the stiffness asks for (benchmarks and the estimate's calibration;
+        stability is then the caller's business)."""
         raise NotImplementedError
 
     def step(self, op, t: float, dt: float, stages: int) -> None:

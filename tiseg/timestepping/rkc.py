@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+from ..errors import InputError
 from .base import Stepper, register
 
 DAMPING = 2.0 / 13.0
@@ -61,14 +62,15 @@ class RKC(Stepper):
     slots = 5
     order = 2
 
-    def __init__(self, max_stages: int = 200, fixed_stages: int | None = None):
+    def __init__(self, max_stages: int = 200):
         self.max_stages = max(2, int(max_stages))
-        self.fixed_stages = fixed_stages
 
-    def plan(self, dt_cfl, rho, dt_max):
+    def plan(self, dt_cfl, rho, dt_max, stages=None):
         dt = min(dt_cfl, dt_max)
-        if self.fixed_stages:
-            return dt, self.fixed_stages
+        if stages is not None:
+            if not (isinstance(stages, int) and stages >= 2):
+                raise InputError(f"stages={stages!r}: RKC needs an integer of at least 2")
+            return dt, stages
         s = stages_for(dt * rho)
         if s > self.max_stages:
             # the stage cap binds: shorten the step so that dt rho fits beta(max_stages)

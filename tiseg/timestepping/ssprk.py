@@ -6,6 +6,7 @@ contain the operator's spectrum: dt <= safety * beta / rho.
 """
 from __future__ import annotations
 
+from ..errors import InputError
 from .base import Stepper, register
 
 
@@ -13,7 +14,10 @@ class _ExplicitRK(Stepper):
     beta = 2.0        # real stability interval
     safety = 0.9
 
-    def plan(self, dt_cfl, rho, dt_max):
+    def plan(self, dt_cfl, rho, dt_max, stages=None):
+        if stages is not None and stages != self.stages:
+            raise InputError(f"stages={stages!r}: {self.name} always takes {self.stages} "
+                             "stage(s)")
         dt = dt_cfl
         if rho > 0:
             dt = min(dt, self.safety * self.beta / rho)

@@ -1,0 +1,143 @@
+"""The files of one run folder, written by callbacks of the run loop.
+
+``scene.toml`` (the resolved scene), ``fields.nc`` (snapshots at the output times, a snapshot
+callback), ``diagnostics.csv`` with its units in ``diagnostics.csv-metadata.json`` (a row per
+step), ``checkpoint.npz`` (step states, see :mod:`tiseg.checkpoint`) and ``failure/`` (the states
+a guard failure saves). A resumed run appends to the files of its folder.
+
+Checkpoints hold the state at the end of a step, never an interpolated snapshot, so a resumed
+run continues with exactly the steps of an uninterrupted one. They are written after every
+step that crossed an output time (after its snapshots, so fields.nc and the checkpoint agree),
+after each multiple of ``output.checkpoint_interval`` seconds of simulated time, and after any
+step that ends ``checkpoint_wall`` seconds of wall time after the last checkpoint.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+from .. import checkpoint as _ckpt
+from ..callbacks import Callback
+from ..errors import InputError
+from ..schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
+from .diagnostics import DiagnosticsWriter, write_text_atomic, write_units
+from .netcdf import FieldsFileError, FieldsWriter
+
+DIAGNOSTICS = "diagnostics.csv"
+
+
+class RunFolder:
+    """Open (or, with ``resume``, continue) the files of ``sim`` 's run in ``path``."""
+
+    def __init__(self, sim, path, resume: dict | None = None):
+        self.sim = sim
+        self.path = out = Path(path)
+        self.fields = self.diag = None
+        sc = sim.scene
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            if resume is None:
+                write_text_atomic(out / "scene.toml", sc.to_toml())
+                self.fields = self._new_fields_writer(out / "fields.nc")
+                self.diag = DiagnosticsWriter(out / DIAGNOSTICS)
+                write_units(out / DIAGNOSTICS, self.diag.columns, one_d=sim.layout.is_1d)
+            else:
+                self.diag = _ckpt.append_diagnostics(out / DIAGNOSTICS, resume["diag_rows"])
+                try:
+                    self.fields = FieldsWriter.append(out / "fields.nc", resume["snapshots"],
+                                                      sim.t)
+                except FieldsFileError as exc:
+                    self.fields = self._salvage_fields(exc)
+        except OSError as exc:
+            self.close()
+            raise InputError(f"cannot write to output folder {str(out)!r}: "
+                             f"{exc.strerror or exc}") from None
+        self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
+        sim.failure_dir = out / "failure"
+        self.counts()
+
+    # ------------------------------------------------------------------ callbacks
+    def callbacks(self, times, checkpoint_wall: float | None) -> list[Callback]:
+        """Fields at ``times`` (snapshots), a diagnostics row per step, and the checkpoint."""
+        when = [SpecifiedTimes(times)]
+        interval = self.sim.scene.output.checkpoint_interval
+        if interval:
+            when.append(TimeInterval(interval))
+        if checkpoint_wall is not None:
+            when.append(WallTimeInterval(checkpoint_wall))
+        return [Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
+                Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
+                Callback(self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100)]
+
+    def write_fields(self, snap) -> None:
+        self.fields.write(snap.t, **snap.fields())
+        self.counts()
+
+    def write_diagnostics(self, sim) -> None:
+        info = sim.last_step
+        self._row(info.dt, info.stages, sim.last_stability.max_speed)
+
+    def start(self) -> None:
+        """The row of the initial state (a fresh run only)."""
+        if self.sim.stats.steps == 0:
+            self._row(0.0, 0, float("nan"))
+
+    def _row(self, dt: float, stages: int, max_speed: float) -> None:
+        sim = self.sim
+        tot = sim.totals()
+        self.diag.write(time=sim.t, dt=dt, stages=stages, mass=tot["mass"],
+                        small_mass=tot["small_mass"], max_speed=max_speed,
+                        wall_time_cumulative=sim.wall_time())
+        self.counts()
+
+    def save_checkpoint(self, sim) -> None:
+        self.counts()
+        sim.stats.wall = sim.wall_time()
+        interval = sim.scene.output.checkpoint_interval
+        nxt = (math.floor(sim.t / interval * (1 + 1e-12)) + 1) * interval if interval else math.nan
+        _ckpt.save(self.checkpoint_path, sim, next_sim=nxt)
+
+    def finish(self) -> None:
+        """At the scene's end time nothing is left to resume: the checkpoint goes."""
+        t_end = self.sim.scene.t_end
+        if self.sim.t >= t_end - 1e-12 * max(1.0, t_end):
+            self.checkpoint_path.unlink(missing_ok=True)
+
+    def counts(self) -> None:
+        """Tell the simulation how much is written (the checkpoint records it)."""
+        self.sim._io_counts = (self.fields.count if self.fields else 0,
+                               self.diag.rows if self.diag else 0)
+
+    def close(self) -> None:
+        self.counts()
+        for w in (self.fields, self.diag):
+            if w is not None:
+                w.close()
+
+    # ------------------------------------------------------------------ fields.nc
+    def _new_fields_writer(self, path: Path) -> FieldsWriter:
+        sim = self.sim
+        x, y = sim.scene.domain.cell_centres()
+        return FieldsWriter(path, x, y, attrs={"scene": sim.scene.to_toml(),
+                                               "tiseg_arch": sim.backend.arch,
+                                               "tiseg_precision": sim.backend.precision},
+                            fields=sim.scene.fields,
+                            dtype="f8" if sim.backend.precision == "f64" else "f4")
+
+    def _salvage_fields(self, exc: Exception) -> FieldsWriter:
+        """Resume with a fields.nc that cannot be continued: keep it under another name and
+        start a new one from the checkpoint on (the state itself is safe in the checkpoint)."""
+        old = self.path / "fields.nc"
+        n = 1
+        while (self.path / f"fields.damaged-{n}.nc").exists():
+            n += 1
+        kept = self.path / f"fields.damaged-{n}.nc"
+        if old.exists():
+            old.replace(kept)
+        sys.stderr.write(f"tiseg: warning: {exc}; it was moved to {kept.name} and a new "
+                         f"fields.nc starts at t={self.sim.t:.9g} s\n")
+        return self._new_fields_writer(old)
+
+
+__all__ = ["RunFolder", "DIAGNOSTICS"]
