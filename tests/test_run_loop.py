@@ -164,6 +164,20 @@ def test_callbacks_run_on_their_schedules(ti_cpu):
     assert "n3" not in sim.callbacks and "snap" in sim.callbacks
 
 
+def test_guard_is_a_callback_on_an_iteration_schedule(ti_cpu):
+    sim = Simulation(small(), check_every=4)
+    guard = sim.callbacks["guard"]
+    assert isinstance(guard.schedule, IterationInterval) and guard.schedule.n == 4
+    seen = []
+    real = sim._guard
+    sim._guard = lambda full=True: (seen.append(sim.stats.steps), real(full))
+    for _ in range(9):
+        sim.step()
+    assert seen == [4, 8]
+    sim.check_every = 0
+    assert "guard" not in sim.callbacks
+
+
 # ------------------------------------------------------------------ shortening a run
 def test_t_end_override_drops_later_output_times_with_a_note(caplog):
     with caplog.at_level(logging.WARNING, logger="tiseg"):

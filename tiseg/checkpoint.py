@@ -33,17 +33,22 @@ equality of fields and diagnostics in f64).
 When
 ----
 With an output folder, :meth:`tiseg.simulation.Simulation.run` writes a checkpoint
+(:mod:`tiseg.output.run_folder`, a callback of the run loop)
 
-* at every output time, right after the snapshot (so ``fields.nc`` and the checkpoint agree);
+* after every step that crossed an output time, right after the snapshots it made (so
+  ``fields.nc`` and the checkpoint agree);
 * if ``output.checkpoint_interval`` is set, also after the first step that ends at or past each
   multiple of that many seconds of *simulated* time;
 * and after any step that ends more than ``checkpoint_wall`` seconds of *wall* time after the
-  previous checkpoint (default :data:`DEFAULT_WALL_INTERVAL` = 300 s), so that a slow run with
-  sparse output times loses at most a few minutes of work.
+  previous wall-clock checkpoint (default :data:`DEFAULT_WALL_INTERVAL` = 300 s), so that a
+  slow run with sparse output times loses at most a few minutes of work.
 
-Checkpoints are taken at step boundaries and never shorten a step, so a run's results do not
-depend on when (or whether) it was checkpointed. The checkpoint is removed when the run reaches
-the scene's end time: a finished run has nothing to resume.
+A checkpoint always holds a step state (the state at the end of a step), never a snapshot
+interpolated to an output time; checkpoints never shorten a step, so a run's results do not
+depend on when (or whether) it was checkpointed, and a resumed run takes exactly the steps of
+an uninterrupted one. The checkpoint is removed when the run reaches the scene's end time: a
+finished run has nothing to resume. (``next_sim`` is kept for the file format; the schedules
+are recomputed from ``t`` on resume.)
 
 Writing is atomic: the archive goes to a temporary file in the same folder, is flushed and
 fsync'ed, then renamed over the previous checkpoint with ``os.replace``; a kill at any moment

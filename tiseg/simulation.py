@@ -9,8 +9,8 @@ that differ only in what they write therefore take the same steps and end in the
 Only ``t_end`` is landed on exactly; when less than two steps are left, the rest is split into
 two equal steps, so no sliver step is taken.
 
-Guards (:mod:`tiseg.guards`): every ``check_every`` steps (default 10) and on every step that
-makes a snapshot the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and
+Guards (:mod:`tiseg.guards`, the callback ``"guard"``): every ``check_every`` steps (default
+10) and on every step that makes a snapshot the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and
 the mass balance; a breach stops the run with a :class:`SimulationError` naming time, step,
 cell and field, and (with an output folder) saves ``failure/last_good.npz`` and
 ``failure/offending.npz``.
@@ -47,7 +47,7 @@ from .errors import InputError, TisegError
 from .guards import StateGuard, Violation
 from .initial import initial_state
 from .numerics.config import config_from_scene
-from .schedules import Schedule, SpecifiedTimes
+from .schedules import IterationInterval, Schedule, SpecifiedTimes
 from .timestepping import stepper_for
 
 # Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
@@ -55,6 +55,8 @@ from .timestepping import stepper_for
 ACTIVE_MARGIN = 3
 
 # OperatorConfig fields the kernels are compiled for: set_parameters cannot change them
+GUARD_ORDER = -100      # the guard callback runs before everything else after a step
+
 COMPILED = {"layout": "the grid or the segregation switch", "dx": "the grid", "dy": "the grid",
             "Ly": "the domain", "viscous": "effects.viscosity", "feedback":
             "effects.mobility_feedback", "friction": "effects.friction",
@@ -139,8 +141,6 @@ class Simulation:
         if not backend.is_initialised():
             backend.init(arch or "cpu", prec, threads)
         self.backend = backend.state()
-        if not (isinstance(check_every, int) and check_every >= 0):
-            raise InputError(f"check_every={check_every!r} must be an integer >= 0")
         self.cfg = config_from_scene(scene)
         self.layout = self.cfg.layout
         self.stepper = stepper_for(scene.numerics)
@@ -152,9 +152,9 @@ class Simulation:
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
         self.active_region = active_region and scene.boundary.x_lo != "periodic"
-        self.check_every = check_every
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
         self.callbacks: dict[str, Callback] = {}
+        self.check_every = check_every           # registers the guard callback
         self.failure_dir: Path | None = None     # where a guard failure saves its states
         self._io_counts = (0, 0)                 # (snapshots, diagnostics rows) written
         self._wall0: float | None = None         # perf_counter() at wall time 0 during run()
@@ -283,6 +283,22 @@ class Simulation:
 
     def remove_callback(self, name: str) -> None:
         self.callbacks.pop(name, None)
+
+    @property
+    def check_every(self) -> int:
+        """Steps between guard checks (0: only on steps that make a snapshot)."""
+        return self._check_every
+
+    @check_every.setter
+    def check_every(self, n: int) -> None:
+        if not (isinstance(n, int) and n >= 0):
+            raise InputError(f"check_every={n!r} must be an integer >= 0")
+        self._check_every = n
+        self.callbacks.pop("guard", None)
+        if n:
+            # before the step's snapshots (negative order): nothing is written unchecked
+            self.callbacks["guard"] = Callback(lambda sim: sim._guard(), IterationInterval(n),
+                                               name="guard", order=GUARD_ORDER)
 
     # ------------------------------------------------------------------ state
     def checkpoint_meta(self) -> dict:
@@ -472,17 +488,25 @@ class Simulation:
         return Snapshot(self, tk, self.SNAP, self.stats.steps, theta)
 
     def _after_step(self, t0: float, t1: float, pending) -> None:
+        """The callbacks of the step: those due with a negative order (the guard), the
+        snapshots at the scheduled times the step crossed, then the other callbacks due, in
+        increasing order (the checkpoint last)."""
         steps = self.stats.steps
-        if pending or (self.check_every and steps % self.check_every == 0):
+        due = sorted((cb for cb in self.callbacks.values()
+                      if not cb.snapshot and cb.schedule.due(t0, t1, steps)),
+                     key=lambda c: c.order)       # every schedule is asked (wall clocks)
+        before = [cb for cb in due if cb.order < 0]
+        if pending and "guard" not in (cb.name for cb in before):
             self._guard()                   # nothing is written from an unchecked state
+        for cb in before:
+            cb(self)
         for tk, cbs in pending:
             snap = self._snapshot(tk, t0, t1)
             for cb in cbs:
                 cb(snap)
-        due = [cb for cb in self.callbacks.values()
-               if not cb.snapshot and cb.schedule.due(t0, t1, steps)]   # every schedule asked
-        for cb in sorted(due, key=lambda c: c.order):
-            cb(self)
+        for cb in due:
+            if cb.order >= 0:
+                cb(self)
 
     def _initial_snapshots(self) -> None:
         """Snapshot callbacks whose schedule holds the current time get the current state."""
@@ -573,7 +597,6 @@ class Simulation:
         extra += list(callbacks)
         bar = ProgressBar(t_end, self.scene.name, self.t) if progress else None
         if bar is not None:
-            from .schedules import IterationInterval
             extra.append(Callback(bar, IterationInterval(1), name="progress"))
         saved = dict(self.callbacks)
         for cb in extra:
