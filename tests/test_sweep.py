@@ -164,7 +164,8 @@ def _with(**changes) -> dict:
     (_with(times=[0.3]), "times lists 0.3 s, which is not an output time"),
     (_with(times=[2.0]), "after time.t_end"),
     (_with(times="0.25"), "must be a list of times"),
-    (_with(name="a b"), "name='a b' must be a non-empty name"),
+    (_with(name="a b"), "name='a b' must be 1-128 letters"),
+    (_with(name=".."), "name='..' must be 1-128 letters"),
     (_with(set=[1, 2]), "[set] must be a table"),
 ])
 def test_bad_sweeps_are_clean_input_errors(data, message):

@@ -53,6 +53,9 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
         raise InputError(f"precision={precision!r} is not allowed; choose f32 or f64")
     if not isinstance(threads, int) or threads < 0:
         raise InputError(f"threads={threads!r} must be a non-negative integer")
+    problem = threads_problem(threads)
+    if problem:
+        raise InputError(problem)
     if (_state is not None and not force and _state.precision == precision
             and _state.threads == threads
             and (arch == "auto" or _requested_matches(arch, _state.arch))):
@@ -202,3 +205,21 @@ def conflict(arch: str | None, precision: str, threads: int = 0) -> str | None:
     return (f"Taichi is already initialised for {have} in this process, and this simulation "
             f"asks for {' and '.join(diff)}; call tiseg.init(...) with the new settings first "
             "(that invalidates every existing simulation), or use a new process")
+
+
+def available_cores() -> int:
+    """CPU cores this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def threads_problem(threads: int, what: str = "threads") -> str | None:
+    """None when ``threads`` CPU threads are sensible here, else why not (more threads than
+    cores only slows a run down, and a huge number can exhaust the machine)."""
+    cores = available_cores()
+    if threads > cores:
+        return (f"{what}={threads}: this machine offers {cores} core(s) to this process; use "
+                f"at most {cores} (0 = all of them)")
+    return None

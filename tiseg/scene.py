@@ -35,6 +35,7 @@ import numpy as np
 import tomli_w
 
 from .errors import InputError
+from .paths import check_name, safe_name
 from .material import Material, Species
 from .numerics.config import inflow_concentration, noise_modes
 from .steady import steady_state
@@ -589,9 +590,10 @@ def _build_labelled(data: dict, name: str, source: str | None, label: str) -> Sc
 
 def _build(data: dict, default_name: str, source: str | None) -> Scene:
     top = _Table(data, "", TOP_LEVEL_KEYS)
-    name = top.string("name", default_name)
-    _require(name.strip() != "" and not any(c in name for c in "/\\\0"), "name", name,
-             "must be a non-empty name without '/' or '\\'")
+    if top.has("name"):
+        name = check_name(top.string("name", default_name))
+    else:
+        name = safe_name(default_name)     # a file's stem: made safe, not refused
     description = top.string("description", "")
 
     material = _read_material(top.table("material"))

@@ -569,7 +569,7 @@ class Simulation:
 
     def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
             on_output=None, checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
-            callbacks=()) -> RunStats:
+            callbacks=(), overwrite: bool = False) -> RunStats:
         """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
 
         * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
@@ -580,7 +580,9 @@ class Simulation:
         * ``progress``: a progress bar.
 
         ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
-        output times and per ``output.checkpoint_interval``). None of this changes the steps."""
+        output times and per ``output.checkpoint_interval``). None of this changes the steps.
+        A fresh run refuses an ``out_dir`` that holds other files or another run unless
+        ``overwrite`` (:mod:`tiseg.output.run_folder`)."""
         from .output.run_folder import RunFolder
 
         t_end = self.scene.t_end if t_end is None else float(t_end)
@@ -589,7 +591,7 @@ class Simulation:
         if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
             resume = None                    # continuing elsewhere: a fresh set of files
         self._resume = None
-        folder = None if out_dir is None else RunFolder(self, out_dir, resume)
+        folder = None if out_dir is None else RunFolder(self, out_dir, resume, overwrite)
         extra = list(folder.callbacks(times, checkpoint_wall)) if folder else []
         if on_output is not None:
             extra.append(Callback(on_output, SpecifiedTimes(times), name="on_output",

@@ -84,6 +84,7 @@ from typing import Any, Callable, Mapping
 import tomli_w
 
 from .errors import InputError, TisegError
+from .paths import check_name, safe_name
 from .scene import Scene, list_builtin_scenes, load_scene
 
 SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid")
@@ -191,10 +192,13 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             fail(f"unknown key {key!r}{hint}; allowed keys: {', '.join(SWEEP_KEYS)}")
 
-    name = data.get("name", default_name)
-    if not isinstance(name, str) or not name.strip() or not _SAFE_NAME.fullmatch(name):
-        fail(f"name={name!r} must be a non-empty name of letters, digits, '.', '_', '+' or '-' "
-             "(it names the default output folder)")
+    if "name" in data:
+        try:
+            name = check_name(data["name"])
+        except InputError as exc:
+            fail(str(exc))
+    else:
+        name = safe_name(default_name, "sweep")
     description = data.get("description", "")
     if not isinstance(description, str):
         fail(f"description={description!r} must be a string")
@@ -262,7 +266,6 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
                  fixed=fixed, grid=grid, times=times, runs=tuple(runs))
 
 
-_SAFE_NAME = re.compile(r"[A-Za-z0-9._+-]+")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")
 
 
@@ -398,15 +401,21 @@ def execute_run(spec: dict) -> dict:
     rec = read_marker(run_dir, scene)
     if rec is not None:                     # checked again here: the worker's view counts
         return {**rec, "status": "reused"}
+    from .paths import RunLock
+    holder = RunLock(run_dir).busy() if run_dir.is_dir() else None
+    if holder is not None:                  # another worker (or an orphaned task) runs it now
+        return {"name": spec["name"], "status": "busy", "holder": holder}
     (run_dir / DONE_MARKER).unlink(missing_ok=True)   # a stale marker of another scene
     t0 = _time.perf_counter()
     # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
-    backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(spec.get("threads", 0)),
-                 force=True)
+    threads = spec.get("threads", 0)
+    if threads is None:
+        threads = _worker_threads()
+    backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
     sim = Simulation(scene)
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
-    stats = sim.run(out_dir=run_dir, progress=False,
-                    on_output=report)
+    stats = sim.run(out_dir=run_dir, progress=False, on_output=report,
+                    overwrite=True)            # its own folder, without a completion marker
     metrics = analyse_run(run_dir)
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
     nx, ny = scene.domain.nx, scene.domain.ny
@@ -453,6 +462,22 @@ def refresh_metrics(run_dir, rec: dict) -> dict:
     rec = {**{k: v for k, v in rec.items() if k != "status"}, "metrics": _record_metrics(metrics)}
     write_json_atomic(run_dir / DONE_MARKER, rec)
     return rec
+
+
+def _worker_threads() -> int:
+    """The thread count of the Dask worker running this task (0 outside a worker)."""
+    try:
+        from distributed import get_worker
+        w = get_worker()
+        n = getattr(getattr(w, "state", None), "nthreads", None) or getattr(w, "nthreads", 0)
+        return max(0, min(int(n), _available_cores()))
+    except (ImportError, ValueError):
+        return 0
+
+
+def _available_cores() -> int:
+    from .backend import available_cores
+    return available_cores()
 
 
 def _reporter(name: str, t_end: float) -> Callable | None:
@@ -510,6 +535,11 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
         raise InputError(f"--workers={workers}: must be at least 1")
     if threads_per_task is not None and threads_per_task < 0:
         raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
+    if threads_per_task and scheduler is None:
+        from .backend import threads_problem
+        problem = threads_problem(threads_per_task, "--threads-per-task")
+        if problem:
+            raise InputError(problem)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -551,10 +581,12 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
     if scheduler:
         try:
             client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
+        except Exception as exc:       # OSError, TimeoutError, ValueError for a bad address...
+            first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
             raise InputError(f"cannot connect to the Dask scheduler at {scheduler!r}: "
-                             f"{exc}") from None
-        threads = 0 if threads_per_task is None else threads_per_task
+                             f"{first.strip()} (give an address like tcp://host:8786)") from None
+        # None: each task takes as many threads as its worker runs (its --nthreads)
+        threads = threads_per_task
         where = f"Dask scheduler {scheduler}"
     else:
         n = workers or max(1, min(cores, len(pending)))
@@ -566,7 +598,8 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
                                dashboard_address=":0", silence_logs=logging.ERROR)
         client = Client(cluster)
         where = f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)"
-    say(f"running {len(pending)} runs on the {where}, {threads or 'all'} Taichi thread"
+    per = "the worker's" if threads is None else (threads or "all")
+    say(f"running {len(pending)} runs on the {where}, {per} Taichi thread"
         f"{'' if threads == 1 else 's'} per run")
 
     last_report: dict[str, float] = {}
@@ -596,8 +629,10 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
                     "scene_toml": run.scene.to_toml(), "scene_name": run.scene.name,
                     "fingerprint": scene_fingerprint(run.scene), "arch": arch,
                     "threads": threads, "report": True}
+            # retries=1: a transient failure (a worker lost, ti.init briefly out of resources)
+            # is tried once more; a run's own error fails again and is reported
             fut = client.submit(execute_run, spec, key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
-                                pure=False, priority=int(run.cost // 1e6))
+                                pure=False, priority=int(run.cost // 1e6), retries=1)
             futures[fut] = run
         done = 0
         for fut in as_completed(list(futures)):
@@ -629,6 +664,9 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
 
 
 def _summary(rec: dict) -> str:
+    if rec.get("status") == "busy":
+        return (f"skipped: another process is running it now ({rec.get('holder')}); "
+                "run the sweep again when it has finished")
     m = rec.get("metrics") or {}
     last = {k: (m.get(k) or [None])[-1] for k in ("time", "finger_count", "wavelength",
                                                    "elongation")}

@@ -42,8 +42,12 @@ def positive(name: str, value: float) -> float:
 
 def check_threads(threads: int) -> None:
     """The --threads option of every command that runs kernels."""
+    from ..backend import threads_problem
     if threads < 0:
         raise InputError(f"--threads={threads}: must be >= 0 (0 = all cores)")
+    problem = threads_problem(threads, "--threads")
+    if problem:
+        raise InputError(problem)
 
 
 def stdout_for_json(as_json: bool):

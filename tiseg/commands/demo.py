@@ -11,6 +11,8 @@ from pathlib import Path
 from ..backend import ARCHS
 
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
+# what the demo writes beside the run's files (a rerun replaces them without asking)
+DEMO_FILES = ("fingers.mp4", "fig12_phi.png", "fig13_speed.png", "fig14_h.png", "stability")
 
 
 def register(sub) -> None:
@@ -22,6 +24,8 @@ def register(sub) -> None:
                    help="cells per metre (paper: 750; 200 forms fingers in about a minute on 2 cores)")
     p.add_argument("--t-end", type=float, default=7.5, help="end time [s] (7.5 as in the paper)")
     p.add_argument("--arch", choices=ARCHS, default="cpu")
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into an --out folder that holds files other than the demo's")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=run)
 
@@ -31,6 +35,7 @@ def run(args) -> int:
     from ..errors import InputError
     from ..figures.stability import make_all
     from ..output import write_json_atomic
+    from ..output.run_folder import check_fresh_folder
     from ..render.movie import MovieRecorder
     from ..render.panels import plot_panels
     from ..scene import load_scene
@@ -39,6 +44,7 @@ def run(args) -> int:
     if not (20 <= args.resolution <= 3000):
         raise InputError(f"--resolution={args.resolution!r}: choose between 20 and 3000 cells per metre")
     out = Path(args.out)
+    check_fresh_folder(out, args.overwrite or _is_demo_folder(out), also=DEMO_FILES)
     times = [t for t in PAPER_TIMES if t < args.t_end] + [args.t_end]
     scene = load_scene("fingers", {"domain.resolution": args.resolution, "time.t_end": args.t_end,
                                    "output.times": times, "output.interval": args.t_end / 75})
@@ -47,7 +53,8 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     movie = MovieRecorder.for_simulation(sim, movie_path, "phi", fps=12)
     try:
-        stats = sim.run(out_dir=out, progress=not args.no_progress, on_output=movie)
+        stats = sim.run(out_dir=out, progress=not args.no_progress, on_output=movie,
+                        overwrite=True)            # checked above
     finally:
         movie.close()
     written = [movie_path]
@@ -74,3 +81,8 @@ def run(args) -> int:
         print(p)
     return 0
 
+
+
+def _is_demo_folder(out: Path) -> bool:
+    """An earlier demo's folder (its movie is there): the demo may replace its own run."""
+    return (out / "fingers.mp4").is_file() and (out / "fields.nc").is_file()

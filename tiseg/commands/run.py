@@ -29,6 +29,8 @@ def register(sub) -> None:
     p.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the killed run in DIR from its checkpoint.npz (no SCENE, "
                         "--set, --precision, --out or --movie: the run keeps its own settings)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into an --out folder that holds another run or other files")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--estimate", action="store_true",
                    help="print the predicted steps, RKC stages and wall time (as `tiseg "
@@ -76,6 +78,7 @@ def _check_args(args) -> None:
         given = [name for name, v in (("SCENE", args.scene), ("--set", args.overrides),
                                       ("--precision", args.precision), ("--out", args.out),
                                       ("--movie", args.movie),
+                                      ("--overwrite", getattr(args, "overwrite", False)),
                                       ("--estimate", getattr(args, "estimate", False))) if v]
         if given:
             raise InputError(f"--resume {args.resume!r} continues the run with its own scene and "
@@ -95,16 +98,6 @@ def _check_args(args) -> None:
                              "(or .mov, .mkv, .avi, .webm)")
 
 
-def _refuse_unfinished(out: Path) -> None:
-    """A fresh run must not overwrite a killed one that could still be resumed."""
-    from ..checkpoint import CHECKPOINT_NAME
-    from ..errors import InputError
-    if (out / CHECKPOINT_NAME).is_file():
-        raise InputError(f"--out {str(out)!r} holds an unfinished run ({CHECKPOINT_NAME}); "
-                         f"continue it with `tiseg run --resume {out}`, or delete "
-                         f"{out / CHECKPOINT_NAME} (or the folder) to start over there")
-
-
 def _backend_first(args, precision: str) -> None:
     """Refuse --arch gpu where there is no GPU before any folder is made (this initialises
     Taichi for gpu/auto; the CPU is left to Simulation)."""
@@ -114,6 +107,7 @@ def _backend_first(args, precision: str) -> None:
 
 
 def run(args) -> int:
+    from ..output.run_folder import check_fresh_folder
     from ..simulation import Simulation
 
     _check_args(args)
@@ -135,7 +129,7 @@ def run(args) -> int:
             print_estimate(scene, args.arch, args.threads, as_json=args.json)
             return 0
         out = Path(args.out) if args.out else Path("runs") / scene.name
-        _refuse_unfinished(out)
+        check_fresh_folder(out, args.overwrite)
         _backend_first(args, scene.numerics.precision)
         check_output_folder(out)
         if args.movie is not None:
@@ -145,7 +139,8 @@ def run(args) -> int:
     movie = _movie(args, sim)
     try:
         stats = sim.run(out_dir=out, progress=not args.no_progress,
-                        on_output=None if movie is None else movie)
+                        on_output=None if movie is None else movie,
+                        overwrite=bool(getattr(args, "overwrite", False)))
     finally:
         if movie is not None:
             movie.close()

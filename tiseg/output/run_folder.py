@@ -5,6 +5,12 @@ callback), ``diagnostics.csv`` with its units in ``diagnostics.csv-metadata.json
 step), ``checkpoint.npz`` (step states, see :mod:`tiseg.checkpoint`) and ``failure/`` (the states
 a guard failure saves). A resumed run appends to the files of its folder.
 
+Safety (:mod:`tiseg.paths`): the folder is locked for as long as the run writes there (a
+second writer is refused, naming the holder); no file is written through a symbolic link; a
+fresh run refuses a folder that holds anything but a tiseg run's files, and a finished or
+unfinished run, unless ``overwrite`` (the command line's ``--overwrite``); a resume removes
+the temporary files a killed writer left behind.
+
 Checkpoints hold the state at the end of a step, never an interpolated snapshot, so a resumed
 run continues with exactly the steps of an uninterrupted one. They are written after every
 step that crossed an output time (after its snapshots, so fields.nc and the checkpoint agree),
@@ -20,23 +26,94 @@ from pathlib import Path
 from .. import checkpoint as _ckpt
 from ..callbacks import Callback
 from ..errors import InputError
+from ..paths import HOLDER_NAME, LOCK_NAME, RunLock, refuse_symlinks
 from ..schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
 from .diagnostics import DiagnosticsWriter, write_text_atomic, write_units
 from .netcdf import FieldsFileError, FieldsWriter
 
 DIAGNOSTICS = "diagnostics.csv"
+# what a run (and a sweep member, and the demo) writes into its folder
+RUN_FILES = ("scene.toml", "fields.nc", DIAGNOSTICS, DIAGNOSTICS + "-metadata.json",
+             _ckpt.CHECKPOINT_NAME, "failure", "fingers.json", "done.json", LOCK_NAME,
+             HOLDER_NAME)
+
+
+def foreign_files(folder: Path, also=()) -> list[str]:
+    """Entries of ``folder`` that are not a tiseg run's (``also``: more allowed names)."""
+    known = set(RUN_FILES) | set(also)
+    out = []
+    for p in sorted(Path(folder).iterdir()):
+        n = p.name
+        if n in known or (n.startswith("fields.damaged-") and n.endswith(".nc")) or (
+                n.startswith(".") and n.endswith(".tmp")):
+            continue
+        out.append(n + ("/" if p.is_dir() else ""))
+    return out
+
+
+def check_fresh_folder(folder, overwrite: bool = False, also=()) -> None:
+    """Refuse a folder for a fresh run when it holds other files than a tiseg run's, or a run
+    (finished or not), unless ``overwrite``."""
+    folder = Path(folder)
+    if overwrite or not folder.is_dir():
+        return
+    other = foreign_files(folder, also)
+    if other:
+        shown = ", ".join(other[:5]) + (f" and {len(other) - 5} more" if len(other) > 5 else "")
+        raise InputError(f"output folder {str(folder)!r} holds files that are not a tiseg "
+                         f"run's ({shown}); choose another folder, or pass --overwrite "
+                         "(overwrite=True) to write there anyway")
+    if (folder / _ckpt.CHECKPOINT_NAME).is_file():
+        raise InputError(f"output folder {str(folder)!r} holds an unfinished run "
+                         f"({_ckpt.CHECKPOINT_NAME}); continue it with `tiseg run --resume "
+                         f"{folder}`, or pass --overwrite to start over there")
+    if (folder / "fields.nc").exists():
+        raise InputError(f"output folder {str(folder)!r} holds a finished run; choose another "
+                         "folder, or pass --overwrite (overwrite=True) to replace it")
+
+
+def remove_stale_temporaries(folder: Path) -> None:
+    """Temporary files of atomic writes (``.<name>.*.tmp``) that a killed writer left."""
+    for name in RUN_FILES:
+        for p in Path(folder).glob(f".{name}.*.tmp"):
+            try:
+                p.unlink()
+            except OSError:
+                pass
 
 
 class RunFolder:
     """Open (or, with ``resume``, continue) the files of ``sim`` 's run in ``path``."""
 
-    def __init__(self, sim, path, resume: dict | None = None):
+    def __init__(self, sim, path, resume: dict | None = None, overwrite: bool = False):
         self.sim = sim
         self.path = out = Path(path)
-        self.fields = self.diag = None
+        self.fields = self.diag = self.lock = None
         sc = sim.scene
         try:
             out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"cannot create output folder {str(out)!r}: "
+                             f"{exc.strerror or exc}") from None
+        refuse_symlinks(out, RUN_FILES)
+        refuse_symlinks(out / "failure", ("last_good.npz", "offending.npz"))
+        self.lock = RunLock(out).acquire()
+        try:
+            if resume is None:
+                check_fresh_folder(out, overwrite)
+            else:
+                remove_stale_temporaries(out)
+            self._open(resume)
+        except BaseException:
+            self.close()
+            raise
+        self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
+        sim.failure_dir = out / "failure"
+        self.counts()
+
+    def _open(self, resume) -> None:
+        out, sim, sc = self.path, self.sim, self.sim.scene
+        try:
             if resume is None:
                 write_text_atomic(out / "scene.toml", sc.to_toml())
                 self.fields = self._new_fields_writer(out / "fields.nc")
@@ -50,12 +127,8 @@ class RunFolder:
                 except FieldsFileError as exc:
                     self.fields = self._salvage_fields(exc)
         except OSError as exc:
-            self.close()
             raise InputError(f"cannot write to output folder {str(out)!r}: "
                              f"{exc.strerror or exc}") from None
-        self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
-        sim.failure_dir = out / "failure"
-        self.counts()
 
     # ------------------------------------------------------------------ callbacks
     def callbacks(self, times, checkpoint_wall: float | None) -> list[Callback]:
@@ -114,6 +187,9 @@ class RunFolder:
         for w in (self.fields, self.diag):
             if w is not None:
                 w.close()
+        if self.lock is not None:
+            self.lock.release()
+            self.lock = None
 
     # ------------------------------------------------------------------ fields.nc
     def _new_fields_writer(self, path: Path) -> FieldsWriter:
