@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from tiseg.cli import main
@@ -143,3 +144,112 @@ def test_resume_removes_stale_temporaries(ti_cpu, tmp_path):
     Simulation.resume(out).run(out_dir=out, progress=False)
     assert not stale.exists()
     assert not [p for p in os.listdir(out) if p.endswith(".tmp")]
+
+
+# ------------------------------------------------------------------ limits before work
+def test_a_grid_that_cannot_fit_in_memory_is_refused_with_the_numbers(ti_cpu, monkeypatch):
+    import tiseg.limits as L
+    monkeypatch.setattr(L, "memory_available", lambda: 10_000)
+    with pytest.raises(InputError, match=r"needs about .* GB of memory .* available"):
+        Simulation(tiny())
+
+
+def test_output_larger_than_the_free_disk_gives_a_note(ti_cpu, tmp_path, monkeypatch, caplog):
+    import collections
+    import logging
+
+    import tiseg.limits as L
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(L.shutil, "disk_usage", lambda p: usage(1, 1, 10))
+    with caplog.at_level(logging.WARNING, logger="tiseg"):
+        Simulation(tiny()).run(out_dir=tmp_path / "r", progress=False)
+    assert any("may need up to" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize("over, match", [({"flow.nu": 1e308}, "flow.nu"),
+                                         ({"domain.Ly": 1e308}, "cells"),
+                                         ({"domain.Lx": 1e300}, "cells")])
+def test_parameters_out_of_range_are_input_errors(over, match):
+    with pytest.raises(InputError, match=match):
+        load_scene("fingers", over)
+
+
+def test_a_run_that_cannot_advance_stops_with_a_reason(ti_cpu):
+    from tiseg.simulation import SimulationError
+    sim = Simulation(tiny())
+    sim.stepper.plan = lambda *a, **k: (1e-30, 2)          # as an overflowing stiffness would
+    with pytest.raises(SimulationError, match="would take .* steps .* stiffness is out of range"):
+        sim.step()
+    sim.t = 1.0
+    with pytest.raises(SimulationError, match="time stalled"):
+        sim.step(t_stop=2.0)
+
+
+# ------------------------------------------------------------------ write errors
+def test_a_full_disk_is_one_line_and_the_run_resumes(ti_cpu, tmp_path, monkeypatch):
+    import errno
+
+    import netCDF4
+
+    from tiseg.output.netcdf import FieldsWriter
+    from tiseg.output.run_folder import OutputError
+    sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
+    whole = Simulation(sc)
+    whole.run(progress=False)
+    real = FieldsWriter.write
+    calls = []
+
+    def failing(self, t, **a):
+        calls.append(t)
+        if len(calls) == 3:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, t, **a)
+
+    monkeypatch.setattr(FieldsWriter, "write", failing)
+    out = tmp_path / "run"
+    with pytest.raises(OutputError) as info:
+        Simulation(sc).run(out_dir=out, progress=False)
+    msg = str(info.value)
+    assert "fields.nc" in msg and "No space left on device" in msg and "--resume" in msg
+    monkeypatch.setattr(FieldsWriter, "write", real)
+    again = Simulation.resume(out)
+    again.run(out_dir=out, progress=False)
+    np.testing.assert_array_equal(again.op.get(0), whole.op.get(0))
+    with netCDF4.Dataset(out / "fields.nc") as nc:
+        np.testing.assert_allclose(nc["time"][:], [0.0, 0.05, 0.1, 0.15, 0.2])
+
+
+def test_fields_file_is_never_left_half_created(tmp_path, monkeypatch):
+    from tiseg.output.netcdf import FieldsWriter
+
+    def boom(*a, **k):
+        raise KeyboardInterrupt                          # a kill while the header is written
+    monkeypatch.setattr(FieldsWriter, "_define", boom)
+    with pytest.raises(KeyboardInterrupt):
+        FieldsWriter(tmp_path / "fields.nc", [0.5], [0.5])
+    assert os.listdir(tmp_path) == []
+
+
+# ------------------------------------------------------------------ checkpoints
+@pytest.mark.parametrize("damage, message", [
+    (lambda d: d.update(t=np.array(99.0)), "outside [0, time.t_end"),
+    (lambda d: d["q"].__setitem__((0, 3, 3), np.nan), "NaN, Inf"),
+    (lambda d: d.pop("budget"), "lacks budget"),
+    (lambda d: d.update(steps=np.array(-4)), "steps=-4"),
+    (lambda d: d.pop("version"), "no readable checkpoint version"),
+])
+def test_damaged_checkpoints_are_refused_each_with_its_message(ti_cpu, tmp_path, capsys,
+                                                                damage, message):
+    from tiseg import checkpoint
+    out = tmp_path / "run"
+    sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
+    Simulation(sc).run(out_dir=out, progress=False, t_end=0.1)
+    path = out / checkpoint.CHECKPOINT_NAME
+    with np.load(path) as z:
+        d = {k: z[k].copy() for k in z.files}
+    damage(d)
+    with open(path, "wb") as fh:
+        np.savez(fh, **d)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err, err

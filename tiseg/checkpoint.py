@@ -141,8 +141,12 @@ def load(path) -> dict:
         raise CheckpointError(f"{str(path)!r} is not a readable checkpoint ({exc})") from None
     if str(data.get("format", "")) != FORMAT:
         raise CheckpointError(f"{str(path)!r} is not a tiseg checkpoint")
-    if int(data.get("version", -1)) != VERSION:
-        raise CheckpointError(f"{str(path)!r} has checkpoint version {int(data['version'])}; "
+    try:
+        version = int(data["version"])
+    except (KeyError, TypeError, ValueError):
+        raise CheckpointError(f"{str(path)!r} has no readable checkpoint version") from None
+    if version != VERSION:
+        raise CheckpointError(f"{str(path)!r} has checkpoint version {version}; "
                               f"this tiseg reads version {VERSION}")
     out = {}
     for k, v in data.items():
@@ -155,6 +159,32 @@ def load(path) -> dict:
         else:
             out[k] = float(v)
     return out
+
+
+REQUIRED = ("q", "budget", "t", "steps", "stages", "last_stages", "initial", "scene",
+            "precision", "layout")
+
+
+def validate(ck: dict, scene, path="checkpoint") -> None:
+    """CheckpointError unless ``ck`` is a whole, sane checkpoint of ``scene``: every key, a
+    time within [0, t_end], finite state and counts, and the scene's layout."""
+    missing = [k for k in REQUIRED if k not in ck]
+    if missing:
+        raise CheckpointError(f"{path} lacks {', '.join(missing)}: it is not a whole checkpoint")
+    t = ck["t"]
+    if not (isinstance(t, float) and math.isfinite(t) and 0.0 <= t <= scene.t_end * (1 + 1e-12)):
+        raise CheckpointError(f"{path} is at t={t!r} s, outside [0, time.t_end={scene.t_end!r}]: "
+                              "it does not belong to this run")
+    for k in ("steps", "stages", "last_stages"):
+        if not (isinstance(ck[k], int) and ck[k] >= 0):
+            raise CheckpointError(f"{path}: {k}={ck[k]!r} must be a count >= 0")
+    for k in ("q", "budget", "initial"):
+        a = np.asarray(ck[k])
+        if a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):
+            raise CheckpointError(f"{path}: {k} holds NaN, Inf or non-numbers: the state is "
+                                  "damaged; start the run again")
+    if np.asarray(ck["q"]).ndim != 3 or np.asarray(ck["layout"]).shape != (3,):
+        raise CheckpointError(f"{path}: the state has the wrong shape")
 
 
 def restore(sim, ck: dict) -> None:
@@ -192,6 +222,9 @@ def open_run_dir(run_dir) -> tuple[object, dict]:
         ck = load(d / CHECKPOINT_NAME)
     except CheckpointError as exc:
         raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
+    if "scene" not in ck:
+        raise InputError(f"--resume {str(run_dir)!r}: {CHECKPOINT_NAME} lacks scene: it is not "
+                         "a whole checkpoint")
     try:
         saved = load_scene(str(d / "scene.toml"))
         scene = scene_from_text(ck["scene"], name=saved.name, source=str(d / "scene.toml"))
@@ -200,6 +233,10 @@ def open_run_dir(run_dir) -> tuple[object, dict]:
     if saved.to_dict() != scene.to_dict():
         raise InputError(f"--resume {str(run_dir)!r}: scene.toml was changed after the run "
                          "started (it differs from the scene in the checkpoint); restore it")
+    try:
+        validate(ck, scene, CHECKPOINT_NAME)
+    except CheckpointError as exc:
+        raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
     return scene, ck
 
 
@@ -243,4 +280,5 @@ def append_diagnostics(path, keep_rows: int):
 
 
 __all__ = ["CHECKPOINT_NAME", "DEFAULT_WALL_INTERVAL", "CheckpointError", "save", "load",
-           "restore", "state_arrays", "write_npz_atomic", "open_run_dir", "append_diagnostics"]
+           "restore", "validate", "state_arrays", "write_npz_atomic", "open_run_dir",
+           "append_diagnostics"]

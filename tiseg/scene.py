@@ -85,6 +85,7 @@ DEFAULT_COULOMB_MU = math.tan(math.radians(20.0))
 MIN_CELLS = 4                    # a periodic axis needs at least 2 x GHOST(=2) interior cells
 MIN_CELLS_PER_PERTURBATION = 4   # cells across one wavelength Ly/modes of the inflow (6.9)
 MAX_CELLS = 2 ** 31 - 1          # Taichi fields are indexed with 32-bit integers
+MAX_NU = 1e3                     # [m^(3/2)/s] largest viscosity coefficient accepted
 MAX_OUTPUT_TIMES = 1_000_000     # guards against e.g. output.interval = 1e-12
 
 _MISSING = object()
@@ -649,6 +650,10 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
     h0 = t.number("h0", 0.002, positive=True)
     phi0 = t.number("phi0", 0.8, lo=0.0, hi=1.0)
     nu = t.number("nu", 0.01, nonneg=True)
+    # (6.2)'s coefficient is 0.01 m^(3/2)/s in the paper; beyond MAX_NU the viscous stiffness
+    # nu sqrt(h) / dx^2 leaves no representable step on any grid (and overflows in the kernels)
+    _require(nu <= MAX_NU, "flow.nu", nu, f"must be at most {MAX_NU:g} m^(3/2)/s (the paper "
+             "uses 0.01); a larger viscosity leaves no time step that can advance")
     derived = effects.friction == "pouliquen-mixture"
     if derived:
         if t.has("u0"):
@@ -705,7 +710,7 @@ def _read_domain(t: "_Table", ini: "_Table", kind: str, flow: FlowConfig):
     if t.has("ny"):
         ny = t.integer("ny", lo=1)
     elif resolution is not None and t.has("Ly"):
-        ny = round(t.number("Ly", positive=True) * resolution)
+        ny = _cells_of(t.number("Ly", positive=True), resolution, "domain.Ly")
         # only an explicit ny = 1 makes a 1D run; a derived count must resolve the width
         _require(ny >= MIN_CELLS, "domain.ny", ny,
                  f"domain.resolution x domain.Ly gives {ny} cells across the slope; a 2D run "
@@ -731,10 +736,19 @@ def _read_domain(t: "_Table", ini: "_Table", kind: str, flow: FlowConfig):
     return DomainConfig(Lx=Lx, Ly=Ly, nx=nx, ny=ny, resolution=resolution), wavelengths
 
 
+def _cells_of(length: float, resolution: float, key: str) -> int:
+    """round(length x resolution), refused when it overflows or exceeds MAX_CELLS."""
+    n = length * resolution
+    if not (math.isfinite(n) and n <= MAX_CELLS):
+        raise InputError(f"{key}={length!r} at domain.resolution={resolution!r} gives {n:.3g} "
+                         f"cells; at most {MAX_CELLS} are supported")
+    return round(n)
+
+
 def _grid_count(t: "_Table", key: str, length_key: str, length: float,
                 resolution: float | None) -> int:
     if resolution is not None:
-        implied = round(length * resolution)
+        implied = _cells_of(length, resolution, f"domain.{length_key}")
         if t.has(key):
             n = t.integer(key, lo=1)
             if n != implied:

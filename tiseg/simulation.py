@@ -46,6 +46,7 @@ from .callbacks import Callback, ProgressBar, Snapshot
 from .errors import InputError, TisegError
 from .guards import StateGuard, Violation
 from .initial import initial_state
+from .limits import check_memory
 from .numerics.config import config_from_scene
 from .schedules import IterationInterval, Schedule, SpecifiedTimes
 from .timestepping import stepper_for
@@ -55,6 +56,7 @@ from .timestepping import stepper_for
 ACTIVE_MARGIN = 3
 
 # OperatorConfig fields the kernels are compiled for: set_parameters cannot change them
+MAX_STEPS = 1e9         # more steps than this to the end: the parameters cannot be meant
 GUARD_ORDER = -100      # the guard callback runs before everything else after a step
 
 COMPILED = {"layout": "the grid or the segregation switch", "dx": "the grid", "dy": "the grid",
@@ -148,6 +150,8 @@ class Simulation:
         # time, and the snapshot interpolated from it and the state after the step
         nstep = max(self.stepper.slots, 2)
         self.PREV, self.SNAP = nstep, nstep + 1
+        if self.backend.arch == "cpu":            # before Taichi tries the allocation
+            check_memory(scene, self.layout, nstep + 2, self.backend.precision)
         self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
@@ -451,6 +455,7 @@ class Simulation:
             self._fail(None, f"time step collapsed to dt={dt!r} at t={self.t:.9g} s "
                              f"(step {self.stats.steps})")
         t0, t1 = self.t, p.t_next
+        self._check_progress(p)
         pending = self._pending_snapshots(t0, t1)
         if any(tk < t1 for tk, _ in pending):
             self.op.blend(self.PREV, 0, 0, 0.0)      # keep the state before the step
@@ -461,6 +466,22 @@ class Simulation:
         self.last_step = StepInfo(t1, dt, s, s)
         self._after_step(t0, t1, pending)
         return self.last_step
+
+    def _check_progress(self, p: StepPlan) -> None:
+        """Stop a run that cannot get anywhere: a step too small to move the clock, or one
+        that would need more than MAX_STEPS steps to the stop time. Both come from stiffness
+        out of range (a huge flow.nu, say): the message says which term."""
+        stab = p.stability
+        stop = self._stop_time(None)
+        left = (stop - self.t) / p.dt if math.isfinite(stop) else 0.0
+        if p.t_next > self.t and left <= MAX_STEPS:
+            return
+        why = (f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
+               if p.t_next <= self.t else
+               f"dt={p.dt:.3g} s would take {left:.3g} steps to t={stop:g} s")
+        self._fail(None, f"{why} (step {self.stats.steps}); the stiffness is out of range: "
+                         f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
+                         f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters")
 
     def advance(self, t_target: float, on_step=None) -> None:
         """Step until t == t_target exactly (the last step lands there)."""

@@ -45,7 +45,8 @@ class FieldsWriter:
     """
 
     def __init__(self, path, x, y, attrs: Mapping | None = None,
-                 fields: Sequence[str] = ("h", "u", "v", "phi"), dtype: str = "f8"):
+                 fields: Sequence[str] = ("h", "u", "v", "phi"), dtype: str = "f8",
+                 atomic: bool = True):
         self.path = Path(path)
         self.fields = tuple(fields)
         unknown = [f for f in self.fields if f not in FIELD_ATTRS]
@@ -61,13 +62,24 @@ class FieldsWriter:
         self.count = 0
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._ds = ds = netCDF4.Dataset(self.path, "w", format="NETCDF4")
+        if not atomic:
+            self._ds = self._create(self.path, x, y, attrs)
+            return
+        # made under a temporary name and renamed when complete: a kill while the file is
+        # being created leaves no file or a whole (empty) one, never an unreadable one
+        with replacing(self.path) as tmp:
+            self._create(tmp, x, y, attrs).close()
+        self._ds = netCDF4.Dataset(self.path, "a")
+
+    def _create(self, path, x, y, attrs):
+        ds = netCDF4.Dataset(path, "w", format="NETCDF4")
         try:
             self._define(ds, x, y, dict(attrs or {}))
             ds.sync()
         except BaseException:
             ds.close()
             raise
+        return ds
 
     def _define(self, ds, x, y, attrs: dict) -> None:
         from .. import __version__
@@ -201,7 +213,7 @@ def _truncate_copy(path: Path, keep: int, fields, dtype: str) -> None:
         attrs = {k: src.getncattr(k) for k in src.ncattrs()}
         x = src.variables["x"][:]
         y = src.variables["y"][:]
-        w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype)
+        w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype, atomic=False)
         try:
             for k, v in attrs.items():      # the original title, history, scene, ...
                 w._ds.setncattr(k, v)

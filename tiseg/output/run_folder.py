@@ -19,13 +19,15 @@ step that ends ``checkpoint_wall`` seconds of wall time after the last checkpoin
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from pathlib import Path
 
 from .. import checkpoint as _ckpt
 from ..callbacks import Callback
-from ..errors import InputError
+from ..errors import InputError, TisegError
+from ..limits import disk_note
 from ..paths import HOLDER_NAME, LOCK_NAME, RunLock, refuse_symlinks
 from ..schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
 from .diagnostics import DiagnosticsWriter, write_text_atomic, write_units
@@ -82,6 +84,10 @@ def remove_stale_temporaries(folder: Path) -> None:
                 pass
 
 
+class OutputError(TisegError):
+    """A file of the run could not be written; the message names it and how to go on."""
+
+
 class RunFolder:
     """Open (or, with ``resume``, continue) the files of ``sim`` 's run in ``path``."""
 
@@ -101,6 +107,7 @@ class RunFolder:
         try:
             if resume is None:
                 check_fresh_folder(out, overwrite)
+                disk_note(out, sc, sim.backend.precision, len(sc.output_times))
             else:
                 remove_stale_temporaries(out)
             self._open(resume)
@@ -108,6 +115,7 @@ class RunFolder:
             self.close()
             raise
         self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
+        self.saved_t = sim.t if resume is not None else None   # the last checkpoint's time
         sim.failure_dir = out / "failure"
         self.counts()
 
@@ -144,7 +152,8 @@ class RunFolder:
                 Callback(self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100)]
 
     def write_fields(self, snap) -> None:
-        self.fields.write(snap.t, **snap.fields())
+        with self._writing(self.fields.path):
+            self.fields.write(snap.t, **snap.fields())
         self.counts()
 
     def write_diagnostics(self, sim) -> None:
@@ -159,9 +168,10 @@ class RunFolder:
     def _row(self, dt: float, stages: int, max_speed: float) -> None:
         sim = self.sim
         tot = sim.totals()
-        self.diag.write(time=sim.t, dt=dt, stages=stages, mass=tot["mass"],
-                        small_mass=tot["small_mass"], max_speed=max_speed,
-                        wall_time_cumulative=sim.wall_time())
+        with self._writing(self.diag.path):
+            self.diag.write(time=sim.t, dt=dt, stages=stages, mass=tot["mass"],
+                            small_mass=tot["small_mass"], max_speed=max_speed,
+                            wall_time_cumulative=sim.wall_time())
         self.counts()
 
     def save_checkpoint(self, sim) -> None:
@@ -169,13 +179,30 @@ class RunFolder:
         sim.stats.wall = sim.wall_time()
         interval = sim.scene.output.checkpoint_interval
         nxt = (math.floor(sim.t / interval * (1 + 1e-12)) + 1) * interval if interval else math.nan
-        _ckpt.save(self.checkpoint_path, sim, next_sim=nxt)
+        with self._writing(self.checkpoint_path):
+            _ckpt.save(self.checkpoint_path, sim, next_sim=nxt)
+        self.saved_t = sim.t
 
     def finish(self) -> None:
         """At the scene's end time nothing is left to resume: the checkpoint goes."""
         t_end = self.sim.scene.t_end
         if self.sim.t >= t_end - 1e-12 * max(1.0, t_end):
             self.checkpoint_path.unlink(missing_ok=True)
+
+    @contextlib.contextmanager
+    def _writing(self, path: Path):
+        """A failed write (disk full, I/O error, permission) becomes one line naming the file
+        and how to go on; the previous checkpoint is intact (written atomically)."""
+        try:
+            yield
+        except (OSError, RuntimeError) as exc:     # netCDF4 reports HDF5 failures as these
+            reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+            saved = self.saved_t
+            hint = (f"the checkpoint at t={saved:.6g} s is intact: make room and continue with "
+                    f"`tiseg run --resume {self.path}`" if saved is not None else
+                    "no checkpoint was written yet: make room and run again")
+            raise OutputError(f"cannot write {str(path)!r} at t={self.sim.t:.6g} s: {reason}; "
+                              f"{hint}") from None
 
     def counts(self) -> None:
         """Tell the simulation how much is written (the checkpoint records it)."""
@@ -186,7 +213,10 @@ class RunFolder:
         self.counts()
         for w in (self.fields, self.diag):
             if w is not None:
-                w.close()
+                try:
+                    w.close()
+                except (OSError, RuntimeError):   # after a failed write: keep its message
+                    pass
         if self.lock is not None:
             self.lock.release()
             self.lock = None
@@ -216,4 +246,4 @@ class RunFolder:
         return self._new_fields_writer(old)
 
 
-__all__ = ["RunFolder", "DIAGNOSTICS"]
+__all__ = ["RunFolder", "OutputError", "DIAGNOSTICS", "RUN_FILES", "check_fresh_folder"]
