@@ -92,6 +92,28 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsy
         assert "resumed" in nc.history
 
 
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_stops_at_a_step_with_a_checkpoint(tmp_path, reference, capsys, sig, code):
+    """SIGTERM / SIGINT let the step finish, write a checkpoint of it, say how to resume and
+    exit 128 + the signal; the resumed run is bitwise the uninterrupted one."""
+    out = tmp_path / "stopped"
+    proc = subprocess.Popen([sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    diag = out / "diagnostics.csv"
+    deadline = time.monotonic() + 300
+    while proc.poll() is None and time.monotonic() < deadline and (
+            not diag.exists() or len(diag.read_text().splitlines()) < 8):
+        time.sleep(0.005)
+    proc.send_signal(sig)
+    _, err = proc.communicate()
+    assert proc.returncode == code, err
+    assert f"stopped by {signal.Signals(sig).name}" in err and "--resume" in err, err
+    state = checkpoint.load(out / checkpoint.CHECKPOINT_NAME)
+    assert read_diagnostics(diag)["time"][-1] == state["t"]     # the last step is the checkpoint's
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert_same_run(reference, out)
+
+
 class _Stop(Exception):
     """Stands for a kill: raised by a callback after a given step."""
 

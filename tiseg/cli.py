@@ -9,7 +9,7 @@ import argparse
 import importlib
 import sys
 
-from .errors import TisegError
+from .errors import RunInterrupted, TisegError
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
@@ -47,6 +47,9 @@ def main(argv: list[str] | None = None) -> int:
     cli_handler()
     try:
         result = args.func(args)
+    except RunInterrupted as exc:
+        sys.stderr.write(f"tiseg {args.command}: {exc}\n")
+        return exc.exit_code
     except TisegError as exc:
         sys.stderr.write(f"tiseg {args.command}: error: {exc}\n")
         return 2

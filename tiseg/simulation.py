@@ -43,7 +43,7 @@ import numpy as np
 from . import backend
 from . import checkpoint as _ckpt
 from .callbacks import Callback, ProgressBar, Snapshot
-from .errors import InputError, TisegError
+from .errors import InputError, RunInterrupted, TisegError
 from .guards import StateGuard, Violation
 from .initial import initial_state
 from .limits import check_memory
@@ -590,7 +590,7 @@ class Simulation:
 
     def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
             on_output=None, checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
-            callbacks=(), overwrite: bool = False) -> RunStats:
+            callbacks=(), overwrite: bool = False, signals: bool = False) -> RunStats:
         """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
 
         * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
@@ -603,7 +603,9 @@ class Simulation:
         ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
         output times and per ``output.checkpoint_interval``). None of this changes the steps.
         A fresh run refuses an ``out_dir`` that holds other files or another run unless
-        ``overwrite`` (:mod:`tiseg.output.run_folder`)."""
+        ``overwrite`` (:mod:`tiseg.output.run_folder`). ``signals``: SIGTERM and SIGINT stop
+        the run at the end of the current step, with a checkpoint when there is a folder, by
+        raising :class:`RunInterrupted` (the command line exits 143 / 130)."""
         from .output.run_folder import RunFolder
 
         t_end = self.scene.t_end if t_end is None else float(t_end)
@@ -621,6 +623,9 @@ class Simulation:
         bar = ProgressBar(t_end, self.scene.name, self.t) if progress else None
         if bar is not None:
             extra.append(Callback(bar, IterationInterval(1), name="progress"))
+        stop = _SignalStop(self, folder) if signals else None
+        if stop is not None:
+            extra.append(Callback(stop, IterationInterval(1), name="signals", order=1000))
         saved = dict(self.callbacks)
         for cb in extra:
             self.callbacks[f"run:{cb.name}"] = cb
@@ -638,6 +643,8 @@ class Simulation:
             if folder is not None:
                 folder.finish()
         finally:
+            if stop is not None:
+                stop.restore()
             self.stats.wall = self.wall_time()
             self._wall0 = None
             self.callbacks = saved
@@ -648,5 +655,43 @@ class Simulation:
         return self.stats
 
 
-__all__ = ["Simulation", "SimulationError", "StepInfo", "StepPlan", "RunStats", "step_limits",
+class _SignalStop:
+    """SIGTERM / SIGINT handlers that let the current step finish; as the last callback of
+    that step it writes a checkpoint (with a run folder) and raises RunInterrupted."""
+
+    def __init__(self, sim, folder):
+        import signal
+        import threading
+        self.sim, self.folder, self.signum = sim, folder, None
+        self.old = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGTERM, signal.SIGINT):
+                self.old[sig] = signal.signal(sig, self._handle)
+
+    def _handle(self, signum, frame):
+        if self.signum is not None:            # a second signal: stop now
+            raise KeyboardInterrupt
+        self.signum = signum
+
+    def __call__(self, sim) -> None:
+        if self.signum is None:
+            return
+        import signal
+        name = signal.Signals(self.signum).name
+        where = f"at t = {sim.t:.6g} s (step {sim.stats.steps})"
+        if self.folder is None:
+            raise RunInterrupted(f"stopped by {name} {where}; nothing was being saved",
+                                 self.signum)
+        self.folder.save_checkpoint(sim)
+        raise RunInterrupted(f"stopped by {name} {where}; checkpoint written: continue with "
+                             f"`tiseg run --resume {self.folder.path}`", self.signum)
+
+    def restore(self) -> None:
+        import signal
+        for sig, handler in self.old.items():
+            signal.signal(sig, handler)
+        self.old = {}
+
+
+__all__ = ["Simulation", "SimulationError", "RunInterrupted", "StepInfo", "StepPlan", "RunStats", "step_limits",
            "ACTIVE_MARGIN"]

@@ -140,7 +140,7 @@ def run(args) -> int:
     try:
         stats = sim.run(out_dir=out, progress=not args.no_progress,
                         on_output=None if movie is None else movie,
-                        overwrite=bool(getattr(args, "overwrite", False)))
+                        overwrite=bool(getattr(args, "overwrite", False)), signals=True)
     finally:
         if movie is not None:
             movie.close()
