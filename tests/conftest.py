@@ -19,3 +19,15 @@ def ti_cpu():
     tests need)."""
     import tiseg
     return tiseg.init(TEST_ARCH, "f64")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _room_for_fields():
+    """Start a test file with a fresh Taichi runtime when the last ones used up most of its
+    field trees (Taichi frees none until it is re-initialised; the suite makes a few hundred
+    simulations in one process). Nothing is shared between test files but the settings."""
+    from tiseg import backend
+    if backend.is_initialised() and backend.field_trees() > backend.MAX_FIELD_TREES // 2:
+        st = backend.state()
+        backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
+    yield

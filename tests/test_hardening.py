@@ -178,7 +178,8 @@ def test_a_run_that_cannot_advance_stops_with_a_reason(ti_cpu):
     from tiseg.simulation import SimulationError
     sim = Simulation(tiny())
     sim.stepper.plan = lambda *a, **k: (1e-30, 2)          # as an overflowing stiffness would
-    with pytest.raises(SimulationError, match="would take .* steps .* stiffness is out of range"):
+    with pytest.raises(SimulationError, match="of the convective limit .* stiffness is out of "
+                                              "range"):
         sim.step()
     sim.t = 1.0
     with pytest.raises(SimulationError, match="time stalled"):
@@ -253,3 +254,11 @@ def test_damaged_checkpoints_are_refused_each_with_its_message(ti_cpu, tmp_path,
     assert main(["run", "--resume", str(out), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err, err
+
+
+def test_running_out_of_field_trees_is_an_error_not_a_crash(ti_cpu, monkeypatch):
+    from tiseg import backend
+    from tiseg.errors import TisegError
+    monkeypatch.setattr(backend, "field_trees", lambda: backend.MAX_FIELD_TREES - 1)
+    with pytest.raises(TisegError, match="force=True"):
+        Simulation(tiny())

@@ -223,3 +223,31 @@ def threads_problem(threads: int, what: str = "threads") -> str | None:
         return (f"{what}={threads}: this machine offers {cores} core(s) to this process; use "
                 f"at most {cores} (0 = all of them)")
     return None
+
+
+# Taichi's LLVM backends hold at most 512 field trees per runtime (one or a few per simulation,
+# never freed until ti.init): past that, a kernel launch crashes the process
+MAX_FIELD_TREES = 512
+SPARE_FIELD_TREES = 24      # what one more simulation with a renderer may need
+
+
+def field_trees() -> int:
+    """Field trees (SNode trees) the current Taichi runtime holds (0 before init)."""
+    if _state is None:
+        return 0
+    try:
+        from taichi.lang import impl
+        return int(impl.get_runtime().prog.get_snode_tree_size())
+    except Exception:             # an odd Taichi without the count: nothing to check
+        return 0
+
+
+def check_field_room() -> None:
+    """A TisegError instead of Taichi's crash when the runtime is nearly out of field trees."""
+    n = field_trees()
+    if n > MAX_FIELD_TREES - SPARE_FIELD_TREES:
+        from .errors import TisegError
+        raise TisegError(f"this process holds {n} Taichi field trees (Taichi allows "
+                         f"{MAX_FIELD_TREES}; each simulation takes a few and keeps them): "
+                         "call tiseg.init(..., force=True) to free every simulation's fields, "
+                         "or use a new process")

@@ -430,6 +430,8 @@ def parse_override(text: str) -> tuple[str, Any]:
         doc = tomllib.loads(f"v = {raw}")
     except tomllib.TOMLDecodeError:
         return key, raw          # a bare word such as `weno`: take it as a string
+    except RecursionError:
+        raise InputError(f"override {key!r}: the value nests too deeply") from None
     if set(doc) != {"v"}:        # e.g. `1 \n x = 2` smuggling a second key
         return key, raw
     return key, doc["v"]
@@ -467,6 +469,8 @@ def scene_from_text(text: str, name: str = "scene", overrides=None,
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"scene file {where!r} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"scene file {where!r} nests arrays or tables too deeply") from None
     return scene_from_dict(data, name=name, overrides=overrides, source=source, label=label)
 
 
@@ -576,6 +580,12 @@ def _resolve_scene_path(name_or_path) -> Path:
         raise InputError(f"unknown built-in scene {text!r}{hint}; built-in scenes: "
                          f"{', '.join(builtins) or '(none)'}; or give a path to a .toml file")
     path = Path(text).expanduser()
+    if path.is_dir():
+        raise InputError(f"scene {text!r} is a folder, not a scene file (give a .toml file; "
+                         "to continue a run in a folder: tiseg run --resume DIR)")
+    if path.exists() and not path.is_file():
+        raise InputError(f"scene {text!r} is not a regular file (a pipe or device?); give a "
+                         ".toml file")
     if not path.is_file():
         raise InputError(f"scene file {text!r} not found; built-in scenes: "
                          f"{', '.join(builtins) or '(none)'}")
@@ -1108,6 +1118,12 @@ def _apply_overrides(data: dict, overrides) -> None:
             items.append((key, value))
     elif isinstance(overrides, (list, tuple)):
         items = [parse_override(text) for text in overrides]
+        seen: dict = {}
+        for key, value in items:
+            if key in seen:
+                raise InputError(f"--set {key} is given twice ({seen[key]!r} and {value!r}); "
+                                 "give it once")
+            seen[key] = value
     else:
         raise InputError(f"overrides must be a dict or a list of 'section.key=value' strings, "
                          f"got {_type_name(overrides)}")

@@ -56,7 +56,7 @@ from .timestepping import stepper_for
 ACTIVE_MARGIN = 3
 
 # OperatorConfig fields the kernels are compiled for: set_parameters cannot change them
-MAX_STEPS = 1e9         # more steps than this to the end: the parameters cannot be meant
+MIN_STEP_FRACTION = 1e-9   # a step this much below the CFL limit: stiffness out of range
 GUARD_ORDER = -100      # the guard callback runs before everything else after a step
 
 COMPILED = {"layout": "the grid or the segregation switch", "dx": "the grid", "dy": "the grid",
@@ -94,6 +94,8 @@ class StepPlan:
     stages: int
     stability: object
     t_next: float
+    dt_cfl: float = math.inf      # the convective limit it was planned from
+    lands: bool = False           # it ends exactly on the stop time
 
     def __iter__(self):          # dt, stages, stability = sim.plan_step(...) (older callers)
         return iter((self.dt, self.stages, self.stability))
@@ -142,6 +144,7 @@ class Simulation:
             raise InputError(problem)
         if not backend.is_initialised():
             backend.init(arch or "cpu", prec, threads)
+        backend.check_field_room()
         self.backend = backend.state()
         self.cfg = config_from_scene(scene)
         self.layout = self.cfg.layout
@@ -412,7 +415,7 @@ class Simulation:
         if self.active_region and s > self._last_stages:
             self._set_active(extent, s)          # wet cells spread at most one cell per stage
         self._last_stages = s
-        return StepPlan(dt, s, stab, t_next)
+        return StepPlan(dt, s, stab, t_next, dt_cfl, t_next == stop)
 
     def plan_step(self, t_target: float | None = None):
         """(dt, stages, stability) of :meth:`plan` (the older name)."""
@@ -469,16 +472,18 @@ class Simulation:
 
     def _check_progress(self, p: StepPlan) -> None:
         """Stop a run that cannot get anywhere: a step too small to move the clock, or one
-        that would need more than MAX_STEPS steps to the stop time. Both come from stiffness
-        out of range (a huge flow.nu, say): the message says which term."""
+        shorter than MIN_STEP_FRACTION of the convective limit (RKC's stage cap or an
+        explicit stepper's stability limit under a stiffness out of range, a huge flow.nu
+        say): the message says which term."""
         stab = p.stability
-        stop = self._stop_time(None)
-        left = (stop - self.t) / p.dt if math.isfinite(stop) else 0.0
-        if p.t_next > self.t and left <= MAX_STEPS:
+        small = (math.isfinite(p.dt_cfl) and p.dt < MIN_STEP_FRACTION * p.dt_cfl
+                 and not p.lands)           # a last step may be short: what was left
+        if p.t_next > self.t and not small:
             return
         why = (f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
                if p.t_next <= self.t else
-               f"dt={p.dt:.3g} s would take {left:.3g} steps to t={stop:g} s")
+               f"dt={p.dt:.3g} s is {p.dt / p.dt_cfl:.2g} of the convective limit "
+               f"{p.dt_cfl:.3g} s")
         self._fail(None, f"{why} (step {self.stats.steps}); the stiffness is out of range: "
                          f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
                          f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters")

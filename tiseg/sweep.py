@@ -171,6 +171,8 @@ def load_sweep(path, extra_overrides: Mapping | None = None,
         raise InputError(f"cannot read {where}: {exc.strerror or exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{where} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{where} nests arrays or tables too deeply") from None
     return sweep_from_dict(data, default_name=p.stem, source=str(p), base_dir=p.parent,
                            extra_overrides=extra_overrides, grid_overrides=grid_overrides)
 

@@ -125,6 +125,11 @@ def measure(run_dir, times: Sequence[float] | None = None, span: float | None = 
         raise InputError(f"--repeats {repeats}: must be >= 1")
     scene = _run_scene(run_dir)
     states = _states(run_dir, times)
+    shape = (scene.domain.nx, scene.domain.ny)
+    if states and states[0][1].shape[1:] != shape:
+        raise InputError(f"{run_dir}: scene.toml describes {shape[0]} x {shape[1]} cells but "
+                         f"fields.nc holds {states[0][1].shape[1]} x {states[0][1].shape[2]}: "
+                         "scene.toml was edited after the run; restore it")
     cfl = scene.numerics.cfl
     prec = scene.numerics.precision
     backend.init(arch, prec, threads)

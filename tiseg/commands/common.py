@@ -4,7 +4,10 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 import sys
+import tempfile
+from pathlib import Path
 
 from ..backend import ARCHS
 from ..errors import InputError
@@ -77,3 +80,29 @@ def load_scene_args(args):
     if args.precision:
         overrides.append(f"numerics.precision={args.precision}")
     return load_scene(args.scene, overrides)
+
+
+def check_output_folder(out: Path, what: str = "--out") -> None:
+    """Refuse an output folder that cannot be created or written, before any work is done."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what}={str(out)!r} is a file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=out, prefix=".tiseg-write-test.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"{what}={str(out)!r}: cannot write there ({exc.strerror or exc})") from None
+
+
+def check_figure_path(path: str, what: str = "--plot") -> Path:
+    """A figure file name whose suffix matplotlib can write, in a folder that can be made."""
+    from matplotlib.figure import Figure
+    p = Path(path)
+    kinds = Figure().canvas.get_supported_filetypes()
+    suffix = p.suffix.lower().lstrip(".")
+    if suffix not in kinds:
+        raise InputError(f"{what}={path!r}: give a file name ending in one of "
+                         f".{', .'.join(sorted(kinds))} (e.g. .png or .pdf)")
+    check_output_folder(p.parent if str(p.parent) else Path("."), what)
+    return p

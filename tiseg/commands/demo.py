@@ -36,6 +36,7 @@ def run(args) -> int:
     from ..figures.stability import make_all
     from ..output import write_json_atomic
     from ..output.run_folder import check_fresh_folder
+    from .common import check_output_folder
     from ..render.movie import MovieRecorder
     from ..render.panels import plot_panels
     from ..scene import load_scene
@@ -44,6 +45,7 @@ def run(args) -> int:
     if not (20 <= args.resolution <= 3000):
         raise InputError(f"--resolution={args.resolution!r}: choose between 20 and 3000 cells per metre")
     out = Path(args.out)
+    check_output_folder(out)
     check_fresh_folder(out, args.overwrite or _is_demo_folder(out), also=DEMO_FILES)
     times = [t for t in PAPER_TIMES if t < args.t_end] + [args.t_end]
     scene = load_scene("fingers", {"domain.resolution": args.resolution, "time.t_end": args.t_end,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from .common import add_material_options, material_from_args
+from .common import add_material_options, check_output_folder, material_from_args
 
 # repository assets folder (exists in a source checkout / editable install)
 ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets" / "figures"
@@ -24,6 +24,7 @@ def _run_stability(args) -> int:
     require(20 <= args.dpi <= 600, f"--dpi={args.dpi!r} must lie in [20, 600]")
     m = material_from_args(args)
     m.require_finger_range()      # the figures are about the segregation-mobility model (3.10)
+    check_output_folder(Path(args.out))
     paths = make_all(args.out, m, dpi=args.dpi)
     for p in paths:
         print(p)
@@ -80,6 +81,7 @@ def _run_fingers(args) -> int:
             settings[key] = {"set": {"domain.resolution": value}}
     runs = Path(args.runs) if args.runs else Path("runs") / ("sweeps-quick" if args.quick
                                                                else "sweeps")
+    check_output_folder(Path(args.out))
     paths = make_all(args.out, runs, dpi=args.dpi, quick=args.quick, settings=settings,
                      beyond=args.beyond, run=not args.no_run, scheduler=args.scheduler,
                      workers=args.workers, threads_per_task=args.threads_per_task,

@@ -42,6 +42,8 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..analysis.fingers import analyse_run
     from ..errors import require
+    require(args.time is None or (math.isfinite(args.time) and args.time >= 0),
+            f"--time={args.time!r}: give a time in seconds >= 0 (a snapshot of the run)")
 
     opts = {}
     if args.phi_threshold is not None:

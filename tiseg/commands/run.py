@@ -9,11 +9,10 @@ naming the option, the value and what is allowed.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
-from .common import add_scene_arguments, check_threads, load_scene_args, print_json
+from .common import (add_scene_arguments, check_output_folder, check_threads, load_scene_args,
+                     print_json)
 
 load = load_scene_args          # the older name
 
@@ -43,20 +42,6 @@ def register(sub) -> None:
                    help="field of the movie: phi (default), h, speed, u or v")
     p.add_argument("--fps", type=float, default=None, help="movie frames per second (10)")
     p.set_defaults(func=run)
-
-
-def check_output_folder(out: Path, what: str = "--out") -> None:
-    """Refuse an output folder that cannot be created or written, before any work is done."""
-    from ..errors import InputError
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{what}={str(out)!r} is a file, not a folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(dir=out, prefix=".tiseg-write-test.")
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as exc:
-        raise InputError(f"{what}={str(out)!r}: cannot write there ({exc.strerror or exc})") from None
 
 
 def _check_args(args) -> None:

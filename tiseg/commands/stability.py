@@ -40,11 +40,15 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+MAX_K = 1e6       # dimensionless k h0: far beyond any cut-off, and the matrices stay finite
+
+
 def _check_wavenumbers(name: str, values) -> np.ndarray:
     arr = np.asarray(values, dtype=float)
-    require(arr.size > 0 and bool(np.all(np.isfinite(arr))) and bool(np.all(arr >= 0)),
-            f"--{name}={list(values)!r}: wavenumbers must be finite numbers >= 0 "
-            f"(dimensionless, k h0)")
+    require(arr.size > 0 and bool(np.all(np.isfinite(arr))) and bool(np.all(arr >= 0))
+            and bool(np.all(arr <= MAX_K)),
+            f"--{name}={list(values)!r}: wavenumbers must be numbers in [0, {MAX_K:g}] "
+            f"(dimensionless, k h0; the instability lives below k ~ 10)")
     return arr
 
 
@@ -133,6 +137,9 @@ def run(args) -> int:
         bs = base_state(args.h0, args.phi0, args.nu, m)
     k = _check_wavenumbers("k", DEFAULT_K if args.k is None else args.k)
     ky = None if args.ky is None else _check_wavenumbers("ky", args.ky)
+    if args.plot:
+        from .common import check_figure_path
+        check_figure_path(args.plot)
     out = analyse(bs, k, ky, args.precision)
     if args.plot:
         from ..figures.stability import plot_growth_rate

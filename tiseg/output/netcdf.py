@@ -225,9 +225,19 @@ def _truncate_copy(path: Path, keep: int, fields, dtype: str) -> None:
 
 
 def read_fields(path):
-    """Open a fields file as an :class:`xarray.Dataset` (time stays float seconds)."""
+    """Open a fields file as an :class:`xarray.Dataset` (time stays float seconds); a file
+    that cannot be read (truncated, damaged, not NetCDF) is an InputError saying so."""
     import xarray as xr
-    return xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
+
+    from ..errors import InputError
+    try:
+        return xr.open_dataset(path, engine="netcdf4", decode_times=False,
+                               decode_timedelta=False)
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc).split("\n")[0]
+        raise InputError(f"{str(path)!r} cannot be read as a NetCDF fields file ({reason}): "
+                         "it is damaged or truncated (a resumable run repairs it with "
+                         "`tiseg run --resume`)") from None
 
 
 def _attr_value(value):

@@ -37,6 +37,7 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
+from ..errors import InputError
 from . import colours as C
 
 # Indices in the painter's run-time parameter field (changing them recompiles nothing).
@@ -312,6 +313,7 @@ def _array_painter(nx: int, ny: int) -> _Painter:
 
 
 MIN_1D_HEIGHT = 40          # a 1D run (one row of cells) is drawn as a band this tall
+MAX_SIDE = 16384            # pixels: the largest picture side (video encoders stop at 8192)
 
 
 def image_size(nx: int, ny: int, scale: float = 1.0, aspect: float = 1.0) -> tuple[int, int]:
@@ -320,10 +322,15 @@ def image_size(nx: int, ny: int, scale: float = 1.0, aspect: float = 1.0) -> tup
     band at least MIN_1D_HEIGHT pixels tall, so that it can be seen."""
     if not (scale > 0 and math.isfinite(scale)):
         raise ValueError(f"scale={scale!r} must be a positive number")
-    h = max(1, int(round(ny * scale * aspect)))
+    w, h = nx * scale, ny * scale * aspect
+    if not (w <= MAX_SIDE and h <= MAX_SIDE):
+        raise InputError(f"scale={scale:g} pixels per cell makes a {w:.3g} x {h:.3g} pixel "
+                         f"picture of {nx} x {ny} cells; at most {MAX_SIDE} pixels a side: "
+                         f"use a scale of at most {MAX_SIDE / max(nx, ny * aspect):.3g}")
+    h = max(1, int(round(h)))
     if ny == 1:
         h = max(h, MIN_1D_HEIGHT)
-    return max(1, int(round(nx * scale))), h
+    return max(1, int(round(w))), h
 
 
 def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, scale: float = 1,

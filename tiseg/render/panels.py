@@ -29,7 +29,18 @@ def nearest_indices(available, times) -> list[int]:
     available = np.asarray(available, dtype=np.float64)
     if available.size == 0:
         raise InputError("the run holds no snapshot")
-    return [int(np.argmin(np.abs(available - float(t)))) for t in times]
+    out = []
+    for t in times:
+        t = float(t)
+        if not np.isfinite(t):
+            raise InputError(f"time {t!r}: give a finite time in seconds")
+        k = int(np.argmin(np.abs(available - t)))
+        if abs(available[k] - t) > 1e-9 * max(1.0, abs(t)):
+            from ..log import note
+            note(f"t = {t:g} s is not a snapshot of the run; showing the nearest, "
+                 f"t = {available[k]:g} s")
+        out.append(k)
+    return out
 
 
 def plot_panels(ds, times=None, field: str = "phi", path=None, shade=True, vrange=None,
