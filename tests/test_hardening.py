@@ -262,3 +262,14 @@ def test_running_out_of_field_trees_is_an_error_not_a_crash(ti_cpu, monkeypatch)
     monkeypatch.setattr(backend, "field_trees", lambda: backend.MAX_FIELD_TREES - 1)
     with pytest.raises(TisegError, match="force=True"):
         Simulation(tiny())
+
+
+def test_a_sweep_task_takes_its_workers_thread_count():
+    import distributed
+
+    from tiseg.sweep import _worker_threads
+    assert _worker_threads() == 0                              # not inside a worker
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster, \
+            distributed.Client(cluster) as client:
+        assert client.submit(_worker_threads).result(timeout=60) == 1
