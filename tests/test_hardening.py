@@ -273,3 +273,32 @@ def test_a_sweep_task_takes_its_workers_thread_count():
                                   dashboard_address=":0") as cluster, \
             distributed.Client(cluster) as client:
         assert client.submit(_worker_threads).result(timeout=60) == 1
+
+
+def test_a_sweep_retries_a_transient_failure_once(tmp_path, monkeypatch):
+    """A task that fails once (as a transient ti.init failure would) is run again; one that
+    keeps failing is reported as failed after its retry."""
+    import distributed
+
+    from tiseg import sweep as S
+    tally = tmp_path / "calls"
+    tally.mkdir()
+
+    def flaky(spec):                 # (Dask runs a copy of this: count in files)
+        mark = tally / spec["name"]
+        n = (int(mark.read_text()) if mark.exists() else 0) + 1
+        mark.write_text(str(n))
+        if n == 1 or "0.02" in spec["name"]:
+            raise OSError("Resource temporarily unavailable")
+        return {"name": spec["name"], "status": "done", "steps": 1, "wall_s": 0.0,
+                "metrics": {"time": [0.5], "finger_count": [0], "wavelength": [None],
+                            "elongation": [None]}}
+
+    monkeypatch.setattr(S, "execute_run", flaky)
+    sw = S.load_sweep("assets/sweeps/tiny.toml")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster:
+        res = S.run_sweep(sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=None)
+    status = {r["name"]: r["status"] for r in res.records}
+    assert status == {"nu-0.01": "done", "nu-0.02": "failed"}, status
+    assert {p.name: int(p.read_text()) for p in tally.iterdir()} == {"nu-0.01": 2, "nu-0.02": 2}
