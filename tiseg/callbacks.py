@@ -93,7 +93,10 @@ class ProgressBar:
 
     def __init__(self, total: float, name: str, start: float = 0.0):
         from tqdm import tqdm
-        self.bar = tqdm(total=total, initial=start, unit="s", desc=name, bar_format=(
+
+        from .log import bar_disable
+        self.bar = tqdm(total=total, initial=start, unit="s", desc=name, disable=bar_disable(),
+                        bar_format=(
             "{desc}: {percentage:3.0f}%|{bar}| t={n:.3f}/{total:.3f} s "
             "[{elapsed}<{remaining}{postfix}]"))
 

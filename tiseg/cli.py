@@ -29,6 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
         "(Baker, Johnson & Gray 2016). Run `tiseg COMMAND --help` for each command."))
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
+    from . import __version__
+    parser.add_argument("--version", action="version", version=f"tiseg {__version__}")
+    _verbosity_options(parser, 0)
     for name in COMMAND_MODULES:
         try:
             mod = importlib.import_module(f"tiseg.commands.{name}")
@@ -37,14 +40,32 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not built yet
             raise
         mod.register(sub)
+    for p in _subparsers(parser):       # -q / -v also after the command's name
+        _verbosity_options(p, argparse.SUPPRESS)
     return parser
 
 
+def _verbosity_options(p, default) -> None:
+    g = p.add_argument_group("messages")
+    g.add_argument("-q", "--quiet", dest="quiet", action="store_true", default=default,
+                   help="only results and errors: no notes, progress lines or bars")
+    g.add_argument("-v", "--verbose", dest="verbose", action="count", default=default,
+                   help="more detail on stderr")
+
+
+def _subparsers(parser):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for p in action.choices.values():
+                yield p
+                yield from _subparsers(p)
+
+
 def main(argv: list[str] | None = None) -> int:
-    from .log import cli_handler
+    from .log import configure
     parser = build_parser()
     args = parser.parse_args(argv)
-    cli_handler()
+    configure(-1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0)), 1))
     try:
         result = args.func(args)
     except RunInterrupted as exc:

@@ -508,15 +508,31 @@ def _reporter(name: str, t_end: float) -> Callable | None:
 class SweepResult:
     out: Path
     table: Path
-    records: list[dict]      # one per run, grid order; status done / reused / failed
+    records: list[dict]      # one per run, grid order; status done / reused / failed / busy
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.records if r.get("status") == status)
 
+    def as_dict(self) -> dict:
+        """The summary ``tiseg sweep --json`` prints: folders, counts and one entry per run."""
+        keep = ("name", "status", "error", "holder", "wall_s", "steps", "rhs_evaluations",
+                "nx", "ny", "t_end")
+        runs = [{k: r[k] for k in keep if k in r} for r in self.records]
+        counts = {}
+        for r in self.records:
+            counts[r.get("status", "?")] = counts.get(r.get("status", "?"), 0) + 1
+        return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
+
+
+def _stderr_line(text: str) -> None:
+    import sys
+    sys.stderr.write(text + "\n")
+    sys.stderr.flush()
+
 
 def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int | None = None,
               threads_per_task: int | None = None, arch: str = "cpu",
-              echo: Callable[[str], None] | None = print,
+              echo: Callable[[str], None] | None = _stderr_line,
               progress_interval: float = 30.0) -> SweepResult:
     """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
 
@@ -524,8 +540,8 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
     ``LocalCluster(processes=True, threads_per_worker=1, n_workers=workers)`` started and
     stopped here. ``workers``: local worker processes (default: as many as CPU cores, at most
     the number of runs). ``threads_per_task``: Taichi CPU threads per run (default: cores /
-    workers locally, all cores of the worker's machine on a remote cluster). ``echo``: where
-    progress lines go (None: silent). ``progress_interval``: seconds between progress lines
+    workers locally, the worker's own thread count on a remote cluster). ``echo``: where
+    progress lines go (default stderr; the command line: the ``tiseg`` logger; None: silent). ``progress_interval``: seconds between progress lines
     of one running run.
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
@@ -600,6 +616,7 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
                                dashboard_address=":0", silence_logs=logging.ERROR)
         client = Client(cluster)
         where = f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)"
+        say(f"Dask dashboard: {client.dashboard_link}")
     per = "the worker's" if threads is None else (threads or "all")
     say(f"running {len(pending)} runs on the {where}, {per} Taichi thread"
         f"{'' if threads == 1 else 's'} per run")

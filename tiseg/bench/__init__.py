@@ -83,9 +83,14 @@ def available_backends() -> list[str]:
 
 
 def log_stderr(message: str) -> None:
-    """Progress lines of the benchmarks: stderr, flushed (stdout carries results and JSON)."""
-    sys.stderr.write(message + "\n")
-    sys.stderr.flush()
+    """Progress lines of the benchmarks: the ``tiseg`` logger (stderr, not with -q); stdout
+    carries results and JSON. Without logging configured (a benchmark child) plain stderr."""
+    from ..log import info, logger
+    if logger.handlers:
+        info(message)
+    else:
+        sys.stderr.write(message + "\n")
+        sys.stderr.flush()
 
 
 def child_env(**extra) -> dict:

@@ -43,6 +43,9 @@ def register(sub) -> None:
                    help="validate the sweep file and list its runs, run nothing")
     p.add_argument("--progress-interval", type=float, default=30.0, metavar="S",
                    help="seconds between progress lines of one running run (default 30)")
+    p.add_argument("--json", action="store_true",
+                   help="print a JSON summary (folders, counts, one entry per run) on stdout; "
+                        "progress goes to stderr as always")
     p.set_defaults(func=run)
 
 
@@ -67,7 +70,11 @@ def run(args) -> int:
             print(f"  {r.name}: {r.scene.domain.nx} x {r.scene.domain.ny} cells, t_end "
                   f"{r.scene.t_end:g} s{' (finished)' if done else ''}")
         return 0
+    from ..log import info
     result = run_sweep(sweep, out, scheduler=args.scheduler, workers=args.workers,
-                       threads_per_task=args.threads_per_task, arch=args.arch,
+                       threads_per_task=args.threads_per_task, arch=args.arch, echo=info,
                        progress_interval=args.progress_interval)
+    if args.json:
+        from .common import print_json
+        print_json(result.as_dict())
     return 1 if result.count("failed") else 0

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import sys
 from pathlib import Path
 
 from .. import checkpoint as _ckpt
@@ -241,8 +240,9 @@ class RunFolder:
         kept = self.path / f"fields.damaged-{n}.nc"
         if old.exists():
             old.replace(kept)
-        sys.stderr.write(f"tiseg: warning: {exc}; it was moved to {kept.name} and a new "
-                         f"fields.nc starts at t={self.sim.t:.9g} s\n")
+        from ..log import logger
+        logger.warning("warning: %s; it was moved to %s and a new fields.nc starts at "
+                       "t=%.9g s", exc, kept.name, self.sim.t)
         return self._new_fields_writer(old)
 
 

@@ -303,7 +303,10 @@ def render_run(run_dir, field: str = "phi", movie=None, frames=None, gif=None,
         bar = None
         if progress:
             from tqdm import tqdm
-            bar = tqdm(total=len(indices), unit="frame", desc=f"render {field}")
+
+            from ..log import bar_disable
+            bar = tqdm(total=len(indices), unit="frame", desc=f"render {field}",
+                       disable=bar_disable())
         size = None
         try:
             for k in indices:
