@@ -281,3 +281,20 @@ def test_cli_run_movie(ti_cpu, tmp_path, capsys):
     frames = _decode(movie)
     assert len(frames) == 4
     assert frames[0].shape[1] % 2 == 0 and frames[0].shape[0] % 2 == 0
+
+
+def test_text_is_drawn_where_asked_with_pillow():
+    """Caption text (Pillow, DejaVu Sans): ink only inside the box the text should occupy,
+    left end at x, on the baseline (caps above it, at most descenders below), in the colour
+    asked for; widths add up."""
+    import numpy as np
+
+    from tiseg.render.frame import draw_text, text_width
+    img = np.zeros((60, 200, 3), np.uint8)
+    end = draw_text(img, "t = 7.50 s", 20, 40, colour=(1.0, 1.0, 1.0), size=14)
+    ink = np.nonzero(img.max(axis=2) > 60)
+    assert ink[0].size > 50
+    assert ink[1].min() >= 20 and ink[1].max() <= end + 1
+    assert ink[0].min() >= 40 - 14 and ink[0].max() <= 40 + 4
+    assert end - 20 == text_width("t = 7.50 s", 14) > text_width("t = 7.5", 14) > 0
+    assert img.max() == 255 and (img[..., 0] == img[..., 2]).all()       # white, no tint

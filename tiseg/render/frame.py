@@ -528,61 +528,29 @@ def _font_path() -> str:
     return font_manager.findfont(font_manager.FontProperties(family="DejaVu Sans"))
 
 
-@lru_cache(maxsize=4096)
-def _glyph(ch: str, size: int):
-    """(mask float32 (rows, cols), left bearing, top above baseline, advance) of one character,
-    rasterised once by FreeType (matplotlib's wrapper; the same code path as its Agg backend)."""
-    font = _font(size)
-    try:
-        from matplotlib.ft2font import LoadFlags
-        flags = LoadFlags.FORCE_AUTOHINT
-    except ImportError:                            # matplotlib < 3.10 takes plain ints
-        flags = 32
-    g = font.load_char(ord(ch), flags=flags)
-    font.set_text(ch, 0.0, flags=flags)
-    font.draw_glyphs_to_bitmap(antialiased=True)
-    bmp = np.asarray(font.get_image(), dtype=np.float32) / 255.0
-    rows = np.nonzero(bmp.max(axis=1) > 0)[0]
-    cols = np.nonzero(bmp.max(axis=0) > 0)[0]
-    if rows.size == 0:                             # a space: advance only
-        mask = np.zeros((0, 0), np.float32)
-    else:
-        mask = bmp[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1].copy()
-    return mask, int(round(g.horiBearingX / 64)), int(round(g.horiBearingY / 64)), \
-        int(round(g.horiAdvance / 64))
-
-
 @lru_cache(maxsize=8)
 def _font(size: int):
-    from matplotlib.ft2font import FT2Font
-    f = FT2Font(_font_path())
-    f.set_size(size, 72)                           # 72 dpi: points = pixels
-    return f
+    """DejaVu Sans (shipped with matplotlib) at ``size`` pixels, through Pillow's FreeType."""
+    from PIL import ImageFont
+    return ImageFont.truetype(_font_path(), size)
 
 
 def text_width(s: str, size: int = 12) -> int:
     """Width in pixels of a string drawn by :func:`draw_text`."""
-    return sum(_glyph(ch, size)[3] for ch in s)
+    return int(round(_font(size).getlength(s)))
 
 
 def draw_text(img: np.ndarray, s: str, x: int, baseline: int, colour=C.TEXT_RGB,
               size: int = 12) -> int:
     """Draw s into a uint8 (H, W, 3) image in place, left end at column x, on the given baseline
-    row; clipped at the borders. Returns the x after the text."""
-    col = np.asarray(colour, dtype=np.float32) * 255.0
-    H, W = img.shape[:2]
-    for ch in s:
-        mask, bx, top, adv = _glyph(ch, size)
-        if mask.size:
-            r0, c0 = baseline - top, x + bx
-            r1, c1 = r0 + mask.shape[0], c0 + mask.shape[1]
-            rr0, cc0, rr1, cc1 = max(r0, 0), max(c0, 0), min(r1, H), min(c1, W)
-            if rr1 > rr0 and cc1 > cc0:
-                a = mask[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0, None]
-                region = img[rr0:rr1, cc0:cc1].astype(np.float32)
-                img[rr0:rr1, cc0:cc1] = (region * (1.0 - a) + col * a + 0.5).astype(np.uint8)
-        x += adv
-    return x
+    row (Pillow's ``ls`` anchor), antialiased; clipped at the borders. Returns the x after the
+    text."""
+    from PIL import Image, ImageDraw
+    pil = Image.fromarray(np.ascontiguousarray(img))
+    fill = tuple(int(round(float(c) * 255.0)) for c in colour)
+    ImageDraw.Draw(pil).text((x, baseline), s, font=_font(size), fill=fill, anchor="ls")
+    img[...] = np.asarray(pil)
+    return x + text_width(s, size)
 
 
 def nice_length(target: float) -> float:
