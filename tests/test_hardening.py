@@ -77,9 +77,9 @@ def test_foreign_files_and_finished_runs_need_overwrite(ti_cpu, tmp_path, capsys
     assert main(_cli("--out", str(out))) == 0
     capsys.readouterr()
     assert main(_cli("--out", str(out))) == 2                    # a finished run
-    assert "finished run" in capsys.readouterr().err
+    assert "earlier run" in capsys.readouterr().err
     assert main(_cli("--out", str(out), "--overwrite")) == 0
-    with pytest.raises(InputError, match="finished run"):
+    with pytest.raises(InputError, match="earlier run"):
         Simulation(tiny()).run(out_dir=out, progress=False)       # the API alike
 
 

@@ -63,10 +63,11 @@ class Callback:
     """``func`` on ``schedule``; ``snapshot=True`` hands it a :class:`Snapshot` at each scheduled
     time instead of the simulation after the step (needs a time schedule). ``order``: plain
     callbacks due after the same step run in increasing order (the checkpoint runs last, after
-    everything it must agree with has been written)."""
+    everything it must agree with has been written). ``checked``: the guard checks the state
+    first (checkpoints and snapshots: no broken state is ever saved)."""
 
     def __init__(self, func: Callable, schedule: Schedule, name: str | None = None,
-                 snapshot: bool = False, order: int = 0):
+                 snapshot: bool = False, order: int = 0, checked: bool = False):
         if not callable(func):
             raise InputError(f"Callback: {func!r} is not callable")
         if not isinstance(schedule, Schedule):
@@ -79,6 +80,8 @@ class Callback:
         self.name = name or getattr(func, "__name__", type(func).__name__)
         self.snapshot = bool(snapshot)
         self.order = int(order)
+        # the state must pass the guard before this callback sees it (it saves the state)
+        self.checked = bool(checked) or self.snapshot
 
     def __call__(self, arg):
         return self.func(arg)

@@ -162,7 +162,7 @@ def load(path) -> dict:
 
 
 REQUIRED = ("q", "budget", "t", "steps", "stages", "last_stages", "initial", "scene",
-            "precision", "layout")
+            "precision", "layout", "snapshots", "diag_rows", "wall")
 
 
 def validate(ck: dict, scene, path="checkpoint") -> None:
@@ -175,9 +175,13 @@ def validate(ck: dict, scene, path="checkpoint") -> None:
     if not (isinstance(t, float) and math.isfinite(t) and 0.0 <= t <= scene.t_end * (1 + 1e-12)):
         raise CheckpointError(f"{path} is at t={t!r} s, outside [0, time.t_end={scene.t_end!r}]: "
                               "it does not belong to this run")
-    for k in ("steps", "stages", "last_stages"):
+    for k in ("steps", "stages", "last_stages", "snapshots", "diag_rows"):
         if not (isinstance(ck[k], int) and ck[k] >= 0):
             raise CheckpointError(f"{path}: {k}={ck[k]!r} must be a count >= 0")
+    if not (isinstance(ck["wall"], float) and math.isfinite(ck["wall"]) and ck["wall"] >= 0):
+        raise CheckpointError(f"{path}: wall={ck['wall']!r} must be a time >= 0")
+    if np.asarray(ck["initial"]).shape != (2,):
+        raise CheckpointError(f"{path}: initial must hold the two initial masses")
     for k in ("q", "budget", "initial"):
         a = np.asarray(ck[k])
         if a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):

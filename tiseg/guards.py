@@ -91,10 +91,15 @@ class StateGuard:
         self.mass_tol = float(mass_tol)
         self.res = ti.field(ti.i32, shape=(4, 2))
         self.par = ti.field(op.fp, shape=3)           # h_tol, phi_tol, h_min
-        self.par.from_numpy(np.array([self.h_tol, self.phi_tol, op.cfg.h_min], dtype=op.np_fp))
         self.good = ti.Vector.field(op.nc, op.fp, shape=(op.NX, op.NY))
         self.good_bud = ti.field(op.fp, shape=NBUDGET)
         self.good_meta: dict | None = None            # t, steps, ... of the copy in self.good
+        self.set_params()
+
+    def set_params(self) -> None:
+        """Take the operator's h_min again (after Simulation.set_parameters)."""
+        op = self.op
+        self.par.from_numpy(np.array([self.h_tol, self.phi_tol, op.cfg.h_min], dtype=op.np_fp))
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel

@@ -22,6 +22,7 @@ from .errors import InputError
 SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]{0,127}")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")
 LOCK_NAME = ".tiseg.lock"
+_LOCKS: dict = {}               # lock file -> FileLock, one per process
 HOLDER_NAME = ".tiseg.lock.json"
 
 
@@ -59,12 +60,21 @@ class RunLock:
     def __init__(self, folder):
         from filelock import FileLock
         self.folder = Path(folder)
-        self._lock = FileLock(str(self.folder / LOCK_NAME))
+        key = str((self.folder / LOCK_NAME).resolve())
+        # one OS lock per folder and process, counted: a sweep task holds its member's folder
+        # while its run (which locks the same folder) writes there
+        if key not in _LOCKS:
+            _LOCKS[key] = FileLock(key)
+        self._lock = _LOCKS[key]
+        self._held = False
 
     def acquire(self) -> "RunLock":
         from filelock import Timeout
         try:
             self._lock.acquire(timeout=0)
+            self._held = True
+            if self._lock.lock_counter > 1:
+                return self                   # this process holds it already
         except Timeout:
             raise InputError(f"{str(self.folder)!r} is in use by another tiseg run "
                              f"({self.holder()}); wait for it to finish or stop it") from None
@@ -81,7 +91,7 @@ class RunLock:
     def busy(self) -> str | None:
         """The holder's description when another process holds the lock now, else None."""
         from filelock import Timeout
-        if not (self.folder / LOCK_NAME).exists():
+        if not (self.folder / LOCK_NAME).exists() or self._lock.is_locked:
             return None
         try:
             self._lock.acquire(timeout=0)
@@ -100,12 +110,15 @@ class RunLock:
             return "holder unknown"
 
     def release(self) -> None:
-        if self._lock.is_locked:
+        if not self._held:
+            return
+        self._held = False
+        if self._lock.lock_counter == 1:          # the outermost holder: the folder is free
             try:
                 (self.folder / HOLDER_NAME).unlink(missing_ok=True)
             except OSError:
                 pass
-            self._lock.release()
+        self._lock.release()
 
     def __enter__(self) -> "RunLock":
         return self.acquire()

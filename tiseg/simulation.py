@@ -223,11 +223,15 @@ class Simulation:
             if getattr(scene.numerics, key) != getattr(old.numerics, key):
                 what.append(f"numerics.{key}")
         if what:
+            why = ("; the viscous kernels were left out because flow.nu was 0 when the "
+                   "simulation was built" if "effects.viscosity" in what and not self.cfg.viscous
+                   and old.effects.viscosity else "")
             raise InputError(f"set_parameters: this changes {', '.join(what)}, which the "
-                             "simulation was compiled for; build a new Simulation for that")
+                             f"simulation was compiled for{why}; build a new Simulation for that")
         self.scene = scene
         self.cfg = cfg
         self.op.set_params(cfg)
+        self.guard.set_params()            # h_min of the phi rule
 
     def set_state(self, h, u=None, v=None, phi=None) -> None:
         """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
@@ -450,6 +454,9 @@ class Simulation:
         passing it (default the scene's t_end, nothing once it is passed); ``stages``: a fixed
         stage count (benchmarks)."""
         self.op.check_alive()
+        if t_stop is not None and not float(t_stop) > self.t:
+            raise InputError(f"step(t_stop={t_stop!r}): the simulation is already at "
+                             f"t={self.t!r} s; give a later stop time")
         p = self.plan(t_stop, stages)
         dt, s = p.dt, p.stages
         if not (dt > 0 and math.isfinite(dt)):
@@ -522,8 +529,9 @@ class Simulation:
                       if not cb.snapshot and cb.schedule.due(t0, t1, steps)),
                      key=lambda c: c.order)       # every schedule is asked (wall clocks)
         before = [cb for cb in due if cb.order < 0]
-        if pending and "guard" not in (cb.name for cb in before):
-            self._guard()                   # nothing is written from an unchecked state
+        if (pending or any(cb.checked for cb in due)) and \
+                "guard" not in (cb.name for cb in before):
+            self._guard()                   # nothing is saved from an unchecked state
         for cb in before:
             cb(self)
         for tk, cbs in pending:
@@ -588,10 +596,10 @@ class Simulation:
     def output_times(self, t_end: float | None = None) -> list[float]:
         """The scene's output times up to t_end (default the scene's), t_end included."""
         t_end = self.scene.t_end if t_end is None else float(t_end)
-        times = [t for t in self.scene.output_times if t <= t_end * (1 + 1e-12)]
+        times = [min(t, t_end) for t in self.scene.output_times if t <= t_end * (1 + 1e-12)]
         if not times or times[-1] < t_end - 1e-12 * max(1.0, t_end):
             times.append(t_end)               # an earlier end than the scene's is a snapshot too
-        return times
+        return sorted(set(times))
 
     def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
             on_output=None, checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
@@ -614,30 +622,43 @@ class Simulation:
         from .output.run_folder import RunFolder
 
         t_end = self.scene.t_end if t_end is None else float(t_end)
+        if not (math.isfinite(t_end) and t_end >= 0):
+            raise InputError(f"run(t_end={t_end!r}): give a finite time >= 0")
         times = self.output_times(t_end)
-        resume = self._resume
-        if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
-            resume = None                    # continuing elsewhere: a fresh set of files
-        self._resume = None
-        folder = None if out_dir is None else RunFolder(self, out_dir, resume, overwrite)
-        extra = list(folder.callbacks(times, checkpoint_wall)) if folder else []
+        # everything that can be refused is checked before the folder is touched
+        extra = []
         if on_output is not None:
             extra.append(Callback(on_output, SpecifiedTimes(times), name="on_output",
                                   snapshot=True))
-        extra += list(callbacks)
-        bar = ProgressBar(t_end, self.scene.name, self.t) if progress else None
-        if bar is not None:
-            extra.append(Callback(bar, IterationInterval(1), name="progress"))
-        stop = _SignalStop(self, folder) if signals else None
-        if stop is not None:
-            extra.append(Callback(stop, IterationInterval(1), name="signals", order=1000))
-        saved = dict(self.callbacks)
-        for cb in extra:
-            self.callbacks[f"run:{cb.name}"] = cb
-        for cb in self.callbacks.values():
-            cb.schedule.start()
-        self._wall0 = _time.perf_counter() - self.stats.wall
+        for cb in callbacks:
+            if not isinstance(cb, Callback):
+                raise InputError(f"run(callbacks=...): {cb!r} is not a tiseg.callbacks.Callback "
+                                 "(wrap a function as Callback(func, schedule))")
+            extra.append(cb)
+        if checkpoint_wall is not None and not (checkpoint_wall >= 0):
+            raise InputError(f"checkpoint_wall={checkpoint_wall!r} must be a number >= 0")
+        resume = self._resume
+        if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
+            resume = None                    # continuing elsewhere: a fresh set of files
+        saved, failure_dir = dict(self.callbacks), self.failure_dir
+        folder = bar = stop = None
         try:
+            if out_dir is not None:
+                folder = RunFolder(self, out_dir, resume, overwrite)
+                self._resume = None          # the files are open: what resume knew is used
+                extra = list(folder.callbacks(times, checkpoint_wall)) + extra
+            if progress:
+                bar = ProgressBar(t_end, self.scene.name, self.t)
+                extra.append(Callback(bar, IterationInterval(1), name="progress"))
+            if signals:
+                stop = _SignalStop(self, folder, t_end)
+                extra.append(Callback(stop, IterationInterval(1), name="signals", order=1000,
+                                      checked=True))
+            for cb in extra:
+                self.callbacks[f"run:{cb.name}"] = cb
+            for cb in self.callbacks.values():
+                cb.schedule.start()
+            self._wall0 = _time.perf_counter() - self.stats.wall
             self._guard()
             if resume is None:
                 self._initial_snapshots()
@@ -647,12 +668,16 @@ class Simulation:
                 self.step(t_end)
             if folder is not None:
                 folder.finish()
+                if folder.checkpoint_path.is_file():   # stopped before the scene's end:
+                    self._resume = folder.resume_info()  # a later run() there continues it
         finally:
             if stop is not None:
                 stop.restore()
-            self.stats.wall = self.wall_time()
+            if self._wall0 is not None:
+                self.stats.wall = self.wall_time()
             self._wall0 = None
             self.callbacks = saved
+            self.failure_dir = failure_dir
             if bar is not None:
                 bar.close()
             if folder is not None:
@@ -664,23 +689,25 @@ class _SignalStop:
     """SIGTERM / SIGINT handlers that let the current step finish; as the last callback of
     that step it writes a checkpoint (with a run folder) and raises RunInterrupted."""
 
-    def __init__(self, sim, folder):
+    def __init__(self, sim, folder, t_end: float):
         import signal
         import threading
-        self.sim, self.folder, self.signum = sim, folder, None
+        self.sim, self.folder, self.signum, self.t_end = sim, folder, None, t_end
         self.old = {}
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGTERM, signal.SIGINT):
                 self.old[sig] = signal.signal(sig, self._handle)
 
     def _handle(self, signum, frame):
-        if self.signum is not None:            # a second signal: stop now
-            raise KeyboardInterrupt
+        import signal
+        if self.signum is not None:            # a second signal: stop now, mid-step
+            raise RunInterrupted(f"stopped at once by a second {signal.Signals(signum).name}; "
+                                 "the last checkpoint (if any) is kept", signum)
         self.signum = signum
 
     def __call__(self, sim) -> None:
-        if self.signum is None:
-            return
+        if self.signum is None or sim.t >= self.t_end - 1e-12 * max(1.0, self.t_end):
+            return                             # the last step: the run simply finishes
         import signal
         name = signal.Signals(self.signum).name
         where = f"at t = {sim.t:.6g} s (step {sim.stats.steps})"

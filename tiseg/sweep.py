@@ -390,13 +390,11 @@ def execute_run(spec: dict) -> dict:
     ``spec``: ``name``, ``dir``, ``scene_toml`` (the resolved scene), ``fingerprint`` (for the
     record), ``arch``, ``threads`` (Taichi CPU threads; 0 = all cores), ``report`` (send progress events).
     Returns the completion record (also stored as ``done.json``) with ``status`` "done", or the
-    stored one with ``status`` "reused". Runs in a Dask worker or in the calling process.
+    stored one with ``status`` "reused", or ``status`` "busy" when another process holds the
+    member's folder (its lock is held from the check of the marker to the writing of a new
+    one). Runs in a Dask worker or in the calling process.
     """
-    from . import backend
-    from .analysis.fingers import analyse_run
-    from .output import write_json_atomic
     from .scene import scene_from_text
-    from .simulation import Simulation
 
     run_dir = Path(spec["dir"])
     scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
@@ -404,9 +402,27 @@ def execute_run(spec: dict) -> dict:
     if rec is not None:                     # checked again here: the worker's view counts
         return {**rec, "status": "reused"}
     from .paths import RunLock
-    holder = RunLock(run_dir).busy() if run_dir.is_dir() else None
-    if holder is not None:                  # another worker (or an orphaned task) runs it now
-        return {"name": spec["name"], "status": "busy", "holder": holder}
+    run_dir.mkdir(parents=True, exist_ok=True)
+    lock = RunLock(run_dir)
+    try:                                    # held from here to the marker: one writer only
+        lock.acquire()
+    except InputError:                      # another worker (or an orphaned task) runs it now
+        return {"name": spec["name"], "status": "busy", "holder": lock.holder()}
+    try:
+        return _execute_locked(spec, run_dir, scene)
+    finally:
+        lock.release()
+
+
+def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
+    """:func:`execute_run` once the member's folder is locked."""
+    from . import backend
+    from .analysis.fingers import analyse_run
+    from .output import write_json_atomic
+    from .simulation import Simulation
+    rec = read_marker(run_dir, scene)
+    if rec is not None:                     # finished meanwhile by the holder we waited on
+        return {**rec, "status": "reused"}
     (run_dir / DONE_MARKER).unlink(missing_ok=True)   # a stale marker of another scene
     t0 = _time.perf_counter()
     # A fresh Taichi runtime per task: frees the fields of the worker's previous run.

@@ -41,6 +41,8 @@ def rows(folder: Path) -> list[str]:
             continue
         with open(path, newline="", encoding="utf-8") as fh:
             for r in csv.DictReader(fh):
+                if not r.get("wall_s_mean"):          # a point with no finished run yet
+                    continue
                 cells = [label, show(float(r[key])), _count(r, "finger_count"),
                          _pm(r, "wavelength", ".3g", 100, ".2f"), _pm(r, "wavelength_spectral", ".2f", 100),
                          _pm(r, "elongation@2.5", ".3f"), _pm(r, "elongation@5", ".3f"),

@@ -77,4 +77,8 @@ def run(args) -> int:
     if args.json:
         from .common import print_json
         print_json(result.as_dict())
-    return 1 if result.count("failed") else 0
+    if result.count("busy"):
+        from ..log import note
+        note(f"{result.count('busy')} run(s) were skipped because another process runs them; "
+             "the sweep is not complete: run it again later")
+    return 1 if result.count("failed") or result.count("busy") else 0

@@ -43,7 +43,12 @@ def foreign_files(folder: Path, also=()) -> list[str]:
     """Entries of ``folder`` that are not a tiseg run's (``also``: more allowed names)."""
     known = set(RUN_FILES) | set(also)
     out = []
-    for p in sorted(Path(folder).iterdir()):
+    try:
+        entries = sorted(Path(folder).iterdir())
+    except OSError as exc:
+        raise InputError(f"cannot read output folder {str(folder)!r}: "
+                         f"{exc.strerror or exc}") from None
+    for p in entries:
         n = p.name
         if n in known or (n.startswith("fields.damaged-") and n.endswith(".nc")) or (
                 n.startswith(".") and n.endswith(".tmp")):
@@ -69,8 +74,17 @@ def check_fresh_folder(folder, overwrite: bool = False, also=()) -> None:
                          f"({_ckpt.CHECKPOINT_NAME}); continue it with `tiseg run --resume "
                          f"{folder}`, or pass --overwrite to start over there")
     if (folder / "fields.nc").exists():
-        raise InputError(f"output folder {str(folder)!r} holds a finished run; choose another "
+        raise InputError(f"output folder {str(folder)!r} holds an earlier run; choose another "
                          "folder, or pass --overwrite (overwrite=True) to replace it")
+
+
+def clear_earlier_run(folder: Path) -> None:
+    """A fresh run replaces an earlier one whole: its checkpoint, completion marker, finger
+    diagnostics and failure states go (a later --resume must never find them)."""
+    import shutil
+    for name in (_ckpt.CHECKPOINT_NAME, "done.json", "fingers.json"):
+        (Path(folder) / name).unlink(missing_ok=True)
+    shutil.rmtree(Path(folder) / "failure", ignore_errors=True)
 
 
 def remove_stale_temporaries(folder: Path) -> None:
@@ -107,6 +121,7 @@ class RunFolder:
             if resume is None:
                 check_fresh_folder(out, overwrite)
                 disk_note(out, sc, sim.backend.precision, len(sc.output_times))
+                clear_earlier_run(out)
             else:
                 remove_stale_temporaries(out)
             self._open(resume)
@@ -148,7 +163,8 @@ class RunFolder:
             when.append(WallTimeInterval(checkpoint_wall))
         return [Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
                 Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
-                Callback(self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100)]
+                Callback(self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100,
+                         checked=True)]
 
     def write_fields(self, snap) -> None:
         with self._writing(self.fields.path):
@@ -202,6 +218,14 @@ class RunFolder:
                     "no checkpoint was written yet: make room and run again")
             raise OutputError(f"cannot write {str(path)!r} at t={self.sim.t:.6g} s: {reason}; "
                               f"{hint}") from None
+
+    def resume_info(self) -> dict:
+        """What :meth:`Simulation.run` needs to append to these files later (the last
+        checkpoint is the current state: a run ends on a step that wrote one)."""
+        self.counts()
+        snaps, rows = self.sim._io_counts
+        return {"dir": self.path.resolve(), "snapshots": snaps, "diag_rows": rows,
+                "wall": self.sim.stats.wall}
 
     def counts(self) -> None:
         """Tell the simulation how much is written (the checkpoint records it)."""

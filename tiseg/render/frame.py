@@ -459,6 +459,7 @@ class FrameRenderer:
             self.vrange = C.default_range(field, scene=self.sim.scene) or (0.0, 0.0)
 
     def _update_params(self) -> None:
+        self.h_min = float(self.sim.scene.numerics.h_min)     # set_parameters may change it
         self.painter.set_params(h_min=self.h_min, field=self.field, vrange=self.vrange,
                                 shade=self.shade, relief=self.relief, dx=self.dx, dy=self.dy,
                                 phi_const=float(self.sim.scene.flow.phi0))
