@@ -273,3 +273,56 @@ def test_diagnostics_state_their_units(ti_cpu, tmp_path):
     d = read_diagnostics(tmp_path / "diagnostics.csv")
     assert np.all(np.diff(d["wall_time_cumulative"]) >= 0)
     np.testing.assert_array_equal(d["wall_time"], d["wall_time_cumulative"])   # the old name
+
+
+# ------------------------------------------------------------------ review cases
+def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
+    """With checks only at snapshots (check_every=0) and a checkpoint after every step, a NaN
+    made mid-run stops the run before the checkpoint could save it."""
+    from tiseg import checkpoint
+    from tiseg.physics.pointwise import Params
+    from tiseg.simulation import SimulationError
+    sim = Simulation(small(**{"output.interval": None}), check_every=0)
+
+    def poison(s):
+        if s.stats.steps == 12:
+            s.op.par[Params.G_SIN] = float("nan")
+    sim.add_callback(poison, IterationInterval(1))
+    with pytest.raises(SimulationError):
+        sim.run(out_dir=tmp_path, progress=False, checkpoint_wall=0.0)
+    ck = checkpoint.load(tmp_path / checkpoint.CHECKPOINT_NAME)
+    checkpoint.validate(ck, sim.scene)                 # finite: the last good step
+    assert ck["steps"] == 12
+
+
+def test_bad_callbacks_are_refused_before_the_folder_is_touched(ti_cpu, tmp_path):
+    sim = Simulation(small())
+    with pytest.raises(InputError, match="not a tiseg.callbacks.Callback"):
+        sim.run(out_dir=tmp_path / "r", progress=False, callbacks=[print])
+    assert not (tmp_path / "r").exists()
+    sim.run(out_dir=tmp_path / "r", progress=False, t_end=0.1)       # nothing left locked
+
+
+def test_a_later_run_into_the_same_folder_continues_it(ti_cpu, tmp_path):
+    whole = Simulation(small())
+    whole.run(out_dir=tmp_path / "w", progress=False)
+    sim = Simulation(small())
+    sim.run(out_dir=tmp_path / "p", progress=False, t_end=0.3)
+    sim.run(out_dir=tmp_path / "p", progress=False)
+    with netCDF4.Dataset(tmp_path / "w" / "fields.nc") as a, \
+            netCDF4.Dataset(tmp_path / "p" / "fields.nc") as b:
+        np.testing.assert_array_equal(a["time"][:], b["time"][:])
+    assert not (tmp_path / "p" / "checkpoint.npz").exists()
+
+
+def test_step_to_a_time_already_reached_is_an_input_error(ti_cpu):
+    sim = Simulation(small())
+    sim.step()
+    with pytest.raises(InputError, match="already at"):
+        sim.step(t_stop=sim.t)
+
+
+def test_set_parameters_reaches_the_guard(ti_cpu):
+    sim = Simulation(small())
+    sim.set_parameters({"numerics.h_min": 5e-5})
+    assert sim.guard.par.to_numpy()[2] == 5e-5 and sim.op.cfg.h_min == 5e-5
