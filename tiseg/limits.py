@@ -7,6 +7,7 @@ refuses with the numbers when it does not fit, before Taichi tries to allocate i
 """
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -35,13 +36,12 @@ def memory_available() -> int | None:
     except (OSError, ValueError, IndexError):
         pass
     try:
-        import os
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (AttributeError, OSError, ValueError):
         return None
 
 
-def check_memory(scene, layout, nslots: int, precision: str) -> None:
+def check_memory(layout, nslots: int, precision: str) -> None:
     """InputError when the grid's fields cannot fit in the available memory."""
     need = memory_needed(layout, nslots, precision)
     have = memory_available()

@@ -27,6 +27,12 @@ def note(message: str) -> None:
     logger.warning("note: %s", message)
 
 
+def stderr_line(text: str) -> None:
+    """One line on stderr, flushed, without the logger (where nothing configured it)."""
+    sys.stderr.write(text + "\n")
+    sys.stderr.flush()
+
+
 def info(message: str) -> None:
     """A progress line (shown by the command line unless -q)."""
     logger.info("%s", message)

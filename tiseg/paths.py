@@ -20,7 +20,7 @@ from pathlib import Path
 from .errors import InputError
 
 SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]{0,127}")
-_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")
+UNSAFE_CHARS = re.compile(r"[^A-Za-z0-9._+-]+")
 LOCK_NAME = ".tiseg.lock"
 _LOCKS: dict = {}               # lock file -> FileLock, one per process
 HOLDER_NAME = ".tiseg.lock.json"
@@ -37,7 +37,7 @@ def check_name(name: str, key: str = "name") -> str:
 
 def safe_name(text: str, fallback: str = "scene") -> str:
     """``text`` made safe as a folder name (unsafe characters become '_')."""
-    s = _UNSAFE.sub("_", text).lstrip("._+-")[:128]
+    s = UNSAFE_CHARS.sub("_", text).lstrip("._+-")[:128]
     return s if s and SAFE_NAME.fullmatch(s) else fallback
 
 

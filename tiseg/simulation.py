@@ -97,9 +97,6 @@ class StepPlan:
     dt_cfl: float = math.inf      # the convective limit it was planned from
     lands: bool = False           # it ends exactly on the stop time
 
-    def __iter__(self):          # dt, stages, stability = sim.plan_step(...) (older callers)
-        return iter((self.dt, self.stages, self.stability))
-
 
 class SimulationError(TisegError):
     """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
@@ -154,7 +151,7 @@ class Simulation:
         nstep = max(self.stepper.slots, 2)
         self.PREV, self.SNAP = nstep, nstep + 1
         if self.backend.arch == "cpu":            # before Taichi tries the allocation
-            check_memory(scene, self.layout, nstep + 2, self.backend.precision)
+            check_memory(self.layout, nstep + 2, self.backend.precision)
         self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
@@ -420,10 +417,6 @@ class Simulation:
             self._set_active(extent, s)          # wet cells spread at most one cell per stage
         self._last_stages = s
         return StepPlan(dt, s, stab, t_next, dt_cfl, t_next == stop)
-
-    def plan_step(self, t_target: float | None = None):
-        """(dt, stages, stability) of :meth:`plan` (the older name)."""
-        return tuple(self.plan(t_target))
 
     def _inflow_speed(self) -> float:
         """Wave speed of the full (un-ramped) inflow state: an empty chute being filled must

@@ -72,7 +72,6 @@ import json
 import logging
 import math
 import os
-import re
 import socket
 import time as _time
 import tomllib
@@ -84,7 +83,9 @@ from typing import Any, Callable, Mapping
 import tomli_w
 
 from .errors import InputError, TisegError
-from .paths import check_name, safe_name
+from .backend import available_cores
+from .log import stderr_line
+from .paths import UNSAFE_CHARS, check_name, safe_name
 from .scene import Scene, list_builtin_scenes, load_scene
 
 SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid")
@@ -268,7 +269,6 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
                  fixed=fixed, grid=grid, times=times, runs=tuple(runs))
 
 
-_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")
 
 
 def _resolve_scene_ref(ref: str, base_dir) -> str:
@@ -322,7 +322,7 @@ def _format_value(v) -> str:
     if isinstance(v, float):
         return format(v, ".12g")
     if isinstance(v, str):
-        return _UNSAFE.sub("_", v).strip("_") or "_"
+        return UNSAFE_CHARS.sub("_", v).strip("_") or "_"
     if isinstance(v, list):
         return "+".join(_format_value(x) for x in v) or "empty"
     return hashlib.sha256(_canonical(v).encode()).hexdigest()[:8]
@@ -340,7 +340,7 @@ def _run_names(combos: list[dict]) -> list[str]:
     keys = list(combos[0])
     last = [k.rsplit(".", 1)[-1] for k in keys]
     labels = {k: (s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
-    names = ["_".join(f"{_UNSAFE.sub('_', labels[k])}-{_format_value(v)}" for k, v in c.items())
+    names = ["_".join(f"{UNSAFE_CHARS.sub('_', labels[k])}-{_format_value(v)}" for k, v in c.items())
              for c in combos]
     out = []
     for name, c in zip(names, combos):
@@ -488,14 +488,9 @@ def _worker_threads() -> int:
         from distributed import get_worker
         w = get_worker()
         n = getattr(getattr(w, "state", None), "nthreads", None) or getattr(w, "nthreads", 0)
-        return max(0, min(int(n), _available_cores()))
+        return max(0, min(int(n), available_cores()))
     except (ImportError, ValueError):
         return 0
-
-
-def _available_cores() -> int:
-    from .backend import available_cores
-    return available_cores()
 
 
 def _reporter(name: str, t_end: float) -> Callable | None:
@@ -540,15 +535,9 @@ class SweepResult:
         return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
 
 
-def _stderr_line(text: str) -> None:
-    import sys
-    sys.stderr.write(text + "\n")
-    sys.stderr.flush()
-
-
 def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int | None = None,
               threads_per_task: int | None = None, arch: str = "cpu",
-              echo: Callable[[str], None] | None = _stderr_line,
+              echo: Callable[[str], None] | None = stderr_line,
               progress_interval: float = 30.0) -> SweepResult:
     """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
 
@@ -610,7 +599,7 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
     except ImportError:
         raise TisegError("sweeps need Dask: pip install 'tiseg[sweep]' "
                          "(dask[distributed])") from None
-    cores = os.cpu_count() or 1
+    cores = available_cores()
     cluster = None
     if scheduler:
         try:

@@ -85,12 +85,11 @@ def available_backends() -> list[str]:
 def log_stderr(message: str) -> None:
     """Progress lines of the benchmarks: the ``tiseg`` logger (stderr, not with -q); stdout
     carries results and JSON. Without logging configured (a benchmark child) plain stderr."""
-    from ..log import info, logger
+    from ..log import info, logger, stderr_line
     if logger.handlers:
         info(message)
     else:
-        sys.stderr.write(message + "\n")
-        sys.stderr.flush()
+        stderr_line(message)
 
 
 def child_env(**extra) -> dict:

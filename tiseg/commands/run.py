@@ -14,8 +14,6 @@ from pathlib import Path
 from .common import (add_scene_arguments, check_output_folder, check_threads, load_scene_args,
                      print_json)
 
-load = load_scene_args          # the older name
-
 
 def register(sub) -> None:
     p = sub.add_parser("run", help="run a scene; writes scene.toml, fields.nc, diagnostics.csv",

@@ -222,10 +222,8 @@ class RunFolder:
     def resume_info(self) -> dict:
         """What :meth:`Simulation.run` needs to append to these files later (the last
         checkpoint is the current state: a run ends on a step that wrote one)."""
-        self.counts()
-        snaps, rows = self.sim._io_counts
-        return {"dir": self.path.resolve(), "snapshots": snaps, "diag_rows": rows,
-                "wall": self.sim.stats.wall}
+        return {"dir": self.path.resolve(), "snapshots": self.fields.count,
+                "diag_rows": self.diag.rows, "wall": self.sim.stats.wall}
 
     def counts(self) -> None:
         """Tell the simulation how much is written (the checkpoint records it)."""
