@@ -302,3 +302,36 @@ def test_a_sweep_retries_a_transient_failure_once(tmp_path, monkeypatch):
     status = {r["name"]: r["status"] for r in res.records}
     assert status == {"nu-0.01": "done", "nu-0.02": "failed"}, status
     assert {p.name: int(p.read_text()) for p in tally.iterdir()} == {"nu-0.01": 2, "nu-0.02": 2}
+
+
+def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch):
+    """Ctrl-C in the client (here: raised by its progress output after the first run) cancels
+    the tasks still queued (the sweep cancels its futures, and closes its client): of three
+    runs on one worker slot, the third never starts."""
+    import time
+
+    import distributed
+
+    from tiseg import sweep as S
+    started = tmp_path / "started"
+    started.mkdir()
+
+    def slow(spec):                  # (Dask runs a copy of this: report in files)
+        (started / spec["name"]).write_text("")
+        time.sleep(1.0)
+        return {"name": spec["name"], "status": "done", "steps": 1, "wall_s": 0.0,
+                "metrics": {"time": [0.5], "finger_count": [0], "wavelength": [None],
+                            "elongation": [None]}}
+
+    def echo(line):
+        if line.startswith("[1/3]"):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(S, "execute_run", slow)
+    sw = S.load_sweep("assets/sweeps/tiny.toml", grid_overrides={"flow.nu": [0.01, 0.02, 0.03]})
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster:
+        with pytest.raises(KeyboardInterrupt):
+            S.run_sweep(sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=echo)
+        time.sleep(3.0)              # long enough for a third run to have started
+    assert len(list(started.iterdir())) <= 2
