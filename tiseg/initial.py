@@ -5,7 +5,8 @@
   linear mode of (5.20)-(5.21) (or its 2D analogue, appendix B), a single field, or noise; the
   perturbation is set as exact cell averages (the sinc factor of a cell average of e^{ikx});
 * dam break (h_left | h_right, at rest), e.g. the Ritter problem;
-* release of a finite block of material at rest.
+* release of a finite block of material at rest;
+* a straight channel between levees, at rest (the sharp-contact verification case).
 """
 from __future__ import annotations
 
@@ -38,6 +39,15 @@ def eigenmode(scene) -> tuple[complex, np.ndarray]:
     if abs(v[0]) == 0:
         raise InputError("the most unstable mode has no thickness component; use initial.mode='phi'")
     return complex(lam[i]), v / v[0]
+
+
+def channel_fraction(y, dy: float, Ly: float, width: float) -> np.ndarray:
+    """Fraction of each cell [y - dy/2, y + dy/2] inside the channel |y - Ly/2| <= width/2:
+    1 inside, 0 outside, the covered fraction in a cell the contact cuts (exact cell
+    averages)."""
+    lo = np.maximum(y - 0.5 * dy, 0.5 * (Ly - width))
+    hi = np.minimum(y + 0.5 * dy, 0.5 * (Ly + width))
+    return np.clip((hi - lo) / dy, 0.0, 1.0)
 
 
 def initial_state(scene, lay: Layout) -> np.ndarray:
@@ -87,6 +97,10 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
             inside &= (Y >= ini.y0) & (Y <= ini.y1)
         h[:] = np.where(inside, ini.h, 0.0)
         phi[:] = ini.phi if ini.phi is not None else fl.phi0
+    elif ini.kind == "channel":
+        h[:] = ini.h
+        phi[:] = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * channel_fraction(
+            Y, scene.dy, scene.domain.Ly, ini.width)
     else:  # pragma: no cover - the scene validator allows only the kinds above
         raise InputError(f"initial.kind={ini.kind!r} is not known")
     phi = np.clip(phi, 0.0, 1.0)

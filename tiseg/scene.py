@@ -37,7 +37,7 @@ import tomli_w
 from .errors import InputError
 from .paths import check_name, safe_name
 from .material import Material, Species
-from .numerics.config import inflow_concentration, noise_modes
+from .numerics.config import FLUXES, PHI_FLUXES, inflow_concentration, noise_modes
 from .steady import steady_state
 
 # The repository root is the parent of the package folder: this is the same path as
@@ -53,7 +53,7 @@ RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
 STEPPERS = ("rkc", "ssprk3", "ssprk2", "euler")
 PRECISIONS = ("f64", "f32")
 BOUNDARY_KINDS = ("inflow", "outflow", "periodic", "wall")
-INITIAL_KINDS = ("empty", "uniform", "dam-break", "release")
+INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel")
 PERTURBATION_MODES = ("eigen", "h", "phi", "noise")
 
 # Keys each initial kind accepts; a key of another kind is an error (it would otherwise be unused).
@@ -62,6 +62,7 @@ INITIAL_KEYS = {
     "uniform": ("kind", "amplitude", "k", "ky", "mode", "seed", "wavelengths"),
     "dam-break": ("kind", "x0", "h_left", "h_right", "phi"),
     "release": ("kind", "x0", "x1", "y0", "y1", "h", "phi"),
+    "channel": ("kind", "width", "phi_channel", "phi_levee", "h"),
 }
 
 SECTION_KEYS = {
@@ -73,8 +74,8 @@ SECTION_KEYS = {
     "inflow": ("h", "u", "phi", "ramp_rate", "perturbation", "modes", "stop_time", "noise",
                "seed"),
     "initial": tuple(dict.fromkeys(k for keys in INITIAL_KEYS.values() for k in keys)),
-    "numerics": ("reconstruction", "theta", "stepper", "cfl", "precision", "h_min", "h_eps",
-                 "u_eps", "max_stages"),
+    "numerics": ("reconstruction", "theta", "flux", "phi_flux", "stepper", "cfl", "precision",
+                 "h_min", "h_eps", "u_eps", "max_stages"),
     "time": ("t_end",),
     "output": ("interval", "times", "checkpoint_interval"),
 }
@@ -221,6 +222,9 @@ class InitialConfig:
       ``wavelengths`` = Lx k_SI / (2 pi), the number of downslope wavelengths in the domain.
     * dam-break: h = h_left for x < x0, h_right beyond, at rest, concentration ``phi``.
     * release: a block [x0, x1] x [y0, y1] of thickness h and concentration phi, at rest.
+    * channel: a layer of thickness h at rest, with one straight downslope channel of
+      concentration ``phi_channel`` and ``width`` centred at y = Ly/2 between levees of
+      ``phi_levee`` (the verification case of sharp contacts, :mod:`tiseg.steady_channel`).
     """
     kind: str = "empty"
     amplitude: float | None = None
@@ -237,12 +241,19 @@ class InitialConfig:
     h_right: float | None = None
     h: float | None = None
     phi: float | None = None
+    width: float | None = None
+    phi_channel: float | None = None
+    phi_levee: float | None = None
 
 
 @dataclass(frozen=True)
 class NumericsConfig:
     reconstruction: str = "weno"      # "weno" (Noelle 2000, as in section 6.2), "minmod", "first-order"
     theta: float = 1.5                # generalised minmod parameter, in [1, 2]
+    flux: str = "kt"                  # "kt" (Kurganov-Tadmor 2000, as in section 6.2) or
+                                      # "central-upwind" (Kurganov, Noelle & Petrova 2001)
+    phi_flux: str = "central"         # h phi flux: the flux scheme's own ("central"), or the mass
+                                      # flux times the upwind phi - G(phi) ("upwind")
     stepper: str = "rkc"              # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
     cfl: float = 0.25                 # Courant number of the hyperbolic part, in (0, 1]
     precision: str = "f64"
@@ -543,7 +554,8 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
     ini = scene.initial
     d["initial"] = {k: getattr(ini, k) for k in INITIAL_KEYS[ini.kind]
                     if getattr(ini, k) is not None}
-    d["numerics"] = {"reconstruction": n.reconstruction, "theta": n.theta, "stepper": n.stepper,
+    d["numerics"] = {"reconstruction": n.reconstruction, "theta": n.theta, "flux": n.flux,
+                     "phi_flux": n.phi_flux, "stepper": n.stepper,
                      "cfl": n.cfl, "precision": n.precision, "h_min": n.h_min, "h_eps": n.h_eps,
                      "u_eps": n.u_eps, "max_stages": n.max_stages}
     d["time"] = {"t_end": scene.time.t_end}
@@ -892,6 +904,17 @@ def _read_initial(t: "_Table", kind: str, wavelengths: float | None, domain: Dom
                  "h_left and h_right cannot both be 0 (nothing would move)")
         phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
         return InitialConfig(kind=kind, x0=x0, h_left=h_left, h_right=h_right, phi=phi)
+    if kind == "channel":
+        _require(not domain.is_1d, "initial.kind", kind,
+                 "a channel lies across the slope: it needs a 2D domain (domain.ny > 1)")
+        width = t.number("width", positive=True)
+        _require(width < domain.Ly, "initial.width", width,
+                 f"must be narrower than the chute, Ly={domain.Ly!r}")
+        phi_channel = t.number("phi_channel", 1.0, lo=0.0, hi=1.0)
+        phi_levee = t.number("phi_levee", 0.0, lo=0.0, hi=1.0)
+        h = t.number("h", flow.h0, positive=True)
+        return InitialConfig(kind=kind, width=width, phi_channel=phi_channel,
+                             phi_levee=phi_levee, h=h)
     # release: a block of material at rest
     x0 = t.number("x0", lo=0.0)
     x1 = t.number("x1")
@@ -911,6 +934,8 @@ def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
         reconstruction=t.choice("reconstruction", RECONSTRUCTIONS, "weno",
                                 aliases=RECONSTRUCTION_ALIASES),
         theta=t.number("theta", 1.5, lo=1.0, hi=2.0),
+        flux=t.choice("flux", FLUXES, "kt"),
+        phi_flux=t.choice("phi_flux", PHI_FLUXES, "central"),
         stepper=t.choice("stepper", STEPPERS, "rkc"),
         cfl=t.number("cfl", 0.25, positive=True, hi=1.0),
         precision=t.choice("precision", PRECISIONS, "f64"),

@@ -62,7 +62,8 @@ GUARD_ORDER = -100      # the guard callback runs before everything else after a
 COMPILED = {"layout": "the grid or the segregation switch", "dx": "the grid", "dy": "the grid",
             "Ly": "the domain", "viscous": "effects.viscosity", "feedback":
             "effects.mobility_feedback", "friction": "effects.friction",
-            "reconstruction": "numerics.reconstruction", "bc": "the boundaries"}
+            "reconstruction": "numerics.reconstruction", "flux": "numerics.flux",
+            "phi_flux": "numerics.phi_flux", "bc": "the boundaries"}
 
 
 def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, float]:

@@ -2,7 +2,8 @@
 
 :class:`OperatorConfig` is shared by the Taichi operator (:mod:`tiseg.numerics.operator`) and the
 NumPy reference (:mod:`tiseg.reference.operator`) so both see exactly the same problem. Switches
-(``segregation``, ``viscous``, ``feedback``, ``friction``, ``reconstruction``, 1D/2D, boundaries)
+(``segregation``, ``viscous``, ``feedback``, ``friction``, ``reconstruction``, ``flux``,
+``phi_flux``, 1D/2D, boundaries)
 are compile-time choices of the Taichi kernels; numbers (slope, nu, inflow state, ...) are
 run-time parameters.
 
@@ -19,6 +20,8 @@ import numpy as np
 
 FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
+FLUXES = ("kt", "central-upwind")      # numerics.flux: face flux of the whole system
+PHI_FLUXES = ("central", "upwind")     # numerics.phi_flux: the h phi component of that flux
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
 GHOST = 2
 NOISE_MIN_WAVELENGTH = 0.02   # [m] shortest cross-slope wavelength of the inflow noise
@@ -152,6 +155,8 @@ class OperatorConfig:
     # numerics
     reconstruction: str = "minmod"
     theta: float = 1.5
+    flux: str = "kt"
+    phi_flux: str = "central"
     weno_eps: float = 1e-6
     h_ref: float = 2e-3               # scales making the WENO smoothness indicators dimensionless
     u_ref: float = 0.2
@@ -174,6 +179,8 @@ class OperatorConfig:
     def __post_init__(self):
         assert self.friction in FRICTION_LAWS, self.friction
         assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
+        assert self.flux in FLUXES, self.flux
+        assert self.phi_flux in PHI_FLUXES, self.phi_flux
         for b in self.bc:
             assert b in BOUNDARIES, b
 
@@ -228,5 +235,6 @@ def config_from_scene(scene) -> OperatorConfig:
         viscous=bool(scene.viscous), feedback=bool(scene.feedback), friction=scene.effects.friction,
         g=m.g, zeta=m.zeta, alpha=m.alpha, nu=scene.flow.nu if scene.viscous else 0.0,
         phi_ref=scene.flow.phi0, fric=fric, reconstruction=num.reconstruction, theta=num.theta,
+        flux=num.flux, phi_flux=num.phi_flux,
         h_ref=scene.flow.h0, u_ref=u_ref, h_min=num.h_min, h_eps=num.h_eps, u_eps=num.u_eps,
         bc=scene.boundary.as_tuple(), **kw)

@@ -94,6 +94,28 @@ class Physics:
         return a
 
     @ti.func
+    def speed_range(self, w, d: ti.template()):
+        """Smallest and largest characteristic speed along d, (u - c, u + c) widened to take in
+        the segregation speed u (1 - G'(phi)) (5.26): the one-sided local speeds of the
+        central-upwind flux."""
+        vn = self.vel(w, d)
+        c = ti.sqrt(self.par[Params.G_COS] * w[0])
+        lo = vn - c
+        hi = vn + c
+        if ti.static(self.seg):
+            s = vn * (1.0 - self.dG(w[self.HPHI]))
+            lo = ti.min(lo, s)
+            hi = ti.max(hi, s)
+        return ti.Vector([lo, hi])
+
+    @ti.func
+    def transported(self, phi):
+        """phi - G(phi): the large-particle flux per unit mass flux, h u (phi - G) / (h u).
+        Increasing in phi (its derivative 1 - (1 - alpha)(1 - 2 phi) >= alpha > 0), so
+        upwinding phi by the sign of the mass flux is upwinding this flux."""
+        return phi - self.G(phi)
+
+    @ti.func
     def pouliquen(self, h, fr, mu1, mu2, beta, L):
         """(3.7) in division-free form: mu1 + (mu2 - mu1) L Fr / (beta h + L Fr)."""
         x = L * fr

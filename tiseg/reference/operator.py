@@ -8,10 +8,19 @@ The discretisation (identical in :mod:`tiseg.numerics.operator`):
 3. Slopes of w per direction: zero (first order), minmod-theta, or a WENO-type weighted slope
    (smoothness indicators made dimensionless with h_ref, u_ref); then limited so that the
    edge values keep h >= 0 and 0 <= phi <= 1.
-4. Kurganov-Tadmor (2000) central flux at each face,
-   H = (f(q_L) + f(q_R))/2 - a/2 (q_R - q_L), with the local speed
-   a = max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) over both edge states (segregation wave
-   speed (5.26) included); zero where both neighbouring cells are thinner than h_min.
+4. A central flux at each face (``numerics.flux``), zero where both neighbouring cells are
+   thinner than h_min:
+
+   * ``kt``, Kurganov-Tadmor (2000): H = (f(q_L) + f(q_R))/2 - a/2 (q_R - q_L), with the local
+     speed a = max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) over both edge states
+     (segregation wave speed (5.26) included);
+   * ``central-upwind``, Kurganov, Noelle & Petrova (2001):
+     H = (a+ f(q_L) - a- f(q_R))/(a+ - a-) + a+ a- / (a+ - a-) (q_R - q_L), with
+     a+ = max(u + c, u (1 - G'), 0) and a- = min(u - c, u (1 - G'), 0) over both edge states
+     (H = (f_L + f_R)/2 if a+ = a- = 0).
+
+   With ``numerics.phi_flux = "upwind"`` the h phi component becomes F_h (phi - G(phi)), F_h the
+   mass component of H and phi that of the edge state upwind of F_h (Larrouturou 1991).
 5. Viscous stress div(nu h^{3/2} D) (6.2), (6.6): face coefficient K = harmonic mean of
    nu h^{3/2} of the two cells (zero if either is thinner than h_min), central differences with
    the cross derivatives averaged over four cells.
@@ -164,6 +173,17 @@ class ReferenceOperator:
             a = np.maximum(a, np.abs(vel * (1.0 - self.dG(w[lay.HPHI]))))
         return a
 
+    def speed_range(self, w: np.ndarray, direction: int):
+        """(smallest, largest) characteristic speed: u -+ c widened by u (1 - G'(phi))."""
+        lay, c = self.lay, self.cfg
+        vel = w[1] if direction == 0 else w[lay.HV]
+        cc = np.sqrt(c.g_cos * w[0])
+        lo, hi = vel - cc, vel + cc
+        if lay.segregation:
+            s = vel * (1.0 - self.dG(w[lay.HPHI]))
+            lo, hi = np.minimum(lo, s), np.maximum(hi, s)
+        return lo, hi
+
     def conserved(self, w: np.ndarray) -> np.ndarray:
         q = w.copy()
         q[1:] = w[1:] * w[0]
@@ -213,7 +233,7 @@ class ReferenceOperator:
 
     # ------------------------------------------------------------------ the operator
     def face_fluxes(self, w: np.ndarray, axis: int) -> np.ndarray:
-        """KT numerical flux at faces between cells m and m+1 along axis; shape like w with the
+        """Numerical flux (step 4) at faces between cells m and m+1 along axis; shape like w with the
         face m+1/2 stored at index m (last index unused)."""
         c = self.cfg
         direction = axis - 1
@@ -228,8 +248,23 @@ class ReferenceOperator:
         wl = (w + 0.5 * s)[sl(0, n - 1)]     # east/north edge of cell m
         wr = (w - 0.5 * s)[sl(1, n)]         # west/south edge of cell m+1
         ql, qr = self.conserved(wl), self.conserved(wr)
-        a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
-        H = 0.5 * (self.flux(wl, direction) + self.flux(wr, direction)) - 0.5 * a * (qr - ql)
+        fl, fr = self.flux(wl, direction), self.flux(wr, direction)
+        if c.flux == "central-upwind":
+            lo_l, hi_l = self.speed_range(wl, direction)
+            lo_r, hi_r = self.speed_range(wr, direction)
+            ap = np.maximum(np.maximum(hi_l, hi_r), 0.0)
+            am = np.minimum(np.minimum(lo_l, lo_r), 0.0)
+            den = ap - am
+            safe = np.where(den > 0, den, 1.0)
+            H = np.where(den > 0, (ap * fl - am * fr) / safe + ap * am / safe * (qr - ql),
+                         0.5 * (fl + fr))
+        else:
+            a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
+            H = 0.5 * (fl + fr) - 0.5 * a * (qr - ql)
+        lay = self.lay
+        if lay.segregation and c.phi_flux == "upwind":
+            p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
+            H[lay.HPHI] = H[lay.H] * (p - self.G(p))
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
