@@ -12,6 +12,14 @@ from tiseg.simulation import Simulation
 
 from solver_helpers import PERIODIC
 
+# numerics.flux x numerics.phi_flux: every option must keep the properties tested here
+FLUX_OPTIONS = [("kt", "central"), ("kt", "upwind"), ("central-upwind", "central"),
+                ("central-upwind", "upwind")]
+FLUX_IDS = [f"{a}+{b}" for a, b in FLUX_OPTIONS]
+
+
+def flux_overrides(opt) -> dict:
+    return {"numerics.flux": opt[0], "numerics.phi_flux": opt[1]}
 
 
 def uniform_scene(nx=16, ny=8, nu=0.001, amplitude=0.0, mode="h", k=0.2399, stepper="rkc",
@@ -34,9 +42,11 @@ def uniform_scene(nx=16, ny=8, nu=0.001, amplitude=0.0, mode="h", k=0.2399, step
 
 
 # ------------------------------------------------------------------------------------------ T1
+@pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
 @pytest.mark.parametrize("rec", ["minmod", "weno"])
-def test_uniform_flow_stays_uniform_to_round_off(ti_cpu, rec):
-    sim = Simulation(uniform_scene(rec=rec, t_end=0.2))
+def test_uniform_flow_stays_uniform_to_round_off(ti_cpu, rec, opt):
+    sim = Simulation(uniform_scene(rec=rec, t_end=0.2, numerics__flux=opt[0],
+                                   numerics__phi_flux=opt[1]))
     q0 = sim.conserved().copy()
     sim.advance(0.2)
     assert sim.stats.steps > 50
@@ -47,8 +57,10 @@ def test_uniform_flow_stays_uniform_to_round_off(ti_cpu, rec):
             assert np.abs(q[c] - q0[c]).max() / scale < 1e-12, c
 
 
-def test_lake_at_rest_on_flat_bed(ti_cpu):
-    scene = load_scene("dam-break", {"initial.h_right": 0.002, "time.t_end": 0.05})
+@pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
+def test_lake_at_rest_on_flat_bed(ti_cpu, opt):
+    scene = load_scene("dam-break", {"initial.h_right": 0.002, "time.t_end": 0.05,
+                                     "effects.segregation": True, **flux_overrides(opt)})
     sim = Simulation(scene)
     q0 = sim.conserved().copy()
     sim.advance(0.05)
@@ -56,11 +68,13 @@ def test_lake_at_rest_on_flat_bed(ti_cpu):
 
 
 # ------------------------------------------------------------------------------ conservation
-def test_mass_conserved_in_periodic_domain(ti_cpu):
+@pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
+def test_mass_conserved_in_periodic_domain(ti_cpu, opt):
     """Noisy phi in a 2D periodic box: total mass and small-particle mass change only by
     round-off while the flow evolves."""
     sim = Simulation(uniform_scene(nx=24, ny=12, nu=0.01, amplitude=0.3, mode="noise",
-                                   t_end=0.1, initial__seed=3))
+                                   t_end=0.1, initial__seed=3, numerics__flux=opt[0],
+                                   numerics__phi_flux=opt[1]))
     m0 = sim.totals()
     sim.advance(0.1)
     m1 = sim.totals()
@@ -69,11 +83,12 @@ def test_mass_conserved_in_periodic_domain(ti_cpu):
     assert abs(sim.budget()["mass_in"]) == 0.0
 
 
-def test_inflow_and_outflow_exactly_accounted(ti_cpu):
+@pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
+def test_inflow_and_outflow_exactly_accounted(ti_cpu, opt):
     """Fingers set-up (inflow at x = 0) and a dam break leaving through x = Lx: the change of
     mass equals the accumulated boundary fluxes of the scheme to round-off."""
     sc = load_scene("fingers", {"domain.resolution": 60, "time.t_end": 0.6, "output.times": [],
-                                "output.interval": 0.3})
+                                "output.interval": 0.3, **flux_overrides(opt)})
     sim = Simulation(sc)
     sim.advance(0.6)
     tot, bud = sim.totals(), sim.budget()
@@ -81,7 +96,8 @@ def test_inflow_and_outflow_exactly_accounted(ti_cpu):
     assert abs(tot["mass"] - bud["mass_in"]) / tot["mass"] < 1e-12
     assert abs(tot["small_mass"] - bud["small_mass_in"]) / tot["small_mass"] < 1e-12
     sc = load_scene("dam-break", {"initial.x0": 0.28, "domain.nx": 150, "time.t_end": 0.2,
-                                  "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9})
+                                  "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9,
+                                  **flux_overrides(opt)})
     sim = Simulation(sc)
     m0 = sim.totals()["mass"]
     sim.advance(0.2)
@@ -168,8 +184,12 @@ def _transport_exact(x, t, L, u0, phi_mean=0.5, amp=0.25):
     return out
 
 
-@pytest.mark.parametrize("rec", ["minmod", "weno"])
-def test_second_order_convergence_on_smooth_transport(ti_cpu, rec):
+@pytest.mark.parametrize("rec,opt", [("minmod", FLUX_OPTIONS[0]), ("weno", FLUX_OPTIONS[0])]
+                         + [("weno", o) for o in FLUX_OPTIONS[1:]]
+                         + [("minmod", FLUX_OPTIONS[3])],
+                         ids=["minmod", "weno"] + [f"weno-{i}" for i in FLUX_IDS[1:]]
+                         + [f"minmod-{FLUX_IDS[3]}"])
+def test_second_order_convergence_on_smooth_transport(ti_cpu, rec, opt):
     """T6b: with a friction that exactly balances gravity (mu = tan zeta) h and u stay uniform
     and phi solves the large-particle transport equation (6.3); smooth data, t = t_break / 2."""
     L, u0, h0 = 0.1, 0.2, 0.002
@@ -184,7 +204,8 @@ def test_second_order_convergence_on_smooth_transport(ti_cpu, rec):
              "boundary": dict(PERIODIC),
              "initial": {"kind": "uniform", "amplitude": 0.25, "mode": "phi",
                          "k": 2 * math.pi * h0 / L, "wavelengths": 1},
-             "numerics": {"reconstruction": rec, "stepper": "rkc"},
+             "numerics": {"reconstruction": rec, "stepper": "rkc", "flux": opt[0],
+                          "phi_flux": opt[1]},
              "time": {"t_end": t_end}}
         sc = scene_from_dict(d, name="t6b")
         sim = Simulation(sc)
@@ -200,11 +221,13 @@ def test_second_order_convergence_on_smooth_transport(ti_cpu, rec):
 
 
 # ---------------------------------------------------------------------------- bounds, fronts
-def test_small_fingers_run_forms_coarse_rich_front(ti_cpu, tmp_path):
+@pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
+def test_small_fingers_run_forms_coarse_rich_front(ti_cpu, tmp_path, opt):
     """The paper's set-up at 100 cells per metre for 2 s: finite, conserving, h >= 0,
     0 <= phi <= 1, and a coarse-rich front (phi at the front well below phi0)."""
     sc = load_scene("fingers", {"domain.resolution": 100, "time.t_end": 2.0,
-                                "output.times": [1.0], "output.interval": 0.5})
+                                "output.times": [1.0], "output.interval": 0.5,
+                                **flux_overrides(opt)})
     sim = Simulation(sc)
     sim.run(out_dir=tmp_path, progress=False)
     q = sim.conserved()

@@ -248,7 +248,8 @@ class InitialConfig:
 
 @dataclass(frozen=True)
 class NumericsConfig:
-    reconstruction: str = "weno"      # "weno" (Noelle 2000, as in section 6.2), "minmod", "first-order"
+    reconstruction: str = "weno"      # "weno" (a WENO-type slope; docs/numerics.md says how it
+                                      # differs from Noelle 2000's), "minmod", "first-order"
     theta: float = 1.5                # generalised minmod parameter, in [1, 2]
     flux: str = "kt"                  # "kt" (Kurganov-Tadmor 2000, as in section 6.2) or
                                       # "central-upwind" (Kurganov, Noelle & Petrova 2001)

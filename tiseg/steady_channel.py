@@ -61,7 +61,7 @@ class ChannelProfile:
         return (self.u(y) * wg[None, :]).sum(axis=1) * 0.5
 
 
-def channel_profile(scene, tol: float = 1e-8) -> ChannelProfile:
+def channel_profile(scene, tol: float = 1e-7) -> ChannelProfile:
     """The steady u(y) of a scene with ``initial.kind = "channel"`` (see the module docstring)."""
     from scipy.integrate import solve_bvp
 
@@ -114,10 +114,17 @@ def channel_profile(scene, tol: float = 1e-8) -> ChannelProfile:
         # symmetry at both centres; u and the stress D u' continuous at the contact
         return np.array([Ya[1], Yb[3], Yb[0] - Ya[2], Yb[1] / yc - Ya[3] / Lc])
 
-    s = np.linspace(0.0, 1.0, 201)
-    # initial guess: a smooth step from the levee speed to the channel speed
-    guess = np.vstack([u_l + 0.5 * (u_c - u_l) * s ** 8, 4.0 * (u_c - u_l) * s ** 7,
-                       u_c - 0.5 * (u_c - u_l) * (1 - s) ** 8, 4.0 * (u_c - u_l) * (1 - s) ** 7])
+    # initial guess: exponential boundary layers on either side of the contact, of the width
+    # over which the viscous stress can turn the speed difference, ell^2 ~ D (u_c - u_l) / (g h)
+    du = max(u_c - u_l, 1e-12)
+    drive = (abs(float(accel(np.array([0.5 * (u_c + u_l)]), ini.phi_levee)[0]))
+             + abs(float(accel(np.array([0.5 * (u_c + u_l)]), ini.phi_channel)[0])))
+    ell = math.sqrt(D * du / (h * max(drive, 1e-12)))
+    s = np.linspace(0.0, 1.0, 1001)
+    ea = np.exp(-(1.0 - s) * yc / ell)
+    eb = np.exp(-s * Lc / ell)
+    guess = np.vstack([u_l + 0.5 * du * ea, 0.5 * du * ea * yc / ell,
+                       u_c - 0.5 * du * eb, 0.5 * du * eb * Lc / ell])
     sol = solve_bvp(rhs, bc, s, guess, tol=tol, max_nodes=200_000)
     if not sol.success:
         raise InputError(f"the steady channel profile did not converge: {sol.message}")

@@ -3,12 +3,14 @@
 ``tiseg bench accuracy --out DIR [--quick]`` runs every combination of
 
 * resolution (per problem, below),
-* reconstruction: first-order, minmod, weno,
+* reconstruction: first-order, minmod (theta: ``--thetas``), weno,
+* flux: kt, central-upwind (``--fluxes``) and the h phi flux: central, upwind
+  (``--phi-fluxes``); by default only the scenes' kt + central,
 * stepper: rkc, ssprk3, euler (a run that blows up is recorded as ``unstable``),
 * precision: f32, f64 (each in its own process: Taichi's precision is process-wide),
 * backend: cpu, and gpu where one is present,
 
-on four problems:
+on these problems:
 
 ``transport``  T6b of NUMERICS: smooth large-particle transport with h, u held uniform by a
                Coulomb friction equal to tan(zeta), periodic, to half the breaking time; exact
@@ -31,6 +33,12 @@ on four problems:
                and friction stiffness of the thin levees set dt rho ~ 2-4, where the single-stage
                steppers must shorten their steps and RKC does not: this problem decides which
                stepper the scene should use, the early front above cannot.
+``channel``    the built-in ``channel`` scene at t = 3 s: a straight fine channel between coarse
+               levees, periodic both ways, whose exact phi never changes (no mass crosses the
+               contacts). Error: mean |phi - phi_exact|; value: phi at the channel centre.
+               What numerical diffusion across contacts costs.
+``channel-speed``  the same runs scored on u(y) against the steady cross-slope profile of
+               :mod:`tiseg.steady_channel` (scipy's solve_bvp): relative L1 error.
 
 Wall time is the time of the simulation alone (Taichi kernels compiled beforehand by one
 warm-up step, error evaluation excluded), the minimum over 3 repeats for runs under 1 s and 2
@@ -58,9 +66,15 @@ from . import available_backends, log_stderr, machine_info, machine_line, run_ch
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 STEPPERS = ("rkc", "ssprk3", "euler")
 PRECISIONS = ("f32", "f64")
-DEFAULT_COMBO = {"reconstruction": "weno", "stepper": "rkc", "precision": "f64",
-                 "backend": "cpu", "cfl": 0.25}
-COLUMNS = ("problem", "resolution", "reconstruction", "stepper", "precision", "backend", "error",
+FLUXES = ("kt", "central-upwind")
+PHI_FLUXES = ("central", "upwind")
+DEFAULT_COMBO = {"reconstruction": "weno", "flux": "kt", "phi_flux": "central", "stepper": "rkc",
+                 "precision": "f64", "backend": "cpu", "cfl": 0.25}
+# numerics a point leaves unset take these (theta only matters for minmod)
+DEFAULT_SCHEME = {"reconstruction": "weno", "theta": 1.5, "flux": "kt", "phi_flux": "central",
+                  "cfl": 0.25}
+COLUMNS = ("problem", "resolution", "reconstruction", "theta", "flux", "phi_flux", "stepper",
+           "precision", "backend", "error",
            "wall_s", "steps", "rhs_evals", "cells", "cfl", "value", "status", "pareto")
 
 # On a shared machine other jobs steal cores at random moments and a parallel kernel waits for
@@ -105,8 +119,18 @@ class Problem:
 PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
 
 
-def _numerics(rec: str, stepper: str, cfl: float) -> dict:
-    return {"reconstruction": rec, "stepper": stepper, "cfl": cfl}
+NUMERICS_KEYS = ("reconstruction", "theta", "flux", "phi_flux", "stepper", "cfl")
+
+
+def _numerics(point: dict, stepper: str | None = None) -> dict:
+    """The scene's numerics section of a point (its stepper replaced by ``stepper`` if given)."""
+    num = {k: point.get(k, DEFAULT_SCHEME[k]) for k in NUMERICS_KEYS if k != "stepper"}
+    num["stepper"] = stepper or point["stepper"]
+    return num
+
+
+def _overrides(num: dict) -> dict:
+    return {f"numerics.{k}": v for k, v in num.items()}
 
 
 # ---- (a) T6b smooth transport ------------------------------------------------------------------
@@ -114,7 +138,7 @@ T6B_L, T6B_U0, T6B_H0, T6B_AMP, T6B_MEAN = 0.1, 0.2, 0.002, 0.25, 0.5
 T6B_T_END = 0.5 * 7 * T6B_L / (12 * T6B_U0 * T6B_AMP * 2 * math.pi)   # half the breaking time
 
 
-def _transport_build(res, rec, stepper, cfl, quick):
+def _transport_build(res, num, quick):
     from ..scene import scene_from_dict
     d = {"flow": {"h0": T6B_H0, "phi0": T6B_MEAN, "nu": 0.0, "u0": T6B_U0},
          # friction equal to the slope keeps h and u exactly uniform: phi alone evolves
@@ -124,7 +148,7 @@ def _transport_build(res, rec, stepper, cfl, quick):
          "boundary": dict(PERIODIC),
          "initial": {"kind": "uniform", "amplitude": T6B_AMP, "mode": "phi",
                      "k": 2 * math.pi * T6B_H0 / T6B_L, "wavelengths": 1},
-         "numerics": _numerics(rec, stepper, cfl),
+         "numerics": dict(num),
          "time": {"t_end": T6B_T_END}}
     return scene_from_dict(d, name="bench-transport")
 
@@ -163,13 +187,12 @@ def _transport_score(phi, scene):
 RITTER_T, RITTER_HL, RITTER_X0 = 0.1, 0.002, 0.1
 
 
-def _ritter_build(res, rec, stepper, cfl, quick):
+def _ritter_build(res, num, quick):
     from ..scene import load_scene
     # tiny h_min / h_eps so that the thin tip is not cut off (NUMERICS T2)
     return load_scene("dam-break", {"domain.nx": res, "time.t_end": RITTER_T,
                                     "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9,
-                                    **{f"numerics.{k}": v
-                                       for k, v in _numerics(rec, stepper, cfl).items()}})
+                                    **_overrides(num)})
 
 
 def _ritter_run(sim, on_step):
@@ -196,12 +219,11 @@ GROWTH_AMPLITUDE = 1e-4
 GROWTH_SAMPLES = 49          # amplitude samples over 12 h0/u0 for the exponential fit
 
 
-def _growth_build(res, rec, stepper, cfl, quick):
+def _growth_build(res, num, quick):
     from ..scene import load_scene
     return load_scene("uniform-flow", {"domain.nx": res, "domain.Lx": None,
                                        "initial.amplitude": GROWTH_AMPLITUDE,
-                                       **{f"numerics.{k}": v
-                                          for k, v in _numerics(rec, stepper, cfl).items()}})
+                                       **_overrides(num)})
 
 
 def _growth_run(sim, on_step):
@@ -232,27 +254,25 @@ FINGERS_T = {"full": 2.0, "quick": 1.0}
 FINGERS_LX, FINGERS_LY = 0.8, 0.5
 
 
-def _fingers_build(res, rec, stepper, cfl, quick):
+def _fingers_build(res, num, quick):
     from ..scene import load_scene
     t = FINGERS_T["quick" if quick else "full"]
     return load_scene("fingers", {"domain.resolution": res, "domain.Lx": FINGERS_LX,
                                   "domain.Ly": FINGERS_LY, "time.t_end": t, "output.times": [],
                                   "output.interval": t,
-                                  **{f"numerics.{k}": v
-                                     for k, v in _numerics(rec, stepper, cfl).items()}})
+                                  **_overrides(num)})
 
 
 FINGERS_LATE_T = {"full": 7.5, "quick": 5.5}
 FINGERS_LATE_LY = 0.25
 
 
-def _fingers_late_build(res, rec, stepper, cfl, quick):
+def _fingers_late_build(res, num, quick):
     from ..scene import load_scene
     t = FINGERS_LATE_T["quick" if quick else "full"]
     return load_scene("fingers", {"domain.resolution": res, "domain.Ly": FINGERS_LATE_LY,
                                   "time.t_end": t, "output.times": [], "output.interval": t,
-                                  **{f"numerics.{k}": v
-                                     for k, v in _numerics(rec, stepper, cfl).items()}})
+                                  **_overrides(num)})
 
 
 def _fingers_run(sim, on_step):
@@ -287,6 +307,49 @@ def _fingers_score(h, scene):
     return front_position(h, x, scene.numerics.h_min), float("nan")
 
 
+# ---- (e) the straight channel: sharp contacts and the cross-slope speed profile ---------------
+CHANNEL_T = {"full": 3.0, "quick": 1.0}
+
+
+def _channel_build(res, num, quick):
+    from ..scene import load_scene
+    t = CHANNEL_T["quick" if quick else "full"]
+    return load_scene("channel", {"domain.resolution": res, "time.t_end": t,
+                                  "output.interval": t, **_overrides(num)})
+
+
+def _channel_run(sim, on_step):
+    sim.advance(sim.scene.t_end, on_step)
+    f = sim.fields()
+    return {"phi": f["phi"][:, 0], "u": f["u"][:, 0]}
+
+
+def _channel_cells(scene):
+    from ..initial import channel_fraction
+    y = (np.arange(scene.domain.ny) + 0.5) * scene.dy
+    return y, channel_fraction(y, scene.dy, scene.domain.Ly, scene.initial.width)
+
+
+def _channel_score(raw, scene):
+    """phi at the channel centre, and the mean |phi - phi_exact| (phi_exact: the initial cell
+    averages, which the exact solution keeps for ever)."""
+    ini = scene.initial
+    y, frac = _channel_cells(scene)
+    exact = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * frac
+    centre = float(np.mean(raw["phi"][np.abs(y - 0.5 * scene.domain.Ly) < scene.dy]))
+    return centre, float(np.mean(np.abs(raw["phi"] - exact)))
+
+
+def _channel_speed_score(raw, scene):
+    """u at the channel centre, and the relative L1 error of u(y) against the cell averages of
+    the steady cross-slope profile (tiseg.steady_channel; steady to 1e-3 by t = 3 s)."""
+    from ..steady_channel import channel_profile
+    y, _ = _channel_cells(scene)
+    exact = channel_profile(scene).cell_averages(y, scene.dy)
+    centre = float(np.mean(raw["u"][np.abs(y - 0.5 * scene.domain.Ly) < scene.dy]))
+    return centre, float(np.sum(np.abs(raw["u"] - exact)) / np.sum(np.abs(exact)))
+
+
 PROBLEMS: dict[str, Problem] = {p.name: p for p in (
     Problem("transport", "T6b smooth transport (exact by characteristics)",
             "mean |phi - phi_exact|", "cells per period", (25, 50, 100, 200, 400), (50, 100),
@@ -305,6 +368,14 @@ PROBLEMS: dict[str, Problem] = {p.name: p for p in (
             "fingering, vs the finest run", "|x_f+ - x_f+,ref| / x_f+,ref", "cells per metre",
             (100, 150, 200), (40, 60), _fingers_late_build, _fingers_run, _fingers_score,
             reference_resolution={"full": 300, "quick": 80}),
+    Problem("channel", "channel: phi kept across contacts no mass crosses, t = 3 s (exact: "
+            "unchanged)", "mean |phi - phi_exact|", "cells per metre",
+            (250, 375, 500, 750, 1000), (250, 500),
+            _channel_build, _channel_run, _channel_score),
+    Problem("channel-speed", "channel: speed profile u(y) at t = 3 s vs the steady cross-slope "
+            "solution", "relative L1 error of u", "cells per metre",
+            (250, 375, 500, 750, 1000), (250, 500),
+            _channel_build, _channel_run, _channel_speed_score),
 )}
 
 
@@ -318,9 +389,12 @@ QUICK_STEPPERS = ("rkc", "ssprk3")
 def plan_points(quick: bool, problems: Sequence[str] | None = None,
                 reconstructions: Sequence[str] | None = None,
                 steppers: Sequence[str] | None = None,
-                cfls: Sequence[float] = (0.25,)) -> list[dict]:
-    """Every (problem, resolution, reconstruction, stepper, cfl) of the study, plus the
-    reference run of each problem measured against a finer run (flag ``reference``).
+                cfls: Sequence[float] = (0.25,), fluxes: Sequence[str] = ("kt",),
+                phi_fluxes: Sequence[str] = ("central",),
+                thetas: Sequence[float] = (1.5,)) -> list[dict]:
+    """Every (problem, resolution, reconstruction [x theta for minmod], flux, phi_flux, stepper,
+    cfl) of the study, plus the reference run of each problem measured against a finer run
+    (flag ``reference``).
 
     ``quick``: two resolutions per problem and, unless given, minmod/weno x rkc/ssprk3."""
     from ..errors import InputError
@@ -330,21 +404,42 @@ def plan_points(quick: bool, problems: Sequence[str] | None = None,
     for n in names:
         if n not in PROBLEMS:
             raise InputError(f"problem {n!r} is not known; choose from {', '.join(PROBLEMS)}")
+    schemes = []
+    for rec in reconstructions:
+        for th in (thetas if rec == "minmod" else (DEFAULT_SCHEME["theta"],)):
+            for fl in fluxes:
+                for pf in phi_fluxes:
+                    schemes.append({"reconstruction": rec, "theta": float(th), "flux": fl,
+                                    "phi_flux": pf})
     pts = []
     for n in names:
         p = PROBLEMS[n]
         for res in (p.quick_resolutions if quick else p.resolutions):
-            for rec in reconstructions:
+            for sch in schemes:
                 for st in steppers:
                     for cfl in cfls:
-                        pts.append({"problem": n, "resolution": res, "reconstruction": rec,
-                                    "stepper": st, "cfl": float(cfl), "reference": False})
+                        pts.append({"problem": n, "resolution": res, **sch, "stepper": st,
+                                    "cfl": float(cfl), "reference": False})
         if p.reference_resolution:
             pts.append({"problem": n, "resolution": p.reference_resolution["quick" if quick else "full"],
-                        "reconstruction": DEFAULT_COMBO["reconstruction"],
+                        **{k: DEFAULT_SCHEME[k] for k in ("reconstruction", "theta", "flux",
+                                                           "phi_flux")},
                         "stepper": DEFAULT_COMBO["stepper"], "cfl": DEFAULT_COMBO["cfl"],
                         "reference": True})
     return pts
+
+
+def scheme_label(row: dict) -> str:
+    """Short name of a point's spatial scheme: the reconstruction (with theta for minmod), then
+    '+cu' for the central-upwind flux and '+up' for the upwind h phi flux."""
+    rec = row["reconstruction"]
+    th = float(row.get("theta", DEFAULT_SCHEME["theta"]))
+    name = f"minmod{th:g}" if rec == "minmod" else rec
+    if row.get("flux", "kt") == "central-upwind":
+        name += "+cu"
+    if row.get("phi_flux", "central") == "upwind":
+        name += "+up"
+    return name
 
 
 class _Unstable(Exception):
@@ -365,6 +460,7 @@ def _guard(sim):
 
 def _blank_row(point: dict, scene, precision: str, backend_name: str) -> dict:
     row = {k: point[k] for k in ("problem", "resolution", "reconstruction", "stepper", "cfl")}
+    row.update({k: point.get(k, DEFAULT_SCHEME[k]) for k in ("theta", "flux", "phi_flux")})
     row.update(precision=precision, backend=backend_name, cells=scene.domain.nx * scene.domain.ny,
                error=float("nan"), value=float("nan"), wall_s=float("nan"), steps=0, rhs_evals=0,
                status="reference" if point.get("reference") else "ok")
@@ -373,8 +469,10 @@ def _blank_row(point: dict, scene, precision: str, backend_name: str) -> dict:
 
 def _group_key(point: dict) -> tuple:
     """Points differing only in the stepper share one simulation (and its compiled kernels)."""
-    return (point["problem"], point["resolution"], point["reconstruction"], point["cfl"],
-            point.get("reference", False))
+    return (point["problem"], point["resolution"],
+            *(point.get(k, DEFAULT_SCHEME[k]) for k in ("reconstruction", "theta", "flux",
+                                                        "phi_flux")),
+            point["cfl"], point.get("reference", False))
 
 
 def run_group(points: Sequence[dict], quick: bool, precision: str, backend_name: str) -> list[dict]:
@@ -390,7 +488,7 @@ def run_group(points: Sequence[dict], quick: bool, precision: str, backend_name:
 
     p0 = points[0]
     prob = PROBLEMS[p0["problem"]]
-    scene = prob.build(p0["resolution"], p0["reconstruction"], "rkc", p0["cfl"], quick)
+    scene = prob.build(p0["resolution"], _numerics(p0, "rkc"), quick)
     rows = [_blank_row(p, scene, precision, backend_name) for p in points]
     try:
         sim = Simulation(scene, precision=precision)
@@ -446,7 +544,7 @@ def run_points(points: Sequence[dict], quick: bool, precision: str, backend_name
             done += 1
             if log is not None:
                 log(f"[{precision}/{backend_name} {done}/{len(points)}] {row['problem']} "
-                    f"{row['resolution']} {row['reconstruction']} {row['stepper']}: "
+                    f"{row['resolution']} {scheme_label(row)} {row['stepper']}: "
                     f"error {row['error']:.3g} wall {row['wall_s']:.3g} s {row['status']}")
     return rows
 
@@ -502,11 +600,14 @@ def assess_defaults(rows: Sequence[dict]) -> dict:
                 "resolution": r["resolution"], "error": r["error"], "wall_s": r["wall_s"],
                 "on_front": bool(r.get("pareto")),
                 "overhead": r["wall_s"] / best["wall_s"] if best["wall_s"] > 0 else 1.0,
-                "instead": {k: best[k] for k in ("resolution", "reconstruction", "stepper",
-                                                 "precision", "backend", "error", "wall_s")},
+                "instead": {"scheme": scheme_label(best),
+                            **{k: best[k] for k in ("resolution", "reconstruction", "stepper",
+                                                    "precision", "backend", "error", "wall_s")}},
                 "work": _work(r), "work_overhead": _work(r) / max(_work(least), 1),
-                "work_instead": {k: least[k] for k in ("resolution", "reconstruction", "stepper",
-                                                       "precision", "error", "rhs_evals")},
+                "work_instead": {"scheme": scheme_label(least),
+                                 **{k: least[k] for k in ("resolution", "reconstruction",
+                                                          "stepper", "precision", "error",
+                                                          "rhs_evals")}},
             })
         ov = [i["overhead"] for i in items]
         wo = [i["work_overhead"] for i in items]
@@ -516,8 +617,9 @@ def assess_defaults(rows: Sequence[dict]) -> dict:
                      "count": len(items),
                      "median_overhead": float(np.median(ov)) if ov else float("nan"),
                      "max_overhead": float(max(ov)) if ov else float("nan"),
-                     "front": [{k: f[k] for k in ("resolution", "reconstruction", "stepper",
-                                                  "precision", "backend", "error", "wall_s")}
+                     "front": [{"scheme": scheme_label(f),
+                                **{k: f[k] for k in ("resolution", "reconstruction", "stepper",
+                                                     "precision", "backend", "error", "wall_s")}}
                                for f in sorted(front, key=lambda f: f["wall_s"])]}
     return out
 
@@ -538,7 +640,7 @@ def verdict(assessment: dict, clear: float = 1.5) -> str:
             f"overhead {a['median_overhead']:.2f}x in wall time and "
             f"{a['median_work_overhead']:.2f}x in cell-updates ({tag}); worst at resolution "
             f"{worst['resolution']}: {worst['wall_s']:.3g} s for error {worst['error']:.3g}, "
-            f"where {ins['reconstruction']} + {ins['stepper']} + {ins['precision']} at "
+            f"where {ins['scheme']} + {ins['stepper']} + {ins['precision']} at "
             f"resolution {ins['resolution']} gets {ins['error']:.3g} in {ins['wall_s']:.3g} s")
     return "\n".join(lines)
 
@@ -589,6 +691,10 @@ def read_csv(path) -> list[dict]:
         for r in csv.DictReader(fh):
             for k in ("error", "wall_s", "cfl", "value"):
                 r[k] = float(r[k]) if r[k] not in ("", None) else math.nan
+            # files written before the flux options had none of these columns
+            r["theta"] = float(r.get("theta") or DEFAULT_SCHEME["theta"])
+            r["flux"] = r.get("flux") or DEFAULT_SCHEME["flux"]
+            r["phi_flux"] = r.get("phi_flux") or DEFAULT_SCHEME["phi_flux"]
             for k in ("resolution", "steps", "rhs_evals", "cells"):
                 r[k] = int(r[k])
             r["pareto"] = r["pareto"] == "True"
@@ -612,11 +718,16 @@ def plot_problem(rows: Sequence[dict], problem: str, path: Path, machine: str = 
     prob = PROBLEMS[problem]
     pts = [r for r in rows if r["problem"] == problem and r["status"] == "ok"
            and r["error"] > 0 and r["wall_s"] > 0]
-    colours = {"first-order": "tab:gray", "minmod": "tab:blue", "weno": "tab:red"}
+    colours = {"first-order": "tab:gray", "minmod1.5": "tab:blue", "weno": "tab:red"}
+    extra = iter(("tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive",
+                  "tab:cyan", "navy", "darkred", "teal", "gold", "k"))
+    for lab in dict.fromkeys(scheme_label(r) for r in pts):
+        if lab not in colours:
+            colours[lab] = next(extra, "k")
     markers = {"rkc": "o", "ssprk3": "s", "euler": "^", "ssprk2": "D"}
     fig, ax = plt.subplots(figsize=(8, 6))
     for r in pts:
-        c = colours.get(r["reconstruction"], "k")
+        c = colours.get(scheme_label(r), "k")
         filled = r["precision"] == "f64"
         ax.scatter(r["wall_s"], r["error"], marker=markers.get(r["stepper"], "x"),
                    s=60 if r["backend"] == "cpu" else 110, facecolors=c if filled else "none",
@@ -639,7 +750,9 @@ def plot_problem(rows: Sequence[dict], problem: str, path: Path, machine: str = 
     ax.set_ylabel(prob.error_label)
     ax.set_title(f"{prob.title}\n(labels: {prob.resolution_label}; {machine})", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    handles = ([Line2D([], [], ls="", marker="o", color=c, label=k) for k, c in colours.items()]
+    used = {scheme_label(r) for r in pts}
+    handles = ([Line2D([], [], ls="", marker="o", color=c, label=k) for k, c in colours.items()
+                if k in used]
                + [Line2D([], [], ls="", marker=m, color="0.55", label=k)
                   for k, m in markers.items() if any(r["stepper"] == k for r in pts)]
                + [Line2D([], [], ls="", marker="o", color="k", label="f64 (filled)"),
@@ -668,7 +781,7 @@ def summary_markdown(rows: Sequence[dict], assessment: dict, machine: dict) -> s
                 f"{p.resolution_label}", "",
                 "| front point | resolution | error | wall [s] |", "|---|---|---|---|"]
         for f in a["front"]:
-            out.append(f"| {f['reconstruction']} + {f['stepper']} + {f['precision']}/{f['backend']} "
+            out.append(f"| {f['scheme']} + {f['stepper']} + {f['precision']}/{f['backend']} "
                        f"| {f['resolution']} | {f['error']:.3g} | {f['wall_s']:.3g} |")
         out += ["", "| default at resolution | error | wall [s] | on front | overhead | "
                 "cheapest front point with no larger error | cell-updates overhead | "
@@ -677,9 +790,9 @@ def summary_markdown(rows: Sequence[dict], assessment: dict, machine: dict) -> s
             i, w = d["instead"], d["work_instead"]
             out.append(f"| {d['resolution']} | {d['error']:.3g} | {d['wall_s']:.3g} | "
                        f"{'yes' if d['on_front'] else 'no'} | {d['overhead']:.2f}x | "
-                       f"{i['reconstruction']} + {i['stepper']} + {i['precision']} at "
+                       f"{i['scheme']} + {i['stepper']} + {i['precision']} at "
                        f"{i['resolution']}: {i['error']:.3g} in {i['wall_s']:.3g} s | "
-                       f"{d['work_overhead']:.2f}x | {w['reconstruction']} + {w['stepper']} at "
+                       f"{d['work_overhead']:.2f}x | {w['scheme']} + {w['stepper']} at "
                        f"{w['resolution']}: {w['error']:.3g} with {w['rhs_evals']} evaluations |")
         out.append("")
     return "\n".join(out)
@@ -688,7 +801,7 @@ def summary_markdown(rows: Sequence[dict], assessment: dict, machine: dict) -> s
 def run_study(out_dir, quick: bool = False, problems=None, precisions=PRECISIONS,
               backends=None, reconstructions=None, steppers=None,
               cfls=(0.25,), threads: int = 0, in_process: bool | None = None,
-              log=None) -> dict:
+              log=None, fluxes=("kt",), phi_fluxes=("central",), thetas=(1.5,)) -> dict:
     """Run the study, write accuracy.csv, one PNG per problem and summary.json/.md.
 
     Each (precision, backend) runs in a child process unless there is only one combination
@@ -703,7 +816,8 @@ def run_study(out_dir, quick: bool = False, problems=None, precisions=PRECISIONS
         if p not in PRECISIONS:
             raise InputError(f"precision {p!r}: choose f32 or f64")
     combos = [(p, b) for b in backends for p in precisions]
-    points = plan_points(quick, problems, reconstructions, steppers, cfls)
+    points = plan_points(quick, problems, reconstructions, steppers, cfls, fluxes, phi_fluxes,
+                         thetas)
     # the reference runs (finest fingers run) belong to the default combination if studied
     ref_combo = (("f64", "cpu") if ("f64", "cpu") in combos else combos[0])
     t0 = time.perf_counter()

@@ -25,7 +25,8 @@ def register(sub) -> None:
     a = bsub.add_parser(
         "accuracy", help="error against wall time on problems with known answers, Pareto fronts",
         description="Error against wall time on reference problems with known answers (T6b "
-                    "transport, Ritter dam break, linear growth rate, fingers front position early and late) "
+                    "transport, Ritter dam break, linear growth rate, fingers front position early and late, "
+                    "the channel's contacts and speed profile) "
                     "for every resolution x reconstruction x stepper x precision x backend; "
                     "writes accuracy.csv, one PNG per problem with the Pareto front, and "
                     "summary.json/summary.md (do the scene defaults sit on the front?).")
@@ -34,10 +35,17 @@ def register(sub) -> None:
                    help="a small subset for CI: two resolutions per problem, minmod/weno x rkc/ssprk3, "
                         "fingers to t = 1 s (late: 5.5 s)")
     a.add_argument("--problems", nargs="+", default=None, metavar="NAME",
-                   help="transport, ritter, growth, fingers, fingers-late (default: all)")
+                   help="transport, ritter, growth, fingers, fingers-late, channel, channel-speed "
+                        "(default: all)")
     _add_machine_options(a, precisions=["f32", "f64"])
     a.add_argument("--reconstructions", nargs="+", default=None,
                    choices=("first-order", "minmod", "weno"))
+    a.add_argument("--thetas", nargs="+", type=float, default=[1.5], metavar="THETA",
+                   help="minmod theta values in [1, 2] (default 1.5)")
+    a.add_argument("--fluxes", nargs="+", default=["kt"], choices=("kt", "central-upwind"),
+                   help="numerics.flux values (default kt)")
+    a.add_argument("--phi-fluxes", nargs="+", default=["central"], choices=("central", "upwind"),
+                   help="numerics.phi_flux values (default central)")
     a.add_argument("--steppers", nargs="+", default=None, choices=("rkc", "ssprk3", "ssprk2", "euler"))
     a.add_argument("--cfl", nargs="+", type=float, default=[0.25], help="Courant numbers (0.25)")
     a.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -117,11 +125,15 @@ def run_accuracy(args) -> int:
     for c in args.cfl:
         if not 0 < c <= 1:
             raise InputError(f"--cfl {c!r}: must be in (0, 1]")
+    for th in args.thetas:
+        if not 1.0 <= th <= 2.0:
+            raise InputError(f"--thetas {th!r}: minmod theta must lie in [1, 2]")
     with stdout_for_json(args.json):
         summary = accuracy.run_study(
             args.out, quick=args.quick, problems=args.problems, precisions=args.precisions,
             backends=args.backends, reconstructions=args.reconstructions, steppers=args.steppers,
-            cfls=args.cfl, threads=args.threads, log=log_stderr)
+            cfls=args.cfl, threads=args.threads, log=log_stderr, fluxes=args.fluxes,
+            phi_fluxes=args.phi_fluxes, thetas=args.thetas)
     if args.json:
         print_json(summary)
     else:
