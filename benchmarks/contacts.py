@@ -104,7 +104,7 @@ def main(argv=None) -> int:
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
             print(f"{label:12s} {res:5d}/m  phi_c {r['phi_centre']:.4f}  u err "
                   f"{r['u_error']:.4f}  {r['rhs_evals']} evals  {r['wall_s']:.1f} s", flush=True)
-    md = [f"# Channel test, t = {a.t_end:g} s ({machine_line(machine_info(1))}, 1 thread)", "",
+    md = [f"# Channel test, t = {a.t_end:g} s ({machine_line(machine_info(1))}; one run each)", "",
           "phi at the channel centre (exact: 1):", "", *table(rows, "phi_centre", ".3f"), "",
           "mean |phi - phi_exact| over the chute:", "", *table(rows, "phi_error", ".2e"), "",
           "relative L1 error of u(y) against the steady cross-slope solution:", "",

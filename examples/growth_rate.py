@@ -14,6 +14,9 @@ from tiseg.initial import eigenmode
 from tiseg.simulation import Simulation
 
 
+GALLERY = ["--cells", "32"]    # the docs gallery run
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cells", type=int, default=64, help="cells per wavelength")

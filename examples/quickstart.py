@@ -12,6 +12,9 @@ import tiseg
 from tiseg.simulation import Simulation
 
 
+GALLERY = ["--resolution", "80", "--t-end", "2.0", "--out", "{out}"]   # the docs gallery run
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--resolution", type=float, default=100.0, help="cells per metre")

@@ -104,6 +104,13 @@ def test_study_plan_covers_every_combination():
     assert sum(p["reference"] for p in full) == 2
     quick = accuracy.plan_points(quick=True)
     assert len(quick) < len(full) / 3
+    # the scheme dimensions: theta only for minmod, every flux x phi_flux pair
+    pts = accuracy.plan_points(quick=False, problems=["channel"], steppers=["rkc"],
+                               reconstructions=["weno", "minmod"], thetas=[1.5, 2.0],
+                               fluxes=["kt", "central-upwind"], phi_fluxes=["central", "upwind"])
+    labels = {accuracy.scheme_label(p) for p in pts}
+    assert len(pts) == len(accuracy.PROBLEMS["channel"].resolutions) * (1 + 2) * 4
+    assert {"weno", "weno+cu+up", "minmod2", "minmod1.5+up"} <= labels and len(labels) == 12
     with pytest.raises(Exception, match="not known"):
         accuracy.plan_points(quick=True, problems=["nope"])
 

@@ -80,10 +80,10 @@ CASES = [
     # sweeps
     ["sweep", "{tmp}/missing.toml"],
     ["sweep", "{sweepdeep}"],
-    ["sweep", "assets/sweeps/tiny.toml", "--workers", "0", "--out", "{tmp}/sw"],
-    ["sweep", "assets/sweeps/tiny.toml", "--threads-per-task", "100000", "--out", "{tmp}/sw"],
-    ["sweep", "assets/sweeps/tiny.toml", "--scheduler", "foo", "--out", "{tmp}/sw"],
-    ["sweep", "assets/sweeps/tiny.toml", "--scheduler", "http://", "--out", "{tmp}/sw"],
+    ["sweep", "tiny", "--workers", "0", "--out", "{tmp}/sw"],
+    ["sweep", "tiny", "--threads-per-task", "100000", "--out", "{tmp}/sw"],
+    ["sweep", "tiny", "--scheduler", "foo", "--out", "{tmp}/sw"],
+    ["sweep", "tiny", "--scheduler", "http://", "--out", "{tmp}/sw"],
     # benchmarks
     ["bench", "throughput", "--threads", "100000"],
     ["bench", "steppers", "{trunc}"],

@@ -47,7 +47,7 @@ def test_no_progress_bar_into_a_redirected_stderr(tmp_path):
 
 def test_sweep_json_on_stdout_progress_on_stderr(tmp_path, capsys):
     out = tmp_path / "sw"
-    rc = main(["sweep", "assets/sweeps/tiny.toml", "--out", str(out), "--workers", "1",
+    rc = main(["sweep", "tiny", "--out", str(out), "--workers", "1",
                "--threads-per-task", "1", "--json"])
     cap = capsys.readouterr()
     assert rc == 0, cap.err

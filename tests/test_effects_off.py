@@ -9,7 +9,6 @@ the test can fail.
 import math
 
 import numpy as np
-import pytest
 
 from solver_helpers import make_config, random_state
 from tiseg.physics.pointwise import Params

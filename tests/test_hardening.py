@@ -295,7 +295,7 @@ def test_a_sweep_retries_a_transient_failure_once(tmp_path, monkeypatch):
                             "elongation": [None]}}
 
     monkeypatch.setattr(S, "execute_run", flaky)
-    sw = S.load_sweep("assets/sweeps/tiny.toml")
+    sw = S.load_sweep("tiny")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster:
         res = S.run_sweep(sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=None)
@@ -328,7 +328,7 @@ def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch
             raise KeyboardInterrupt
 
     monkeypatch.setattr(S, "execute_run", slow)
-    sw = S.load_sweep("assets/sweeps/tiny.toml", grid_overrides={"flow.nu": [0.01, 0.02, 0.03]})
+    sw = S.load_sweep("tiny", grid_overrides={"flow.nu": [0.01, 0.02, 0.03]})
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster:
         with pytest.raises(KeyboardInterrupt):

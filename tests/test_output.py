@@ -9,6 +9,8 @@ import textwrap
 
 import netCDF4
 import numpy as np
+
+import tiseg
 import pytest
 import xarray as xr
 
@@ -34,20 +36,25 @@ def test_fields_round_trip_with_xarray(tmp_path):
     with FieldsWriter(path, X, Y, {"scene": scene_toml, "scene_name": "fingers"}) as w:
         for t in times:
             w.write(t, **_snapshot(t))
-    ds = xr.open_dataset(path)
+    ds = xr.open_dataset(path, decode_times=False)
     try:
         assert ds.attrs["Conventions"] == "CF-1.8"
-        for key in ("title", "source", "history"):
+        for key in ("title", "source", "history", "references"):
             assert ds.attrs[key]
+        assert "10.1017/jfm.2016.653" in ds.attrs["references"]
+        assert tiseg.__version__ in ds.attrs["source"] and tiseg.__version__ in ds.attrs["references"]
         assert ds.attrs["scene"] == scene_toml and ds.attrs["scene_name"] == "fingers"
         assert ds["h"].dims == ("time", "y", "x")
         np.testing.assert_array_equal(ds["time"].values, times)
-        assert ds["time"].dtype == np.float64        # not decoded to dates/timedeltas
-        assert ds["time"].attrs["units"] == "s" and ds["time"].attrs["axis"] == "T"
+        assert ds["time"].dtype == np.float64        # decode_times=False: plain seconds
+        # CF 4.4: a time coordinate has units "<unit> since <date>"; x and y carry no axis
+        # attribute, which CF checkers take for longitude and latitude
+        assert ds["time"].attrs["units"] == "seconds since 2000-01-01 00:00:00"
+        assert ds["time"].attrs["standard_name"] == "time" and ds["time"].attrs["axis"] == "T"
         np.testing.assert_array_equal(ds["x"].values, X)
         np.testing.assert_array_equal(ds["y"].values, Y)
-        assert ds["x"].attrs == {"long_name": "downslope distance", "units": "m", "axis": "X"}
-        assert ds["y"].attrs == {"long_name": "cross-slope distance", "units": "m", "axis": "Y"}
+        assert ds["x"].attrs == {"long_name": "downslope distance", "units": "m"}
+        assert ds["y"].attrs == {"long_name": "cross-slope distance", "units": "m"}
         units = {"h": "m", "u": "m s-1", "v": "m s-1", "phi": "1"}
         for name, unit in units.items():
             assert ds[name].attrs["units"] == unit
@@ -66,8 +73,52 @@ def test_fields_round_trip_with_xarray(tmp_path):
     ds2 = read_fields(path)
     try:
         np.testing.assert_array_equal(ds2["phi"].values[-1], _snapshot(1.5)["phi"])
+        np.testing.assert_array_equal(ds2["time"].values, times)
     finally:
         ds2.close()
+    # a plain xarray open decodes the CF time to the placeholder date plus the seconds
+    with xr.open_dataset(path) as ds3:
+        seconds = (ds3["time"].values - np.datetime64("2000-01-01T00:00:00")) / np.timedelta64(1, "s")
+        np.testing.assert_allclose(seconds, times)
+
+
+def test_phi_is_missing_where_there_is_no_material(tmp_path):
+    """phi = 0 would read as pure coarse grains: where h < h_min it is _FillValue (NaN after
+    decoding), elsewhere it is stored as given."""
+    path = tmp_path / "f.nc"
+    snap = _snapshot(0.0)
+    snap["h"] = np.where(np.arange(NX)[None, :] < 3, 0.0, 1e-3) + 0.0 * snap["h"]
+    snap["phi"] = np.full((NY, NX), 0.25)
+    with FieldsWriter(path, X, Y, h_min=1e-4) as w:
+        w.write(0.0, **snap)
+    with read_fields(path) as ds:
+        phi = ds["phi"].values[0]
+        assert np.isnan(phi[:, :3]).all() and (phi[:, 3:] == 0.25).all()
+        assert "h_min" in ds["phi"].attrs["comment"]
+        assert np.isfinite(ds["h"].values).all()
+    with netCDF4.Dataset(path) as nc:
+        assert nc["phi"]._FillValue == netCDF4.default_fillvals["f8"]
+
+
+def test_f4_and_quantised_output_are_smaller(tmp_path):
+    """output.precision = "f4" and output.significant_digits: the same smooth snapshot takes
+    less room, and reads back within the promised digits."""
+    yy, xx = np.meshgrid(Y, X, indexing="ij")
+    smooth = {"h": 2e-3 * (1 + 0.3 * np.sin(7 * xx) * np.cos(5 * yy)), "u": 0.2 + 0.01 * xx,
+              "v": 0.01 * np.sin(3 * yy), "phi": 0.5 + 0.4 * np.cos(4 * xx)}
+    sizes = {}
+    for label, kw in (("f8", {}), ("f4", {"dtype": "f4"}),
+                      ("q3", {"significant_digits": 3})):
+        path = tmp_path / f"{label}.nc"
+        with FieldsWriter(path, X, Y, **kw) as w:
+            for k in range(4):
+                w.write(0.1 * k, **smooth)
+        sizes[label] = path.stat().st_size
+        with read_fields(path) as ds:
+            back = ds["h"].values[-1]
+        rel = np.abs(back / smooth["h"] - 1).max()
+        assert rel < {"f8": 1e-15, "f4": 1e-7, "q3": 1e-3}[label], (label, rel)
+    assert sizes["f4"] < sizes["f8"] and sizes["q3"] < sizes["f8"], sizes
 
 
 def test_only_named_fields_exist(tmp_path):
@@ -161,3 +212,36 @@ def test_write_text_atomic(tmp_path):
     j = write_json_atomic(tmp_path / "summary.json", {"u0": 0.208, "bad": float("nan"),
                                                      "arr": np.arange(3)})
     assert json.loads(j.read_text()) == {"u0": 0.208, "bad": None, "arr": [0, 1, 2]}
+
+
+def test_scene_output_precision_reaches_the_file(ti_cpu, tmp_path):
+    """output.precision and output.significant_digits of a scene set the stored type and the
+    quantisation of fields.nc; a bad value is a one-line InputError."""
+    from tiseg.errors import InputError
+    from tiseg.simulation import Simulation
+    sc = load_scene("channel", {"time.t_end": 0.05, "output.interval": 0.05,
+                                "domain.resolution": 250, "output.precision": "f4",
+                                "output.significant_digits": 4})
+    (tmp_path / "s.toml").write_text(sc.to_toml())
+    assert load_scene(str(tmp_path / "s.toml")) == sc          # the keys round-trip
+    Simulation(sc).run(out_dir=tmp_path / "run", progress=False)
+    with netCDF4.Dataset(tmp_path / "run" / "fields.nc") as nc:
+        assert nc["phi"].dtype == np.float32 and nc["h"].dtype == np.float32
+        assert nc["h"].quantization()[0] == 4
+    for key, bad in (("output.precision", "f2"), ("output.significant_digits", 20),
+                     ("output.significant_digits", 0)):
+        with pytest.raises(InputError, match=key.split(".")[1]):
+            load_scene("channel", {key: bad})
+
+
+def test_cf_xarray_finds_the_time_axis(tmp_path):
+    """cf_xarray reads the CF attributes: time is the T axis and the time coordinate."""
+    import cf_xarray  # noqa: F401  (registers the .cf accessor)
+    path = tmp_path / "f.nc"
+    with FieldsWriter(path, X, Y) as w:
+        for t in (0.0, 0.5):
+            w.write(t, **_snapshot(t))
+    with xr.open_dataset(path) as ds:
+        assert ds.cf.axes == {"T": ["time"]}
+        assert ds.cf.coordinates == {"time": ["time"]}
+        assert ds.cf["time"].size == 2

@@ -15,14 +15,25 @@ from tiseg.steady import steady_state
 
 from solver_helpers import MINIMAL_SCENE
 
-BUILTINS = ["fingers", "uniform-flow", "dam-break", "monodisperse-front", "finite-release"]
+BUILTINS = ["fingers", "uniform-flow", "dam-break", "monodisperse-front", "finite-release", "channel"]
 
 MINIMAL = MINIMAL_SCENE      # a small valid 2D scene, the base of the malformed-text cases
 
 
-def test_scene_dir_is_repo_assets():
-    assert SCENE_DIR == Path(tiseg.__file__).resolve().parents[1] / "assets" / "scenes"
+def test_scenes_are_package_data():
+    """The built-in scenes sit inside the package (an installed wheel has them), and the old
+    assets/scenes paths still name them, with a note."""
+    assert SCENE_DIR == Path(tiseg.__file__).resolve().parent / "data" / "scenes"
     assert SCENE_DIR.is_dir()
+    assert load_scene("assets/scenes/fingers.toml") == load_scene("fingers")
+
+
+def test_sweeps_are_package_data_and_named():
+    from tiseg.sweep import list_builtin_sweeps, load_sweep
+    assert {"grid-study", "nu-study", "width-study", "tiny"} <= set(list_builtin_sweeps())
+    assert load_sweep("assets/sweeps/tiny.toml").name == load_sweep("tiny").name
+    with pytest.raises(InputError, match="did you mean 'grid-study'"):
+        load_sweep("grid-stud")
 
 
 def test_builtin_list():

@@ -179,8 +179,8 @@ def _transport_exact(x, t, L, u0, phi_mean=0.5, amp=0.25):
     init = lambda s: phi_mean + amp * np.cos(2 * np.pi * s / L)
     out = np.empty_like(x)
     for i, xi in enumerate(x.ravel()):
-        out.ravel()[i] = brentq(lambda p: p - init(xi - speed(p) * t), phi_mean - amp - 1e-9,
-                                phi_mean + amp + 1e-9, xtol=1e-15)
+        out.ravel()[i] = brentq(lambda p: p - init(xi - speed(p) * t),  # noqa: B023 (called here)
+                                phi_mean - amp - 1e-9, phi_mean + amp + 1e-9, xtol=1e-15)
     return out
 
 

@@ -415,7 +415,7 @@ def test_printed_b5_typos_do_not_match(b2):
     """The three coefficients of (B5) as printed disagree with the determinant (NUMERICS finding 3)."""
     kx, ky = 1.3, 0.9
     want = _charpoly(d2.matrix(b2, kx, ky))
-    F2, r, g, dg = b2.F ** 2, b2.inv_R, b2.G0, b2.dG0
+    F2, g, dg = b2.F ** 2, b2.G0, b2.dG0
     mh, mu, mp, t = b2.mu_h, b2.mu_u, b2.mu_phi, b2.tan_zeta
     R = b2.R
     printed = {

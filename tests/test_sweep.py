@@ -1,8 +1,8 @@
 """Sweeps (`tiseg sweep`): a CI-sized sweep on a local Dask cluster, re-runs that reuse finished
 runs, and strict validation of sweep files.
 
-The sweep is ``assets/sweeps/tiny.toml`` (the fingers scene on a 12 x 4 grid to t = 0.5 s, two
-values of nu), so the shipped example is exercised too. Most of the time goes into starting the
+The sweep is the built-in ``tiny`` (``tiseg/data/sweeps/tiny.toml``: the fingers scene on a 12 x 4
+grid to t = 0.5 s, two values of nu), so the shipped example is exercised too. Most of the time goes into starting the
 Dask workers and compiling the Taichi kernels in them, not into the runs.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ from tiseg.sweep import (DONE_MARKER, _run_names, load_sweep, read_marker, read_
                          table_columns)
 
 ROOT = Path(__file__).resolve().parents[1]
-TINY = ROOT / "assets" / "sweeps" / "tiny.toml"
+TINY = ROOT / "tiseg" / "data" / "sweeps" / "tiny.toml"
 
 
 def _mtimes(out: Path) -> dict[str, int]:

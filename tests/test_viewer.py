@@ -15,7 +15,7 @@ import pytest
 
 from solver_helpers import child_env
 
-from viewer.app import display_problem, vulkan_problem
+from tiseg.viewer.app import display_problem, vulkan_problem
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"domain.resolution": 40, "time.t_end": 0.3, "output.times": []}
@@ -38,16 +38,18 @@ def test_no_display_one_line_exit_2(monkeypatch, capsys):
     env = child_env()
     env.pop("DISPLAY", None)
     env.pop("WAYLAND_DISPLAY", None)
-    p = subprocess.run([sys.executable, "-m", "viewer", "fingers"], cwd=ROOT, env=env,
-                       capture_output=True, text=True, timeout=60)
-    assert p.returncode == 2
-    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
-    assert "tiseg render" in p.stderr
+    # the package's module anywhere, and the source checkout's `python -m viewer` alias
+    for module, cwd in (("tiseg.viewer", ROOT / "tests"), ("viewer", ROOT)):
+        p = subprocess.run([sys.executable, "-m", module, "fingers"], cwd=cwd, env=env,
+                           capture_output=True, text=True, timeout=60)
+        assert p.returncode == 2, (module, p.stderr)
+        assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+        assert "tiseg render" in p.stderr
 
 
 def test_no_vulkan_one_line_exit_2(monkeypatch, capsys):
     """With a display but no Vulkan the viewer refuses before any window exists."""
-    import viewer.app as app
+    import tiseg.viewer.app as app
     from tiseg.cli import main
     monkeypatch.setenv("DISPLAY", ":97")
     monkeypatch.setattr(app, "_x_display_opens", lambda name: True)
@@ -64,7 +66,7 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
     from tiseg.physics.pointwise import Params
     from tiseg.render import colours as C
     from tiseg.render import render_fields
-    from viewer.app import Viewer
+    from tiseg.viewer.app import Viewer
 
     v = Viewer("fingers", TINY, show_window=False, save_dir=tmp_path)
     try:
@@ -137,7 +139,7 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
 def test_live_window_under_xvfb(tmp_path):
     """A real window on a virtual X display starts, steps, records and closes by itself."""
     rec = tmp_path / "live.mp4"
-    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", sys.executable, "-m", "viewer",
+    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", sys.executable, "-m", "tiseg.viewer",
            "fingers", *TINY_ARGS, "--frames", "5", "--record", str(rec),
            "--save-dir", str(tmp_path)]
     p = subprocess.run(cmd, cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=180)

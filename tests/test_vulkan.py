@@ -21,7 +21,7 @@ import pytest
 from solver_helpers import child_env
 
 from tiseg.output import read_diagnostics
-from viewer.app import vulkan_problem
+from tiseg.viewer.app import vulkan_problem
 
 ROOT = Path(__file__).resolve().parents[1]
 HERE = Path(__file__).resolve().parent
@@ -206,7 +206,7 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
     assert rep == json.loads((tmp_path / "gpu_check.json").read_text())
     rows = {(r["backend"], r["precision"]): r for r in rep["throughput"]}
     assert set(rows) == {(b, q) for b in ("cpu", "vulkan") for q in ("f32", "f64")}
-    for (b, q), r in rows.items():
+    for (b, _q), r in rows.items():
         assert r["ok"] and r["rhs_cell_updates_per_s"] > 0 and r["step_s"] > 0, r
         if b == "vulkan":
             assert r["arch"] == "vulkan" and r["rhs_speedup_vs_cpu"] > 0

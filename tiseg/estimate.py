@@ -537,7 +537,7 @@ def estimate(scene, arch: str | None = None, precision: str | None = None, threa
     wall_steps = idle_steps = diag = 0.0
     evals = 0.0
     dts, act_sum, n_sum = [], 0.0, 0.0
-    for tm, dt, s, active, n in pred["profile"]:
+    for _tm, dt, s, active, n in pred["profile"]:
         wall_steps += n * (cal.overhead(active) + s * cal.stage(active))
         idle_steps += n * (cal.overhead(active, True) + s * cal.stage(active, True))
         if output:

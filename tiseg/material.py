@@ -47,12 +47,12 @@ class Species:
 @dataclass(frozen=True)
 class Material:
     """Table 1 of the paper; every constant can be overridden (``Material(zeta_deg=28)`` etc.)."""
-    zeta_deg: float = 27.0
+    zeta_deg: float = 27.0            # slope angle zeta [degrees]
     small: Species = Species(20.0, 30.0, 0.150, 2.0e-4)
     large: Species = Species(29.0, 40.0, 0.72, 5.0e-4)
     alpha: float = 1.0 / 7.0          # basal slip parameter of the linear shear profile (2.12)
     transport: str = "linear"         # "linear" (2.17) or "bagnold" (2.18)
-    g: float = GRAVITY
+    g: float = GRAVITY                # gravitational acceleration [m/s^2]
     chi: float = 1.0                  # shape factor; the model assumes chi = 1 (section 3)
 
     def __post_init__(self):

@@ -3,7 +3,7 @@
 A scene describes everything a run needs: the material (Table 1), the reference steady uniform
 flow of section 4, which physical effects are switched on, the domain and its boundaries, the
 inflow (6.8)-(6.9), the initial state (e.g. the empty slope (6.7)), the numerics, the end time and
-the output times. Built-in scenes live in ``assets/scenes/*.toml`` (see :func:`list_builtin_scenes`);
+the output times. Built-in scenes live in ``tiseg/data/scenes/*.toml`` (see :func:`list_builtin_scenes`);
 any other TOML file can be given by path.
 
 Loading is strict, because a typo in a scene would otherwise silently run the wrong experiment:
@@ -40,15 +40,13 @@ from .material import Material, Species
 from .numerics.config import FLUXES, PHI_FLUXES, inflow_concentration, noise_modes
 from .steady import steady_state
 
-# The repository root is the parent of the package folder: this is the same path as
-# ``Path(tiseg.__file__).resolve().parents[1]`` (both files sit directly in ``tiseg/``), written
-# without importing the package from inside itself.
-SCENE_DIR = Path(__file__).resolve().parents[1] / "assets" / "scenes"
+from .data import SCENE_DIR, builtin_names, legacy_path
 
 # ---- allowed choices ----------------------------------------------------------------------------
 FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
 TRANSPORTS = ("linear", "bagnold")
 RECONSTRUCTIONS = ("weno", "minmod", "first-order")
+OUTPUT_PRECISIONS = ("f8", "f4")
 RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
 STEPPERS = ("rkc", "ssprk3", "ssprk2", "euler")
 PRECISIONS = ("f64", "f32")
@@ -77,7 +75,7 @@ SECTION_KEYS = {
     "numerics": ("reconstruction", "theta", "flux", "phi_flux", "stepper", "cfl", "precision",
                  "h_min", "h_eps", "u_eps", "max_stages"),
     "time": ("t_end",),
-    "output": ("interval", "times", "checkpoint_interval"),
+    "output": ("interval", "times", "checkpoint_interval", "precision", "significant_digits"),
 }
 TOP_LEVEL_KEYS = ("name", "description") + tuple(SECTION_KEYS)
 SPECIES_KEYS = ("zeta1_deg", "zeta2_deg", "beta", "L")
@@ -107,10 +105,11 @@ class FlowConfig:
     is none, for the error of whatever does need it (an inflow without inflow.u, a uniform
     initial state).
     """
-    h0: float = 0.002          # [m]
-    phi0: float = 0.8
+    h0: float = 0.002          # thickness of the reference steady uniform flow [m]
+    phi0: float = 0.8          # its small-particle concentration, in [0, 1]
     nu: float = 0.01           # [m^(3/2)/s], coefficient of the viscous term of (6.2)
-    u0: float | None = None    # [m/s]
+    u0: float | None = None    # its speed [m/s]: derived from (4.3), (4.9) for the
+                               # pouliquen-mixture friction, else give it
     F: float | None = None     # Froude number (4.3)
     no_steady: str | None = field(default=None, compare=False)
 
@@ -128,10 +127,10 @@ class EffectsConfig:
 @dataclass(frozen=True)
 class DomainConfig:
     """Rectangle x in [0, Lx] (downslope), y in [0, Ly] (cross-slope) of nx x ny cells."""
-    Lx: float
-    Ly: float
-    nx: int
-    ny: int
+    Lx: float                            # downslope length [m]
+    Ly: float                            # cross-slope width [m]
+    nx: int                              # cells downslope (or give resolution)
+    ny: int                              # cells across the slope; 1 = a 1D run
     resolution: float | None = None      # cells per metre, only used to derive nx, ny
 
     @property
@@ -160,10 +159,10 @@ class DomainConfig:
 
 @dataclass(frozen=True)
 class BoundaryConfig:
-    x_lo: str = "inflow"
-    x_hi: str = "outflow"
-    y_lo: str = "periodic"
-    y_hi: str = "periodic"
+    x_lo: str = "inflow"      # upslope edge x = 0: inflow (6.8) needs an [inflow] table
+    x_hi: str = "outflow"     # downslope edge x = Lx
+    y_lo: str = "periodic"    # cross-slope edge y = 0
+    y_hi: str = "periodic"    # cross-slope edge y = Ly (periodic needs both sides periodic)
 
     def as_tuple(self) -> tuple[str, str, str, str]:
         """(x_lo, x_hi, y_lo, y_hi), the order of ``OperatorConfig.bc``."""
@@ -187,9 +186,9 @@ class InflowConfig:
     draw that changes with any change of the numerics; with it, runs that differ only in
     ``seed`` are physically different realisations (ensembles, ``tiseg sweep``).
     """
-    h: float
-    u: float
-    phi: float
+    h: float                          # inflow thickness [m] (default flow.h0)
+    u: float                          # inflow speed [m/s] (default flow.u0)
+    phi: float                        # inflow concentration of (6.9) (default flow.phi0)
     ramp_rate: float = 10.0           # [1/s]; 0 = sudden inflow
     perturbation: float = 8e-5        # delta of (6.9)
     modes: int = 1                    # number of sine periods across Ly
@@ -226,24 +225,24 @@ class InitialConfig:
       concentration ``phi_channel`` and ``width`` centred at y = Ly/2 between levees of
       ``phi_levee`` (the verification case of sharp contacts, :mod:`tiseg.steady_channel`).
     """
-    kind: str = "empty"
-    amplitude: float | None = None
-    k: float | None = None
-    ky: float | None = None
-    mode: str | None = None
-    seed: int | None = None
-    wavelengths: float | None = None
-    x0: float | None = None
-    x1: float | None = None
-    y0: float | None = None
-    y1: float | None = None
-    h_left: float | None = None
-    h_right: float | None = None
-    h: float | None = None
-    phi: float | None = None
-    width: float | None = None
-    phi_channel: float | None = None
-    phi_levee: float | None = None
+    kind: str = "empty"                 # which initial state (the list above)
+    amplitude: float | None = None      # uniform: relative perturbation amplitude, < 1
+    k: float | None = None              # uniform: downslope wavenumber in the scalings (5.1)
+    ky: float | None = None             # uniform: cross-slope wavenumber, (5.1) scalings
+    mode: str | None = None             # uniform: eigen (most unstable mode), h, phi or noise
+    seed: int | None = None             # uniform: random seed of mode = "noise"
+    wavelengths: float | None = None    # uniform: downslope wavelengths in Lx (sets Lx)
+    x0: float | None = None             # dam-break: dam position; release: block start [m]
+    x1: float | None = None             # release: block end [m]
+    y0: float | None = None             # release: block start across the slope [m]
+    y1: float | None = None             # release: block end across the slope [m]
+    h_left: float | None = None         # dam-break: thickness upslope of x0 [m]
+    h_right: float | None = None        # dam-break: thickness downslope of x0 [m]
+    h: float | None = None              # release, channel: thickness [m] (default flow.h0)
+    phi: float | None = None            # dam-break, release: concentration (default flow.phi0)
+    width: float | None = None          # channel: width of the channel at y = Ly/2 [m]
+    phi_channel: float | None = None    # channel: concentration in the channel (default 1)
+    phi_levee: float | None = None      # channel: concentration in the levees (default 0)
 
 
 @dataclass(frozen=True)
@@ -257,7 +256,7 @@ class NumericsConfig:
                                       # flux times the upwind phi - G(phi) ("upwind")
     stepper: str = "rkc"              # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
     cfl: float = 0.25                 # Courant number of the hyperbolic part, in (0, 1]
-    precision: str = "f64"
+    precision: str = "f64"            # floating-point precision of the kernels
     h_min: float = 1e-4               # fluxes vanish where h < h_min (section 6.2) [m]
     h_eps: float = 1e-7               # desingularisation thickness for u = hu / h [m], < h_min
     u_eps: float = 1e-3               # regularises the friction direction u / |u| [m/s]
@@ -266,17 +265,25 @@ class NumericsConfig:
 
 @dataclass(frozen=True)
 class TimeConfig:
-    t_end: float                      # [s]
+    t_end: float                      # end time of the run [s]
 
 
 @dataclass(frozen=True)
 class OutputConfig:
     """Snapshot times. ``output_times`` is the resolved, sorted union of ``times``, the multiples
     of ``interval`` up to t_end, t = 0 and t_end."""
-    interval: float | None = None
-    times: tuple[float, ...] = ()
-    checkpoint_interval: float | None = None
+    interval: float | None = None     # a snapshot every interval seconds [s]
+    times: tuple[float, ...] = ()     # snapshots at these times too [s]
+    checkpoint_interval: float | None = None   # simulated seconds between checkpoints [s]
     output_times: tuple[float, ...] = ()
+    precision: str | None = None      # fields.nc data type: "f8", "f4"; None: the run's precision
+    significant_digits: int | None = None   # quantise fields.nc to this many decimal digits
+
+    def dtype(self, run_precision: str) -> str:
+        """NetCDF type of the stored fields for a run in ``run_precision`` ("f64"/"f32")."""
+        if self.precision is not None:
+            return self.precision
+        return "f8" if run_precision == "f64" else "f4"
 
 
 @dataclass(frozen=True)
@@ -417,10 +424,8 @@ class Scene:
 # Public functions
 # =================================================================================================
 def list_builtin_scenes() -> list[str]:
-    """Names of the scenes shipped in ``assets/scenes``."""
-    if not SCENE_DIR.is_dir():
-        return []
-    return sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
+    """Names of the scenes shipped in the package (``tiseg/data/scenes``)."""
+    return builtin_names(SCENE_DIR)
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -533,6 +538,10 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
     output["times"] = list(out.times)
     if out.checkpoint_interval is not None:
         output["checkpoint_interval"] = out.checkpoint_interval
+    if out.precision is not None:
+        output["precision"] = out.precision
+    if out.significant_digits is not None:
+        output["significant_digits"] = out.significant_digits
     d: dict = {
         "name": scene.name,
         "description": scene.description,
@@ -592,6 +601,11 @@ def _resolve_scene_path(name_or_path) -> Path:
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise InputError(f"unknown built-in scene {text!r}{hint}; built-in scenes: "
                          f"{', '.join(builtins) or '(none)'}; or give a path to a .toml file")
+    old = legacy_path(text)
+    if old is not None:
+        from .log import note
+        note(f"{text} moved into the package: using the built-in scene {old.stem!r}")
+        return old
     path = Path(text).expanduser()
     if path.is_dir():
         raise InputError(f"scene {text!r} is a folder, not a scene file (give a .toml file; "
@@ -982,8 +996,14 @@ def _read_output(t: "_Table", t_end: float) -> OutputConfig:
                 merged[-1] = (tv, pr)
             continue
         merged.append((tv, pr))
+    precision = (t.choice("precision", OUTPUT_PRECISIONS, aliases={"f64": "f8", "f32": "f4"})
+                 if t.has("precision") else None)
+    digits = t.integer("significant_digits", lo=1) if t.has("significant_digits") else None
+    _require(digits is None or digits <= 15, "output.significant_digits", digits,
+             "at most 15 (an f8 holds about 16 decimal digits)")
     return OutputConfig(interval=interval, times=times, checkpoint_interval=checkpoint,
-                        output_times=tuple(tv for tv, _ in merged))
+                        output_times=tuple(tv for tv, _ in merged), precision=precision,
+                        significant_digits=digits)
 
 
 # =================================================================================================

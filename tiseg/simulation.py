@@ -272,7 +272,7 @@ class Simulation:
         self.guard.keep(self.checkpoint_meta())
 
     def state(self) -> dict[str, np.ndarray]:
-        """The primitive fields h, u[, v][, phi] shaped (ny, nx) (as :meth:`fields`)."""
+        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as :meth:`fields`)."""
         return self.fields()
 
     # ------------------------------------------------------------------ callbacks
@@ -342,7 +342,7 @@ class Simulation:
         self.op.set(0, full)
 
     def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
-        """Primitive fields h, u[, v][, phi] shaped (ny, nx) as in the output files.
+        """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.
 
         Velocities and phi are hu/h etc. where h > 0 and 0 on the empty chute."""
         lay = self.layout

@@ -151,6 +151,34 @@ class Sweep:
                 "times": list(self.times), "runs": [r.name for r in self.runs]}
 
 
+def list_builtin_sweeps() -> list[str]:
+    """Names of the sweeps shipped in the package (``tiseg/data/sweeps``)."""
+    from .data import SWEEP_DIR, builtin_names
+    return builtin_names(SWEEP_DIR)
+
+
+def resolve_sweep_path(path) -> Path:
+    """A sweep file's path: ``path`` itself, or the built-in sweep of that name (no '/' and no
+    '.toml'), or the built-in an old ``assets/sweeps/<name>.toml`` path meant."""
+    from .data import SWEEP_DIR, legacy_path
+    text = str(path)
+    if isinstance(path, str) and "/" not in text and "\\" not in text \
+            and not text.endswith(".toml"):
+        names = list_builtin_sweeps()
+        if text in names:
+            return SWEEP_DIR / f"{text}.toml"
+        close = difflib.get_close_matches(text, names, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"unknown built-in sweep {text!r}{hint}; built-in sweeps: "
+                         f"{', '.join(names) or '(none)'}; or give a path to a .toml file")
+    old = legacy_path(text)
+    if old is not None:
+        from .log import note
+        note(f"{text} moved into the package: using the built-in sweep {old.stem!r}")
+        return old
+    return Path(text).expanduser()
+
+
 def load_sweep(path, extra_overrides: Mapping | None = None,
                grid_overrides: Mapping | None = None) -> Sweep:
     """Read and strictly validate a sweep file, building the scene of every combination.
@@ -160,7 +188,7 @@ def load_sweep(path, extra_overrides: Mapping | None = None,
     replace a grid axis of the file or add one (e.g. fewer resolutions for a quick look).
     Raises :class:`InputError` with one line naming the file, the key and what is allowed.
     """
-    p = Path(path).expanduser()
+    p = resolve_sweep_path(path)
     where = f"sweep file {str(p)!r}"
     try:
         data = tomllib.loads(p.read_text(encoding="utf-8"))

@@ -1,10 +1,6 @@
-"""Live GGUI viewer of tiseg simulations: ``python -m viewer SCENE`` or ``tiseg view SCENE``.
-
-Shows the simulation as it runs, painted by tiseg's frame kernel (:mod:`tiseg.render`), with
-controls for running, the field shown, recording and run-time parameters. Needs Vulkan (and a
-display for a visible window); without them it says so in one line and exits with status 2.
-See :mod:`viewer.app`.
-"""
-from .app import DisplayUnavailable, Viewer, display_problem, vulkan_problem
+"""Alias of :mod:`tiseg.viewer` in a source checkout, so that ``python -m viewer SCENE`` keeps
+working from the repository root. The package itself is ``tiseg.viewer`` (installed with tiseg);
+this folder is not part of the wheel."""
+from tiseg.viewer import DisplayUnavailable, Viewer, display_problem, vulkan_problem
 
 __all__ = ["Viewer", "DisplayUnavailable", "display_problem", "vulkan_problem"]

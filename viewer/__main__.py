@@ -1,6 +1,6 @@
-"""``python -m viewer SCENE [--set k=v] [--arch cpu] [--frames N] ...``"""
+"""``python -m viewer SCENE ...`` from the repository root: the same as ``tiseg view SCENE``."""
 import sys
 
-from .app import main
+from tiseg.viewer.app import main
 
 sys.exit(main())

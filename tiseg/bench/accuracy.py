@@ -73,9 +73,9 @@ DEFAULT_COMBO = {"reconstruction": "weno", "flux": "kt", "phi_flux": "central", 
 # numerics a point leaves unset take these (theta only matters for minmod)
 DEFAULT_SCHEME = {"reconstruction": "weno", "theta": 1.5, "flux": "kt", "phi_flux": "central",
                   "cfl": 0.25}
-COLUMNS = ("problem", "resolution", "reconstruction", "theta", "flux", "phi_flux", "stepper",
-           "precision", "backend", "error",
-           "wall_s", "steps", "rhs_evals", "cells", "cfl", "value", "status", "pareto")
+COLUMNS = ("problem", "resolution", "reconstruction", "stepper", "precision", "backend", "error",
+           "wall_s", "steps", "rhs_evals", "cells", "cfl", "value", "status", "pareto",
+           "theta", "flux", "phi_flux")     # (the scheme's last three came later: appended)
 
 # On a shared machine other jobs steal cores at random moments and a parallel kernel waits for
 # its slowest thread, so single timings scatter by 2-3x; the minimum over a few repeats is what
@@ -570,7 +570,8 @@ def pareto_front(errors: Sequence[float], walls: Sequence[float]) -> list[int]:
 
 
 def _is_default(row: dict) -> bool:
-    return all(row[k] == v for k, v in DEFAULT_COMBO.items())
+    # rows from before the flux options have no flux / phi_flux: the defaults then
+    return all(row.get(k, DEFAULT_SCHEME.get(k)) == v for k, v in DEFAULT_COMBO.items())
 
 
 def _work(row: dict) -> int:

@@ -13,7 +13,7 @@ Meant for a machine with a CUDA GPU (``--arch gpu``, the default), and runnable 
    flow itself), steps and mass balance; output only at the end, so that the disk does not
    set the pace;
 3. **the viewer**: simulated seconds per wall second of the GGUI viewer at 250 cells/m,
-   headless (``python -m viewer --offscreen``; target: at least 1, real time). GGUI needs
+   headless (``python -m tiseg.viewer --offscreen``; target: at least 1, real time). GGUI needs
    Vulkan; without it the same loop (steps plus the colour kernel of every frame) is timed
    without the window, and the row says so;
 4. **Vulkan against CUDA**, where the device offers both: the fingers scene at 250 cells/m to
@@ -85,7 +85,7 @@ def viewer_speed(arch: str, precision: str, resolution: float, frames: int,
     """Simulated seconds per wall second of the headless viewer (or its loop without GGUI)."""
     row = {"arch": arch, "precision": precision, "resolution": resolution, "frames": frames,
            "steps_per_frame": steps_per_frame}
-    cmd = [sys.executable, "-m", "viewer", "fingers", "--arch", arch, "--precision", precision,
+    cmd = [sys.executable, "-m", "tiseg.viewer", "fingers", "--arch", arch, "--precision", precision,
            "--offscreen", "--frames", str(frames), "--steps-per-frame", str(steps_per_frame),
            "--set", f"domain.resolution={resolution:g}", "--set", "output.times=[]"]
     rc, so, se, _ = _run(cmd, timeout)

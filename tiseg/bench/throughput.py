@@ -224,7 +224,7 @@ def measure_variants(names, nx: int, ny: int, repeats: int, target_s: float,
              "step2": lambda v: (lambda: v.step_fixed(2)),
              "step6": lambda v: (lambda: v.step_fixed(6))}
     best = {(v.name, k): math.inf for v in vs for k in timed}
-    for rnd in range(repeats):
+    for _ in range(repeats):
         for v in vs:
             for key, fn in timed.items():
                 t = best_time(fn(v), 1, target_s, ti.sync)
@@ -233,7 +233,7 @@ def measure_variants(names, nx: int, ny: int, repeats: int, target_s: float,
     rows = []
     for v in vs:
         ref = ReferenceOperator(v.sim.cfg)
-        t_np = best_time(lambda: ref.rhs(v.q_ref.copy(), 0.0), numpy_repeats, 0.0)
+        t_np = best_time(lambda: ref.rhs(v.q_ref.copy(), 0.0), numpy_repeats, 0.0)  # noqa: B023
         lay = v.sim.layout
         nbytes = 8 if v.sim.backend.precision == "f64" else 4
         t_rhs, t_step = best[(v.name, "rhs")], best[(v.name, "step")]

@@ -13,8 +13,17 @@ from pathlib import Path
 
 from .common import add_material_options, check_output_folder, material_from_args
 
-# repository assets folder (exists in a source checkout / editable install)
+# the repository's README media (a source checkout or an editable install only)
 ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets" / "figures"
+
+
+def _assets_dir() -> Path:
+    from ..errors import InputError
+    if not (ASSETS_DIR.parents[1] / "pyproject.toml").is_file():
+        raise InputError("--assets copies figures into a source checkout's assets/figures; this "
+                         "tiseg is installed from a wheel: use --out instead")
+    ASSETS_DIR.mkdir(parents=True, exist_ok=True)
+    return ASSETS_DIR
 
 
 def _run_stability(args) -> int:
@@ -29,7 +38,7 @@ def _run_stability(args) -> int:
     for p in paths:
         print(p)
     if args.assets:
-        ASSETS_DIR.mkdir(parents=True, exist_ok=True)
+        _assets_dir()
         for p in paths:
             shutil.copy2(p, ASSETS_DIR / p.name)
             print(ASSETS_DIR / p.name)
@@ -90,9 +99,10 @@ def _run_fingers(args) -> int:
         print(p)
     if args.assets:
         pngs = set(FILES.values())
+        assets = _assets_dir()
         for p in paths:
             if p.name in pngs:       # small palette copies: commit-worthy (< 150 kB)
-                print(shrink_copy(p, ASSETS_DIR / p.name))
+                print(shrink_copy(p, assets / p.name))
     return 0
 
 

@@ -1,6 +1,7 @@
 """`tiseg sweep SWEEP.toml`: run a parameter sweep on Dask and collect one table.
 
-The sweep file format is described in :mod:`tiseg.sweep`; examples are in ``assets/sweeps/``.
+The sweep file format is described in :mod:`tiseg.sweep`; built-in sweeps are in ``tiseg/data/sweeps/``
+(``tiseg sweep grid-study``).
 """
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ def register(sub) -> None:
                     "into DIR/sweep.csv (and DIR/sweep.json). Finished runs (folders with "
                     "done.json) are reused, so an interrupted sweep resumes where it stopped. "
                     "Every combination is validated before anything runs.")
-    p.add_argument("sweep", metavar="SWEEP.toml", help="sweep file (see assets/sweeps/)")
+    p.add_argument("sweep", metavar="SWEEP.toml", help="sweep file, or the name of a built-in sweep (grid-study, width-study, "
+                   "nu-study, finite-release, monodisperse, tiny)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default: runs/sweeps/<sweep name>)")
     p.add_argument("--set", dest="overrides", action="append", default=[],

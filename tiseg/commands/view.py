@@ -1,4 +1,4 @@
-"""`tiseg view SCENE`: the live GGUI viewer (see :mod:`viewer.app`)."""
+"""`tiseg view SCENE`: the live GGUI viewer (see :mod:`tiseg.viewer.app`)."""
 from __future__ import annotations
 
 
@@ -8,11 +8,11 @@ def register(sub) -> None:
                                    "(pause, step, reset, field, steps per frame, screenshot, "
                                    "recording, inflow/nu/slope). Needs Vulkan and a display; "
                                    "without them use `tiseg run SCENE --movie out.mp4`.")
-    from viewer.app import add_arguments
+    from tiseg.viewer.app import add_arguments
     add_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from viewer.app import run_from_args
+    from tiseg.viewer.app import run_from_args
     return run_from_args(args)

@@ -10,8 +10,8 @@
 * beyond the paper (``beyond=True``): the finite release (inflow stopped, figures 3b/4b) and the
   monodisperse front (figure 5).
 
-The numbers come from sweeps (:mod:`tiseg.sweep`) over the example sweep files in
-``assets/sweeps`` (grid-study, width-study, nu-study, finite-release, monodisperse), kept
+The numbers come from sweeps (:mod:`tiseg.sweep`) over the built-in sweep files in
+``tiseg/data/sweeps`` (grid-study, width-study, nu-study, finite-release, monodisperse), kept
 under one runs folder (``RUNS/<sweep name>/``). A study whose folder has a ``sweep.json`` is
 taken as it is (and resumed if it was interrupted); a missing one is run first, with the
 sweep file's settings or the cheaper ones asked for (``settings``, or ``quick``). The finger
@@ -29,10 +29,10 @@ from typing import Callable
 
 import numpy as np
 
+from ..data import SWEEP_DIR
 from ..errors import InputError
 from . import new_figure, save_figure
 
-SWEEP_DIR = Path(__file__).resolve().parents[2] / "assets" / "sweeps"
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)        # panels of figures 12-14
 FINAL_TIME = 7.5                               # figures 15-17
 ELONGATION_TIMES = (2.5, 5.0, 7.5)             # figure 16(b)
@@ -456,7 +456,7 @@ def summary_rows(studies: dict[str, Study | None]) -> list[dict]:
     """One row per finished run: the study values, the metrics at the last time, the onset
     time of fingers and the run costs."""
     rows = []
-    for key, study in studies.items():
+    for study in studies.values():
         if study is None:
             continue
         for run in study.runs:

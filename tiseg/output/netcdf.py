@@ -1,7 +1,17 @@
-"""Field snapshots as a CF-1.8 NetCDF-4 file.
+"""Field snapshots as a CF-1.8 NetCDF-4 file (the IOOS compliance checker reports no error).
 
 Layout: dimensions ``time`` (unlimited), ``y``, ``x``; coordinate variables of the cell centres;
-data variables (time, y, x). Every :meth:`FieldsWriter.write` ends with a sync, which flushes the
+data variables (time, y, x).
+
+* ``time`` is the simulated time in seconds since t = 0 of the run. CF wants a time coordinate
+  in "<unit> since <date>", so its units are ``seconds since 2000-01-01 00:00:00``, a placeholder
+  date (the ``comment`` attribute says so): xarray decodes it to dates unless opened with
+  ``decode_times=False``, as :func:`read_fields` does.
+* ``phi`` is missing (``_FillValue``, NaN after xarray's decoding) where h < h_min: there is no
+  material there, and 0 would read as pure coarse grains.
+* Data are stored as f8 or f4 (``output.precision``), optionally quantised to
+  ``output.significant_digits`` decimal digits (netCDF-C's quantisation, which zlib then
+  compresses far better), and zlib-compressed. Every :meth:`FieldsWriter.write` ends with a sync, which flushes the
 HDF5 metadata and data to disk: if the process is killed later, the file still opens with every
 snapshot written before the kill (the run is then restartable from the last snapshot).
 
@@ -24,6 +34,11 @@ import numpy as np
 
 from .atomic import replacing
 
+TIME_UNITS = "seconds since 2000-01-01 00:00:00"
+REFERENCES = ("Baker, J. L., Johnson, C. G. & Gray, J. M. N. T. 2016 Segregation-induced finger "
+              "formation in granular free-surface flows. J. Fluid Mech. 809, 168-212, "
+              "doi:10.1017/jfm.2016.653")
+
 # CF attributes of the primitive fields of (6.1)-(6.3).
 FIELD_ATTRS = {
     "h": {"long_name": "flow thickness", "units": "m"},
@@ -42,11 +57,15 @@ class FieldsWriter:
     added to the CF ones (e.g. ``{"scene": scene.to_toml()}``); values that NetCDF cannot store
     natively (dicts, lists of strings, None, bools) are stored as JSON / text. ``fields``: the
     variables that exist (a run without segregation passes no "phi"). ``dtype``: "f8" or "f4".
+    ``h_min``: phi is written as missing where h < h_min (None: never).
+    ``significant_digits``: quantise the data variables to this many decimal digits (None: keep
+    every bit).
     """
 
     def __init__(self, path, x, y, attrs: Mapping | None = None,
                  fields: Sequence[str] = ("h", "u", "v", "phi"), dtype: str = "f8",
-                 atomic: bool = True):
+                 atomic: bool = True, h_min: float | None = None,
+                 significant_digits: int | None = None):
         self.path = Path(path)
         self.fields = tuple(fields)
         unknown = [f for f in self.fields if f not in FIELD_ATTRS]
@@ -55,6 +74,8 @@ class FieldsWriter:
         if dtype not in _DTYPES:
             raise ValueError(f"dtype={dtype!r}: choose 'f8' or 'f4'")
         self.dtype = _DTYPES[dtype]
+        self.h_min = h_min
+        self.significant_digits = significant_digits
         x = np.asarray(x, dtype="f8").reshape(-1)
         y = np.asarray(y, dtype="f8").reshape(-1)
         self.shape = (y.size, x.size)
@@ -89,6 +110,7 @@ class FieldsWriter:
         ds.setncattr("source", f"tiseg {__version__}: depth-averaged segregation-mobility model "
                                "of Baker, Johnson & Gray (2016), eqs (6.1)-(6.3)")
         ds.setncattr("history", f"{now} created by tiseg {__version__}")
+        ds.setncattr("references", f"{REFERENCES}; tiseg {__version__}")
         for key, value in attrs.items():
             value = _attr_value(value)
             if value is not None:
@@ -98,30 +120,43 @@ class FieldsWriter:
         ds.createDimension("y", y.size)
         ds.createDimension("x", x.size)
         t = ds.createVariable("time", "f8", ("time",))
-        t.setncatts({"standard_name": "time", "long_name": "time", "units": "s", "axis": "T"})
-        # 'units = "s"' (no reference date) keeps time a plain float in xarray/CF readers
+        t.setncatts({"standard_name": "time", "long_name": "simulated time", "units": TIME_UNITS,
+                     "calendar": "standard", "axis": "T",
+                     "comment": "seconds since t = 0 of the run; the reference date is a "
+                                "placeholder that CF requires"})
+        # x and y are distances along and across the slope, not a map projection: no axis
+        # attribute, which CF checkers read as longitude / latitude
         yv = ds.createVariable("y", "f8", ("y",))
-        yv.setncatts({"long_name": "cross-slope distance", "units": "m", "axis": "Y"})
+        yv.setncatts({"long_name": "cross-slope distance", "units": "m"})
         yv[:] = y
         xv = ds.createVariable("x", "f8", ("x",))
-        xv.setncatts({"long_name": "downslope distance", "units": "m", "axis": "X"})
+        xv.setncatts({"long_name": "downslope distance", "units": "m"})
         xv[:] = x
         ny, nx = self.shape
         for name in self.fields:
             # one chunk per snapshot: appending a record touches only its own chunk
+            kw = {}
+            if self.significant_digits is not None:
+                kw["significant_digits"] = int(self.significant_digits)
             var = ds.createVariable(name, self.dtype, ("time", "y", "x"), zlib=True, complevel=4,
-                                    shuffle=True, chunksizes=(1, ny, nx))
+                                    shuffle=True, chunksizes=(1, ny, nx),
+                                    fill_value=netCDF4.default_fillvals[self.dtype], **kw)
             var.setncatts(FIELD_ATTRS[name])
+            if name == "phi" and self.h_min is not None:
+                var.setncattr("comment", f"missing where h < h_min = {self.h_min:g} m (no "
+                                         "material)")
 
     @classmethod
-    def append(cls, path, keep: int, t_max: float | None = None) -> "FieldsWriter":
+    def append(cls, path, keep: int, t_max: float | None = None,
+               h_min: float | None = None) -> "FieldsWriter":
         """Reopen the file of an interrupted run to append snapshots after its first ``keep``.
 
         Records beyond ``keep`` (written after the checkpoint the run resumes from, or left
         half-written by a kill: the data of a record is written before its time) are dropped,
         by rewriting the file through a temporary copy and ``os.replace``. Raises
         :class:`FieldsFileError` when the file cannot be read or holds fewer than ``keep``
-        complete records (or a kept time after ``t_max``).
+        complete records (or a kept time after ``t_max``). ``h_min``: as for a new writer; the
+        quantisation and the precision are the file's own.
         """
         path = Path(path)
         try:
@@ -130,6 +165,7 @@ class FieldsWriter:
                 times = np.ma.filled(ds.variables["time"][:].astype("f8"), np.nan)
                 n = ds.dimensions["time"].size
                 dtype = ds.variables[fields[0]].dtype.str[1:] if fields else "f8"
+                quant = ds.variables[fields[0]].quantization() if fields else None
         except (OSError, KeyError, IndexError, RuntimeError) as exc:
             raise FieldsFileError(f"{path}: cannot be read as a tiseg fields file ({exc})") from None
         kept = times[:keep]
@@ -138,12 +174,15 @@ class FieldsWriter:
             raise FieldsFileError(f"{path}: holds {n} records with times {kept.tolist()[:8]}, "
                                   f"but the checkpoint expects {keep} complete snapshots"
                                   + (f" up to t={t_max!r}" if t_max is not None else ""))
+        digits = int(quant[0]) if quant else None
         if n != keep:
-            _truncate_copy(path, keep, fields, dtype)
+            _truncate_copy(path, keep, fields, dtype, h_min, digits)
         self = cls.__new__(cls)
         self.path = path
         self.fields = fields
         self.dtype = _DTYPES.get(dtype, "f8")
+        self.h_min = h_min
+        self.significant_digits = digits
         self._ds = ds = netCDF4.Dataset(path, "a")
         self.shape = (ds.dimensions["y"].size, ds.dimensions["x"].size)
         self.count = keep
@@ -176,6 +215,8 @@ class FieldsWriter:
             if a.shape != self.shape and not (self.shape[0] == 1 and a.shape == self.shape[1:]):
                 raise ValueError(f"write(): {name} has shape {a.shape}, expected {self.shape}")
             data[name] = a.reshape(self.shape)
+        if "phi" in data and self.h_min is not None:
+            data["phi"] = np.ma.masked_where(data["h"] < self.h_min, data["phi"])
         i = self.count
         for name, a in data.items():
             self._ds.variables[name][i, :, :] = a
@@ -207,13 +248,15 @@ class FieldsFileError(Exception):
     """A fields file that cannot be continued (unreadable, or fewer records than expected)."""
 
 
-def _truncate_copy(path: Path, keep: int, fields, dtype: str) -> None:
+def _truncate_copy(path: Path, keep: int, fields, dtype: str, h_min: float | None = None,
+                   digits: int | None = None) -> None:
     """Replace ``path`` by a copy holding only its first ``keep`` records (atomic replace)."""
     with replacing(path) as tmp, netCDF4.Dataset(path, "r") as src:
         attrs = {k: src.getncattr(k) for k in src.ncattrs()}
         x = src.variables["x"][:]
         y = src.variables["y"][:]
-        w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype, atomic=False)
+        w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype, atomic=False, h_min=h_min,
+                         significant_digits=digits)
         try:
             for k, v in attrs.items():      # the original title, history, scene, ...
                 w._ds.setncattr(k, v)

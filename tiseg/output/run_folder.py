@@ -145,7 +145,7 @@ class RunFolder:
                 self.diag = _ckpt.append_diagnostics(out / DIAGNOSTICS, resume["diag_rows"])
                 try:
                     self.fields = FieldsWriter.append(out / "fields.nc", resume["snapshots"],
-                                                      sim.t)
+                                                      sim.t, h_min=sc.numerics.h_min)
                 except FieldsFileError as exc:
                     self.fields = self._salvage_fields(exc)
         except OSError as exc:
@@ -249,8 +249,10 @@ class RunFolder:
         return FieldsWriter(path, x, y, attrs={"scene": sim.scene.to_toml(),
                                                "tiseg_arch": sim.backend.arch,
                                                "tiseg_precision": sim.backend.precision},
-                            fields=sim.scene.fields,
-                            dtype="f8" if sim.backend.precision == "f64" else "f4")
+                            fields=sim.scene.fields, dtype=sim.scene.output.dtype(
+                                sim.backend.precision),
+                            h_min=sim.scene.numerics.h_min,
+                            significant_digits=sim.scene.output.significant_digits)
 
     def _salvage_fields(self, exc: Exception) -> FieldsWriter:
         """Resume with a fields.nc that cannot be continued: keep it under another name and

@@ -62,7 +62,8 @@ class MovieWriter:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot create the folder of {str(self.path)!r}: {exc.strerror}")
+            raise InputError(f"cannot create the folder of {str(self.path)!r}: "
+                             f"{exc.strerror}") from None
 
     def append(self, frame: np.ndarray) -> None:
         """Add one uint8 (H, W, 3) frame (row 0 at the top)."""
@@ -118,7 +119,8 @@ class FrameFolderWriter:
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot create frame folder {str(self.folder)!r}: {exc.strerror}")
+            raise InputError(f"cannot create frame folder {str(self.folder)!r}: "
+                             f"{exc.strerror}") from None
 
     def append(self, frame: np.ndarray) -> None:
         import imageio.v3 as iio

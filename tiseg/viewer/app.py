@@ -493,7 +493,7 @@ class Viewer:
 
 
 # =================================================================================================
-# Command line (python -m viewer, tiseg view)
+# Command line (tiseg view, python -m tiseg.viewer; python -m viewer in a source checkout)
 # =================================================================================================
 def add_arguments(p) -> None:
     """Options of the viewer (the scene options come from `tiseg run`)."""
@@ -549,7 +549,7 @@ def run_from_args(args) -> int:
 
 def main(argv=None) -> int:
     import argparse
-    p = argparse.ArgumentParser(prog="python -m viewer",
+    p = argparse.ArgumentParser(prog="python -m tiseg.viewer",
                                 description="Live GGUI view of a tiseg simulation.")
     add_arguments(p)
     args = p.parse_args(argv)

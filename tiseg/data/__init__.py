@@ -1,0 +1,34 @@
+"""Files shipped inside the package, read through importlib.resources so that an installed
+wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.toml``, see
+:func:`tiseg.scene.list_builtin_scenes`) and sweeps (``sweeps/*.toml``, see
+:func:`tiseg.sweep.load_sweep`).
+
+Up to version 0.1.0 they lived in ``assets/scenes`` and ``assets/sweeps`` beside the package;
+:func:`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.
+"""
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path, PurePath
+
+# A wheel installs packages as plain folders, so these are real paths (pathlib.Path).
+SCENE_DIR = Path(str(resources.files(__name__) / "scenes"))
+SWEEP_DIR = Path(str(resources.files(__name__) / "sweeps"))
+LEGACY_DIRS = {"scenes": SCENE_DIR, "sweeps": SWEEP_DIR}
+
+
+def builtin_names(folder: Path) -> list[str]:
+    """Stems of the TOML files in one of the folders above."""
+    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
+
+
+def legacy_path(text: str) -> Path | None:
+    """The built-in file an old ``assets/scenes/<name>.toml`` or ``assets/sweeps/<name>.toml``
+    path meant, when no such file exists any more; else None."""
+    parts = PurePath(text).parts
+    if len(parts) < 3 or parts[-3] != "assets" or parts[-2] not in LEGACY_DIRS:
+        return None
+    if Path(text).expanduser().exists():
+        return None
+    candidate = LEGACY_DIRS[parts[-2]] / parts[-1]
+    return candidate if candidate.is_file() else None

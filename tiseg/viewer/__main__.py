@@ -1,0 +1,6 @@
+"""``python -m tiseg.viewer SCENE [--set k=v] [--arch cpu] [--frames N] ...``"""
+import sys
+
+from .app import main
+
+sys.exit(main())
