@@ -1,5 +1,6 @@
 """What the wheel must hold: the tiseg package with its built-in scenes and sweeps, and no other
 top-level package (the source checkout's ``viewer`` alias stays out)."""
+
 import sys
 import zipfile
 
@@ -8,8 +9,12 @@ top = {n.split("/")[0] for n in names if not n.split("/")[0].endswith((".dist-in
 problems = []
 if top != {"tiseg"}:
     problems.append(f"top-level entries {sorted(top)}, expected only 'tiseg'")
-for need in ("tiseg/data/scenes/fingers.toml", "tiseg/data/scenes/channel.toml",
-             "tiseg/data/sweeps/grid-study.toml", "tiseg/viewer/app.py"):
+for need in (
+    "tiseg/data/scenes/fingers.toml",
+    "tiseg/data/scenes/channel.toml",
+    "tiseg/data/sweeps/grid-study.toml",
+    "tiseg/viewer/app.py",
+):
     if need not in names:
         problems.append(f"missing {need}")
 if problems:

@@ -7,6 +7,7 @@ One run per (scheme, resolution) on one thread (the channel is x-independent and
 cells downslope); writes contacts.csv (appending, so an interrupted study resumes) and
 contacts.md. The scene is the built-in ``channel`` (docs/numerics.md).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,11 +26,26 @@ SCHEMES = {
     "minmod2": {"numerics.reconstruction": "minmod", "numerics.theta": 2.0},
     "weno+up": {"numerics.phi_flux": "upwind"},
     "weno+cu+up": {"numerics.flux": "central-upwind", "numerics.phi_flux": "upwind"},
-    "minmod2+up": {"numerics.reconstruction": "minmod", "numerics.theta": 2.0,
-                   "numerics.phi_flux": "upwind"},
+    "minmod2+up": {
+        "numerics.reconstruction": "minmod",
+        "numerics.theta": 2.0,
+        "numerics.phi_flux": "upwind",
+    },
 }
-COLUMNS = ("scheme", "resolution", "phi_centre", "phi_error", "phi_levee_max", "u_centre",
-           "u_exact_centre", "u_error", "steps", "rhs_evals", "cells", "wall_s")
+COLUMNS = (
+    "scheme",
+    "resolution",
+    "phi_centre",
+    "phi_error",
+    "phi_levee_max",
+    "u_centre",
+    "u_exact_centre",
+    "u_error",
+    "steps",
+    "rhs_evals",
+    "cells",
+    "wall_s",
+)
 
 
 def run_one(label: str, res: int, t_end: float) -> dict:
@@ -38,8 +54,10 @@ def run_one(label: str, res: int, t_end: float) -> dict:
     from tiseg.steady_channel import channel_profile
     from tiseg.bench.accuracy import _channel_cells
 
-    sc = load_scene("channel", {"domain.resolution": res, "time.t_end": t_end,
-                                "output.interval": t_end, **SCHEMES[label]})
+    sc = load_scene(
+        "channel",
+        {"domain.resolution": res, "time.t_end": t_end, "output.interval": t_end, **SCHEMES[label]},
+    )
     sim = Simulation(sc)
     t0 = time.perf_counter()
     sim.advance(t_end)
@@ -51,24 +69,33 @@ def run_one(label: str, res: int, t_end: float) -> dict:
     phi_exact = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * frac
     centre = np.abs(y - 0.5 * sc.domain.Ly) < sc.dy
     u_exact = channel_profile(sc).cell_averages(y, sc.dy)
-    return {"scheme": label, "resolution": res, "phi_centre": float(phi[centre].mean()),
-            "phi_error": float(np.mean(np.abs(phi - phi_exact))),
-            "phi_levee_max": float(phi[frac == 0].max()),
-            "u_centre": float(u[centre].mean()), "u_exact_centre": float(u_exact[centre].mean()),
-            "u_error": float(np.sum(np.abs(u - u_exact)) / np.sum(np.abs(u_exact))),
-            "steps": sim.stats.steps, "rhs_evals": sim.stats.stages,
-            "cells": sc.domain.nx * sc.domain.ny, "wall_s": wall}
+    return {
+        "scheme": label,
+        "resolution": res,
+        "phi_centre": float(phi[centre].mean()),
+        "phi_error": float(np.mean(np.abs(phi - phi_exact))),
+        "phi_levee_max": float(phi[frac == 0].max()),
+        "u_centre": float(u[centre].mean()),
+        "u_exact_centre": float(u_exact[centre].mean()),
+        "u_error": float(np.sum(np.abs(u - u_exact)) / np.sum(np.abs(u_exact))),
+        "steps": sim.stats.steps,
+        "rhs_evals": sim.stats.stages,
+        "cells": sc.domain.nx * sc.domain.ny,
+        "wall_s": wall,
+    }
 
 
 def table(rows: list[dict], key: str, fmt: str) -> list[str]:
     res = sorted({int(r["resolution"]) for r in rows})
-    out = ["| scheme | " + " | ".join(f"{r} /m" for r in res) + " |",
-           "|---" * (len(res) + 1) + "|"]
+    out = ["| scheme | " + " | ".join(f"{r} /m" for r in res) + " |", "|---" * (len(res) + 1) + "|"]
     for label in SCHEMES:
         vals = {int(r["resolution"]): float(r[key]) for r in rows if r["scheme"] == label}
         if vals:
-            out.append(f"| {label} | " + " | ".join(
-                format(vals[r], fmt) if r in vals else "–" for r in res) + " |")
+            out.append(
+                f"| {label} | "
+                + " | ".join(format(vals[r], fmt) if r in vals else "–" for r in res)
+                + " |"
+            )
     return out
 
 
@@ -81,6 +108,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     import tiseg
     from tiseg.bench import machine_info, machine_line
+
     tiseg.init("cpu", "f64", threads=1)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -102,14 +130,29 @@ def main(argv=None) -> int:
                 if new:
                     w.writeheader()
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
-            print(f"{label:12s} {res:5d}/m  phi_c {r['phi_centre']:.4f}  u err "
-                  f"{r['u_error']:.4f}  {r['rhs_evals']} evals  {r['wall_s']:.1f} s", flush=True)
-    md = [f"# Channel test, t = {a.t_end:g} s ({machine_line(machine_info(1))}; one run each)", "",
-          "phi at the channel centre (exact: 1):", "", *table(rows, "phi_centre", ".3f"), "",
-          "mean |phi - phi_exact| over the chute:", "", *table(rows, "phi_error", ".2e"), "",
-          "relative L1 error of u(y) against the steady cross-slope solution:", "",
-          *table(rows, "u_error", ".4f"), "",
-          "operator evaluations x cells (work) / 1e6:", ""]
+            print(
+                f"{label:12s} {res:5d}/m  phi_c {r['phi_centre']:.4f}  u err "
+                f"{r['u_error']:.4f}  {r['rhs_evals']} evals  {r['wall_s']:.1f} s",
+                flush=True,
+            )
+    md = [
+        f"# Channel test, t = {a.t_end:g} s ({machine_line(machine_info(1))}; one run each)",
+        "",
+        "phi at the channel centre (exact: 1):",
+        "",
+        *table(rows, "phi_centre", ".3f"),
+        "",
+        "mean |phi - phi_exact| over the chute:",
+        "",
+        *table(rows, "phi_error", ".2e"),
+        "",
+        "relative L1 error of u(y) against the steady cross-slope solution:",
+        "",
+        *table(rows, "u_error", ".4f"),
+        "",
+        "operator evaluations x cells (work) / 1e6:",
+        "",
+    ]
     for r in rows:
         r["work"] = int(r["rhs_evals"]) * int(r["cells"]) / 1e6
     md += table(rows, "work", ".2f")

@@ -13,6 +13,7 @@ cells/m ensemble; a point "reaches" it when |mean - mean_750| <= sd_750 for Λ a
 exactly and sd = 0). Writes
 ``fingers.md`` and ``fingers.png`` (|Λ - Λ_750| and |x_l - x_l,750| against work).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,9 +33,15 @@ REF_RES = 750
 def label(num: dict) -> str:
     """The option's name as in tiseg bench accuracy (scheme_label)."""
     from tiseg.bench.accuracy import scheme_label
-    return scheme_label({"reconstruction": num.get("reconstruction", "weno"),
-                         "theta": num.get("theta", 1.5), "flux": num.get("flux", "kt"),
-                         "phi_flux": num.get("phi_flux", "central")})
+
+    return scheme_label(
+        {
+            "reconstruction": num.get("reconstruction", "weno"),
+            "theta": num.get("theta", 1.5),
+            "flux": num.get("flux", "kt"),
+            "phi_flux": num.get("phi_flux", "central"),
+        }
+    )
 
 
 def collect(folders) -> dict:
@@ -66,8 +73,7 @@ def summarise(groups) -> list[dict]:
         d["count"] = stats(rows, "finger_count")
         for t in TIMES:
             d[f"x_l@{t}"] = stats(rows, f"elongation@{t}")
-        d["work"] = float(np.mean([float(r["rhs_evaluations"]) * float(r["cells"])
-                                   for r in rows]))
+        d["work"] = float(np.mean([float(r["rhs_evaluations"]) * float(r["cells"]) for r in rows]))
         d["wall"] = float(np.mean([float(r["wall_s"]) for r in rows]))
         out.append(d)
     return out
@@ -95,14 +101,19 @@ def main(argv=None) -> int:
             return "–"
         return f"{m * scale:{fmt}} ± {s * scale:{fmt}}" if n > 1 else f"{m * scale:{fmt}}"
 
-    md = ["# Finger ensembles per numerics option", "",
-          "Mean ± sd over the seeds (n per row) at t = 7.5 s unless stated; work = operator "
-          "evaluations x cells per run; wall = mean per run (1 thread, 2 runs at a time on the "
-          "shared 2-core machine). 'reaches 750' = Λ and x_l(7.5 s) within one sd of the same "
-          "option's 750 cells/m ensemble, or within half the step of Λ = Ly/N between N and N + 1 "
-          "fingers where the seeds agree exactly (sd 0).", "",
-          "| scheme | cells/m | n | fingers | Λ [cm] | x_l 2.5 s | x_l 5 s | x_l 7.5 s | "
-          "work [1e9] | wall [s] | reaches 750 |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    md = [
+        "# Finger ensembles per numerics option",
+        "",
+        "Mean ± sd over the seeds (n per row) at t = 7.5 s unless stated; work = operator "
+        "evaluations x cells per run; wall = mean per run (1 thread, 2 runs at a time on the "
+        "shared 2-core machine). 'reaches 750' = Λ and x_l(7.5 s) within one sd of the same "
+        "option's 750 cells/m ensemble, or within half the step of Λ = Ly/N between N and N + 1 "
+        "fingers where the seeds agree exactly (sd 0).",
+        "",
+        "| scheme | cells/m | n | fingers | Λ [cm] | x_l 2.5 s | x_l 5 s | x_l 7.5 s | "
+        "work [1e9] | wall [s] | reaches 750 |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for d in rows:
         ref = refs.get(d["scheme"])
         ok = ""
@@ -111,21 +122,32 @@ def main(argv=None) -> int:
             n_ref = max(ref["count"][0], 1.0)
             width = ref["wavelength"][0] * n_ref
             lam_floor = 0.5 * (width / n_ref - width / (n_ref + 1))
-            ok = "yes" if (reaches(d, ref, "wavelength", lam_floor)
-                           and reaches(d, ref, "x_l@7.5", 0.0)) else "no"
-        md.append(f"| {d['scheme']} | {d['resolution']} | {d['n']} | {pm(d['count'], '.1f')} | "
-                  f"{pm(d['wavelength'], '.2f', 100)} | {pm(d['x_l@2.5'], '.3f')} | "
-                  f"{pm(d['x_l@5'], '.3f')} | {pm(d['x_l@7.5'], '.3f')} | "
-                  f"{d['work'] / 1e9:.2f} | {d['wall']:.0f} | {ok} |")
+            ok = (
+                "yes"
+                if (reaches(d, ref, "wavelength", lam_floor) and reaches(d, ref, "x_l@7.5", 0.0))
+                else "no"
+            )
+        md.append(
+            f"| {d['scheme']} | {d['resolution']} | {d['n']} | {pm(d['count'], '.1f')} | "
+            f"{pm(d['wavelength'], '.2f', 100)} | {pm(d['x_l@2.5'], '.3f')} | "
+            f"{pm(d['x_l@5'], '.3f')} | {pm(d['x_l@7.5'], '.3f')} | "
+            f"{d['work'] / 1e9:.2f} | {d['wall']:.0f} | {ok} |"
+        )
     (out / "fingers.md").write_text("\n".join(md) + "\n")
 
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     for (key, title, scale, unit), ax in zip(
-            (("wavelength", "finger wavelength Λ at 7.5 s", 100, "cm"),
-             ("x_l@7.5", "elongation x_l at 7.5 s", 1, "m")), axes):
+        (
+            ("wavelength", "finger wavelength Λ at 7.5 s", 100, "cm"),
+            ("x_l@7.5", "elongation x_l at 7.5 s", 1, "m"),
+        ),
+        axes,
+    ):
         for lab in dict.fromkeys(d["scheme"] for d in rows):
             pts = [d for d in rows if d["scheme"] == lab and d["resolution"] != REF_RES]
             ref = refs.get(lab)
@@ -136,10 +158,19 @@ def main(argv=None) -> int:
             e = [d[key][1] * scale for d in pts]
             ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=lab)
             for d, xv, yv in zip(pts, x, y):
-                ax.annotate(str(d["resolution"]), (xv, yv), fontsize=7, xytext=(3, 3),
-                            textcoords="offset points")
-            ax.axhline(ref[key][1] * scale, ls=":", lw=0.8,
-                       color=ax.lines[-1].get_color() if ax.lines else "k")
+                ax.annotate(
+                    str(d["resolution"]),
+                    (xv, yv),
+                    fontsize=7,
+                    xytext=(3, 3),
+                    textcoords="offset points",
+                )
+            ax.axhline(
+                ref[key][1] * scale,
+                ls=":",
+                lw=0.8,
+                color=ax.lines[-1].get_color() if ax.lines else "k",
+            )
         ax.set_xscale("log")
         ax.set_xlabel("work per run: operator evaluations x cells")
         ax.set_ylabel(f"|mean - mean at 750 cells/m| [{unit}]")

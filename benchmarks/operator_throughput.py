@@ -6,6 +6,7 @@ is the same as ``tiseg bench throughput --json [--nx ...] [--ny ...]``: every pr
 own process, each effect switched off in turn, the NumPy reference and a memory-bandwidth bound
 measured in the same run (see :mod:`tiseg.bench.throughput` and benchmarks/README.md).
 """
+
 import sys
 
 from tiseg.cli import main

@@ -10,6 +10,7 @@
 
 A failing example fails the build (``mkdocs build --strict`` in CI).
 """
+
 from __future__ import annotations
 
 import ast
@@ -30,14 +31,14 @@ def _section(text: str, heading: str) -> str:
     """The block of a markdown text from ``## heading`` to the next ``## `` heading."""
     lines = text.splitlines()
     start = next(i for i, ln in enumerate(lines) if ln.strip() == f"## {heading}")
-    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")),
-               len(lines))
-    return "\n".join(lines[start + 1:end]).strip() + "\n"
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return "\n".join(lines[start + 1 : end]).strip() + "\n"
 
 
 def _rewrite(text: str, base: Path, images: set[Path]) -> str:
     """Keep web links; copy pictures in (recorded in ``images``, relative to ROOT); links to
     other files become their repository path in code."""
+
     def fix(m):
         bang, label, target = m.groups()
         if re.match(r"^[a-z]+://|^#|^mailto:", target):
@@ -50,52 +51,98 @@ def _rewrite(text: str, base: Path, images: set[Path]) -> str:
         if rel.as_posix() == "docs/numerics.md":
             return f"[{label}](numerics.md)"
         return f"{label} (`{rel.as_posix()}`)" if label != rel.as_posix() else f"`{label}`"
+
     return _LINK.sub(fix, text)
 
 
 def _gallery() -> tuple[str, list[tuple[str, bytes]]]:
     """The gallery page and the pictures it shows ([(site path, PNG bytes)])."""
-    out = ["# Gallery", "",
-           "*Each script of `examples/` was run when this site was built, with the arguments "
-           "shown; the output below is what it printed.*", ""]
+    out = [
+        "# Gallery",
+        "",
+        "*Each script of `examples/` was run when this site was built, with the arguments "
+        "shown; the output below is what it printed.*",
+        "",
+    ]
     pictures = []
-    env = dict(os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0",
-               MPLBACKEND="Agg")
+    env = dict(
+        os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0", MPLBACKEND="Agg"
+    )
     for script in sorted((ROOT / "examples").glob("*.py")):
         src = script.read_text()
         tree = ast.parse(src)
         doc = ast.get_docstring(tree) or script.stem
-        gallery = next((ast.literal_eval(n.value) for n in tree.body
-                        if isinstance(n, ast.Assign)
-                        and any(getattr(t, "id", "") == "GALLERY" for t in n.targets)), None)
+        gallery = next(
+            (
+                ast.literal_eval(n.value)
+                for n in tree.body
+                if isinstance(n, ast.Assign)
+                and any(getattr(t, "id", "") == "GALLERY" for t in n.targets)
+            ),
+            None,
+        )
         if gallery is None:
             raise RuntimeError(f"examples/{script.name} has no GALLERY arguments")
         with tempfile.TemporaryDirectory() as tmp:
             args = [a.replace("{out}", str(Path(tmp) / "run")) for a in gallery]
-            p = subprocess.run([sys.executable, str(script), *args], cwd=tmp, env=env,
-                               capture_output=True, text=True, timeout=600)
+            p = subprocess.run(
+                [sys.executable, str(script), *args],
+                cwd=tmp,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=600,
+            )
             if p.returncode != 0:
                 raise RuntimeError(f"examples/{script.name} failed:\n{p.stderr[-2000:]}")
             title, _, rest = doc.partition("\n")
             # the body keeps its indentation: an indented usage line stays a code block
-            out += [f"## `{script.name}`: {title.rstrip('.')}", "", rest.strip("\n"), "",
-                    f"Run as `python examples/{script.name} {' '.join(gallery)}`:", "",
-                    "```text", p.stdout.strip(), "```", ""]
+            out += [
+                f"## `{script.name}`: {title.rstrip('.')}",
+                "",
+                rest.strip("\n"),
+                "",
+                f"Run as `python examples/{script.name} {' '.join(gallery)}`:",
+                "",
+                "```text",
+                p.stdout.strip(),
+                "```",
+                "",
+            ]
             run = Path(tmp) / "run"
             if (run / "fields.nc").exists():
                 png = Path(tmp) / f"{script.stem}.png"
-                r = subprocess.run([sys.executable, "-c", "import sys; from tiseg.cli import "
-                                    "main; sys.exit(main())", "render", str(run),
-                                    "--panels", str(png)], cwd=tmp, env=env,
-                                   capture_output=True, text=True, timeout=600)
+                r = subprocess.run(
+                    [
+                        sys.executable,
+                        "-c",
+                        "import sys; from tiseg.cli import main; sys.exit(main())",
+                        "render",
+                        str(run),
+                        "--panels",
+                        str(png),
+                    ],
+                    cwd=tmp,
+                    env=env,
+                    capture_output=True,
+                    text=True,
+                    timeout=600,
+                )
                 if r.returncode != 0 or not png.exists():
-                    raise RuntimeError(f"rendering the run of examples/{script.name} failed:\n"
-                                       f"{r.stderr[-2000:]}")
+                    raise RuntimeError(
+                        f"rendering the run of examples/{script.name} failed:\n{r.stderr[-2000:]}"
+                    )
                 site = f"gallery/{script.stem}.png"
                 pictures.append((site, png.read_bytes()))
                 out += [f"![{script.stem}]({site})", ""]
-            out += ["??? note \"The code\"", "", "    ```python",
-                    *("    " + ln if ln else "" for ln in src.splitlines()), "    ```", ""]
+            out += [
+                '??? note "The code"',
+                "",
+                "    ```python",
+                *("    " + ln if ln else "" for ln in src.splitlines()),
+                "    ```",
+                "",
+            ]
     return "\n".join(out) + "\n", pictures
 
 
@@ -115,16 +162,28 @@ def on_files(files, config):
 
     readme = (ROOT / "README.md").read_text()
     images: set[Path] = set()
-    ver = ["# Verification", "",
-           "*From the README; every number is asserted by a test in `tests/` or measured by a "
-           "benchmark.*", "",
-           _rewrite(_section(readme, "Verification"), ROOT, images)]
+    ver = [
+        "# Verification",
+        "",
+        "*From the README; every number is asserted by a test in `tests/` or measured by a "
+        "benchmark.*",
+        "",
+        _rewrite(_section(readme, "Verification"), ROOT, images),
+    ]
     add("verification.md", "\n".join(ver))
-    bench = ["# Benchmarks", "", _rewrite(_section(readme, "Cost, accuracy and run-time "
-                                                           "estimates"), ROOT, images),
-             "", "## benchmarks/README.md", "",
-             _rewrite((ROOT / "benchmarks" / "README.md").read_text().split("\n", 1)[1],
-                      ROOT / "benchmarks", images)]
+    bench = [
+        "# Benchmarks",
+        "",
+        _rewrite(_section(readme, "Cost, accuracy and run-time estimates"), ROOT, images),
+        "",
+        "## benchmarks/README.md",
+        "",
+        _rewrite(
+            (ROOT / "benchmarks" / "README.md").read_text().split("\n", 1)[1],
+            ROOT / "benchmarks",
+            images,
+        ),
+    ]
     add("benchmarks.md", "\n".join(bench))
     for rel in sorted(images):
         add(rel.as_posix(), (ROOT / rel).read_bytes())

@@ -5,6 +5,7 @@
 Perturbs the steady uniform flow h0 = 2 mm, phi0 = 0.8, nu = 0.01 with its most unstable normal
 mode (5.19) at k = 0.2399 and compares the measured growth rate with sigma_R from (5.20)-(5.21).
 """
+
 import argparse
 
 import numpy as np
@@ -14,7 +15,7 @@ from tiseg.initial import eigenmode
 from tiseg.simulation import Simulation
 
 
-GALLERY = ["--cells", "32"]    # the docs gallery run
+GALLERY = ["--cells", "32"]  # the docs gallery run
 
 
 def main(argv=None):
@@ -32,8 +33,10 @@ def main(argv=None):
         ts.append(sim.t)
         amp.append(abs(np.fft.rfft(sim.conserved()[0, :, 0])[1]))
     rate = np.polyfit(ts[5:], np.log(amp[5:]), 1)[0]
-    print(f"growth rate: simulation {rate:.4f} 1/s, linear theory {theory:.4f} 1/s "
-          f"(relative difference {abs(rate - theory) / theory:.1e})")
+    print(
+        f"growth rate: simulation {rate:.4f} 1/s, linear theory {theory:.4f} 1/s "
+        f"(relative difference {abs(rate - theory) / theory:.1e})"
+    )
     return rate, theory
 
 

@@ -1,4 +1,5 @@
 """Shared test set-up: Taichi on the CPU in f64, initialised once per test session."""
+
 import os
 
 import pytest
@@ -18,6 +19,7 @@ def ti_cpu():
     """Taichi on the CPU (or TISEG_TEST_ARCH), double precision (what the round-off-level
     tests need)."""
     import tiseg
+
     return tiseg.init(TEST_ARCH, "f64")
 
 
@@ -27,6 +29,7 @@ def _room_for_fields():
     field trees (Taichi frees none until it is re-initialised; the suite makes a few hundred
     simulations in one process). Nothing is shared between test files but the settings."""
     from tiseg import backend
+
     if backend.is_initialised() and backend.field_trees() > backend.MAX_FIELD_TREES // 2:
         st = backend.state()
         backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)

@@ -1,4 +1,5 @@
 """Helpers for the solver tests: build operators straight from an OperatorConfig."""
+
 import numpy as np
 
 from tiseg.material import TABLE1
@@ -6,14 +7,33 @@ from tiseg.numerics.config import FrictionParams, Layout, OperatorConfig
 
 
 def table1_friction(m=TABLE1, coulomb_mu=0.36):
-    return FrictionParams(m.small.mu1, m.small.mu2, m.small.beta, m.small.L,
-                          m.large.mu1, m.large.mu2, m.large.beta, m.large.L, coulomb_mu)
+    return FrictionParams(
+        m.small.mu1,
+        m.small.mu2,
+        m.small.beta,
+        m.small.L,
+        m.large.mu1,
+        m.large.mu2,
+        m.large.beta,
+        m.large.L,
+        coulomb_mu,
+    )
 
 
 def make_config(nx, ny, segregation=True, **kw):
-    defaults = dict(dx=0.01, dy=0.012, Ly=ny * 0.012, viscous=True, feedback=segregation,
-                    fric=table1_friction(), nu=0.01, inflow_h=0.002, inflow_u=0.2,
-                    inflow_phi=0.8, inflow_delta=0.1)
+    defaults = dict(
+        dx=0.01,
+        dy=0.012,
+        Ly=ny * 0.012,
+        viscous=True,
+        feedback=segregation,
+        fric=table1_friction(),
+        nu=0.01,
+        inflow_h=0.002,
+        inflow_u=0.2,
+        inflow_phi=0.8,
+        inflow_delta=0.1,
+    )
     defaults.update(kw)
     return OperatorConfig(layout=Layout(nx, ny, segregation), **defaults)
 
@@ -21,8 +41,9 @@ def make_config(nx, ny, segregation=True, **kw):
 def random_state(lay, rng, wet_dry=False, smooth=False):
     """A random state: smooth waves, or noisy with dry cells and films below h_min."""
     q = np.zeros((lay.nc, lay.NX, lay.NY))
-    X, Y = np.meshgrid(np.linspace(0, 2 * np.pi, lay.NX), np.linspace(0, 2 * np.pi, lay.NY),
-                       indexing="ij")
+    X, Y = np.meshgrid(
+        np.linspace(0, 2 * np.pi, lay.NX), np.linspace(0, 2 * np.pi, lay.NY), indexing="ij"
+    )
     if smooth:
         h = 0.002 * (1 + 0.3 * np.sin(X + 0.5) * np.cos(Y))
         u = 0.2 + 0.05 * np.cos(X)
@@ -63,6 +84,7 @@ PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": 
 def exit_code(argv) -> int:
     """tiseg's main(argv), with argparse's SystemExit(2) turned into its exit code."""
     from tiseg.cli import main
+
     try:
         return main(argv)
     except SystemExit as exc:
@@ -72,6 +94,7 @@ def exit_code(argv) -> int:
 def child_env(**extra) -> dict:
     """Environment for a test's child process: Taichi offline and quiet, no display backend."""
     import os
+
     env = dict(os.environ)
     env.update(TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0", MPLBACKEND="Agg")
     env.update(extra)

@@ -6,6 +6,7 @@ The cases go through the command-line entry point (``tiseg.cli.main``) and, for 
 files, through ``load_scene`` too. None of them gets as far as building a simulation, so the
 whole file runs in a few seconds.
 """
+
 from __future__ import annotations
 
 import os
@@ -24,23 +25,23 @@ GOOD = '\nname = "good"' + MINIMAL_SCENE
 # (scene file text, a word the message must contain)
 BAD_SCENES = [
     ("[flow\nh0 = 0.002", "not valid TOML"),
-    ("", "time.t_end"),                                             # empty file
-    (GOOD + "[mystery]\nx = 1\n", "mystery"),                        # unknown section
-    (GOOD + "[flow]\nh00 = 0.002\n", "flow.h00"),                    # unknown key (typo)
-    (GOOD + "[flow]\nh0 = 'thick'\n", "flow.h0"),                    # wrong type
-    (GOOD + "[flow]\nh0 = -0.002\n", "flow.h0"),                     # negative size
+    ("", "time.t_end"),  # empty file
+    (GOOD + "[mystery]\nx = 1\n", "mystery"),  # unknown section
+    (GOOD + "[flow]\nh00 = 0.002\n", "flow.h00"),  # unknown key (typo)
+    (GOOD + "[flow]\nh0 = 'thick'\n", "flow.h0"),  # wrong type
+    (GOOD + "[flow]\nh0 = -0.002\n", "flow.h0"),  # negative size
     (GOOD + "[flow]\nh0 = 0\n", "flow.h0"),
-    (GOOD + "[flow]\nphi0 = 1.2\n", "flow.phi0"),                    # phi0 outside [0, 1]
+    (GOOD + "[flow]\nphi0 = 1.2\n", "flow.phi0"),  # phi0 outside [0, 1]
     (GOOD + "[flow]\nphi0 = -0.2\n", "flow.phi0"),
-    (GOOD + "[flow]\nphi0 = 0.1\n", "phi0*"),                        # no steady flow, inflow
+    (GOOD + "[flow]\nphi0 = 0.1\n", "phi0*"),  # no steady flow, inflow
     (GOOD + "[flow]\nnu = -1\n", "flow.nu"),
     (GOOD + "[flow]\nnu = nan\n", "flow.nu"),
     (GOOD.replace("Lx = 0.2", "Lx = -0.2"), "domain.Lx"),
     (GOOD.replace("resolution = 200", "resolution = 0"), "domain.resolution"),
-    (GOOD.replace("resolution = 200", "resolution = 20"), "domain.ny"),   # 1 cell across
+    (GOOD.replace("resolution = 200", "resolution = 20"), "domain.ny"),  # 1 cell across
     (GOOD.replace("resolution = 200", "nx = 40\nny = 2"), "domain.ny"),
     (GOOD.replace("resolution = 200", "nx = 40.5\nny = 10"), "domain.nx"),
-    (GOOD + "[inflow]\nmodes = 5\n", "inflow.modes"),                # cannot resolve the inflow
+    (GOOD + "[inflow]\nmodes = 5\n", "inflow.modes"),  # cannot resolve the inflow
     (GOOD + "[inflow]\nphi = 1.5\n", "inflow.phi"),
     (GOOD + "[inflow]\nu = -0.1\n", "inflow.u"),
     (GOOD + "[inflow]\nramp_rate = -10\n", "inflow.ramp_rate"),
@@ -65,7 +66,7 @@ BAD_SCENES = [
     (GOOD + "[initial]\nkind = 'volcano'\n", "initial.kind"),
     (GOOD + "[initial]\nkind = 'dam-break'\nx0 = 3.0\n", "initial.x0"),
     (GOOD + "[initial]\nkind = 'release'\nx0 = 0.1\nx1 = 0.05\n", "initial.x1"),
-    (GOOD + "[initial]\nx0 = 0.1\n", "initial.x0"),                  # not used by 'empty'
+    (GOOD + "[initial]\nx0 = 0.1\n", "initial.x0"),  # not used by 'empty'
     ("name = 'a/b'\n" + GOOD.replace('name = "good"', ""), "name"),
     ("[[flow]]\nh0 = 1\n" + GOOD, "flow"),
 ]
@@ -77,7 +78,7 @@ BAD_ARGS = [
     (["fingers", "--precision", "f16"], "--precision"),
     (["fingers", "--arch", "tpu"], "--arch"),
     (["fingers", "--set"], "--set"),
-    (["fingers", "--set", "flow.h0"], "flow.h0"),                 # no '='
+    (["fingers", "--set", "flow.h0"], "flow.h0"),  # no '='
     (["fingers", "--set", "=0.002"], "override"),
     (["fingers", "--set", ".h0=1"], "override"),
     (["fingers", "--set", "flow..h0=1"], "override"),
@@ -92,25 +93,25 @@ BAD_ARGS = [
     (["fingers", "--set", "flow.h0=[1]"], "flow.h0"),
     (["fingerz"], "did you mean 'fingers'"),
     (["{tmp}/missing.toml"], "not found"),
-    (["{tmp}"], "{tmp}"),                                         # a folder, not a file
-    (["fingers", "--out", "{tmp}/file.txt"], "--out"),            # a file, not a folder
-    (["fingers", "--out", "{tmp}/file.txt/sub"], "--out"),        # cannot be created
+    (["{tmp}"], "{tmp}"),  # a folder, not a file
+    (["fingers", "--out", "{tmp}/file.txt"], "--out"),  # a file, not a folder
+    (["fingers", "--out", "{tmp}/file.txt/sub"], "--out"),  # cannot be created
     (["fingers", "--out", "/proc/tiseg-cannot-write-here"], "--out"),
     (["fingers", "--fps", "0", "--movie", "{tmp}/m.mp4"], "--fps"),
     (["fingers", "--fps", "nan", "--movie", "{tmp}/m.mp4"], "--fps"),
-    (["fingers", "--fps", "12"], "without --movie"),              # would be ignored
+    (["fingers", "--fps", "12"], "without --movie"),  # would be ignored
     (["fingers", "--movie-field", "h"], "without --movie"),
     (["fingers", "--movie", "{tmp}/m.mp4", "--movie-field", "vorticity"], "--movie-field"),
     (["fingers", "--movie", "{tmp}/m.txt"], "--movie"),
     (["fingers", "--bogus"], "--bogus"),
-    ([], "SCENE"),                                                # nothing to run
+    ([], "SCENE"),  # nothing to run
     (["--resume", "{tmp}/nowhere"], "no such folder"),
     (["--resume", "{tmp}/file.txt"], "no such folder"),
     (["--resume", "{tmp}"], "not a tiseg run folder"),
-    (["--resume", "{run}"], "checkpoint.npz"),                   # a finished run
+    (["--resume", "{run}"], "checkpoint.npz"),  # a finished run
     (["--resume", "{broken}"], "not a readable checkpoint"),
     (["--resume", "{edited}"], "scene.toml was changed"),
-    (["fingers", "--out", "{broken}"], "unfinished run"),       # would overwrite a killed run
+    (["fingers", "--out", "{broken}"], "unfinished run"),  # would overwrite a killed run
     (["fingers", "--resume", "{tmp}"], "SCENE"),
     (["--resume", "{tmp}", "--set", "flow.h0=0.003"], "--set"),
     (["--resume", "{tmp}", "--precision", "f32"], "--precision"),
@@ -125,6 +126,7 @@ def _imported():
     stderr at its first import under pytest's capture, which is not a message of ours."""
     import tiseg.simulation  # noqa: F401  (the kernels' modules: Taichi logs when it meets them)
     from tiseg.cli import build_parser
+
     build_parser()
 
 
@@ -159,10 +161,17 @@ def folders(tmp_path_factory):
         (edited / name).write_bytes((run / name).read_bytes())
     (edited / "scene.toml").write_text(load_scene("fingers", ["flow.nu=0.02"]).to_toml())
     from tiseg.checkpoint import FORMAT, VERSION, write_npz_atomic
-    write_npz_atomic(edited / "checkpoint.npz", {
-        "format": np.array(FORMAT), "version": np.array(VERSION),
-        "scene": np.array(load_scene("fingers").to_toml()), "precision": np.array("f64"),
-        "t": np.array(0.1)})
+
+    write_npz_atomic(
+        edited / "checkpoint.npz",
+        {
+            "format": np.array(FORMAT),
+            "version": np.array(VERSION),
+            "scene": np.array(load_scene("fingers").to_toml()),
+            "precision": np.array("f64"),
+            "t": np.array(0.1),
+        },
+    )
     return {"tmp": str(tmp), "run": str(run), "broken": str(broken), "edited": str(edited)}
 
 
@@ -174,15 +183,16 @@ def test_bad_scene_file(text, word, tmp_path, capfd, monkeypatch):
     with pytest.raises(InputError) as info:
         load_scene(str(path))
     assert word in str(info.value)
-    line = _one_line_error(capfd, _call(["run", str(path), "--out", str(tmp_path / "out"),
-                                         "--no-progress"]))
+    line = _one_line_error(
+        capfd, _call(["run", str(path), "--out", str(tmp_path / "out"), "--no-progress"])
+    )
     assert word in line and str(path) in line, line
-    assert not (tmp_path / "out").exists()            # refused before anything was made
+    assert not (tmp_path / "out").exists()  # refused before anything was made
 
 
 @pytest.mark.parametrize("argv, word", BAD_ARGS)
 def test_bad_command_line(argv, word, folders, capfd, monkeypatch, tmp_path):
-    monkeypatch.chdir(tmp_path)                       # a default runs/ folder would land here
+    monkeypatch.chdir(tmp_path)  # a default runs/ folder would land here
     argv = [a.format(**folders) for a in argv]
     line = _one_line_error(capfd, _call(["run"] + argv))
     assert word.format(**folders) in line, line
@@ -193,6 +203,7 @@ def test_gpu_where_there_is_none(capfd, tmp_path):
     """--arch gpu on a machine without CUDA/Metal: one line, exit 2, no output folder."""
     from tiseg.backend import _probe_gpu
     import taichi as ti
+
     if _probe_gpu(ti) is not None:
         pytest.skip("this machine has a GPU")
     out, err = capfd.readouterr()

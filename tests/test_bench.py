@@ -1,6 +1,7 @@
 """Benchmarks and the run-time estimate: correctness of what they compute and write, on tiny
 problems. No test asserts a speed: timings are only checked to be positive and finite, and the
 estimate against a real run of the same tiny scene in the same process (factor 1.5)."""
+
 import csv
 import json
 import math
@@ -15,31 +16,56 @@ from tiseg.bench import accuracy, throughput
 def test_pareto_front_on_synthetic_points():
     # (error, wall): 0 and 2 are dominated by 1; 4 ties 3 in time but is less accurate;
     # 5 is the most accurate; 6 has no error (unstable) and 7 no time
-    pts = [(0.5, 2.0), (0.1, 1.0), (0.2, 3.0), (0.05, 4.0), (0.07, 4.0), (0.01, 9.0),
-           (math.nan, 0.1), (0.001, math.inf)]
+    pts = [
+        (0.5, 2.0),
+        (0.1, 1.0),
+        (0.2, 3.0),
+        (0.05, 4.0),
+        (0.07, 4.0),
+        (0.01, 9.0),
+        (math.nan, 0.1),
+        (0.001, math.inf),
+    ]
     err, wall = zip(*pts)
     assert accuracy.pareto_front(err, wall) == [1, 3, 5]
     # no point off the front beats a front point in both, and every other point is beaten
     front = set(accuracy.pareto_front(err, wall))
     for i in range(6):
-        dominated = any(err[j] <= err[i] and wall[j] <= wall[i] and (err[j], wall[j]) != (err[i], wall[i])
-                        for j in range(6))
+        dominated = any(
+            err[j] <= err[i] and wall[j] <= wall[i] and (err[j], wall[j]) != (err[i], wall[i])
+            for j in range(6)
+        )
         assert (i in front) == (not dominated), i
     assert accuracy.pareto_front([], []) == []
 
 
 def _row(problem, res, rec, stepper, error, wall, prec="f64", status="ok"):
-    return {"problem": problem, "resolution": res, "reconstruction": rec, "stepper": stepper,
-            "precision": prec, "backend": "cpu", "cfl": 0.25, "error": error, "wall_s": wall,
-            "steps": 10, "rhs_evals": 20, "cells": res, "value": math.nan, "status": status}
+    return {
+        "problem": problem,
+        "resolution": res,
+        "reconstruction": rec,
+        "stepper": stepper,
+        "precision": prec,
+        "backend": "cpu",
+        "cfl": 0.25,
+        "error": error,
+        "wall_s": wall,
+        "steps": 10,
+        "rhs_evals": 20,
+        "cells": res,
+        "value": math.nan,
+        "status": status,
+    }
 
 
 def test_defaults_assessed_against_the_front():
-    rows = [_row("p", 100, "weno", "rkc", 0.010, 2.0),        # default, dominated by minmod
-            _row("p", 100, "minmod", "rkc", 0.008, 1.0),
-            _row("p", 200, "weno", "rkc", 0.002, 5.0),        # default, on the front
-            _row("p", 200, "minmod", "ssprk3", 0.003, 6.0),
-            _row("p", 50, "weno", "euler", math.nan, 0.1, status="unstable")]
+    rows = [
+        _row("p", 100, "weno", "rkc", 0.010, 2.0),  # default, dominated by minmod
+        _row("p", 100, "minmod", "rkc", 0.008, 1.0),
+        _row("p", 200, "weno", "rkc", 0.002, 5.0),  # default, on the front
+        _row("p", 200, "minmod", "ssprk3", 0.003, 6.0),
+        _row("p", 50, "weno", "euler", math.nan, 0.1, status="unstable"),
+    ]
     accuracy.mark_pareto(rows)
     assert [r["pareto"] for r in rows] == [False, True, True, False, False]
     a = accuracy.assess_defaults(rows)["p"]
@@ -67,26 +93,48 @@ def test_accuracy_points_csv_and_plots(ti_cpu, tmp_path):
     """Two real Ritter points (scored against the exact solution; one simulation, its stepper
     swapped) plus synthetic ones through the writer: every CSV column, the Pareto flags, a PNG
     per problem, the summary."""
-    pts = [{"problem": "ritter", "resolution": 100, "reconstruction": rec, "stepper": st,
-            "cfl": 0.25, "reference": False} for rec, st in (("weno", "rkc"), ("weno", "ssprk3"))]
+    pts = [
+        {
+            "problem": "ritter",
+            "resolution": 100,
+            "reconstruction": rec,
+            "stepper": st,
+            "cfl": 0.25,
+            "reference": False,
+        }
+        for rec, st in (("weno", "rkc"), ("weno", "ssprk3"))
+    ]
     rows = accuracy.run_points(pts, quick=True, precision="f64")
     for r in rows:
         assert r["status"] == "ok"
-        assert 1e-3 < r["error"] < 0.05                 # the L1 error of Ritter at 100 cells
+        assert 1e-3 < r["error"] < 0.05  # the L1 error of Ritter at 100 cells
         assert r["wall_s"] > 0 and r["steps"] > 0 and r["cells"] == 100
-    assert rows[0]["rhs_evals"] == 2 * rows[0]["steps"]   # inviscid RKC: 2 stages per step
-    assert rows[1]["rhs_evals"] == 3 * rows[1]["steps"]   # SSP-RK3
-    rows += [_row("growth", 16, "weno", "rkc", 0.07, 0.5), _row("growth", 16, "minmod", "rkc", 0.1, 0.4)]
+    assert rows[0]["rhs_evals"] == 2 * rows[0]["steps"]  # inviscid RKC: 2 stages per step
+    assert rows[1]["rhs_evals"] == 3 * rows[1]["steps"]  # SSP-RK3
+    rows += [
+        _row("growth", 16, "weno", "rkc", 0.07, 0.5),
+        _row("growth", 16, "minmod", "rkc", 0.1, 0.4),
+    ]
     summary = accuracy.write_outputs(rows, tmp_path, {"cpu_model": "test", "cpu_count": 2})
     with open(tmp_path / "accuracy.csv") as fh:
         reader = csv.DictReader(fh)
-        assert tuple(reader.fieldnames[:11]) == ("problem", "resolution", "reconstruction",
-                                                 "stepper", "precision", "backend", "error",
-                                                 "wall_s", "steps", "rhs_evals", "cells")
+        assert tuple(reader.fieldnames[:11]) == (
+            "problem",
+            "resolution",
+            "reconstruction",
+            "stepper",
+            "precision",
+            "backend",
+            "error",
+            "wall_s",
+            "steps",
+            "rhs_evals",
+            "cells",
+        )
         table = list(reader)
     assert len(table) == 4
     back = accuracy.read_csv(tmp_path / "accuracy.csv")
-    assert sum(r["pareto"] for r in back if r["problem"] == "growth") == 2   # neither dominates
+    assert sum(r["pareto"] for r in back if r["problem"] == "growth") == 2  # neither dominates
     assert (tmp_path / "ritter.png").stat().st_size > 1000
     assert (tmp_path / "growth.png").stat().st_size > 1000
     saved = json.loads((tmp_path / "summary.json").read_text())
@@ -99,15 +147,21 @@ def test_study_plan_covers_every_combination():
     full = accuracy.plan_points(quick=False)
     for name, prob in accuracy.PROBLEMS.items():
         pts = [p for p in full if p["problem"] == name and not p["reference"]]
-        assert len(pts) == len(prob.resolutions) * 3 * 3     # resolutions x 3 recs x 3 steppers
+        assert len(pts) == len(prob.resolutions) * 3 * 3  # resolutions x 3 recs x 3 steppers
     # the finest run of each problem scored against it: the early and the late fingers front
     assert sum(p["reference"] for p in full) == 2
     quick = accuracy.plan_points(quick=True)
     assert len(quick) < len(full) / 3
     # the scheme dimensions: theta only for minmod, every flux x phi_flux pair
-    pts = accuracy.plan_points(quick=False, problems=["channel"], steppers=["rkc"],
-                               reconstructions=["weno", "minmod"], thetas=[1.5, 2.0],
-                               fluxes=["kt", "central-upwind"], phi_fluxes=["central", "upwind"])
+    pts = accuracy.plan_points(
+        quick=False,
+        problems=["channel"],
+        steppers=["rkc"],
+        reconstructions=["weno", "minmod"],
+        thetas=[1.5, 2.0],
+        fluxes=["kt", "central-upwind"],
+        phi_fluxes=["central", "upwind"],
+    )
     labels = {accuracy.scheme_label(p) for p in pts}
     assert len(pts) == len(accuracy.PROBLEMS["channel"].resolutions) * (1 + 2) * 4
     assert {"weno", "weno+cu+up", "minmod2", "minmod1.5+up"} <= labels and len(labels) == 12
@@ -117,9 +171,15 @@ def test_study_plan_covers_every_combination():
 
 # -------------------------------------------------------------------------------- throughput
 def test_throughput_report_fields(ti_cpu, tmp_path):
-    report = throughput.run_benchmark(nx=48, ny=16, quick=True, precisions=["f64"],
-                                      backends=["cpu"], variants=["full", "no-viscosity"],
-                                      out_dir=tmp_path)
+    report = throughput.run_benchmark(
+        nx=48,
+        ny=16,
+        quick=True,
+        precisions=["f64"],
+        backends=["cpu"],
+        variants=["full", "no-viscosity"],
+        out_dir=tmp_path,
+    )
     assert report["machine"]["cpu_count"] >= 1 and report["machine"]["cpu_model"]
     assert report["grid"] == {"nx": 48, "ny": 16, "cells": 768, "cells_per_metre": 750.0}
     (res,) = report["results"]
@@ -128,8 +188,18 @@ def test_throughput_report_fields(ti_cpu, tmp_path):
     names = [v["name"] for v in res["variants"]]
     assert names == ["full", "no-viscosity"]
     for v in res["variants"]:
-        for key in ("rhs_s", "cell_updates_per_s", "stage_s", "plan_s", "step_s", "steps_per_s",
-                    "numpy_rhs_s", "speedup_vs_numpy", "bound_s", "times_the_bound"):
+        for key in (
+            "rhs_s",
+            "cell_updates_per_s",
+            "stage_s",
+            "plan_s",
+            "step_s",
+            "steps_per_s",
+            "numpy_rhs_s",
+            "speedup_vs_numpy",
+            "bound_s",
+            "times_the_bound",
+        ):
             assert math.isfinite(v[key]) and v[key] > 0, (v["name"], key)
         assert v["cells"] == 768 and v["min_bytes_per_cell"] == 2 * v["nc"] * 8
         assert v["implemented_bytes_per_cell"] > v["min_bytes_per_cell"]
@@ -180,6 +250,7 @@ def test_predicted_steps_of_a_uniform_flow_match_the_run(ti_cpu):
     from tiseg.estimate import predict_steps
     from tiseg.scene import load_scene
     from tiseg.simulation import Simulation
+
     sc = load_scene("uniform-flow", {"time.t_end": 0.05, "output.interval": 0.01})
     p = predict_steps(sc)
     sim = Simulation(sc)
@@ -187,7 +258,10 @@ def test_predicted_steps_of_a_uniform_flow_match_the_run(ti_cpu):
         sim.advance(t)
     assert abs(p["steps"] - sim.stats.steps) <= 1, (p["steps"], sim.stats.steps)
     # a trimmed step may need a stage less than the model's full one
-    assert abs(p["rhs_evals"] - sim.stats.stages) <= 0.03 * sim.stats.stages, (p["rhs_evals"], sim.stats.stages)
+    assert abs(p["rhs_evals"] - sim.stats.stages) <= 0.03 * sim.stats.stages, (
+        p["rhs_evals"],
+        sim.stats.stages,
+    )
 
 
 def test_run_estimate_flag_prints_and_does_not_run(tmp_path, capsys, monkeypatch):
@@ -195,11 +269,26 @@ def test_run_estimate_flag_prints_and_does_not_run(tmp_path, capsys, monkeypatch
     from tiseg.cli import main
 
     def fake(scene, **kw):
-        return E.Estimate(scene=scene.name, grid=(1, 1), t_end=1.0, steps=7, rhs_evals=14,
-                          mean_stages=2.0, dt_min=0.1, dt_max=0.1, mean_active_cells=1.0,
-                          wall_steps_s=1.0, wall_diagnostics_s=0.0, wall_output_s=0.0,
-                          wall_compile_s=0.0, wall_s=1.0, wall_idle_s=1.0, setup_s=0.0, model=["m"],
-                          calibration={})
+        return E.Estimate(
+            scene=scene.name,
+            grid=(1, 1),
+            t_end=1.0,
+            steps=7,
+            rhs_evals=14,
+            mean_stages=2.0,
+            dt_min=0.1,
+            dt_max=0.1,
+            mean_active_cells=1.0,
+            wall_steps_s=1.0,
+            wall_diagnostics_s=0.0,
+            wall_output_s=0.0,
+            wall_compile_s=0.0,
+            wall_s=1.0,
+            wall_idle_s=1.0,
+            setup_s=0.0,
+            model=["m"],
+            calibration={},
+        )
 
     monkeypatch.setattr(E, "estimate", fake)
     out = tmp_path / "never"
@@ -212,7 +301,7 @@ def test_front_position_interpolates_between_cell_centres():
     x = (np.arange(10) + 0.5) * 0.1
     h = np.zeros((3, 10))
     h[:, :4] = 2e-3
-    h[1, 4] = 5.5e-4                        # the last wet cell (h_min = 1e-4), in one row
+    h[1, 4] = 5.5e-4  # the last wet cell (h_min = 1e-4), in one row
     xf = accuracy.front_position(h, x, 1e-4)
     # crossing of h_min between x = 0.45 (5.5e-4) and 0.55 (0): 0.45 + 0.1 * 4.5/5.5
     assert xf == pytest.approx(0.45 + 0.1 * 4.5 / 5.5)
@@ -228,13 +317,30 @@ def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
     from tiseg.cli import main
     from tiseg.errors import InputError
     from tiseg.bench import steppers
+
     run = tmp_path / "run"
-    assert main(["run", "fingers", "--set", "domain.resolution=40", "--set", "time.t_end=1.5",
-                 "--set", "output.interval=0.5", "--set", "output.times=[]", "--out", str(run),
-                 "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "fingers",
+                "--set",
+                "domain.resolution=40",
+                "--set",
+                "time.t_end=1.5",
+                "--set",
+                "output.interval=0.5",
+                "--set",
+                "output.times=[]",
+                "--out",
+                str(run),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
-    assert main(["bench", "steppers", str(run), "--times", "1.5", "--repeats", "1",
-                 "--json"]) == 0
+    assert main(["bench", "steppers", str(run), "--times", "1.5", "--repeats", "1", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     (start,) = rep["starts"]
     assert start["time"] == 1.5 and start["span"] > 0

@@ -1,6 +1,7 @@
 """Checkpoints and restart: a run killed with SIGKILL and resumed with `tiseg run --resume DIR`
 ends with exactly the files of a run that was never interrupted (bitwise in f64), and no crash
 leaves an output file that cannot be read."""
+
 from __future__ import annotations
 
 import os
@@ -23,8 +24,15 @@ from tiseg.simulation import Simulation
 
 # A small 2D fingers run (24 x 8 cells, inflow, segregation, viscosity, RKC): output every
 # 0.1 s, a checkpoint also every 0.05 s of simulated time.
-SETS = ["domain.resolution=40", "domain.Lx=0.6", "domain.Ly=0.2", "time.t_end=1.0",
-        "output.times=[]", "output.interval=0.1", "output.checkpoint_interval=0.05"]
+SETS = [
+    "domain.resolution=40",
+    "domain.Lx=0.6",
+    "domain.Ly=0.2",
+    "time.t_end=1.0",
+    "output.times=[]",
+    "output.interval=0.1",
+    "output.checkpoint_interval=0.05",
+]
 
 
 def _cli_args(out) -> list[str]:
@@ -59,7 +67,7 @@ def reference(tmp_path_factory, ti_cpu):
     """The uninterrupted run."""
     out = tmp_path_factory.mktemp("ref") / "run"
     assert main(_cli_args(out)) == 0
-    assert not (out / checkpoint.CHECKPOINT_NAME).exists()     # finished: nothing to resume
+    assert not (out / checkpoint.CHECKPOINT_NAME).exists()  # finished: nothing to resume
     return out
 
 
@@ -68,8 +76,12 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsy
     exists; the files it leaves are readable; `tiseg run --resume DIR` finishes the run, and
     the result is bitwise the uninterrupted run's."""
     out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     ck = out / checkpoint.CHECKPOINT_NAME
     deadline = time.monotonic() + 300
     while not ck.exists() and proc.poll() is None and time.monotonic() < deadline:
@@ -97,19 +109,26 @@ def test_a_signal_stops_at_a_step_with_a_checkpoint(tmp_path, reference, capsys,
     """SIGTERM / SIGINT let the step finish, write a checkpoint of it, say how to resume and
     exit 128 + the signal; the resumed run is bitwise the uninterrupted one."""
     out = tmp_path / "stopped"
-    proc = subprocess.Popen([sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     diag = out / "diagnostics.csv"
     deadline = time.monotonic() + 300
-    while proc.poll() is None and time.monotonic() < deadline and (
-            not diag.exists() or len(diag.read_text().splitlines()) < 8):
+    while (
+        proc.poll() is None
+        and time.monotonic() < deadline
+        and (not diag.exists() or len(diag.read_text().splitlines()) < 8)
+    ):
         time.sleep(0.005)
     proc.send_signal(sig)
     _, err = proc.communicate()
     assert proc.returncode == code, err
     assert f"stopped by {signal.Signals(sig).name}" in err and "--resume" in err, err
     state = checkpoint.load(out / checkpoint.CHECKPOINT_NAME)
-    assert read_diagnostics(diag)["time"][-1] == state["t"]     # the last step is the checkpoint's
+    assert read_diagnostics(diag)["time"][-1] == state["t"]  # the last step is the checkpoint's
     assert main(["run", "--resume", str(out), "--no-progress"]) == 0
     assert_same_run(reference, out)
 
@@ -120,9 +139,11 @@ class _Stop(Exception):
 
 def _run_until(sim, out, steps: int) -> None:
     """Run into ``out`` and stop (as if killed) after step ``steps``, before its checkpoint."""
+
     def stop(s):
         if s.stats.steps == steps:
             raise _Stop
+
     sim.add_callback(stop, IterationInterval(1), name="stop")
     with pytest.raises(_Stop):
         sim.run(out_dir=out, progress=False)
@@ -139,10 +160,10 @@ def test_resume_drops_output_written_after_the_checkpoint(tmp_path, reference):
     early = checkpoint.load(out / checkpoint.CHECKPOINT_NAME)
     assert 0.1 <= early["t"] < 0.5 and early["snapshots"] >= 2
     shutil.copy(out / checkpoint.CHECKPOINT_NAME, tmp_path / "early.npz")
-    _run_until(Simulation.resume(out), out, 45)                     # more snapshots ...
-    shutil.copy(tmp_path / "early.npz", out / checkpoint.CHECKPOINT_NAME)   # ... unknown to it
+    _run_until(Simulation.resume(out), out, 45)  # more snapshots ...
+    shutil.copy(tmp_path / "early.npz", out / checkpoint.CHECKPOINT_NAME)  # ... unknown to it
     with open(out / "diagnostics.csv", "a") as fh:
-        fh.write("0.41,1e-3,2")                                    # a row cut by the kill
+        fh.write("0.41,1e-3,2")  # a row cut by the kill
     with netCDF4.Dataset(out / "fields.nc") as nc:
         assert nc.dimensions["time"].size > early["snapshots"]
     sim = Simulation.resume(out)
@@ -180,8 +201,9 @@ def test_damaged_fields_file_is_kept_aside(tmp_path, ti_cpu, caplog):
     """A fields.nc that cannot be read any more (here: overwritten with junk) does not block
     the resume: it is moved to fields.damaged-1.nc, a new fields.nc starts at the checkpoint,
     and a warning says so."""
-    sc = load_scene("fingers", [s for s in SETS if not s.startswith("time.t_end")]
-                    + ["time.t_end=0.4"])
+    sc = load_scene(
+        "fingers", [s for s in SETS if not s.startswith("time.t_end")] + ["time.t_end=0.4"]
+    )
     out = tmp_path / "run"
     Simulation(sc).run(out_dir=out, progress=False, t_end=0.2)
     (out / "fields.nc").write_bytes(b"not a netcdf file")

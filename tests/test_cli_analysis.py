@@ -1,4 +1,5 @@
 """Command line: `tiseg steady`, `tiseg stability` and `tiseg figures stability`."""
+
 import json
 import math
 
@@ -29,10 +30,37 @@ def test_steady_json(capsys):
 
 
 def test_stability_json(capsys):
-    o = run_json(capsys, ["stability", "--h0", "0.002", "--phi0", "0.8", "--nu", "0.001",
-                          "--k", "0.1", "1", "10", "--json"])
-    for key in ("F", "R", "Fc", "k", "sigma_max", "k_max", "sigma_Max", "k_cutoff", "u0",
-                "sigma_Max_per_s", "wavelength_at_k_max_m", "sigma_Max_is_limit"):
+    o = run_json(
+        capsys,
+        [
+            "stability",
+            "--h0",
+            "0.002",
+            "--phi0",
+            "0.8",
+            "--nu",
+            "0.001",
+            "--k",
+            "0.1",
+            "1",
+            "10",
+            "--json",
+        ],
+    )
+    for key in (
+        "F",
+        "R",
+        "Fc",
+        "k",
+        "sigma_max",
+        "k_max",
+        "sigma_Max",
+        "k_cutoff",
+        "u0",
+        "sigma_Max_per_s",
+        "wavelength_at_k_max_m",
+        "sigma_Max_is_limit",
+    ):
         assert key in o, key
     bs = base_state(0.002, 0.8, 1e-3)
     assert o["F"] == pytest.approx(bs.F, rel=1e-14) and o["R"] == pytest.approx(bs.R, rel=1e-14)
@@ -40,60 +68,98 @@ def test_stability_json(capsys):
     assert o["sigma_max"] == pytest.approx(list(d1.sigma_M(bs, [0.1, 1.0, 10.0])), rel=1e-10)
     kM, sM = d1.most_unstable(bs)
     assert o["k_max"] == pytest.approx(kM, rel=1e-8) and o["sigma_Max"] == pytest.approx(sM)
-    assert round(o["sigma_Max"], 5) == 0.06378 and round(o["R"], 3) == 9.299      # NUMERICS
+    assert round(o["sigma_Max"], 5) == 0.06378 and round(o["R"], 3) == 9.299  # NUMERICS
     assert o["sigma_Max_per_s"] == pytest.approx(sM * bs.u0 / bs.h0)
     assert o["wavelength_at_k_max_m"] == pytest.approx(2 * math.pi * 0.002 / kM)
     assert o["k_cutoff"] is None and o["sigma_Max_is_limit"] is False
 
 
 def test_stability_cutoff_json(capsys):
-    o = run_json(capsys, ["stability", "--h0", "0.003", "--phi0", "0.8", "--nu", "0.001",
-                          "--k", "3", "--json"])
-    assert round(o["k_cutoff"], 5) == 2.00345                 # (A42), NUMERICS section 1
+    o = run_json(
+        capsys,
+        ["stability", "--h0", "0.003", "--phi0", "0.8", "--nu", "0.001", "--k", "3", "--json"],
+    )
+    assert round(o["k_cutoff"], 5) == 2.00345  # (A42), NUMERICS section 1
     assert o["k_cutoff_analytic"]["A42"] == pytest.approx(o["k_cutoff"], rel=1e-9)
-    assert o["sigma_max"][0] < 0                               # k = 3 > k_c decays
+    assert o["sigma_max"][0] < 0  # k = 3 > k_c decays
     # NUMERICS T7 case 2: sigma = -8.22235 - 573.0111 i 1/s at k = 3
     assert o["sigma_max_per_s"][0] == pytest.approx(-8.22235, abs=1e-5)
 
 
 def test_stability_from_froude(capsys):
-    o = run_json(capsys, ["stability", "--F", "2.0", "--phi0", "0.8", "--nu", "0.001",
-                          "--k", "1", "--json"])
+    o = run_json(
+        capsys, ["stability", "--F", "2.0", "--phi0", "0.8", "--nu", "0.001", "--k", "1", "--json"]
+    )
     assert o["F"] == pytest.approx(2.0, rel=1e-14)
-    assert round(o["k_cutoff"], 2) == 4.48                     # NUMERICS figure 11 table
+    assert round(o["k_cutoff"], 2) == 4.48  # NUMERICS figure 11 table
 
 
 def test_stability_inviscid(capsys):
-    o = run_json(capsys, ["stability", "--h0", "0.002", "--phi0", "0.8", "--nu", "0",
-                          "--k", "1", "100", "--json"])
+    o = run_json(
+        capsys,
+        ["stability", "--h0", "0.002", "--phi0", "0.8", "--nu", "0", "--k", "1", "100", "--json"],
+    )
     assert o["R"] is None and o["k_max"] is None and o["sigma_Max_is_limit"] is True
-    assert round(o["sigma_Max"], 5) == 0.10911                # (5.30), NUMERICS
+    assert round(o["sigma_Max"], 5) == 0.10911  # (5.30), NUMERICS
     assert o["k_cutoff"] is None and o["wavelength_at_k_max_m"] is None
     assert max(o["sigma_max"]) < o["sigma_Max"]
 
 
 def test_stability_inviscid_critical(capsys):
-    o = run_json(capsys, ["stability", "--F", str(7 / 3.6), "--phi0", "0.8", "--nu", "0",
-                          "--k", "1", "--json"])
-    assert o["sigma_Max"] is None and o["sigma_Max_is_limit"] is True     # unbounded (5.31)
+    o = run_json(
+        capsys,
+        ["stability", "--F", str(7 / 3.6), "--phi0", "0.8", "--nu", "0", "--k", "1", "--json"],
+    )
+    assert o["sigma_Max"] is None and o["sigma_Max_is_limit"] is True  # unbounded (5.31)
 
 
 def test_stability_2d(capsys):
-    o = run_json(capsys, ["stability", "--h0", "0.002", "--phi0", "0.8", "--nu", "0.01",
-                          "--k", "0.24", "1", "--ky", "0", "0.24", "--json"])
+    o = run_json(
+        capsys,
+        [
+            "stability",
+            "--h0",
+            "0.002",
+            "--phi0",
+            "0.8",
+            "--nu",
+            "0.01",
+            "--k",
+            "0.24",
+            "1",
+            "--ky",
+            "0",
+            "0.24",
+            "--json",
+        ],
+    )
     assert o["ky"] == [0.0, 0.24]
     grid = o["sigma_max_2d"]
     assert len(grid) == 2 and all(len(row) == 2 for row in grid)
-    assert grid[0] == pytest.approx(o["sigma_max"], rel=1e-9)            # ky = 0 is the 1D case
-    assert round(grid[1][0], 5) == 0.02316                                # NUMERICS T7
+    assert grid[0] == pytest.approx(o["sigma_max"], rel=1e-9)  # ky = 0 is the 1D case
+    assert round(grid[1][0], 5) == 0.02316  # NUMERICS T7
     bs = base_state(0.002, 0.8, 0.01)
     assert grid[1][1] == pytest.approx(float(d2.sigma_M(bs, 1.0, 0.24)), rel=1e-10)
 
 
 def test_stability_text_and_plot(capsys, tmp_path):
     png = tmp_path / "growth.png"
-    rc = main(["stability", "--h0", "0.003", "--phi0", "0.8", "--k", "0.5", "3",
-               "--ky", "0.5", "--plot", str(png)])
+    rc = main(
+        [
+            "stability",
+            "--h0",
+            "0.003",
+            "--phi0",
+            "0.8",
+            "--k",
+            "0.5",
+            "3",
+            "--ky",
+            "0.5",
+            "--plot",
+            str(png),
+        ]
+    )
     out, err = capsys.readouterr()
     assert rc == 0, err
     assert "k_M" in out and "2.00345" in out and "2D" in out
@@ -105,21 +171,25 @@ def test_figures_stability(capsys, tmp_path):
     rc = main(["figures", "stability", "--out", str(tmp_path), "--dpi", "50"])
     out, err = capsys.readouterr()
     assert rc == 0, err
-    for name in ("fig08_froude.png", "fig09_growth_rates.png", "fig10_critical.png",
-                 "fig11_sigma_max.png"):
+    for name in (
+        "fig08_froude.png",
+        "fig09_growth_rates.png",
+        "fig10_critical.png",
+        "fig11_sigma_max.png",
+    ):
         p = tmp_path / name
         assert p.exists() and p.stat().st_size > 1000, name
         assert name in out
 
 
-LIBRARY_ERRORS = [   # rejected by the library (InputError): exactly one line on stderr
+LIBRARY_ERRORS = [  # rejected by the library (InputError): exactly one line on stderr
     ["stability", "--h0", "-0.002", "--phi0", "0.8"],
     ["stability", "--h0", "0", "--phi0", "0.8"],
     ["stability", "--h0", "0.002", "--phi0", "1.2"],
     ["stability", "--h0", "0.002", "--phi0", "-0.2"],
     ["stability", "--h0", "0.002", "--phi0", "0.8", "--nu", "-0.001"],
     ["stability", "--h0", "0.002", "--phi0", "0.8", "--zeta", "35"],
-    ["stability", "--h0", "0.002", "--phi0", "0.1"],             # phi0 < phi0*
+    ["stability", "--h0", "0.002", "--phi0", "0.1"],  # phi0 < phi0*
     ["stability", "--h0", "0.002", "--phi0", "0.8", "--k", "-1"],
     ["stability", "--h0", "0.002", "--phi0", "0.8", "--k", "nan"],
     ["stability", "--F", "-1", "--phi0", "0.8"],
@@ -127,17 +197,17 @@ LIBRARY_ERRORS = [   # rejected by the library (InputError): exactly one line on
     ["steady", "--h0", "0.002", "--phi0", "0.1"],
     ["figures", "stability", "--out", "unused", "--zeta", "35"],
 ]
-PARSER_ERRORS = [    # rejected by argparse: its usage line plus one error line
-    ["stability", "--phi0", "0.8"],                               # neither --h0 nor --F
+PARSER_ERRORS = [  # rejected by argparse: its usage line plus one error line
+    ["stability", "--phi0", "0.8"],  # neither --h0 nor --F
     ["stability", "--h0", "abc", "--phi0", "0.8"],
-    ["figures"],                                                   # no figure set
-    ["figures", "stability"],                                      # missing --out
+    ["figures"],  # no figure set
+    ["figures", "stability"],  # missing --out
 ]
 
 
 @pytest.mark.parametrize("argv", LIBRARY_ERRORS)
 def test_bad_input_one_line_error(capsys, argv, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)        # nothing may be written, but stay out of the checkout
+    monkeypatch.chdir(tmp_path)  # nothing may be written, but stay out of the checkout
     rc = exit_code(argv)
     out, err = capsys.readouterr()
     assert rc == 2

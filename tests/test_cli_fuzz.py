@@ -1,5 +1,6 @@
 """Every subcommand, fed bad options and damaged inputs, answers with one line and exit code 2:
 never a traceback, never silent garbage, and nothing heavy started first."""
+
 from __future__ import annotations
 
 import os
@@ -16,9 +17,28 @@ def places(tmp_path_factory, ti_cpu):
     scene.toml edited to another grid; {deep}: a TOML file nested 5000 deep; {tmp}: a folder."""
     base = tmp_path_factory.mktemp("fuzz")
     run = base / "run"
-    assert main(["run", "fingers", "--set", "domain.resolution=40", "--set", "domain.Lx=0.3",
-                 "--set", "domain.Ly=0.1", "--set", "time.t_end=0.1", "--set",
-                 "output.interval=0.05", "--out", str(run), "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "fingers",
+                "--set",
+                "domain.resolution=40",
+                "--set",
+                "domain.Lx=0.3",
+                "--set",
+                "domain.Ly=0.1",
+                "--set",
+                "time.t_end=0.1",
+                "--set",
+                "output.interval=0.05",
+                "--out",
+                str(run),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     trunc = base / "trunc"
     shutil.copytree(run, trunc)
     with open(trunc / "fields.nc", "r+b") as fh:
@@ -31,8 +51,14 @@ def places(tmp_path_factory, ti_cpu):
     deep.write_text("[a]\nx = " + "[" * 5000 + "]" * 5000 + "\n")
     sweep_deep = base / "deep-sweep.toml"
     sweep_deep.write_text(deep.read_text())
-    return {"run": str(run), "trunc": str(trunc), "edited": str(edited), "deep": str(deep),
-            "sweepdeep": str(sweep_deep), "tmp": str(base)}
+    return {
+        "run": str(run),
+        "trunc": str(trunc),
+        "edited": str(edited),
+        "deep": str(deep),
+        "sweepdeep": str(sweep_deep),
+        "tmp": str(base),
+    }
 
 
 CASES = [
@@ -60,9 +86,9 @@ CASES = [
     ["run", "fingers", "--set", "domain.Ly=1e308"],
     ["run", "fingers", "--set", "flow.nu=0.01", "--set", "flow.nu=0.02"],
     ["run", "{deep}"],
-    ["run", "{run}"],                                   # a run folder is not a scene
-    ["run", "fingers", "--out", "{run}"],               # a finished run: needs --overwrite
-    ["run", "--resume", "{run}"],                       # finished: nothing to resume
+    ["run", "{run}"],  # a run folder is not a scene
+    ["run", "fingers", "--out", "{run}"],  # a finished run: needs --overwrite
+    ["run", "--resume", "{run}"],  # finished: nothing to resume
     ["estimate", "fingers", "--threads", "-1"],
     ["estimate", "fingers", "--set", "flow.h0=-1"],
     ["view", "fingers", "--frames", "-1"],
@@ -97,13 +123,14 @@ def test_bad_input_is_one_line(argv, places, capfd):
     args = [a.format(**places) for a in argv]
     try:
         rc = main(args)
-    except SystemExit as exc:                           # argparse refuses before main runs
+    except SystemExit as exc:  # argparse refuses before main runs
         rc = exc.code
     out, err = capfd.readouterr()
     assert rc == 2, (out, err)
     assert "Traceback" not in err + out, err
-    lines = [ln for ln in err.strip().splitlines()
-             if not ln.startswith(("[Taichi]", "tiseg: "))]   # notes, progress lines
+    lines = [
+        ln for ln in err.strip().splitlines() if not ln.startswith(("[Taichi]", "tiseg: "))
+    ]  # notes, progress lines
     assert len(lines) == 1, err
 
 

@@ -1,4 +1,5 @@
 """Command-line habits: --version, -q / -v, JSON on stdout and messages on stderr."""
+
 from __future__ import annotations
 
 import json
@@ -19,38 +20,57 @@ def test_version(capsys):
 
 def test_version_is_written_once():
     from importlib.metadata import version
+
     assert version("tiseg") == __version__
 
 
-RUN = ["run", "fingers", "--set", "domain.resolution=40", "--set", "domain.Lx=0.3",
-       "--set", "domain.Ly=0.1", "--set", "time.t_end=0.05", "--no-progress", "--overwrite"]
+RUN = [
+    "run",
+    "fingers",
+    "--set",
+    "domain.resolution=40",
+    "--set",
+    "domain.Lx=0.3",
+    "--set",
+    "domain.Ly=0.1",
+    "--set",
+    "time.t_end=0.05",
+    "--no-progress",
+    "--overwrite",
+]
 
 
 def test_quiet_hides_notes_and_keeps_results(ti_cpu, tmp_path, capsys):
     assert main(["-q"] + RUN + ["--out", str(tmp_path / "a")]) == 0
     cap = capsys.readouterr()
     assert "note:" not in cap.err and "t = 0.05 s" in cap.out
-    assert main(RUN + ["--out", str(tmp_path / "b"), "-q"]) == 0          # after the command
+    assert main(RUN + ["--out", str(tmp_path / "b"), "-q"]) == 0  # after the command
     assert "note:" not in capsys.readouterr().err
-    assert main(RUN + ["--out", str(tmp_path / "c")]) == 0                # default: the note
+    assert main(RUN + ["--out", str(tmp_path / "c")]) == 0  # default: the note
     assert "tiseg: note: output.times" in capsys.readouterr().err
 
 
 def test_no_progress_bar_into_a_redirected_stderr(tmp_path):
     """tqdm switches itself off when stderr is not a terminal (here: a pipe)."""
-    p = subprocess.run([sys.executable, "-m", "tiseg.cli"] + [a for a in RUN if a != "--no-progress"]
-                       + ["--out", str(tmp_path / "r")], capture_output=True, text=True,
-                       timeout=300)
+    p = subprocess.run(
+        [sys.executable, "-m", "tiseg.cli"]
+        + [a for a in RUN if a != "--no-progress"]
+        + ["--out", str(tmp_path / "r")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr
     assert "\r" not in p.stderr and "%|" not in p.stderr
 
 
 def test_sweep_json_on_stdout_progress_on_stderr(tmp_path, capsys):
     out = tmp_path / "sw"
-    rc = main(["sweep", "tiny", "--out", str(out), "--workers", "1",
-               "--threads-per-task", "1", "--json"])
+    rc = main(
+        ["sweep", "tiny", "--out", str(out), "--workers", "1", "--threads-per-task", "1", "--json"]
+    )
     cap = capsys.readouterr()
     assert rc == 0, cap.err
-    summary = json.loads(cap.out)                     # stdout is the JSON alone
+    summary = json.loads(cap.out)  # stdout is the JSON alone
     assert summary["counts"] == {"done": 2} and len(summary["runs"]) == 2
     assert "Dask dashboard: http" in cap.err and "[2/2]" in cap.err

@@ -1,6 +1,7 @@
 """Sharp contacts: the ``channel`` scene, a straight fine channel between coarse levees whose
 exact concentration never changes (no mass crosses the contacts), and whose steady speed
 profile u(y) solves the cross-slope boundary-value problem of :mod:`tiseg.steady_channel`."""
+
 import numpy as np
 import pytest
 
@@ -10,8 +11,9 @@ from tiseg.steady_channel import channel_profile
 
 
 def channel(res=250, t_end=1.0, **over):
-    return load_scene("channel", {"domain.resolution": res, "time.t_end": t_end,
-                                  "output.interval": t_end, **over})
+    return load_scene(
+        "channel", {"domain.resolution": res, "time.t_end": t_end, "output.interval": t_end, **over}
+    )
 
 
 def masks(sc):
@@ -30,9 +32,15 @@ def test_upwind_phi_flux_keeps_a_contact_no_mass_crosses(ti_cpu, flux, rec, phis
     the levees to round-off, while u(y) develops a shear layer across each contact (the flow
     is not trivial). The mixed case keeps phi off the bounds 0 and 1, where the stage
     limiter's clip could hide a leak."""
-    sc = channel(**{"numerics.phi_flux": "upwind", "numerics.flux": flux,
-                    "numerics.reconstruction": rec, "initial.phi_channel": phis[0],
-                    "initial.phi_levee": phis[1]})
+    sc = channel(
+        **{
+            "numerics.phi_flux": "upwind",
+            "numerics.flux": flux,
+            "numerics.reconstruction": rec,
+            "initial.phi_channel": phis[0],
+            "initial.phi_levee": phis[1],
+        }
+    )
     sim = Simulation(sc)
     sim.advance(sc.t_end)
     f = sim.fields()
@@ -43,7 +51,7 @@ def test_upwind_phi_flux_keeps_a_contact_no_mass_crosses(ti_cpu, flux, rec, phis
     np.testing.assert_allclose(f["phi"][outside], phis[1], rtol=0, atol=1e-12)
     assert np.all(f["v"] == 0.0)
     u = f["u"][:, 0]
-    assert u[inside].min() > 0.1 and u[0] < 0.01 * u[inside].max()   # u[0]: the levee centre
+    assert u[inside].min() > 0.1 and u[0] < 0.01 * u[inside].max()  # u[0]: the levee centre
 
 
 def test_central_phi_flux_smears_the_contact(ti_cpu):
@@ -86,7 +94,8 @@ def test_channel_profile_balances_friction_and_viscosity():
     import math
 
     from tiseg.steady import velocity
-    sc = channel(**{"domain.Ly": 2.0, "initial.width": 1.0})     # centres 0.5 m from contacts
+
+    sc = channel(**{"domain.Ly": 2.0, "initial.width": 1.0})  # centres 0.5 m from contacts
     prof = channel_profile(sc)
     u_fine = velocity(sc.initial.h, 1.0, sc.material)
     assert prof.u_channel == pytest.approx(u_fine, rel=1e-5)
@@ -96,5 +105,7 @@ def test_channel_profile_balances_friction_and_viscosity():
     assert prof.u_levee == pytest.approx(creep, rel=0.02)
     inviscid = channel_profile(channel(**{"flow.nu": 0.0}))
     y = np.linspace(0, sc.domain.Ly, 7)
-    assert set(np.round(inviscid.u(y), 12)) <= {round(inviscid.u_channel, 12),
-                                               round(inviscid.u_levee, 12)}
+    assert set(np.round(inviscid.u(y), 12)) <= {
+        round(inviscid.u_channel, 12),
+        round(inviscid.u_levee, 12),
+    }

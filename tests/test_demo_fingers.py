@@ -8,6 +8,7 @@ time, vary by at most a factor 1.5, and agree with the spectral wavelength withi
 (Measured on 2026-12-01: 7 fingers at every output time from 6.0 s to 7.5 s, Lambda = 7.1 cm
 against 7.2-7.3 cm spectral; the single-line count of earlier versions dropped to 2 at 6.2 s.)
 """
+
 from __future__ import annotations
 
 import json
@@ -23,10 +24,10 @@ def demo(tmp_path_factory):
     out = tmp_path_factory.mktemp("demo") / "run"
     import contextlib
     import io
+
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
-        assert exit_code(["demo", "--out", str(out), "--resolution", "250",
-                          "--no-progress"]) == 0
+        assert exit_code(["demo", "--out", str(out), "--resolution", "250", "--no-progress"]) == 0
     return out, buf.getvalue()
 
 

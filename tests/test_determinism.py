@@ -11,6 +11,7 @@ Each run is its own process (`python -m tiseg.cli run ... --threads N`, i.e.
 ``tiseg.init(threads=N)`` -> Taichi's ``cpu_max_num_threads``); the runs are started together
 so that they share the machine's cores.
 """
+
 from __future__ import annotations
 
 import subprocess
@@ -24,10 +25,21 @@ from tiseg.output import read_diagnostics
 
 # 2D fingers set-up, 36 x 12 cells: inflow, active x range, segregation with feedback,
 # viscosity, WENO, RKC, output every 0.1 s.
-SETS = ["domain.resolution=60", "domain.Lx=0.6", "domain.Ly=0.2", "time.t_end=0.8",
-        "output.times=[]", "output.interval=0.1"]
-RUNS = {"f64-2a": ("f64", 2), "f64-2b": ("f64", 2), "f64-1": ("f64", 1),
-        "f32-2": ("f32", 2), "f32-1": ("f32", 1)}
+SETS = [
+    "domain.resolution=60",
+    "domain.Lx=0.6",
+    "domain.Ly=0.2",
+    "time.t_end=0.8",
+    "output.times=[]",
+    "output.interval=0.1",
+]
+RUNS = {
+    "f64-2a": ("f64", 2),
+    "f64-2b": ("f64", 2),
+    "f64-1": ("f64", 1),
+    "f32-2": ("f32", 2),
+    "f32-1": ("f32", 1),
+}
 
 
 @pytest.fixture(scope="module")
@@ -35,12 +47,25 @@ def runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("determinism")
     procs = {}
     for name, (precision, threads) in RUNS.items():
-        cmd = [sys.executable, "-m", "tiseg.cli", "run", "fingers", "--out", str(root / name),
-               "--no-progress", "--precision", precision, "--threads", str(threads)]
+        cmd = [
+            sys.executable,
+            "-m",
+            "tiseg.cli",
+            "run",
+            "fingers",
+            "--out",
+            str(root / name),
+            "--no-progress",
+            "--precision",
+            precision,
+            "--threads",
+            str(threads),
+        ]
         for s in SETS:
             cmd += ["--set", s]
-        procs[name] = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                       text=True)
+        procs[name] = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
     for name, proc in procs.items():
         out, err = proc.communicate(timeout=900)
         assert proc.returncode == 0, f"{name}: {err}"
@@ -63,7 +88,7 @@ def _assert_identical(a, b) -> None:
     assert fa.keys() == fb.keys() and da.keys() == db.keys()
     for name in fa:
         assert fa[name].dtype == fb[name].dtype
-        np.testing.assert_array_equal(fa[name], fb[name], err_msg=name)   # bitwise
+        np.testing.assert_array_equal(fa[name], fb[name], err_msg=name)  # bitwise
     for name in da:
         np.testing.assert_array_equal(da[name], db[name], err_msg=name)
     assert aa == ab
@@ -89,6 +114,7 @@ def test_thread_count_does_not_change_the_result(runs, precision):
 def test_in_process_run_matches_the_subprocess(runs, ti_cpu, tmp_path):
     """The same scene run here (Taichi's default thread count, f64) gives the same bits too."""
     from tiseg.cli import main
+
     args = ["run", "fingers", "--out", str(tmp_path / "here"), "--no-progress"]
     for s in SETS:
         args += ["--set", s]

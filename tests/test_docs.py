@@ -1,6 +1,7 @@
 """The generated documentation pages cover what they claim: every scene key has a description
 (the comment on its dataclass field) and appears in the scenes reference; every command is in
 the command-line reference."""
+
 import pytest
 
 from tiseg import cli_reference, scene_reference

@@ -6,6 +6,7 @@ zero) the NaN would reach the result; with the term compiled out (``ti.static``)
 finite and unchanged. The same poisoning with the effect on must reach the result, which shows
 the test can fail.
 """
+
 import math
 
 import numpy as np
@@ -16,6 +17,7 @@ from tiseg.physics.pointwise import Params
 
 def _rhs(cfg, q, poison=(), value=math.nan):
     from tiseg.numerics.operator import TaichiOperator
+
     op = TaichiOperator(cfg, nslots=2)
     for idx in poison:
         op.par[idx] = value
@@ -30,8 +32,17 @@ def _state(cfg, seed=0):
 
 
 VISCOUS = [Params.NU]
-FRICTION = [Params.MU1S, Params.MU2S, Params.BETAS, Params.LS, Params.MU1L, Params.MU2L,
-            Params.BETAL, Params.LL, Params.MUC]
+FRICTION = [
+    Params.MU1S,
+    Params.MU2S,
+    Params.BETAS,
+    Params.LS,
+    Params.MU1L,
+    Params.MU2L,
+    Params.BETAL,
+    Params.LL,
+    Params.MUC,
+]
 
 
 def test_viscosity_off_has_no_viscous_code(ti_cpu):
@@ -59,7 +70,7 @@ def test_feedback_off_friction_ignores_phi(ti_cpu):
     q = _state(cfg)
     r1, _ = _rhs(cfg, q)
     q2 = q.copy()
-    q2[cfg.layout.HPHI] = q[cfg.layout.H] * 0.1       # a very different concentration
+    q2[cfg.layout.HPHI] = q[cfg.layout.H] * 0.1  # a very different concentration
     r2, _ = _rhs(cfg, q2)
     lay = cfg.layout
     for c in (lay.H, lay.HU, lay.HV):
@@ -72,14 +83,13 @@ def test_feedback_off_friction_ignores_phi(ti_cpu):
 
 def test_disabled_effects_allocate_no_fields(ti_cpu):
     # segregation off: three components, no phi anywhere
-    _, op = _rhs(make_config(8, 6, segregation=False, bc=("periodic",) * 4),
-                 np.zeros((3, 12, 10)))
+    _, op = _rhs(make_config(8, 6, segregation=False, bc=("periodic",) * 4), np.zeros((3, 12, 10)))
     assert op.q.n == 3 and op.w.n == 3 and op.HPHI == -1
     # 1D: no v component, no y slopes or y fluxes
     cfg1 = make_config(8, 1, bc=("periodic",) * 4)
     _, op1 = _rhs(cfg1, _state(cfg1))
     assert op1.q.n == 3 and not hasattr(op1, "fy") and not hasattr(op1, "sy")
-    assert op1.q.shape[2] == 1                      # no ghost rows in y
+    assert op1.q.shape[2] == 1  # no ghost rows in y
     # first order: no slope fields at all
     cfg0 = make_config(8, 6, reconstruction="first-order", bc=("periodic",) * 4)
     _, op0 = _rhs(cfg0, _state(cfg0))

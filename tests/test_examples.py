@@ -1,5 +1,6 @@
 """Every example runs, tiny, as a test and says something checkable: parametrised over the
 files in examples/, each with its physics check here (a new example without one fails)."""
+
 import importlib.util
 from pathlib import Path
 

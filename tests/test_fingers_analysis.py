@@ -3,29 +3,39 @@
 Every expected number below follows from how the fields are built (cell indices of tips, rear,
 channels), never from the code under test.
 """
+
 import json
 
 import numpy as np
 import pytest
 
-from tiseg.analysis.fingers import (analyse_run, finger_metrics, front_speed, periodic_runs)
+from tiseg.analysis.fingers import analyse_run, finger_metrics, front_speed, periodic_runs
 from tiseg.cli import main
 
 PHI0 = 0.8
 H_MIN = 1e-4
 U0 = 0.2
 NX, NY = 100, 200
-DX = 0.01                      # Lx = 1 m
+DX = 0.01  # Lx = 1 m
 LY = 0.5
-DY = LY / NY                   # 2.5 mm
+DY = LY / NY  # 2.5 mm
 X = (np.arange(NX) + 0.5) * DX
 Y = (np.arange(NY) + 0.5) * DY
-I_REAR = 40                    # first column of the coarse-rich zone: x_f- = 0.405 m
-I_TIP = 79                     # last wet column of the channels: x_f+ = 0.795 m
+I_REAR = 40  # first column of the coarse-rich zone: x_f- = 0.405 m
+I_TIP = 79  # last wet column of the channels: x_f+ = 0.795 m
 
 
-def build(channel, *, i_rear=I_REAR, i_tip=I_TIP, levee_tip=None, phi_channel=0.95,
-          phi_levee=0.1, u_channel=2.0 * U0, u_levee=0.1 * U0):
+def build(
+    channel,
+    *,
+    i_rear=I_REAR,
+    i_tip=I_TIP,
+    levee_tip=None,
+    phi_channel=0.95,
+    phi_levee=0.1,
+    u_channel=2.0 * U0,
+    u_levee=0.1 * U0,
+):
     """Fields of a fingered front: behind column ``i_rear`` the mixed inflow (phi0, u0); from it
     on fine channels (rows where ``channel`` is True, wet up to ``i_tip``) and coarse levees
     (wet up to ``levee_tip``, default 10 cells behind the tips); dry (h = 0, phi = 0) ahead."""
@@ -57,7 +67,7 @@ def metrics(fields, **kw):
 
 # ---- periodic runs --------------------------------------------------------------------------
 def test_periodic_runs_basic():
-    assert periodic_runs([1, 1, 0, 0, 1]) == [(4, 3)]             # wraps through the seam
+    assert periodic_runs([1, 1, 0, 0, 1]) == [(4, 3)]  # wraps through the seam
     assert periodic_runs([0, 1, 1, 0, 1, 0]) == [(1, 2), (4, 1)]
     assert periodic_runs([1, 1, 1]) == [] and periodic_runs([0, 0]) == []
     assert periodic_runs([0, 1, 0, 1, 1, 0], min_width=2) == [(3, 2)]
@@ -88,8 +98,8 @@ def test_sinusoidal_fingers(n):
 @pytest.mark.parametrize("n", [1, 3, 6])
 def test_fingers_straddling_the_seam_count_once(n):
     lam = LY / n
-    chan = equal_channels(n, frac=0.5, y0=-0.25 * lam)     # a channel centred on y = 0 = Ly
-    assert chan[0] and chan[-1]                             # the set-up straddles the seam
+    chan = equal_channels(n, frac=0.5, y0=-0.25 * lam)  # a channel centred on y = 0 = Ly
+    assert chan[0] and chan[-1]  # the set-up straddles the seam
     m = metrics(build(chan))
     assert m["finger_count"] == n
     assert m["wavelength"] == pytest.approx(LY / n)
@@ -99,8 +109,8 @@ def test_fingers_straddling_the_seam_count_once(n):
 
 def test_uneven_widths():
     chan = np.zeros(NY, bool)
-    chan[190:] = chan[:5] = True        # 15 cells through the seam
-    chan[8:10] = True                   # 2 cells (the narrowest kept by default)
+    chan[190:] = chan[:5] = True  # 15 cells through the seam
+    chan[8:10] = True  # 2 cells (the narrowest kept by default)
     chan[12:42] = True
     chan[50:62] = True
     chan[70:130] = True
@@ -113,23 +123,23 @@ def test_uneven_widths():
 def test_merging_across_narrow_gap():
     chan = np.zeros(NY, bool)
     chan[20:60] = True
-    chan[61:100] = True                                      # 1-cell coarse gap at 60
+    chan[61:100] = True  # 1-cell coarse gap at 60
     chan[140:170] = True
     m = metrics(build(chan))
-    assert m["finger_count"] == 2                            # 20..100 is one finger
+    assert m["finger_count"] == 2  # 20..100 is one finger
     assert sorted(m["channel_widths"]) == pytest.approx([30 * DY, 80 * DY])
-    assert metrics(build(chan), min_gap=0.0)["finger_count"] == 3     # no merging
-    chan[60:65] = False                                      # a 5-cell levee: two fingers ...
+    assert metrics(build(chan), min_gap=0.0)["finger_count"] == 3  # no merging
+    chan[60:65] = False  # a 5-cell levee: two fingers ...
     assert metrics(build(chan))["finger_count"] == 3
     assert metrics(build(chan), min_gap=6 * DY)["finger_count"] == 2  # ... unless min_gap > 5 cells
 
 
 def test_narrow_runs_are_noise():
     chan = equal_channels(4)
-    chan[85] = True                                          # an isolated fine cell in a levee
-    chan[91:93] = True                                       # a 2-cell run
+    chan[85] = True  # an isolated fine cell in a levee
+    chan[91:93] = True  # a 2-cell run
     assert not chan[84] and not chan[86] and not chan[90] and not chan[93]
-    assert metrics(build(chan))["finger_count"] == 5         # the 2-cell run counts by default
+    assert metrics(build(chan))["finger_count"] == 5  # the 2-cell run counts by default
     assert metrics(build(chan), min_width=3 * DY)["finger_count"] == 4
 
 
@@ -137,18 +147,24 @@ def test_persistent_count_and_median_lines():
     # the band x_f- .. x_f+ spans columns 40..79 (40 lines); four fingers
     chan = equal_channels(4)
     h, u, v, phi = build(chan)
-    phi[10:15, 45:56] = 0.1         # a coarse island splits the first channel on columns 45..55
-    h[50:80, 71:] = 0.0             # the second finger ends at column 70
+    phi[10:15, 45:56] = 0.1  # a coarse island splits the first channel on columns 45..55
+    h[50:80, 71:] = 0.0  # the second finger ends at column 70
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
     assert m["line_x"] == pytest.approx(X[40:80])
     expect = [4] * 5 + [5] * 11 + [4] * 15 + [3] * 9
     assert m["line_counts"] == expect
     assert m["finger_count"] == 4 and m["count_length"] == pytest.approx(20 * DX)
     # the median of three lines (columns 50, 59 or 60, 69 -> counts 5, 4, 4)
-    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
-                          line_fractions=[0.25, 0.5, 0.75])["finger_count"] == 4
-    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
-                          line_fractions=[0.25])["finger_count"] == 5
+    assert (
+        finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0, line_fractions=[0.25, 0.5, 0.75])[
+            "finger_count"
+        ]
+        == 4
+    )
+    assert (
+        finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0, line_fractions=[0.25])["finger_count"]
+        == 5
+    )
     assert m["finger_count_lines"] == 4
     # the island now covers most of the band: 5 persists longest on the lines, but the split
     # channel joins again at both ends of the island: still 4 fingers as 2D channels
@@ -160,7 +176,7 @@ def test_persistent_count_and_median_lines():
 def test_persistent_count_tie_goes_to_more_fingers():
     chan = equal_channels(4)
     h, u, v, phi = build(chan)
-    h[150:180, 60:] = 0.0           # the fourth finger ends at column 59: 4 on 20 columns, 3 on 20
+    h[150:180, 60:] = 0.0  # the fourth finger ends at column 59: 4 on 20 columns, 3 on 20
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
     assert m["line_counts"] == [4] * 20 + [3] * 20
     assert m["finger_count"] == 4
@@ -170,7 +186,7 @@ def test_count_must_persist():
     # two fingers only on the last 3 of 40 columns (a short-lived incursion): not enough by
     # default (channels: 10 % of x_l = 3.9 cm > 3 cells; lines: 10 % = 4 columns), enough with
     # a lower min_span or persistence
-    h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)       # coarse head, no fingers
+    h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)  # coarse head, no fingers
     phi[20:40, 77:80] = 0.9
     phi[120:140, 77:80] = 0.9
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
@@ -195,7 +211,7 @@ def test_noise_does_not_add_fingers(seed):
 
 
 def test_uniform_coarse_head_has_no_fingers():
-    h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)   # coarse all across the front
+    h, u, v, phi = build(np.zeros(NY, bool), levee_tip=I_TIP)  # coarse all across the front
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
     assert m["finger_count"] == 0 and m["wavelength"] is None
     assert m["max_channel_speed_over_u0"] is None
@@ -259,8 +275,12 @@ def test_front_speed():
     s = front_speed([0.0, 1.0, 3.0], [0.1, 0.3, 0.9])
     assert s == pytest.approx([0.2, 0.8 / 3.0, 0.3])
     # no flow at t = 0: undefined there, one-sided next to it
-    assert front_speed([0.0, 0.5, 1.0, 1.5], [None, 0.1, 0.2, 0.4]) == \
-        [None, pytest.approx(0.2), pytest.approx(0.3), pytest.approx(0.4)]
+    assert front_speed([0.0, 0.5, 1.0, 1.5], [None, 0.1, 0.2, 0.4]) == [
+        None,
+        pytest.approx(0.2),
+        pytest.approx(0.3),
+        pytest.approx(0.4),
+    ]
     assert front_speed([2.0], [0.5]) == [None]
 
 
@@ -268,11 +288,11 @@ def test_channel_speed_ratio():
     chan = equal_channels(4)
     h, u, v, phi = build(chan, u_channel=1.5 * U0)
     r = int(np.flatnonzero(chan)[10])
-    u[r, 60], v[r, 60] = 1.6 * U0, 1.2 * U0      # |u| = 2 u0 in a channel
+    u[r, 60], v[r, 60] = 1.6 * U0, 1.2 * U0  # |u| = 2 u0 in a channel
     lv = int(np.flatnonzero(~chan)[4])
-    u[lv, 55] = 5 * U0                           # fast but coarse (levee): not a channel
-    u[r, 10] = 6 * U0                            # fast but behind x_f-: not in the fingers
-    u[r, 95] = 7 * U0                            # fast but dry
+    u[lv, 55] = 5 * U0  # fast but coarse (levee): not a channel
+    u[r, 10] = 6 * U0  # fast but behind x_f-: not in the fingers
+    u[r, 95] = 7 * U0  # fast but dry
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
     assert m["max_channel_speed"] == pytest.approx(2 * U0)
     assert m["max_channel_speed_over_u0"] == pytest.approx(2.0)
@@ -283,11 +303,13 @@ def test_speed_criterion_option():
     chan = equal_channels(3)
     h, u, v, phi = build(chan)
     # one channel is fine-rich but slow: with the speed criterion it is not a channel
-    slow = np.flatnonzero(chan)[:int(chan.sum() / 3)]
+    slow = np.flatnonzero(chan)[: int(chan.sum() / 3)]
     u[slow, I_REAR:] = 0.2 * U0
     assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)["finger_count"] == 3
-    assert finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0,
-                          min_speed_over_u0=1.0)["finger_count"] == 2
+    assert (
+        finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0, min_speed_over_u0=1.0)["finger_count"]
+        == 2
+    )
 
 
 # ---- saved runs and the command line ----------------------------------------------------------
@@ -297,14 +319,16 @@ def run_dir(tmp_path_factory):
     t = 1, 2: uniform coarse head; t = 3: two fingers (rows 2..7 and 12..17)."""
     from tiseg.output import FieldsWriter
     from tiseg.scene import load_scene
+
     scene = load_scene("fingers", {"domain.resolution": 40})
     x, y = scene.domain.cell_centres()
     ny, nx = scene.domain.shape
     u0 = scene.flow.u0
     d = tmp_path_factory.mktemp("run")
     cols = np.arange(nx)[None, :]
-    with FieldsWriter(d / "fields.nc", x, y, attrs={"scene": scene.to_toml()},
-                      fields=("h", "u", "v", "phi")) as w:
+    with FieldsWriter(
+        d / "fields.nc", x, y, attrs={"scene": scene.to_toml()}, fields=("h", "u", "v", "phi")
+    ) as w:
         for t, tip, rear in [(1.0, 10, 6), (2.0, 14, 9), (3.0, 20, 11)]:
             chan = np.zeros(ny, bool)
             if t == 3.0:
@@ -331,21 +355,29 @@ def test_analyse_run(run_dir):
     assert r["max_channel_speed_over_u0"][:2] == [None, None]
     assert r["max_channel_speed_over_u0"][2] == pytest.approx(2.0)
     assert r["phi0"] == 0.8 and r["h_min"] == 1e-4 and r["Ly"] == 0.5
-    assert r["u0"] == pytest.approx(0.2079, abs=1e-4)          # the steady state of figure 12
+    assert r["u0"] == pytest.approx(0.2079, abs=1e-4)  # the steady state of figure 12
 
 
 def test_cli_json(run_dir, capsys):
     assert main(["fingers", str(run_dir), "--json"]) == 0
     o = json.loads(capsys.readouterr().out)
-    for key in ("time", "x_front_max", "x_front_min", "elongation", "finger_count",
-                "wavelength", "front_speed", "max_channel_speed_over_u0"):
+    for key in (
+        "time",
+        "x_front_max",
+        "x_front_min",
+        "elongation",
+        "finger_count",
+        "wavelength",
+        "front_speed",
+        "max_channel_speed_over_u0",
+    ):
         assert len(o[key]) == 3, key
     assert o["finger_count"] == [0, 0, 2] and o["wavelength"][0] is None
 
     assert main(["fingers", str(run_dir / "fields.nc"), "--json", "--time", "3"]) == 0
     o = json.loads(capsys.readouterr().out)
     assert o["time"] == [3.0] and o["finger_count"] == [2]
-    assert o["front_speed"] == pytest.approx([6 * 0.025])     # still uses t = 2
+    assert o["front_speed"] == pytest.approx([6 * 0.025])  # still uses t = 2
 
 
 def test_cli_table(run_dir, capsys):
@@ -380,6 +412,7 @@ def test_cli_errors(tmp_path, run_dir, capsys):
     _fails(capsys, ["fingers", str(run_dir), "--min-span", "-0.1"], "--min-span")
 
     from tiseg.output import FieldsWriter
+
     nophi = tmp_path / "nophi"
     with FieldsWriter(nophi / "fields.nc", X[:5], Y[:4], fields=("h", "u")) as w:
         w.write(0.0, h=np.zeros((4, 5)), u=np.zeros((4, 5)))
@@ -404,9 +437,9 @@ def unequal_fingers(n, tips, i_rear=I_REAR):
     lam_rows = NY // n
     for k, tip in enumerate(tips):
         rows = slice(k * lam_rows, (k + 1) * lam_rows)
-        h[rows, tip + 1:] = 0.0
-        phi[rows, tip + 1:] = 0.0
-        u[rows, tip + 1:] = 0.0
+        h[rows, tip + 1 :] = 0.0
+        phi[rows, tip + 1 :] = 0.0
+        u[rows, tip + 1 :] = 0.0
     return h, u, v, phi
 
 
@@ -416,13 +449,13 @@ def test_unequal_finger_lengths_count_every_finger(n):
     the 2D count finds all n, and with several fingers the spectral wavelength is Ly / n.
     (With two fingers, one alone over half of the zone, the spectrum leans to mode 1: it
     weighs every column, the count weighs every finger.)"""
-    tips = [I_TIP - (k * 23) % 30 for k in range(n)]          # tips 30 columns apart at most
+    tips = [I_TIP - (k * 23) % 30 for k in range(n)]  # tips 30 columns apart at most
     m = metrics(unequal_fingers(n, tips))
     assert m["finger_count"] == n
     assert m["wavelength"] == pytest.approx(LY / n)
     if n > 2:
         assert m["wavelength_spectral"] == pytest.approx(LY / n, rel=0.05)
-    assert min(m["line_counts"]) < n                          # single lines do miss fingers
+    assert min(m["line_counts"]) < n  # single lines do miss fingers
 
 
 def test_equal_fingers_spectral_wavelength_is_exact():
@@ -450,7 +483,7 @@ def test_spectral_peak_is_refined_between_bins():
     interpolation of the peak gives Ly / 5.3, between the bins 5 and 6."""
     h, u, v, _ = build(np.ones(NY, bool), levee_tip=I_TIP)
     modes = np.arange(1, 20)
-    amp = np.exp(-(modes - 5.3) ** 2 / (2 * 1.2 ** 2))      # power exp(-(n - 5.3)^2 / 1.2^2)
+    amp = np.exp(-((modes - 5.3) ** 2) / (2 * 1.2**2))  # power exp(-(n - 5.3)^2 / 1.2^2)
     prof = 0.25 + 0.04 * (amp[:, None] * np.cos(2 * np.pi * np.outer(modes, Y) / LY)).sum(axis=0)
     phi = np.where(np.arange(NX)[None, :] < I_REAR, PHI0, prof[:, None]) * (h > 0)
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
@@ -463,12 +496,12 @@ def test_merging_pair_counts_two_and_split_channel_counts_one():
     chan = equal_channels(4)
     h, u, v, phi = build(chan)
     rows = np.flatnonzero(chan)
-    a = rows[rows < 50]                                      # the first channel: rows 0..29
-    lo, hi = a.max() + 1, 50                                 # its levee, rows 30..49
-    phi[lo:hi, I_REAR:60] = 0.95                             # ... fine behind column 60: a Y
+    a = rows[rows < 50]  # the first channel: rows 0..29
+    lo, hi = a.max() + 1, 50  # its levee, rows 30..49
+    phi[lo:hi, I_REAR:60] = 0.95  # ... fine behind column 60: a Y
     u[lo:hi, I_REAR:60] = 2 * U0
     m = finger_metrics(h, u, v, phi, X, Y, H_MIN, PHI0, U0)
-    assert m["finger_count"] == 4                            # the Y is two fingers
+    assert m["finger_count"] == 4  # the Y is two fingers
     # ... while the same join at the tips (an island behind) makes one finger
     h, u, v, phi = build(chan)
     phi[lo:hi, 60:] = np.where(h[lo:hi, 60:] > 0, 0.95, 0.0)
@@ -498,19 +531,19 @@ def test_envelope_mode_1_does_not_hide_the_fingers():
     zone only the long ones exist, and mode 1 holds more power than the finger mode. The
     spectral wavelength still finds the fingers (mode 1 is excluded), and so does the count."""
     n = 8
-    spacing = np.array([5.0, 7.5, 5.5, 7.0, 6.0, 6.5, 5.0, 7.5]) / 100   # irregular, sum Ly
+    spacing = np.array([5.0, 7.5, 5.5, 7.0, 6.0, 6.5, 5.0, 7.5]) / 100  # irregular, sum Ly
     edges = np.concatenate(([0.0], np.cumsum(spacing)))
     k_of_y = np.searchsorted(edges, Y, side="right") - 1
-    chan = (Y - edges[k_of_y]) < 0.3 * spacing[k_of_y]                  # wide levees
+    chan = (Y - edges[k_of_y]) < 0.3 * spacing[k_of_y]  # wide levees
     h, u, v, phi = build(chan, levee_tip=I_TIP)
     for k in range(n):
         rear, tip = (I_REAR, I_TIP) if k in (2, 3, 4) else (60, 66)
         strip = k_of_y == k
-        phi[strip, I_REAR:rear], u[strip, I_REAR:rear] = PHI0, U0      # mixed flow behind
-        h[strip, tip + 1:], phi[strip, tip + 1:], u[strip, tip + 1:] = 0.0, 0.0, 0.0
-    s = np.where(h >= H_MIN, phi, 0.0)[:, I_REAR:I_TIP + 1]
+        phi[strip, I_REAR:rear], u[strip, I_REAR:rear] = PHI0, U0  # mixed flow behind
+        h[strip, tip + 1 :], phi[strip, tip + 1 :], u[strip, tip + 1 :] = 0.0, 0.0, 0.0
+    s = np.where(h >= H_MIN, phi, 0.0)[:, I_REAR : I_TIP + 1]
     power = (np.abs(np.fft.rfft(s - s.mean(axis=0), axis=0)) ** 2).mean(axis=1)
-    assert power[1] > power[n]                      # the envelope does dominate
+    assert power[1] > power[n]  # the envelope does dominate
     m = metrics((h, u, v, phi))
     assert m["finger_count"] == n
     assert m["wavelength_spectral"] == pytest.approx(LY / n, rel=0.15)
@@ -533,19 +566,19 @@ def test_channel_and_levee_numbers():
     # centrelines: a slow margin does not move the median of the channel centres
     h, u, v, phi = build(equal_channels(4), u_channel=2.0 * U0)
     chan = equal_channels(4)
-    edges = np.flatnonzero(chan & ~np.roll(chan, 1))          # first row of each channel
+    edges = np.flatnonzero(chan & ~np.roll(chan, 1))  # first row of each channel
     u[edges, :] = 0.5 * U0
     assert metrics((h, u, v, phi))["channel_speed_over_u0"] == pytest.approx(2.0)
     # coarse material moving with the front but not beside a channel (islands between the
     # finger tips, dry all round, more cells than the levees) is not a levee
     chan = equal_channels(4)
     h, u, v, phi = build(chan, u_channel=2.0 * U0, u_levee=0.1 * U0, levee_tip=I_REAR + 2)
-    near = np.any([np.roll(chan, k) for k in range(-2, 3)], axis=0)   # within 2 rows (periodic)
+    near = np.any([np.roll(chan, k) for k in range(-2, 3)], axis=0)  # within 2 rows (periodic)
     island = ~near
     h[np.ix_(island, np.arange(45, 76))] = 0.002
     phi[np.ix_(island, np.arange(45, 76))] = 0.1
     u[np.ix_(island, np.arange(45, 76))] = 1.0 * U0
-    assert island.sum() * 31 > (~chan).sum() * 3                # the islands outnumber the levees
+    assert island.sum() * 31 > (~chan).sum() * 3  # the islands outnumber the levees
     assert metrics((h, u, v, phi))["levee_speed_over_u0"] == pytest.approx(0.1)
     none = metrics(build(np.zeros(NY, bool), levee_tip=I_TIP))
     assert none["channel_speed_over_u0"] is None and none["channel_phi"] is None

@@ -17,6 +17,7 @@ when it broke up (0.65 m at 4 s). A plain phi0 = 1 inflow has no cross-slope var
 second case gives the nearly monodisperse flow phi0 = 0.9999 the same inflow perturbation
 delta = 8e-5 as the bidisperse one, and its front must stay straight too.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,8 +27,8 @@ from tiseg.analysis import analyse_run
 from tiseg.output import read_fields
 from tiseg.simulation import Simulation
 
-RESOLUTION = 200          # cells per metre
-LY = 0.15                 # m
+RESOLUTION = 200  # cells per metre
+LY = 0.15  # m
 
 
 def _front_raggedness(run_dir, h_min: float = 1e-4) -> tuple[float, float]:
@@ -42,35 +43,54 @@ def _front_raggedness(run_dir, h_min: float = 1e-4) -> tuple[float, float]:
 
 
 def test_bidisperse_front_breaks_into_fingers(ti_cpu, tmp_path):
-    sim = Simulation.from_scene("fingers", {
-        "domain.resolution": RESOLUTION, "domain.Ly": LY, "domain.Lx": 1.15,
-        "time.t_end": 6.5, "output.times": [4.0, 5.0, 6.0, 6.5], "output.interval": 0.5})
+    sim = Simulation.from_scene(
+        "fingers",
+        {
+            "domain.resolution": RESOLUTION,
+            "domain.Ly": LY,
+            "domain.Lx": 1.15,
+            "time.t_end": 6.5,
+            "output.times": [4.0, 5.0, 6.0, 6.5],
+            "output.interval": 0.5,
+        },
+    )
     sim.run(out_dir=tmp_path, progress=False)
     m = analyse_run(tmp_path)
     count = dict(zip(m["time"], m["finger_count"]))
-    assert count[2.0] == 0                                   # a coarse front first, no fingers
+    assert count[2.0] == 0  # a coarse front first, no fingers
     assert all(count[t] >= 1 for t in (5.0, 6.0, 6.5)), count
     last = {k: m[k][-1] for k in m if isinstance(m[k], list)}
     assert last["wavelength"] is not None and last["wavelength"] <= LY
-    assert last["elongation"] > 0.15                         # x_l grows fast once fingers form
-    assert last["max_channel_speed_over_u0"] > 1.3           # fast channels (paper: about 2)
-    assert last["front_speed_over_u0"] > 1.0 > m["front_speed_over_u0"][4]   # tips break through
+    assert last["elongation"] > 0.15  # x_l grows fast once fingers form
+    assert last["max_channel_speed_over_u0"] > 1.3  # fast channels (paper: about 2)
+    assert last["front_speed_over_u0"] > 1.0 > m["front_speed_over_u0"][4]  # tips break through
     spread, vmax = _front_raggedness(tmp_path)
-    assert spread >= 10, spread                              # the tip runs ahead of the levees
-    assert vmax > 0.01                                       # lateral flow into the levees
+    assert spread >= 10, spread  # the tip runs ahead of the levees
+    assert vmax > 0.01  # lateral flow into the levees
 
 
-@pytest.mark.parametrize("phi0, delta", [(1.0, 0.0), (0.9999, 8e-5)],
-                         ids=["monodisperse", "nearly-monodisperse-perturbed"])
+@pytest.mark.parametrize(
+    "phi0, delta",
+    [(1.0, 0.0), (0.9999, 8e-5)],
+    ids=["monodisperse", "nearly-monodisperse-perturbed"],
+)
 def test_monodisperse_front_stays_straight(ti_cpu, tmp_path, phi0, delta):
-    sim = Simulation.from_scene("monodisperse-front", {
-        "domain.resolution": RESOLUTION, "domain.Ly": LY, "domain.Lx": 1.0,
-        "flow.phi0": phi0, "inflow.perturbation": delta,
-        "time.t_end": 2.0, "output.interval": 0.5})
+    sim = Simulation.from_scene(
+        "monodisperse-front",
+        {
+            "domain.resolution": RESOLUTION,
+            "domain.Ly": LY,
+            "domain.Lx": 1.0,
+            "flow.phi0": phi0,
+            "inflow.perturbation": delta,
+            "time.t_end": 2.0,
+            "output.interval": 0.5,
+        },
+    )
     sim.run(out_dir=tmp_path, progress=False)
     m = analyse_run(tmp_path)
-    assert m["x_front_max"][-1] > 0.75                       # it travelled further than ...
-    assert m["finger_count"] == [0] * len(m["time"])         # ... without forming fingers
+    assert m["x_front_max"][-1] > 0.75  # it travelled further than ...
+    assert m["finger_count"] == [0] * len(m["time"])  # ... without forming fingers
     spread, vmax = _front_raggedness(tmp_path)
-    assert spread <= 1, spread                               # a straight front
-    assert vmax < 2e-3, vmax                                 # no lateral flow to speak of
+    assert spread <= 1, spread  # a straight front
+    assert vmax < 2e-3, vmax  # no lateral flow to speak of

@@ -11,6 +11,7 @@ Measured worst violations over the whole file: h < 0 never (min h = 0 exactly at
 phi outside [0, 1] never (0 <= h phi <= h exactly), mass balance <= 5e-15 relative.
 One case is an expected failure that documents a solver limitation (see its xfail reason).
 """
+
 from __future__ import annotations
 
 import math
@@ -56,8 +57,9 @@ def mass_error(sim) -> tuple[float, float]:
     m = abs(tot["mass"] - ini["mass"] - bud["mass_in"]) / max(tot["mass"], ini["mass"])
     s = 0.0
     if sim.layout.segregation and max(tot["small_mass"], ini["small_mass"]) > 0:
-        s = (abs(tot["small_mass"] - ini["small_mass"] - bud["small_mass_in"])
-             / max(tot["small_mass"], ini["small_mass"]))
+        s = abs(tot["small_mass"] - ini["small_mass"] - bud["small_mass_in"]) / max(
+            tot["small_mass"], ini["small_mass"]
+        )
     return m, s
 
 
@@ -70,21 +72,25 @@ def front_position(sim) -> float:
 
 
 # ============================================================================ critical Froude
-H0_FC = steady_state(0.002, 0.8).h0_at_Fc            # 2.4728 mm: F = Fc = 1.944
+H0_FC = steady_state(0.002, 0.8).h0_at_Fc  # 2.4728 mm: F = Fc = 1.944
 
 
 def _fc_noise_rate(n: int, nu: float, t_end: float = 0.24) -> float:
     """T8: uniform flow at F = Fc, periodic L = 200 h0, white noise of amplitude 1e-9 in phi;
     the growth rate of rms(h - h0) fitted over [t_end / 2, t_end]."""
-    sc = scene_from_dict({
-        "flow": {"h0": H0_FC, "phi0": 0.8, "nu": nu},
-        "effects": {"viscosity": nu > 0},
-        "domain": {"Lx": 200 * H0_FC, "nx": n, "ny": 1},
-        "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform", "mode": "noise", "amplitude": 2e-9, "seed": 1},
-        # 1D: the KP positivity limit is dt <= dx / (2 a), so CFL 0.5 is allowed (halves the cost)
-        "numerics": {"reconstruction": "minmod", "stepper": "rkc", "cfl": 0.5},
-        "time": {"t_end": t_end}}, name="fc-noise")
+    sc = scene_from_dict(
+        {
+            "flow": {"h0": H0_FC, "phi0": 0.8, "nu": nu},
+            "effects": {"viscosity": nu > 0},
+            "domain": {"Lx": 200 * H0_FC, "nx": n, "ny": 1},
+            "boundary": dict(PERIODIC),
+            "initial": {"kind": "uniform", "mode": "noise", "amplitude": 2e-9, "seed": 1},
+            # 1D: the KP positivity limit is dt <= dx / (2 a), so CFL 0.5 is allowed (halves the cost)
+            "numerics": {"reconstruction": "minmod", "stepper": "rkc", "cfl": 0.5},
+            "time": {"t_end": t_end},
+        },
+        name="fc-noise",
+    )
     sim = Simulation(sc)
     ts, rms = [], []
     for k in range(1, 21):
@@ -130,18 +136,31 @@ def _coulomb_dam_break(n: int, stepper: str, t_end: float = 0.2):
     """NUMERICS T4: reservoir h0 for x < x0 released at rest on a 27 deg slope with Coulomb
     friction tan(20 deg), no viscosity, no segregation; exact solution (Mangeney et al. 2000)."""
     zeta, delta, h0, x0 = 27.0, 20.0, 0.002, 0.2
-    sc = scene_from_dict({
-        "material": {"zeta_deg": zeta},
-        "flow": {"h0": h0, "phi0": 0.8, "nu": 0.0},
-        "effects": {"segregation": False, "viscosity": False, "mobility_feedback": False,
-                    "friction": "coulomb", "coulomb_mu": math.tan(math.radians(delta))},
-        "domain": {"Lx": 0.35, "nx": n, "ny": 1},
-        "boundary": dict(OPEN),
-        "initial": {"kind": "dam-break", "x0": x0, "h_left": h0, "h_right": 0.0},
-        # a tiny h_min: the O(h_min) stall of the front tip is not what is tested here
-        "numerics": {"reconstruction": "minmod", "stepper": stepper, "h_min": 1e-7,
-                     "h_eps": 1e-9},
-        "time": {"t_end": t_end}}, name="coulomb-dam-break")
+    sc = scene_from_dict(
+        {
+            "material": {"zeta_deg": zeta},
+            "flow": {"h0": h0, "phi0": 0.8, "nu": 0.0},
+            "effects": {
+                "segregation": False,
+                "viscosity": False,
+                "mobility_feedback": False,
+                "friction": "coulomb",
+                "coulomb_mu": math.tan(math.radians(delta)),
+            },
+            "domain": {"Lx": 0.35, "nx": n, "ny": 1},
+            "boundary": dict(OPEN),
+            "initial": {"kind": "dam-break", "x0": x0, "h_left": h0, "h_right": 0.0},
+            # a tiny h_min: the O(h_min) stall of the front tip is not what is tested here
+            "numerics": {
+                "reconstruction": "minmod",
+                "stepper": stepper,
+                "h_min": 1e-7,
+                "h_eps": 1e-9,
+            },
+            "time": {"t_end": t_end},
+        },
+        name="coulomb-dam-break",
+    )
     sim = Simulation(sc, check_every=1)
     sim.advance(t_end)
     gc = G * math.cos(math.radians(zeta))
@@ -152,16 +171,23 @@ def _coulomb_dam_break(n: int, stepper: str, t_end: float = 0.2):
     X = x[:, None] + sub[None, :] * sc.dx - x0
     t = t_end
     lo, hi = -c0 * t + 0.5 * m * t * t, 2 * c0 * t + 0.5 * m * t * t
-    exact = np.where(X < lo, h0, np.where(X <= hi, (2 * c0 - X / t + 0.5 * m * t) ** 2
-                                          / (9 * gc), 0.0)).mean(axis=1)
+    exact = np.where(
+        X < lo, h0, np.where(X <= hi, (2 * c0 - X / t + 0.5 * m * t) ** 2 / (9 * gc), 0.0)
+    ).mean(axis=1)
     f = sim.fields()
     h, u = f["h"][0], f["u"][0]
     err = float(np.sum(np.abs(h - exact)) / np.sum(exact))
     x1 = x0 + (2 * c0 - math.sqrt(9 * 1e-2 * gc * h0)) * t + 0.5 * m * t * t
     front = float(x[np.nonzero(h >= 1e-2 * h0)[0].max()])
-    reservoir_u = float(u[x < x0 + lo - 0.02].mean())      # exact: u = m t
-    return sim, {"L1": err, "front": front, "front_exact": x1, "travel": x1 - x0,
-                 "u_res": reservoir_u, "u_exact": m * t}
+    reservoir_u = float(u[x < x0 + lo - 0.02].mean())  # exact: u = m t
+    return sim, {
+        "L1": err,
+        "front": front,
+        "front_exact": x1,
+        "travel": x1 - x0,
+        "u_res": reservoir_u,
+        "u_exact": m * t,
+    }
 
 
 def test_coulomb_dam_break_on_slope_matches_exact_solution(ti_cpu):
@@ -182,11 +208,15 @@ def test_coulomb_dam_break_on_slope_matches_exact_solution(ti_cpu):
         assert abs(r["front"] - r["front_exact"]) < 0.15 * r["travel"], r
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "solver bug (RKC + regularised friction): material starting from rest stays below u_eps "
-    "for many steps because RKC damps the stiff friction mode (rate g cos(zeta) mu / u_eps = "
-    "3.2e3 1/s) only by about eps/3 = 5 % per step; the T4 reservoir then slides at 0.2328 "
-    "instead of m t = 0.2545 m/s at N = 400 (L1 error 1.7e-2 against 7.0e-3 at N = 200)"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "solver bug (RKC + regularised friction): material starting from rest stays below u_eps "
+        "for many steps because RKC damps the stiff friction mode (rate g cos(zeta) mu / u_eps = "
+        "3.2e3 1/s) only by about eps/3 = 5 % per step; the T4 reservoir then slides at 0.2328 "
+        "instead of m t = 0.2545 m/s at N = 400 (L1 error 1.7e-2 against 7.0e-3 at N = 200)"
+    ),
+)
 def test_coulomb_dam_break_with_rkc_starts_sliding_on_time(ti_cpu):
     """The same T4 run with the default stepper (RKC): the uniform reservoir must accelerate at
     m = g cos(zeta) (tan(zeta) - tan(delta)) from the start."""
@@ -196,8 +226,14 @@ def test_coulomb_dam_break_with_rkc_starts_sliding_on_time(ti_cpu):
 
 
 def _fingers(resolution=40, t_end=1.0, **over):
-    o = {"domain.resolution": resolution, "domain.Lx": 0.6, "domain.Ly": 0.2,
-         "time.t_end": t_end, "output.times": [], "output.interval": t_end}
+    o = {
+        "domain.resolution": resolution,
+        "domain.Lx": 0.6,
+        "domain.Ly": 0.2,
+        "time.t_end": t_end,
+        "output.times": [],
+        "output.interval": t_end,
+    }
     o.update(over)
     return load_scene("fingers", o)
 
@@ -228,7 +264,7 @@ def test_front_advances_onto_empty_chute(ti_cpu, ramp):
     f = sim.fields()
     wet = f["h"] >= sc.numerics.h_min
     tip = [f["phi"][j, np.nonzero(wet[j])[0].max()] for j in range(f["h"].shape[0])]
-    assert max(tip) < sc.flow.phi0                       # large particles lead
+    assert max(tip) < sc.flow.phi0  # large particles lead
 
 
 @pytest.mark.parametrize("film", [0.5e-4, 2e-4], ids=["below-h_min", "above-h_min"])
@@ -239,13 +275,17 @@ def test_dam_break_onto_thin_film(ti_cpu, film):
     film slides on its own. h >= 0, phi in [0, 1], mass balance with outflow to 1e-15.
     (The slow start, front at 0.145 m after 0.4 s, is partly the RKC friction start-up lag of
     test_coulomb_dam_break_with_rkc_starts_sliding_on_time.)"""
-    sc = scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.01},
-        "domain": {"Lx": 0.4, "nx": 200, "ny": 1},
-        "boundary": dict(OPEN),
-        "initial": {"kind": "dam-break", "x0": 0.1, "h_left": 0.002, "h_right": film},
-        "numerics": {"reconstruction": "weno"},
-        "time": {"t_end": 0.4}}, name="thin-film")
+    sc = scene_from_dict(
+        {
+            "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.01},
+            "domain": {"Lx": 0.4, "nx": 200, "ny": 1},
+            "boundary": dict(OPEN),
+            "initial": {"kind": "dam-break", "x0": 0.1, "h_left": 0.002, "h_right": film},
+            "numerics": {"reconstruction": "weno"},
+            "time": {"t_end": 0.4},
+        },
+        name="thin-film",
+    )
     sim = Simulation(sc, check_every=1)
     q0 = sim.conserved().copy()
     sim.advance(0.4)
@@ -258,14 +298,14 @@ def test_dam_break_onto_thin_film(ti_cpu, film):
     front = x[np.nonzero(h > 2 * max(film, sc.numerics.h_min))[0].max()]
     ahead = x > front + 0.03
     print(f"\nthin film {film}: front at {front:.3f} m, min h {h.min():.3e}")
-    assert front > 0.13                                  # the release really moved
+    assert front > 0.13  # the release really moved
     if film < sc.numerics.h_min:
         # frozen: no flux, no source, no momentum; only the RKC combinations of equal values
         # round (h moves by an ulp or two, 1e-15 relative)
         np.testing.assert_allclose(q[:, ahead], q0[:, ahead], rtol=1e-13, atol=0)
         assert (q[1, ahead] == 0).all()
     else:
-        assert np.abs(q[1, ahead, 0]).max() > 0          # the film flows
+        assert np.abs(q[1, ahead, 0]).max() > 0  # the film flows
         assert h[ahead].min() > 0
 
 
@@ -275,16 +315,26 @@ def _linear_prediction_run(nu, nx, k, mode, periods, h0=0.002):
     (5.21) applied to the initial perturbation (amplitude 1e-6, so it stays linear)."""
     from tiseg.stability.base import base_state
     from tiseg.stability.dispersion1d import matrix
-    sc = load_scene("uniform-flow", {"flow.h0": h0, "flow.nu": nu, "initial.k": k,
-                                     "domain.nx": nx, "domain.Lx": None, "initial.mode": mode,
-                                     "initial.amplitude": 1e-6})
+
+    sc = load_scene(
+        "uniform-flow",
+        {
+            "flow.h0": h0,
+            "flow.nu": nu,
+            "initial.k": k,
+            "domain.nx": nx,
+            "domain.Lx": None,
+            "initial.mode": mode,
+            "initial.amplitude": 1e-6,
+        },
+    )
     A = matrix(base_state(h0, 0.8, nu, sc.material), np.array([k]))[0]
     v0 = {"h": np.array([1.0, 0.0, 0.0]), "phi": np.array([0.0, 0.0, 1.0])}[mode]
     scale = sc.flow.u0 / h0
     sim = Simulation(sc, check_every=1)
     q = sim.conserved()
     c0 = np.fft.rfft(q[0, :, 0] if mode == "h" else q[-1, :, 0] / q[0, :, 0])[1]
-    c0 *= 1.0 if mode == "h" else sc.flow.h0          # phi mode: h's response per unit phi
+    c0 *= 1.0 if mode == "h" else sc.flow.h0  # phi mode: h's response per unit phi
     T = periods * h0 / sc.flow.u0
     errs = []
     for j in range(1, 7):
@@ -313,6 +363,7 @@ def test_tiny_viscosity_growth_rate(ti_cpu):
     """nu = 1e-6 (R = 9300, nearly inviscid, viscous kernels still on): the most unstable mode
     at k = 0.2399 grows at the linear rate 4.936 1/s (measured 4.930, 0.13 %); 2 stages/step."""
     from tiseg.initial import eigenmode
+
     sc = load_scene("uniform-flow", {"flow.nu": 1e-6, "domain.nx": 64})
     lam, _ = eigenmode(sc)
     sigma = lam.real * sc.flow.u0 / sc.flow.h0
@@ -334,15 +385,23 @@ def test_tiny_viscosity_growth_rate(ti_cpu):
 def _transport_scene(n=100, L=0.1, u0=0.2):
     """h, u exactly uniform (Coulomb friction mu = tan(zeta) balances gravity), so phi alone
     obeys phi_t + (u0 (phi - G(phi)))_x = 0 (NUMERICS T6)."""
-    return scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": 0.5, "nu": 0.0, "u0": u0},
-        "effects": {"friction": "coulomb", "coulomb_mu": math.tan(math.radians(27.0)),
-                    "viscosity": False, "mobility_feedback": False},
-        "domain": {"Lx": L, "nx": n, "ny": 1},
-        "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform"},
-        "numerics": {"reconstruction": "weno", "stepper": "rkc"},
-        "time": {"t_end": 0.1}}, name="pure-phi")
+    return scene_from_dict(
+        {
+            "flow": {"h0": 0.002, "phi0": 0.5, "nu": 0.0, "u0": u0},
+            "effects": {
+                "friction": "coulomb",
+                "coulomb_mu": math.tan(math.radians(27.0)),
+                "viscosity": False,
+                "mobility_feedback": False,
+            },
+            "domain": {"Lx": L, "nx": n, "ny": 1},
+            "boundary": dict(PERIODIC),
+            "initial": {"kind": "uniform"},
+            "numerics": {"reconstruction": "weno", "stepper": "rkc"},
+            "time": {"t_end": 0.1},
+        },
+        name="pure-phi",
+    )
 
 
 def test_phi_one_next_to_phi_zero(ti_cpu):
@@ -366,9 +425,9 @@ def test_phi_one_next_to_phi_zero(ti_cpu):
     m, s = mass_error(sim)
     assert m < 1e-14 and s < 1e-14, (m, s)
     q = sim.conserved()
-    assert np.ptp(q[0]) == 0.0 and np.ptp(q[1]) == 0.0      # h and u stay exactly uniform
+    assert np.ptp(q[0]) == 0.0 and np.ptp(q[1]) == 0.0  # h and u stay exactly uniform
     phi = q[-1, :, 0] / q[0, :, 0]
-    shock = L / 2 + u0 * t                                  # 0.07
+    shock = L / 2 + u0 * t  # 0.07
     i = np.nonzero((phi[:-1] >= 0.5) & (phi[1:] < 0.5) & (x[:-1] > L / 2))[0][0]
     xs = x[i] + (phi[i] - 0.5) / (phi[i] - phi[i + 1]) * sc.dx
     # the rarefaction of the (0, 1) jump at x = 0 = L: phi = (7 x / (u0 t) - 1) / 12
@@ -378,13 +437,15 @@ def test_phi_one_next_to_phi_zero(ti_cpu):
     pure1 = (x > 13 * u0 * t / 7 + 8 * sc.dx) & (x < shock - 10 * sc.dx)
     pure0 = (x > shock + 8 * sc.dx) & (x < L - 8 * sc.dx)
     dev1 = np.abs(phi[pure1] - 1.0).max()
-    print(f"\nshock at {xs:.5f} m (exact {shock:.5f}), fan error {fan_err:.1e}, "
-          f"|phi - 1| {dev1:.1e} on {pure1.sum()} cells, phi = 0 on {pure0.sum()}")
+    print(
+        f"\nshock at {xs:.5f} m (exact {shock:.5f}), fan error {fan_err:.1e}, "
+        f"|phi - 1| {dev1:.1e} on {pure1.sum()} cells, phi = 0 on {pure0.sum()}"
+    )
     assert abs(xs - shock) < 0.5 * sc.dx
     assert fan_err < 0.03
     assert pure1.sum() >= 10 and pure0.sum() >= 10
-    assert dev1 <= 1e-13                                     # phi = 1 to round-off
-    np.testing.assert_array_equal(q[-1, pure0, 0], 0.0)      # phi exactly 0
+    assert dev1 <= 1e-13  # phi = 1 to round-off
+    np.testing.assert_array_equal(q[-1, pure0, 0], 0.0)  # phi exactly 0
 
 
 @pytest.mark.parametrize("phi", [0.0, 1.0])
@@ -392,13 +453,24 @@ def test_pure_mixture_stays_pure_with_full_physics(ti_cpu, phi):
     """A 2D release of pure large (phi = 0) or pure small (phi = 1) grains on the 27 deg chute
     with the full model (PF mixture friction with feedback, segregation, viscosity): phi stays
     exactly 0, or 1 to round-off, in every wet cell (G(0) = G(1) = 0: nothing segregates)."""
-    sc = scene_from_dict({
-        "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.01},
-        "domain": {"Lx": 0.2, "Ly": 0.05, "nx": 40, "ny": 10},
-        "boundary": dict(OPEN),
-        "initial": {"kind": "release", "x0": 0.02, "x1": 0.08, "y0": 0.01, "y1": 0.04,
-                    "h": 0.003, "phi": phi},
-        "time": {"t_end": 0.15}}, name="pure")
+    sc = scene_from_dict(
+        {
+            "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.01},
+            "domain": {"Lx": 0.2, "Ly": 0.05, "nx": 40, "ny": 10},
+            "boundary": dict(OPEN),
+            "initial": {
+                "kind": "release",
+                "x0": 0.02,
+                "x1": 0.08,
+                "y0": 0.01,
+                "y1": 0.04,
+                "h": 0.003,
+                "phi": phi,
+            },
+            "time": {"t_end": 0.15},
+        },
+        name="pure",
+    )
     sim = Simulation(sc, check_every=1)
     worst = 0.0
     for k in range(1, 4):
@@ -414,11 +486,13 @@ def test_pure_mixture_stays_pure_with_full_physics(ti_cpu, phi):
 
 def _small_uniform_scene(phi0=0.8, t_end=1.0, name="guarded", nx=16, precision=None):
     """An nx x 4 periodic uniform flow on 1 mm cells (h0 = 2 mm, full physics)."""
-    d = {"flow": {"h0": 0.002, "phi0": phi0, "nu": 0.01},
-         "domain": {"nx": nx, "ny": 4, "Lx": nx * 0.001, "Ly": 0.004},
-         "boundary": dict(PERIODIC),
-         "initial": {"kind": "uniform"},
-         "time": {"t_end": t_end}}
+    d = {
+        "flow": {"h0": 0.002, "phi0": phi0, "nu": 0.01},
+        "domain": {"nx": nx, "ny": 4, "Lx": nx * 0.001, "Ly": 0.004},
+        "boundary": dict(PERIODIC),
+        "initial": {"kind": "uniform"},
+        "time": {"t_end": t_end},
+    }
     if precision is not None:
         d["numerics"] = {"precision": precision}
     return scene_from_dict(d, name=name)
@@ -435,7 +509,7 @@ def test_round_off_past_one_stays_in_bounds(ti_cpu):
     q[-1] = q[0] * (1 + 1e-15)
     assert (q[-1] > q[0]).all()
     sim.set_conserved(q)
-    sim.check_state()                                   # round-off is not a breach
+    sim.check_state()  # round-off is not a breach
     sim.step()
     q = sim.conserved()
     assert (q[-1] <= q[0]).all()
@@ -449,6 +523,7 @@ def long_run(precision: str, steps: int) -> dict:
     """``steps`` RKC steps of the steady uniform flow (2D 8 x 4 periodic, nu = 0.01): its
     drift from the initial values and its spread across cells, relative, per component."""
     import tiseg
+
     tiseg.init("cpu", precision)
     sc = _small_uniform_scene(nx=8, t_end=100.0, name="long", precision=precision)
     sim = Simulation(sc)
@@ -457,9 +532,13 @@ def long_run(precision: str, steps: int) -> dict:
         sim.step()
     q = sim.conserved()
     comps = (0, 1, 3)
-    return {"drift": [float(np.abs(q[c] - q0[c]).max() / np.abs(q0[c]).max()) for c in comps],
-            "spread": [float(np.ptp(q[c]) / np.abs(q0[c]).max()) for c in comps],
-            "t": sim.t, "steps": sim.stats.steps, "finite": bool(np.isfinite(q).all())}
+    return {
+        "drift": [float(np.abs(q[c] - q0[c]).max() / np.abs(q0[c]).max()) for c in comps],
+        "spread": [float(np.ptp(q[c]) / np.abs(q0[c]).max()) for c in comps],
+        "t": sim.t,
+        "steps": sim.stats.steps,
+        "finite": bool(np.isfinite(q).all()),
+    }
 
 
 LONG_STEPS = 3000
@@ -472,14 +551,20 @@ def long_runs():
     start when the first test of this file runs (autouse fixture below) and are collected by
     the long-run test."""
     import os
+
     procs = {}
     for precision in ("f64", "f32"):
-        code = ("import json, sys; sys.path.insert(0, sys.argv[1]); "
-                "from test_hard_cases import long_run; "
-                f"print(json.dumps(long_run({precision!r}, {LONG_STEPS})))")
+        code = (
+            "import json, sys; sys.path.insert(0, sys.argv[1]); "
+            "from test_hard_cases import long_run; "
+            f"print(json.dumps(long_run({precision!r}, {LONG_STEPS})))"
+        )
         procs[precision] = subprocess.Popen(
             [sys.executable, "-c", code, os.path.dirname(os.path.abspath(__file__))],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
     yield procs
     for proc in procs.values():
         if proc.poll() is None:
@@ -501,6 +586,7 @@ def test_long_run_uniform_state_does_not_drift(precision, tol, long_runs):
     drift: f64 0 (bitwise unchanged); f32 5.8e-7 in h, 7e-8 in h phi, 0 in hu (the RKC
     combinations of equal values round in f32)."""
     import json
+
     out, err = long_runs[precision].communicate(timeout=600)
     assert long_runs[precision].returncode == 0, err
     res = json.loads(out.strip().splitlines()[-1])
@@ -513,14 +599,18 @@ def test_long_run_uniform_state_does_not_drift(precision, tol, long_runs):
 def _release(zeta: float, t_end: float, n: int = 200, Lx: float = 0.4):
     """A 2 mm block (x in [0.05, 0.15] m, phi = 0.8) released at rest, 1D, PF mixture friction
     with feedback, no viscosity. No steady uniform flow exists at these slopes (u0 is None)."""
-    sc = scene_from_dict({
-        "material": {"zeta_deg": zeta},
-        "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.0},
-        "effects": {"viscosity": False},
-        "domain": {"Lx": Lx, "nx": n, "ny": 1},
-        "boundary": dict(OPEN),
-        "initial": {"kind": "release", "x0": 0.05, "x1": 0.15, "h": 0.002, "phi": 0.8},
-        "time": {"t_end": t_end}}, name=f"release-{zeta}")
+    sc = scene_from_dict(
+        {
+            "material": {"zeta_deg": zeta},
+            "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.0},
+            "effects": {"viscosity": False},
+            "domain": {"Lx": Lx, "nx": n, "ny": 1},
+            "boundary": dict(OPEN),
+            "initial": {"kind": "release", "x0": 0.05, "x1": 0.15, "h": 0.002, "phi": 0.8},
+            "time": {"t_end": t_end},
+        },
+        name=f"release-{zeta}",
+    )
     assert sc.flow.u0 is None
     return sc
 
@@ -529,8 +619,11 @@ def _momentum(sim):
     f = sim.fields()
     h, u = f["h"][0], f["u"][0]
     dx = sim.scene.dx
-    return (float(np.sum(h * u) / np.sum(h)), float(0.5 * np.sum(h * u * u) * dx),
-            float(np.abs(u[h >= sim.scene.numerics.h_min]).max()))
+    return (
+        float(np.sum(h * u) / np.sum(h)),
+        float(0.5 * np.sum(h * u * u) * dx),
+        float(np.abs(u[h >= sim.scene.numerics.h_min]).max()),
+    )
 
 
 def test_block_stops_below_zeta1_small(ti_cpu):
@@ -592,13 +685,16 @@ def guarded_sim(ti_cpu):
     return _small_uniform(check_every=5)
 
 
-@pytest.mark.parametrize("comp, value, rule, field", [
-    (1, np.nan, "non-finite value", "hu"),
-    (0, np.inf, "non-finite value", "h"),
-    (0, -1e-6, "negative thickness", "h"),
-    (3, 1.5, "concentration above 1", "phi"),          # h phi = 1.5 h
-    (3, -0.1, "concentration below 0", "phi"),
-])
+@pytest.mark.parametrize(
+    "comp, value, rule, field",
+    [
+        (1, np.nan, "non-finite value", "hu"),
+        (0, np.inf, "non-finite value", "h"),
+        (0, -1e-6, "negative thickness", "h"),
+        (3, 1.5, "concentration above 1", "phi"),  # h phi = 1.5 h
+        (3, -0.1, "concentration below 0", "phi"),
+    ],
+)
 def test_guard_names_time_step_cell_and_field(guarded_sim, tmp_path, comp, value, rule, field):
     """A bad value in cell (i=5, j=2) stops the run at the next check with a message naming the
     rule, field, time, step and cell (indices and metres), and saves the last good and the
@@ -622,6 +718,7 @@ def test_guard_names_time_step_cell_and_field(guarded_sim, tmp_path, comp, value
     v = info.value.violation
     assert (v.i, v.j, v.field) == (5, 2, field)
     from tiseg import checkpoint
+
     good = checkpoint.load(tmp_path / "failure" / "last_good.npz")
     bad = checkpoint.load(tmp_path / "failure" / "offending.npz")
     assert good["t"] == t_good and good["steps"] == steps_good
@@ -636,8 +733,18 @@ def test_guard_stops_a_run_that_produces_nan(ti_cpu, tmp_path):
     silently removes with it), and the failure folder holds both states; fields.nc keeps the
     good snapshots only."""
     from tiseg.physics.pointwise import Params
-    sc = load_scene("fingers", {"domain.resolution": 40, "domain.Lx": 0.6, "domain.Ly": 0.2,
-                                "time.t_end": 0.3, "output.times": [], "output.interval": 0.1})
+
+    sc = load_scene(
+        "fingers",
+        {
+            "domain.resolution": 40,
+            "domain.Lx": 0.6,
+            "domain.Ly": 0.2,
+            "time.t_end": 0.3,
+            "output.times": [],
+            "output.interval": 0.1,
+        },
+    )
     sim = Simulation(sc, check_every=2)
 
     def poison(snap):
@@ -647,10 +754,11 @@ def test_guard_stops_a_run_that_produces_nan(ti_cpu, tmp_path):
     with pytest.raises(SimulationError) as info:
         sim.run(out_dir=tmp_path, progress=False, on_output=poison)
     msg = str(info.value)
-    assert ("non-finite" in msg or "mass balance" in msg), msg
+    assert "non-finite" in msg or "mass balance" in msg, msg
     assert (tmp_path / "failure" / "last_good.npz").is_file()
     assert (tmp_path / "failure" / "offending.npz").is_file()
     import netCDF4
+
     with netCDF4.Dataset(tmp_path / "fields.nc") as nc:
         np.testing.assert_array_equal(nc["time"][:], [0.0, 0.1])
         assert np.isfinite(nc["h"][:]).all()
@@ -662,6 +770,7 @@ def test_guard_overhead_is_small(guarded_sim):
     checking every 10 steps (the default) adds well under 10 %: measured 0.15-0.54 ms per
     check against 3-4 ms per step on this 16 x 4 grid (0.5-1.3 % at the default interval)."""
     from tiseg.guards import measure_overhead
+
     sim = guarded_sim
     sim.reset()
     r = measure_overhead(sim, steps=50)

@@ -1,4 +1,5 @@
 """Hardening: runs stay inside their folder, one writer per folder, limits before work."""
+
 from __future__ import annotations
 
 import os
@@ -14,8 +15,14 @@ from tiseg.paths import RunLock, safe_name
 from tiseg.scene import load_scene
 from tiseg.simulation import Simulation
 
-TINY = {"domain.resolution": 40, "domain.Lx": 0.3, "domain.Ly": 0.1, "time.t_end": 0.05,
-        "output.times": [], "output.interval": None}
+TINY = {
+    "domain.resolution": 40,
+    "domain.Lx": 0.3,
+    "domain.Ly": 0.1,
+    "time.t_end": 0.05,
+    "output.times": [],
+    "output.interval": None,
+}
 
 
 def tiny():
@@ -33,6 +40,7 @@ def _cli(*args) -> list[str]:
 # ------------------------------------------------------------------ limits
 def test_more_threads_than_cores_are_refused(capsys):
     from tiseg import backend
+
     cores = backend.available_cores()
     assert main(["run", "fingers", "--threads", "100000"]) == 2
     assert f"offers {cores} core(s)" in capsys.readouterr().err
@@ -76,11 +84,11 @@ def test_foreign_files_and_finished_runs_need_overwrite(ti_cpu, tmp_path, capsys
     (out / "notes.txt").unlink()
     assert main(_cli("--out", str(out))) == 0
     capsys.readouterr()
-    assert main(_cli("--out", str(out))) == 2                    # a finished run
+    assert main(_cli("--out", str(out))) == 2  # a finished run
     assert "earlier run" in capsys.readouterr().err
     assert main(_cli("--out", str(out), "--overwrite")) == 0
     with pytest.raises(InputError, match="earlier run"):
-        Simulation(tiny()).run(out_dir=out, progress=False)       # the API alike
+        Simulation(tiny()).run(out_dir=out, progress=False)  # the API alike
 
 
 HOLD = """
@@ -126,14 +134,17 @@ def test_a_killed_holder_releases_the_lock(tmp_path):
 
 def test_sweep_skips_a_run_another_process_holds(held_folder):
     from tiseg.sweep import execute_run
+
     d, pid = held_folder
-    rec = execute_run({"name": "busy", "dir": str(d), "scene_toml": tiny().to_toml(),
-                       "fingerprint": "x"})
+    rec = execute_run(
+        {"name": "busy", "dir": str(d), "scene_toml": tiny().to_toml(), "fingerprint": "x"}
+    )
     assert rec["status"] == "busy" and f"pid {pid}" in rec["holder"]
 
 
 def test_resume_removes_stale_temporaries(ti_cpu, tmp_path):
     from tiseg import checkpoint
+
     out = tmp_path / "run"
     sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
     sim = Simulation(sc)
@@ -149,6 +160,7 @@ def test_resume_removes_stale_temporaries(ti_cpu, tmp_path):
 # ------------------------------------------------------------------ limits before work
 def test_a_grid_that_cannot_fit_in_memory_is_refused_with_the_numbers(ti_cpu, monkeypatch):
     import tiseg.limits as L
+
     monkeypatch.setattr(L, "memory_available", lambda: 10_000)
     with pytest.raises(InputError, match=r"needs about .* GB of memory .* available"):
         Simulation(tiny())
@@ -159,6 +171,7 @@ def test_output_larger_than_the_free_disk_gives_a_note(ti_cpu, tmp_path, monkeyp
     import logging
 
     import tiseg.limits as L
+
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(L.shutil, "disk_usage", lambda p: usage(1, 1, 10))
     with caplog.at_level(logging.WARNING, logger="tiseg"):
@@ -166,9 +179,14 @@ def test_output_larger_than_the_free_disk_gives_a_note(ti_cpu, tmp_path, monkeyp
     assert any("may need up to" in r.getMessage() for r in caplog.records)
 
 
-@pytest.mark.parametrize("over, match", [({"flow.nu": 1e308}, "flow.nu"),
-                                         ({"domain.Ly": 1e308}, "cells"),
-                                         ({"domain.Lx": 1e300}, "cells")])
+@pytest.mark.parametrize(
+    "over, match",
+    [
+        ({"flow.nu": 1e308}, "flow.nu"),
+        ({"domain.Ly": 1e308}, "cells"),
+        ({"domain.Lx": 1e300}, "cells"),
+    ],
+)
 def test_parameters_out_of_range_are_input_errors(over, match):
     with pytest.raises(InputError, match=match):
         load_scene("fingers", over)
@@ -176,10 +194,12 @@ def test_parameters_out_of_range_are_input_errors(over, match):
 
 def test_a_run_that_cannot_advance_stops_with_a_reason(ti_cpu):
     from tiseg.simulation import SimulationError
+
     sim = Simulation(tiny())
-    sim.stepper.plan = lambda *a, **k: (1e-30, 2)          # as an overflowing stiffness would
-    with pytest.raises(SimulationError, match="of the convective limit .* stiffness is out of "
-                                              "range"):
+    sim.stepper.plan = lambda *a, **k: (1e-30, 2)  # as an overflowing stiffness would
+    with pytest.raises(
+        SimulationError, match="of the convective limit .* stiffness is out of range"
+    ):
         sim.step()
     sim.t = 1.0
     with pytest.raises(SimulationError, match="time stalled"):
@@ -194,6 +214,7 @@ def test_a_full_disk_is_one_line_and_the_run_resumes(ti_cpu, tmp_path, monkeypat
 
     from tiseg.output.netcdf import FieldsWriter
     from tiseg.output.run_folder import OutputError
+
     sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
     whole = Simulation(sc)
     whole.run(progress=False)
@@ -224,7 +245,8 @@ def test_fields_file_is_never_left_half_created(tmp_path, monkeypatch):
     from tiseg.output.netcdf import FieldsWriter
 
     def boom(*a, **k):
-        raise KeyboardInterrupt                          # a kill while the header is written
+        raise KeyboardInterrupt  # a kill while the header is written
+
     monkeypatch.setattr(FieldsWriter, "_define", boom)
     with pytest.raises(KeyboardInterrupt):
         FieldsWriter(tmp_path / "fields.nc", [0.5], [0.5])
@@ -232,16 +254,21 @@ def test_fields_file_is_never_left_half_created(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------ checkpoints
-@pytest.mark.parametrize("damage, message", [
-    (lambda d: d.update(t=np.array(99.0)), "outside [0, time.t_end"),
-    (lambda d: d["q"].__setitem__((0, 3, 3), np.nan), "NaN, Inf"),
-    (lambda d: d.pop("budget"), "lacks budget"),
-    (lambda d: d.update(steps=np.array(-4)), "steps=-4"),
-    (lambda d: d.pop("version"), "no readable checkpoint version"),
-])
-def test_damaged_checkpoints_are_refused_each_with_its_message(ti_cpu, tmp_path, capsys,
-                                                                damage, message):
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda d: d.update(t=np.array(99.0)), "outside [0, time.t_end"),
+        (lambda d: d["q"].__setitem__((0, 3, 3), np.nan), "NaN, Inf"),
+        (lambda d: d.pop("budget"), "lacks budget"),
+        (lambda d: d.update(steps=np.array(-4)), "steps=-4"),
+        (lambda d: d.pop("version"), "no readable checkpoint version"),
+    ],
+)
+def test_damaged_checkpoints_are_refused_each_with_its_message(
+    ti_cpu, tmp_path, capsys, damage, message
+):
     from tiseg import checkpoint
+
     out = tmp_path / "run"
     sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
     Simulation(sc).run(out_dir=out, progress=False, t_end=0.1)
@@ -259,6 +286,7 @@ def test_damaged_checkpoints_are_refused_each_with_its_message(ti_cpu, tmp_path,
 def test_running_out_of_field_trees_is_an_error_not_a_crash(ti_cpu, monkeypatch):
     from tiseg import backend
     from tiseg.errors import TisegError
+
     monkeypatch.setattr(backend, "field_trees", lambda: backend.MAX_FIELD_TREES - 1)
     with pytest.raises(TisegError, match="force=True"):
         Simulation(tiny())
@@ -268,10 +296,14 @@ def test_a_sweep_task_takes_its_workers_thread_count():
     import distributed
 
     from tiseg.sweep import _worker_threads
-    assert _worker_threads() == 0                              # not inside a worker
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster, \
-            distributed.Client(cluster) as client:
+
+    assert _worker_threads() == 0  # not inside a worker
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         assert client.submit(_worker_threads).result(timeout=60) == 1
 
 
@@ -281,23 +313,34 @@ def test_a_sweep_retries_a_transient_failure_once(tmp_path, monkeypatch):
     import distributed
 
     from tiseg import sweep as S
+
     tally = tmp_path / "calls"
     tally.mkdir()
 
-    def flaky(spec):                 # (Dask runs a copy of this: count in files)
+    def flaky(spec):  # (Dask runs a copy of this: count in files)
         mark = tally / spec["name"]
         n = (int(mark.read_text()) if mark.exists() else 0) + 1
         mark.write_text(str(n))
         if n == 1 or "0.02" in spec["name"]:
             raise OSError("Resource temporarily unavailable")
-        return {"name": spec["name"], "status": "done", "steps": 1, "wall_s": 0.0,
-                "metrics": {"time": [0.5], "finger_count": [0], "wavelength": [None],
-                            "elongation": [None]}}
+        return {
+            "name": spec["name"],
+            "status": "done",
+            "steps": 1,
+            "wall_s": 0.0,
+            "metrics": {
+                "time": [0.5],
+                "finger_count": [0],
+                "wavelength": [None],
+                "elongation": [None],
+            },
+        }
 
     monkeypatch.setattr(S, "execute_run", flaky)
     sw = S.load_sweep("tiny")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster:
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cluster:
         res = S.run_sweep(sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=None)
     status = {r["name"]: r["status"] for r in res.records}
     assert status == {"nu-0.01": "done", "nu-0.02": "failed"}, status
@@ -313,15 +356,25 @@ def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch
     import distributed
 
     from tiseg import sweep as S
+
     started = tmp_path / "started"
     started.mkdir()
 
-    def slow(spec):                  # (Dask runs a copy of this: report in files)
+    def slow(spec):  # (Dask runs a copy of this: report in files)
         (started / spec["name"]).write_text("")
         time.sleep(1.0)
-        return {"name": spec["name"], "status": "done", "steps": 1, "wall_s": 0.0,
-                "metrics": {"time": [0.5], "finger_count": [0], "wavelength": [None],
-                            "elongation": [None]}}
+        return {
+            "name": spec["name"],
+            "status": "done",
+            "steps": 1,
+            "wall_s": 0.0,
+            "metrics": {
+                "time": [0.5],
+                "finger_count": [0],
+                "wavelength": [None],
+                "elongation": [None],
+            },
+        }
 
     def echo(line):
         if line.startswith("[1/3]"):
@@ -329,9 +382,10 @@ def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch
 
     monkeypatch.setattr(S, "execute_run", slow)
     sw = S.load_sweep("tiny", grid_overrides={"flow.nu": [0.01, 0.02, 0.03]})
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster:
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cluster:
         with pytest.raises(KeyboardInterrupt):
             S.run_sweep(sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=echo)
-        time.sleep(3.0)              # long enough for a third run to have started
+        time.sleep(3.0)  # long enough for a third run to have started
     assert len(list(started.iterdir())) <= 2

@@ -3,6 +3,7 @@
 With fast_math off and f64, both evaluate the same formulas; they may differ only by the order
 of floating-point operations, so the relative difference must be at round-off level (~1e-12).
 """
+
 import itertools
 
 import numpy as np
@@ -12,12 +13,16 @@ from solver_helpers import make_config, random_state
 from tiseg.reference import ReferenceOperator
 
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
-BOUNDARIES = [("inflow", "outflow", "periodic", "periodic"), ("wall", "wall", "wall", "wall"),
-              ("periodic", "periodic", "outflow", "wall")]
+BOUNDARIES = [
+    ("inflow", "outflow", "periodic", "periodic"),
+    ("wall", "wall", "wall", "wall"),
+    ("periodic", "periodic", "outflow", "wall"),
+]
 
 
 def _compare(cfg, q, t=0.05):
     from tiseg.numerics.operator import TaichiOperator
+
     op = TaichiOperator(cfg, nslots=2)
     ref = ReferenceOperator(cfg)
     op.set(0, q)
@@ -50,17 +55,26 @@ def test_taichi_matches_reference_boundaries_1d(ti_cpu, rec, bc):
     assert rel.max() < 1e-12, rel
 
 
-@pytest.mark.parametrize("effects", [
-    dict(segregation=False, viscous=False, friction="coulomb"),
-    dict(segregation=True, viscous=False, friction="none", feedback=False),
-    dict(segregation=True, viscous=True, friction="pouliquen-small", feedback=False),
-    dict(segregation=True, viscous=True, friction="pouliquen-large", feedback=False),
-])
+@pytest.mark.parametrize(
+    "effects",
+    [
+        dict(segregation=False, viscous=False, friction="coulomb"),
+        dict(segregation=True, viscous=False, friction="none", feedback=False),
+        dict(segregation=True, viscous=True, friction="pouliquen-small", feedback=False),
+        dict(segregation=True, viscous=True, friction="pouliquen-large", feedback=False),
+    ],
+)
 def test_taichi_matches_reference_effects(ti_cpu, effects):
     rng = np.random.default_rng(3)
     seg = effects.pop("segregation")
-    cfg = make_config(10, 8, segregation=seg, reconstruction="minmod",
-                      bc=("periodic", "periodic", "wall", "outflow"), **effects)
+    cfg = make_config(
+        10,
+        8,
+        segregation=seg,
+        reconstruction="minmod",
+        bc=("periodic", "periodic", "wall", "outflow"),
+        **effects,
+    )
     q = random_state(cfg.layout, rng, wet_dry=True)
     rel, _ = _compare(cfg, q)
     assert rel.max() < 1e-12, rel
@@ -71,8 +85,16 @@ def test_inflow_noise_reaches_the_inflow_cells_as_in_the_reference(ti_cpu):
     the reference (both from tiseg.numerics.config.inflow_concentration), and it changes the
     rates: the inflow column's h phi rate differs from the run without noise."""
     rng = np.random.default_rng(4)
-    cfg = make_config(12, 16, reconstruction="weno", bc=BOUNDARIES[0], Ly=0.2, dy=0.2 / 16,
-                      inflow_noise=0.05, inflow_seed=11)
+    cfg = make_config(
+        12,
+        16,
+        reconstruction="weno",
+        bc=BOUNDARIES[0],
+        Ly=0.2,
+        dy=0.2 / 16,
+        inflow_noise=0.05,
+        inflow_seed=11,
+    )
     q = random_state(cfg.layout, rng, smooth=True)
     rel, _ = _compare(cfg, q)
     assert rel.max() < 1e-12, rel
@@ -83,8 +105,9 @@ def test_inflow_noise_reaches_the_inflow_cells_as_in_the_reference(ti_cpu):
     assert np.abs(a[cfg.layout.HPHI, gx] - b[cfg.layout.HPHI, gx]).max() > 1e-6
 
 
-@pytest.mark.parametrize("flux,phi_flux", [("kt", "upwind"), ("central-upwind", "central"),
-                                           ("central-upwind", "upwind")])
+@pytest.mark.parametrize(
+    "flux,phi_flux", [("kt", "upwind"), ("central-upwind", "central"), ("central-upwind", "upwind")]
+)
 @pytest.mark.parametrize("rec", ("minmod", "weno"))
 @pytest.mark.parametrize("state", ["smooth", "wet-dry"])
 def test_taichi_matches_reference_flux_options(ti_cpu, flux, phi_flux, rec, state):
@@ -106,13 +129,18 @@ def test_flux_options_change_the_rates():
     component and the upwind h phi flux changes the h phi rate alone (the reference operator's
     mass and momentum fluxes are the scheme's own)."""
     import dataclasses
+
     rng = np.random.default_rng(6)
     base = make_config(14, 9, reconstruction="weno", bc=BOUNDARIES[0])
     q = random_state(base.layout, rng, smooth=True)
     r0 = ReferenceOperator(base).rhs(q.copy(), 0.05)
-    rel = lambda r: [float(np.abs(r[k] - r0[k]).max() / np.abs(r0[k]).max())  # noqa: E731
-                     for k in range(base.layout.nc)]
+    rel = lambda r: [
+        float(np.abs(r[k] - r0[k]).max() / np.abs(r0[k]).max())  # noqa: E731
+        for k in range(base.layout.nc)
+    ]
     up = rel(ReferenceOperator(dataclasses.replace(base, phi_flux="upwind")).rhs(q.copy(), 0.05))
     assert up[:3] == [0.0, 0.0, 0.0] and up[3] > 1e-2
-    cu = rel(ReferenceOperator(dataclasses.replace(base, flux="central-upwind")).rhs(q.copy(), 0.05))
+    cu = rel(
+        ReferenceOperator(dataclasses.replace(base, flux="central-upwind")).rhs(q.copy(), 0.05)
+    )
     assert min(cu) > 1e-2

@@ -1,4 +1,5 @@
 """Output files: NetCDF snapshots read back by xarray, diagnostics CSV, atomic writes."""
+
 from __future__ import annotations
 
 import json
@@ -14,8 +15,14 @@ import tiseg
 import pytest
 import xarray as xr
 
-from tiseg.output import (DiagnosticsWriter, FieldsWriter, read_diagnostics, read_fields,
-                          write_json_atomic, write_text_atomic)
+from tiseg.output import (
+    DiagnosticsWriter,
+    FieldsWriter,
+    read_diagnostics,
+    read_fields,
+    write_json_atomic,
+    write_text_atomic,
+)
 from tiseg.scene import load_scene
 
 NX, NY = 7, 4
@@ -42,11 +49,13 @@ def test_fields_round_trip_with_xarray(tmp_path):
         for key in ("title", "source", "history", "references"):
             assert ds.attrs[key]
         assert "10.1017/jfm.2016.653" in ds.attrs["references"]
-        assert tiseg.__version__ in ds.attrs["source"] and tiseg.__version__ in ds.attrs["references"]
+        assert (
+            tiseg.__version__ in ds.attrs["source"] and tiseg.__version__ in ds.attrs["references"]
+        )
         assert ds.attrs["scene"] == scene_toml and ds.attrs["scene_name"] == "fingers"
         assert ds["h"].dims == ("time", "y", "x")
         np.testing.assert_array_equal(ds["time"].values, times)
-        assert ds["time"].dtype == np.float64        # decode_times=False: plain seconds
+        assert ds["time"].dtype == np.float64  # decode_times=False: plain seconds
         # CF 4.4: a time coordinate has units "<unit> since <date>"; x and y carry no axis
         # attribute, which CF checkers take for longitude and latitude
         assert ds["time"].attrs["units"] == "seconds since 2000-01-01 00:00:00"
@@ -78,7 +87,9 @@ def test_fields_round_trip_with_xarray(tmp_path):
         ds2.close()
     # a plain xarray open decodes the CF time to the placeholder date plus the seconds
     with xr.open_dataset(path) as ds3:
-        seconds = (ds3["time"].values - np.datetime64("2000-01-01T00:00:00")) / np.timedelta64(1, "s")
+        seconds = (ds3["time"].values - np.datetime64("2000-01-01T00:00:00")) / np.timedelta64(
+            1, "s"
+        )
         np.testing.assert_allclose(seconds, times)
 
 
@@ -104,11 +115,14 @@ def test_f4_and_quantised_output_are_smaller(tmp_path):
     """output.precision = "f4" and output.significant_digits: the same smooth snapshot takes
     less room, and reads back within the promised digits."""
     yy, xx = np.meshgrid(Y, X, indexing="ij")
-    smooth = {"h": 2e-3 * (1 + 0.3 * np.sin(7 * xx) * np.cos(5 * yy)), "u": 0.2 + 0.01 * xx,
-              "v": 0.01 * np.sin(3 * yy), "phi": 0.5 + 0.4 * np.cos(4 * xx)}
+    smooth = {
+        "h": 2e-3 * (1 + 0.3 * np.sin(7 * xx) * np.cos(5 * yy)),
+        "u": 0.2 + 0.01 * xx,
+        "v": 0.01 * np.sin(3 * yy),
+        "phi": 0.5 + 0.4 * np.cos(4 * xx),
+    }
     sizes = {}
-    for label, kw in (("f8", {}), ("f4", {"dtype": "f4"}),
-                      ("q3", {"significant_digits": 3})):
+    for label, kw in (("f8", {}), ("f4", {"dtype": "f4"}), ("q3", {"significant_digits": 3})):
         path = tmp_path / f"{label}.nc"
         with FieldsWriter(path, X, Y, **kw) as w:
             for k in range(4):
@@ -124,7 +138,7 @@ def test_f4_and_quantised_output_are_smaller(tmp_path):
 def test_only_named_fields_exist(tmp_path):
     path = tmp_path / "noseg.nc"
     with FieldsWriter(path, X, [0.5], {"segregation": False}, fields=("h", "u"), dtype="f4") as w:
-        w.write(0.0, h=np.ones(NX), u=np.zeros((1, NX)))     # a 1D run: (nx,) or (1, nx)
+        w.write(0.0, h=np.ones(NX), u=np.zeros((1, NX)))  # a 1D run: (nx,) or (1, nx)
         with pytest.raises(ValueError, match="phi"):
             w.write(0.1, h=np.ones(NX), u=np.zeros(NX), phi=np.zeros(NX))
         with pytest.raises(ValueError, match="missing"):
@@ -156,7 +170,7 @@ def test_killed_writer_keeps_snapshots(tmp_path):
         os.kill(os.getpid(), signal.SIGKILL)
     """)
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert proc.returncode == -9, proc.stderr               # really killed, not closed
+    assert proc.returncode == -9, proc.stderr  # really killed, not closed
     with netCDF4.Dataset(path, "r") as nc:
         assert nc.dimensions["time"].size == 2
         np.testing.assert_array_equal(nc["time"][:], [0.0, 0.5])
@@ -171,28 +185,56 @@ def test_killed_writer_keeps_snapshots(tmp_path):
 
 def test_diagnostics_round_trip(tmp_path):
     path = tmp_path / "diag.csv"
-    rows = [dict(time=0.0, dt=1e-4, stages=3, mass=0.0, small_mass=0.0, max_speed=0.0,
-                 wall_time_cumulative=0.01, front=0.1),
-            dict(time=0.1 + 1e-17, dt=1.2345678901234567e-4, stages=17, mass=1e-3,
-                 small_mass=8e-4, max_speed=0.208, wall_time_cumulative=0.5, front=0.12)]
+    rows = [
+        dict(
+            time=0.0,
+            dt=1e-4,
+            stages=3,
+            mass=0.0,
+            small_mass=0.0,
+            max_speed=0.0,
+            wall_time_cumulative=0.01,
+            front=0.1,
+        ),
+        dict(
+            time=0.1 + 1e-17,
+            dt=1.2345678901234567e-4,
+            stages=17,
+            mass=1e-3,
+            small_mass=8e-4,
+            max_speed=0.208,
+            wall_time_cumulative=0.5,
+            front=0.12,
+        ),
+    ]
     with DiagnosticsWriter(path, extra=("front",)) as w:
         for r in rows:
             w.write(**r)
-        w.write(time=0.2)                                  # missing values -> NaN
+        w.write(time=0.2)  # missing values -> NaN
         with pytest.raises(ValueError, match="unknown"):
             w.write(time=0.3, bogus=1)
         # flushed per row: readable while the writer is still open
         assert read_diagnostics(path)["time"].size == 3
     d = read_diagnostics(path)
-    assert list(d) == ["time", "dt", "stages", "mass", "small_mass", "max_speed",
-                       "wall_time_cumulative", "front", "wall_time"]   # + the old name
+    assert list(d) == [
+        "time",
+        "dt",
+        "stages",
+        "mass",
+        "small_mass",
+        "max_speed",
+        "wall_time_cumulative",
+        "front",
+        "wall_time",
+    ]  # + the old name
     np.testing.assert_array_equal(d["wall_time"], d["wall_time_cumulative"])
     for key in rows[0]:
-        np.testing.assert_array_equal(d[key][:2], [r[key] for r in rows])   # exact floats
+        np.testing.assert_array_equal(d[key][:2], [r[key] for r in rows])  # exact floats
     assert np.isnan(d["dt"][2]) and d["time"][2] == 0.2
     with open(path) as fh:
-        assert fh.readline().strip() == ("time,dt,stages,mass,small_mass,max_speed,"
-                                         "wall_time_cumulative,front")
+        assert fh.readline().strip() == (
+            "time,dt,stages,mass,small_mass,max_speed,wall_time_cumulative,front"
+        )
 
 
 def test_custom_columns(tmp_path):
@@ -208,9 +250,10 @@ def test_write_text_atomic(tmp_path):
     write_text_atomic(path, "a = 1\n")
     write_text_atomic(path, "a = 2\n")
     assert path.read_text() == "a = 2\n"
-    assert sorted(os.listdir(path.parent)) == ["scene.toml"]   # no temporary left behind
-    j = write_json_atomic(tmp_path / "summary.json", {"u0": 0.208, "bad": float("nan"),
-                                                     "arr": np.arange(3)})
+    assert sorted(os.listdir(path.parent)) == ["scene.toml"]  # no temporary left behind
+    j = write_json_atomic(
+        tmp_path / "summary.json", {"u0": 0.208, "bad": float("nan"), "arr": np.arange(3)}
+    )
     assert json.loads(j.read_text()) == {"u0": 0.208, "bad": None, "arr": [0, 1, 2]}
 
 
@@ -219,17 +262,28 @@ def test_scene_output_precision_reaches_the_file(ti_cpu, tmp_path):
     quantisation of fields.nc; a bad value is a one-line InputError."""
     from tiseg.errors import InputError
     from tiseg.simulation import Simulation
-    sc = load_scene("channel", {"time.t_end": 0.05, "output.interval": 0.05,
-                                "domain.resolution": 250, "output.precision": "f4",
-                                "output.significant_digits": 4})
+
+    sc = load_scene(
+        "channel",
+        {
+            "time.t_end": 0.05,
+            "output.interval": 0.05,
+            "domain.resolution": 250,
+            "output.precision": "f4",
+            "output.significant_digits": 4,
+        },
+    )
     (tmp_path / "s.toml").write_text(sc.to_toml())
-    assert load_scene(str(tmp_path / "s.toml")) == sc          # the keys round-trip
+    assert load_scene(str(tmp_path / "s.toml")) == sc  # the keys round-trip
     Simulation(sc).run(out_dir=tmp_path / "run", progress=False)
     with netCDF4.Dataset(tmp_path / "run" / "fields.nc") as nc:
         assert nc["phi"].dtype == np.float32 and nc["h"].dtype == np.float32
         assert nc["h"].quantization()[0] == 4
-    for key, bad in (("output.precision", "f2"), ("output.significant_digits", 20),
-                     ("output.significant_digits", 0)):
+    for key, bad in (
+        ("output.precision", "f2"),
+        ("output.significant_digits", 20),
+        ("output.significant_digits", 0),
+    ):
         with pytest.raises(InputError, match=key.split(".")[1]):
             load_scene("channel", {key: bad})
 
@@ -237,6 +291,7 @@ def test_scene_output_precision_reaches_the_file(ti_cpu, tmp_path):
 def test_cf_xarray_finds_the_time_axis(tmp_path):
     """cf_xarray reads the CF attributes: time is the T axis and the time coordinate."""
     import cf_xarray  # noqa: F401  (registers the .cf accessor)
+
     path = tmp_path / "f.nc"
     with FieldsWriter(path, X, Y) as w:
         for t in (0.0, 0.5):

@@ -7,6 +7,7 @@ run's step limits to f32. Each precision runs in its own process (the precision 
 wide) that imports the whole package first and only then initialises Taichi, which is the order
 a user's script takes.
 """
+
 from __future__ import annotations
 
 import json
@@ -68,8 +69,15 @@ print(json.dumps(out))
 
 @pytest.fixture(scope="module")
 def measured():
-    procs = {p: subprocess.Popen([sys.executable, "-c", SCRIPT, HERE, p], stdout=subprocess.PIPE,
-                                 stderr=subprocess.PIPE, text=True) for p in ("f64", "f32")}
+    procs = {
+        p: subprocess.Popen(
+            [sys.executable, "-c", SCRIPT, HERE, p],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for p in ("f64", "f32")
+    }
     res = {}
     for p, proc in procs.items():
         out, err = proc.communicate(timeout=600)

@@ -2,6 +2,7 @@
 
 Everything here runs without Vulkan or a display (colour kernel -> NumPy -> imageio).
 """
+
 import json
 
 import numpy as np
@@ -34,13 +35,14 @@ def strips():
 
 def test_known_colours_and_size(ti_cpu, strips):
     from tiseg.render import render_fields
+
     img = render_fields(strips, H_MIN, field="phi", shade=False, scale=3)
     assert img.dtype == np.uint8 and img.shape == (4 * 3, 8 * 3, 3)
     row = img[5]
-    assert close(row[0 * 3 + 1], u8(C.FINES_RGB))                      # phi = 1: white
-    assert close(row[2 * 3 + 1], u8(0.5 * (np.array(C.FINES_RGB) + C.COARSE_RGB)))   # blend
-    assert close(row[4 * 3 + 1], u8(C.COARSE_RGB))                     # phi = 0: brown
-    assert close(row[6 * 3 + 1], u8(C.CHUTE_RGB), 0)                   # empty: turquoise
+    assert close(row[0 * 3 + 1], u8(C.FINES_RGB))  # phi = 1: white
+    assert close(row[2 * 3 + 1], u8(0.5 * (np.array(C.FINES_RGB) + C.COARSE_RGB)))  # blend
+    assert close(row[4 * 3 + 1], u8(C.COARSE_RGB))  # phi = 0: brown
+    assert close(row[6 * 3 + 1], u8(C.CHUTE_RGB), 0)  # empty: turquoise
     # the constants are what the docs say: white-ish, brown, turquoise
     assert min(u8(C.FINES_RGB)) > 225
     r, g, b = u8(C.COARSE_RGB)
@@ -53,9 +55,10 @@ def test_known_colours_and_size(ti_cpu, strips):
 
 def test_thin_film_below_h_min_is_turquoise(ti_cpu, strips):
     from tiseg.render import render_fields
+
     f = dict(strips)
     f["h"] = strips["h"].copy()
-    f["h"][:, 0] = 0.99 * H_MIN          # a film thinner than h_min counts as empty chute
+    f["h"][:, 0] = 0.99 * H_MIN  # a film thinner than h_min counts as empty chute
     img = render_fields(f, H_MIN, shade=True)
     assert close(img[0, 0], u8(C.CHUTE_RGB), 0)
 
@@ -63,22 +66,24 @@ def test_thin_film_below_h_min_is_turquoise(ti_cpu, strips):
 def test_orientation_x_right_y_up(ti_cpu):
     """Figure 12's orientation: x downslope to the right, y up (row 0 is y = Ly)."""
     from tiseg.render import render_fields
+
     ny, nx = 3, 5
     h = np.full((ny, nx), 2e-3)
     phi = np.zeros((ny, nx))
-    phi[ny - 1, nx - 1] = 1.0        # the cell at the largest x and y
+    phi[ny - 1, nx - 1] = 1.0  # the cell at the largest x and y
     img = render_fields({"h": h, "phi": phi}, H_MIN, shade=False)
-    assert close(img[0, nx - 1], u8(C.FINES_RGB))          # top right
-    assert close(img[ny - 1, 0], u8(C.COARSE_RGB))         # bottom left
+    assert close(img[0, nx - 1], u8(C.FINES_RGB))  # top right
+    assert close(img[ny - 1, 0], u8(C.COARSE_RGB))  # bottom left
 
 
 def test_shading_changes_brightness_only_where_h_varies(ti_cpu):
     from tiseg.render import render_fields
+
     ny, nx = 20, 30
     h = np.full((ny, nx), 2e-3)
-    h[:, 24:] = 0.0                                   # empty chute on the right
+    h[:, 24:] = 0.0  # empty chute on the right
     y, x = np.mgrid[0:ny, 0:nx]
-    h += 1e-3 * np.exp(-((x - 8) ** 2 + (y - 10) ** 2) / 4.0) * (x < 20)   # a bump
+    h += 1e-3 * np.exp(-((x - 8) ** 2 + (y - 10) ** 2) / 4.0) * (x < 20)  # a bump
     f = {"h": h, "phi": np.full((ny, nx), 0.4)}
     flat = render_fields(f, H_MIN, shade=False, dx=1e-3)
     shaded = render_fields(f, H_MIN, shade=True, dx=1e-3)
@@ -92,8 +97,8 @@ def test_shading_changes_brightness_only_where_h_varies(ti_cpu):
     bump = diff[6:15, 4:13]
     assert bump.max() > 10
     lum_flat, lum_shaded = flat.sum(axis=2).astype(int), shaded.sum(axis=2).astype(int)
-    assert lum_shaded[8, 6] > lum_flat[8, 6]        # faces the light (up-left of the peak)
-    assert lum_shaded[12, 10] < lum_flat[12, 10]    # faces away
+    assert lum_shaded[8, 6] > lum_flat[8, 6]  # faces the light (up-left of the peak)
+    assert lum_shaded[12, 10] < lum_flat[12, 10]  # faces away
     # shading scales the colour, it does not change the hue: channel ratios stay put (darkening)
     dark = shaded[12, 10].astype(float)
     base = flat[12, 10].astype(float)
@@ -103,16 +108,17 @@ def test_shading_changes_brightness_only_where_h_varies(ti_cpu):
 @pytest.mark.parametrize("field", ["h", "speed", "|u|", "u", "v"])
 def test_mapped_fields_have_a_colourbar(ti_cpu, strips, field):
     from tiseg.render import render_fields
+
     phi_img = render_fields(strips, H_MIN, field="phi", scale=10)
     img = render_fields(strips, H_MIN, field=field, scale=10)
     assert img.shape[0] == phi_img.shape[0]
-    assert img.shape[1] > phi_img.shape[1] + 40             # the bar strip on the right
+    assert img.shape[1] > phi_img.shape[1] + 40  # the bar strip on the right
     # the bar shows the viridis table: yellow at the top, dark violet at the bottom
-    bar = img[:, phi_img.shape[1] + 6:phi_img.shape[1] + 18]
+    bar = img[:, phi_img.shape[1] + 6 : phi_img.shape[1] + 18]
     col = bar[:, bar.shape[1] // 2].astype(int)
-    rows = np.nonzero(col.max(axis=1) - col.min(axis=1) > 30)[0]     # coloured, not text
+    rows = np.nonzero(col.max(axis=1) - col.min(axis=1) > 30)[0]  # coloured, not text
     top, bottom = col[rows[0]], col[rows[-1]]
-    assert close(top, u8(C.viridis_table()[-1]), 20)       # half a row from the end
+    assert close(top, u8(C.viridis_table()[-1]), 20)  # half a row from the end
     assert close(bottom, u8(C.viridis_table()[0]), 20)
     # empty cells are grey in the maps (viridis has teal shades)
     assert close(img[5, 65], u8(C.EMPTY_MAP_RGB), 0)
@@ -120,33 +126,36 @@ def test_mapped_fields_have_a_colourbar(ti_cpu, strips, field):
 
 def test_h_map_values(ti_cpu, strips):
     from tiseg.render import render_fields
+
     f = dict(strips)
     f["h"] = strips["h"].copy()
     f["h"][:, 0] = 4e-3
     img = render_fields(f, H_MIN, field="h", shade=False, vrange=(0.0, 4e-3), colourbar=False)
     assert img.shape == (4, 8, 3)
-    assert close(img[0, 0], u8(C.viridis_table()[-1]))              # h = vmax
-    assert close(img[0, 1], u8(C.map_values(0.5)))                  # h = vmax / 2
+    assert close(img[0, 0], u8(C.viridis_table()[-1]))  # h = vmax
+    assert close(img[0, 1], u8(C.map_values(0.5)))  # h = vmax / 2
     with pytest.raises(ValueError):
-        render_fields({"h": f["h"]}, H_MIN, field="phi")            # no phi array
+        render_fields({"h": f["h"]}, H_MIN, field="phi")  # no phi array
     with pytest.raises(ValueError):
         render_fields(f, H_MIN, field="vorticity")
 
 
 def test_annotate_adds_caption_strip(ti_cpu, strips):
     from tiseg.render import annotate, render_fields
-    img = render_fields(strips, H_MIN, scale=60)                    # 480 x 240
+
+    img = render_fields(strips, H_MIN, scale=60)  # 480 x 240
     out = annotate(img, 1.9, dx=1e-3 / 60)
     assert out.shape == (img.shape[0] + 20, img.shape[1], 3)
-    assert (out[:img.shape[0]] == img).all()                         # the map is untouched
-    strip = out[img.shape[0]:].astype(int)
+    assert (out[: img.shape[0]] == img).all()  # the map is untouched
+    strip = out[img.shape[0] :].astype(int)
     bright = np.abs(strip - u8(C.BACKGROUND_RGB)).max(axis=2) > 100
-    assert bright[:, :80].sum() > 30                                 # "t = 1.90 s" text
-    assert bright[:, -120:].sum() > 30                               # scale bar and its label
+    assert bright[:, :80].sum() > 30  # "t = 1.90 s" text
+    assert bright[:, -120:].sum() > 30  # scale bar and its label
 
 
 def test_nice_scale_bar_lengths():
     from tiseg.render.frame import format_length, nice_length
+
     assert nice_length(0.3) == 0.2 and nice_length(0.07) == pytest.approx(0.05)
     assert nice_length(1.0) == 1.0
     assert format_length(0.1) == "10 cm" and format_length(0.005) == "5 mm"
@@ -159,9 +168,12 @@ def tiny(ti_cpu, tmp_path_factory):
     """The brief's tiny run (fingers at 40 cells per metre to t = 0.4 s, snapshots every 0.2 s),
     kept as a simulation too (one build shared by the tests: each build compiles kernels)."""
     from tiseg.simulation import Simulation
+
     out = tmp_path_factory.mktemp("tiny_run")
-    sim = Simulation.from_scene("fingers", {"domain.resolution": 40, "time.t_end": 0.4,
-                                            "output.times": [], "output.interval": 0.2})
+    sim = Simulation.from_scene(
+        "fingers",
+        {"domain.resolution": 40, "time.t_end": 0.4, "output.times": [], "output.interval": 0.2},
+    )
     sim.run(out_dir=out, progress=False)
     return sim, out
 
@@ -174,25 +186,33 @@ def tiny_run(tiny):
 def test_frame_renderer_matches_render_fields(tiny):
     """Rendering from the Taichi state in place gives the same picture as the NumPy path."""
     from tiseg.render import FrameRenderer, render_fields
+
     sim = tiny[0]
     fr = FrameRenderer(sim, scale=2)
     for field in ("phi", "h", "speed", "u", "v"):
         fr.set_field(field)
         a = fr.to_numpy()
-        b = render_fields(sim.fields(), sim.scene.numerics.h_min, field=field, scale=2,
-                          dx=sim.scene.dx, vrange=fr.vrange)
+        b = render_fields(
+            sim.fields(),
+            sim.scene.numerics.h_min,
+            field=field,
+            scale=2,
+            dx=sim.scene.dx,
+            vrange=fr.vrange,
+        )
         assert a.shape == b.shape
         assert np.abs(a.astype(int) - b).max() <= 1, field
     # something flows in and something is still empty
     fr.set_field("phi")
     img = fr.to_numpy(annotate_frame=True)
     assert img.shape == (fr.height + 20, fr.width, 3)
-    assert (np.abs(img[:fr.height].astype(int) - u8(C.CHUTE_RGB)).max(axis=2) == 0).any()
-    assert (np.abs(img[:fr.height].astype(int) - u8(C.CHUTE_RGB)).max(axis=2) > 20).any()
+    assert (np.abs(img[: fr.height].astype(int) - u8(C.CHUTE_RGB)).max(axis=2) == 0).any()
+    assert (np.abs(img[: fr.height].astype(int) - u8(C.CHUTE_RGB)).max(axis=2) > 20).any()
 
 
 def _decode(path):
     import imageio.v2 as iio2
+
     reader = iio2.get_reader(str(path))
     try:
         return [np.asarray(f) for f in reader]
@@ -202,6 +222,7 @@ def _decode(path):
 
 def test_movie_writer_pads_to_even_and_decodes(tmp_path):
     from tiseg.render.movie import FrameFolderWriter, MovieWriter
+
     rng = np.random.default_rng(0)
     frames = [np.full((21, 33, 3), 40 * k, dtype=np.uint8) for k in range(4)]
     frames[1] = rng.integers(0, 255, (21, 33, 3), dtype=np.uint8)
@@ -210,11 +231,12 @@ def test_movie_writer_pads_to_even_and_decodes(tmp_path):
             w.append(f)
     got = _decode(tmp_path / "m.mp4")
     assert len(got) == 4 and got[0].shape == (22, 34, 3)
-    assert np.abs(got[3][:21, :33].astype(int) - 120).max() <= 6      # lossy but close
+    assert np.abs(got[3][:21, :33].astype(int) - 120).max() <= 6  # lossy but close
     with MovieWriter(tmp_path / "m.gif", fps=5) as w:
         for f in frames:
             w.append(f)
     import imageio.v3 as iio
+
     gif = iio.imread(tmp_path / "m.gif", index=None)
     assert gif.shape[:3] == (4, 21, 33)
     with FrameFolderWriter(tmp_path / "frames") as w:
@@ -222,13 +244,19 @@ def test_movie_writer_pads_to_even_and_decodes(tmp_path):
             w.append(f)
     pngs = sorted((tmp_path / "frames").glob("frame_*.png"))
     assert len(pngs) == 4
-    assert (iio.imread(pngs[1])[:, :, :3] == frames[1]).all()           # PNG is lossless
+    assert (iio.imread(pngs[1])[:, :, :3] == frames[1]).all()  # PNG is lossless
 
 
 def test_render_run_outputs(tiny_run, tmp_path):
     from tiseg.render import render_run
-    res = render_run(tiny_run, movie=tmp_path / "phi.mp4", gif=tmp_path / "phi.gif",
-                     frames=tmp_path / "png", fps=4)
+
+    res = render_run(
+        tiny_run,
+        movie=tmp_path / "phi.mp4",
+        gif=tmp_path / "phi.gif",
+        frames=tmp_path / "png",
+        fps=4,
+    )
     assert res["frames"] == 3
     H, W = res["size"]
     got = _decode(tmp_path / "phi.mp4")
@@ -240,10 +268,30 @@ def test_render_run_outputs(tiny_run, tmp_path):
 
 def test_cli_render(tiny_run, tmp_path, capsys):
     from tiseg.cli import main
-    rc = main(["render", str(tiny_run), "--field", "|u|", "--movie", str(tmp_path / "u.mp4"),
-               "--gif", str(tmp_path / "u.gif"), "--frames", str(tmp_path / "fr"), "--fps", "3",
-               "--no-shade", "--panels", str(tmp_path / "panels.png"), "--times", "0.2", "0.4",
-               "--json"])
+
+    rc = main(
+        [
+            "render",
+            str(tiny_run),
+            "--field",
+            "|u|",
+            "--movie",
+            str(tmp_path / "u.mp4"),
+            "--gif",
+            str(tmp_path / "u.gif"),
+            "--frames",
+            str(tmp_path / "fr"),
+            "--fps",
+            "3",
+            "--no-shade",
+            "--panels",
+            str(tmp_path / "panels.png"),
+            "--times",
+            "0.2",
+            "0.4",
+            "--json",
+        ]
+    )
     out, err = capsys.readouterr()
     assert rc == 0, err
     o = json.loads(out)
@@ -260,6 +308,7 @@ def test_cli_render(tiny_run, tmp_path, capsys):
 
 def test_plot_panels(tiny_run, tmp_path):
     from tiseg.render import plot_panels
+
     fig = plot_panels(tiny_run, [0.2, 0.4], "phi", tmp_path / "fig12.png")
     assert len([a for a in fig.axes if a.get_title()]) == 2
     assert [a.get_title() for a in fig.axes if a.get_title()] == ["t = 0.20 s", "t = 0.40 s"]
@@ -268,16 +317,36 @@ def test_plot_panels(tiny_run, tmp_path):
 
 def test_cli_run_movie(ti_cpu, tmp_path, capsys):
     from tiseg.cli import main
+
     movie = tmp_path / "run.mp4"
     from tiseg import backend
-    rc = main(["run", "fingers", "--set", "domain.resolution=40", "--set", "time.t_end=0.3",
-               "--set", "output.times=[]", "--set", "output.interval=0.1",
-               "--arch", backend.requested_arch(backend.state().arch),   # the tests' backend
-               "--out", str(tmp_path / "out"), "--no-progress", "--movie", str(movie), "--json"])
+
+    rc = main(
+        [
+            "run",
+            "fingers",
+            "--set",
+            "domain.resolution=40",
+            "--set",
+            "time.t_end=0.3",
+            "--set",
+            "output.times=[]",
+            "--set",
+            "output.interval=0.1",
+            "--arch",
+            backend.requested_arch(backend.state().arch),  # the tests' backend
+            "--out",
+            str(tmp_path / "out"),
+            "--no-progress",
+            "--movie",
+            str(movie),
+            "--json",
+        ]
+    )
     out, err = capsys.readouterr()
     assert rc == 0, err
     o = json.loads(out)
-    assert o["movie_frames"] == 4                  # t = 0, 0.1, 0.2, 0.3
+    assert o["movie_frames"] == 4  # t = 0, 0.1, 0.2, 0.3
     frames = _decode(movie)
     assert len(frames) == 4
     assert frames[0].shape[1] % 2 == 0 and frames[0].shape[0] % 2 == 0
@@ -290,6 +359,7 @@ def test_text_is_drawn_where_asked_with_pillow():
     import numpy as np
 
     from tiseg.render.frame import draw_text, text_width
+
     img = np.zeros((60, 200, 3), np.uint8)
     end = draw_text(img, "t = 7.50 s", 20, 40, colour=(1.0, 1.0, 1.0), size=14)
     ink = np.nonzero(img.max(axis=2) > 60)
@@ -297,4 +367,4 @@ def test_text_is_drawn_where_asked_with_pillow():
     assert ink[1].min() >= 20 and ink[1].max() <= end + 1
     assert ink[0].min() >= 40 - 14 and ink[0].max() <= 40 + 4
     assert end - 20 == text_width("t = 7.50 s", 14) > text_width("t = 7.5", 14) > 0
-    assert img.max() == 255 and (img[..., 0] == img[..., 2]).all()       # white, no tint
+    assert img.max() == 255 and (img[..., 0] == img[..., 2]).all()  # white, no tint

@@ -1,6 +1,7 @@
 """The run loop: output observes the steps and never changes them, snapshots are the linear
 interpolation of the step states around them, callbacks run on their schedules, one override
 shortens a run, and the mutators change a simulation explicitly."""
+
 from __future__ import annotations
 
 import json
@@ -17,13 +18,18 @@ from tiseg.cli import main
 from tiseg.errors import InputError
 from tiseg.output import read_diagnostics
 from tiseg.scene import load_scene
-from tiseg.schedules import (AnyOf, IterationInterval, SpecifiedTimes, TimeInterval,
-                             WallTimeInterval)
+from tiseg.schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
 from tiseg.simulation import Simulation
 
 # a small 2D fingers run: inflow, segregation, viscosity, WENO, RKC (24 x 8 cells)
-SMALL = {"domain.resolution": 40, "domain.Lx": 0.6, "domain.Ly": 0.2, "time.t_end": 0.6,
-         "output.times": [], "output.interval": 0.3}
+SMALL = {
+    "domain.resolution": 40,
+    "domain.Lx": 0.6,
+    "domain.Ly": 0.2,
+    "time.t_end": 0.6,
+    "output.times": [],
+    "output.interval": 0.3,
+}
 
 
 def small(**over):
@@ -42,7 +48,7 @@ def test_output_schedule_does_not_change_the_run(ti_cpu, tmp_path):
     assert a.stats.steps == b.stats.steps and a.stats.stages == b.stats.stages
     np.testing.assert_array_equal(a.op.get(0), b.op.get(0))
     with netCDF4.Dataset(tmp_path / "a" / "fields.nc") as nc:
-        assert nc["time"].size == 61                 # every 0.01 s, t = 0 and t_end included
+        assert nc["time"].size == 61  # every 0.01 s, t = 0 and t_end included
 
 
 def test_snapshots_are_the_interpolated_step_states(ti_cpu, tmp_path):
@@ -60,11 +66,11 @@ def test_snapshots_are_the_interpolated_step_states(ti_cpu, tmp_path):
     with netCDF4.Dataset(tmp_path / "r" / "fields.nc") as nc:
         t_file = np.asarray(nc["time"][:])
         h_file = np.asarray(nc["h"][:])
-        phi_file = np.ma.filled(nc["phi"][:], np.nan)     # missing where h < h_min
+        phi_file = np.ma.filled(nc["phi"][:], np.nan)  # missing where h < h_min
     np.testing.assert_array_equal(t_file, [0.0] + times)
     ts = np.array([t for t, _ in states])
     for k, tk in enumerate(times):
-        n = int(np.searchsorted(ts, tk))           # ts[n - 1] < tk <= ts[n]
+        n = int(np.searchsorted(ts, tk))  # ts[n - 1] < tk <= ts[n]
         (t0, f0), (t1, f1) = states[n - 1], states[n]
         theta = (tk - t0) / (t1 - t0)
         h = (1 - theta) * f0["h"] + theta * f1["h"]
@@ -86,8 +92,15 @@ def test_snapshot_mass_balance_holds(ti_cpu):
     sim = Simulation(small())
     sim.add_callback(check, TimeInterval(0.0777), snapshot=True)
     sim.run(progress=False)
-    assert [round(t, 6) for t, *_ in got] == [0.0777, 0.1554, 0.2331, 0.3108, 0.3885, 0.4662,
-                                              0.5439]
+    assert [round(t, 6) for t, *_ in got] == [
+        0.0777,
+        0.1554,
+        0.2331,
+        0.3108,
+        0.3885,
+        0.4662,
+        0.5439,
+    ]
     assert any(0 < th < 1 for _, th, _, _ in got)
     for t, _, mass, mass_in in got:
         assert mass > 0 and abs(mass - mass_in) <= 1e-12 * mass, t
@@ -96,6 +109,7 @@ def test_snapshot_mass_balance_holds(ti_cpu):
 def test_resume_from_a_step_state_is_bitwise(ti_cpu, tmp_path):
     """A checkpoint holds a step state (not an interpolated one): a run stopped between
     checkpoints and resumed takes the very steps of the uninterrupted run."""
+
     class Stop(Exception):
         pass
 
@@ -133,19 +147,23 @@ def test_schedules():
     ti = TimeInterval(0.1)
     assert ti.times_in(0.0, 0.35) == [0.1, 0.2, 0.3]
     assert ti.times_in(0.3, 0.3) == [] and ti.times_in(0.29999, 0.3) == [0.3]
-    assert ti.times_in(1.85, 1.95) == [1.9]            # 19 * 0.1 rounded as a user writes it
+    assert ti.times_in(1.85, 1.95) == [1.9]  # 19 * 0.1 rounded as a user writes it
     assert ti.contains(0.3) and not ti.contains(0.0) and not ti.contains(0.25)
     st = SpecifiedTimes([0.5, 0.1, 0.5])
     assert st.times == (0.1, 0.5) and st.times_in(0.1, 0.5) == [0.5] and st.contains(0.1)
     it = IterationInterval(3)
     assert [n for n in range(1, 10) if it.due(0, 1, n)] == [3, 6, 9]
     clock = iter([0.0, 0.5, 1.2, 1.3, 2.5]).__next__
-    wt = WallTimeInterval(1.0, clock=clock)            # starts at 0.0
+    wt = WallTimeInterval(1.0, clock=clock)  # starts at 0.0
     assert [wt.due(0, 1, n) for n in range(4)] == [False, True, False, True]
     assert AnyOf(IterationInterval(2), SpecifiedTimes([0.15])).due(0.1, 0.2, 1)
-    for bad in (lambda: TimeInterval(0), lambda: IterationInterval(0),
-                lambda: IterationInterval(1.5), lambda: WallTimeInterval(-1),
-                lambda: SpecifiedTimes([float("nan")])):
+    for bad in (
+        lambda: TimeInterval(0),
+        lambda: IterationInterval(0),
+        lambda: IterationInterval(1.5),
+        lambda: WallTimeInterval(-1),
+        lambda: SpecifiedTimes([float("nan")]),
+    ):
         with pytest.raises(InputError):
             bad()
     with pytest.raises(InputError, match="time schedule"):
@@ -156,11 +174,15 @@ def test_callbacks_run_on_their_schedules(ti_cpu):
     sim = Simulation(small(**{"time.t_end": 0.3}))
     every3, snaps = [], []
     sim.add_callback(lambda s: every3.append(s.stats.steps), IterationInterval(3), name="n3")
-    sim.add_callback(lambda snap: snaps.append(snap.t), SpecifiedTimes([0.0, 0.1, 0.25]),
-                     name="snap", snapshot=True)
+    sim.add_callback(
+        lambda snap: snaps.append(snap.t),
+        SpecifiedTimes([0.0, 0.1, 0.25]),
+        name="snap",
+        snapshot=True,
+    )
     sim.run(progress=False)
     assert every3 == list(range(3, sim.stats.steps + 1, 3))
-    assert snaps == [0.0, 0.1, 0.25]                  # t = 0 from the state at the start
+    assert snaps == [0.0, 0.1, 0.25]  # t = 0 from the state at the start
     sim.remove_callback("n3")
     assert "n3" not in sim.callbacks and "snap" in sim.callbacks
 
@@ -189,8 +211,20 @@ def test_t_end_override_drops_later_output_times_with_a_note(caplog):
 
 
 def test_cli_t_end_override_runs_and_notes(ti_cpu, tmp_path, capsys):
-    rc = main(["run", "fingers", "--set", "domain.resolution=30", "--set", "time.t_end=0.2",
-               "--out", str(tmp_path), "--no-progress", "--json"])
+    rc = main(
+        [
+            "run",
+            "fingers",
+            "--set",
+            "domain.resolution=30",
+            "--set",
+            "time.t_end=0.2",
+            "--out",
+            str(tmp_path),
+            "--no-progress",
+            "--json",
+        ]
+    )
     assert rc == 0
     cap = capsys.readouterr()
     assert json.loads(cap.out)["t_end"] == 0.2
@@ -200,17 +234,20 @@ def test_cli_t_end_override_runs_and_notes(ti_cpu, tmp_path, capsys):
 # ------------------------------------------------------------------ mutators
 def test_set_parameters_changes_scene_and_operator(ti_cpu):
     from tiseg.physics.pointwise import Params
+
     sim = Simulation(small())
     sim.set_parameters({"flow.nu": 0.02, "material.zeta_deg": 28.0})
     assert sim.scene.flow.nu == 0.02 and sim.scene.material.zeta_deg == 28.0
     par = sim.op.par.to_numpy()
     assert par[Params.NU] == 0.02 and sim.op.cfg.nu == 0.02
     assert par[Params.G_SIN] == pytest.approx(9.81 * np.sin(np.radians(28.0)), rel=1e-14)
-    sim.set_parameters({"flow.nu": 0.0})              # viscosity off: same kernels, nu = 0
+    sim.set_parameters({"flow.nu": 0.0})  # viscosity off: same kernels, nu = 0
     assert sim.op.par.to_numpy()[Params.NU] == 0.0
-    for change, what in (({"domain.resolution": 50}, "the grid"),
-                         ({"numerics.reconstruction": "minmod"}, "numerics.reconstruction"),
-                         ({"effects.segregation": False}, "segregation")):
+    for change, what in (
+        ({"domain.resolution": 50}, "the grid"),
+        ({"numerics.reconstruction": "minmod"}, "numerics.reconstruction"),
+        ({"effects.segregation": False}, "segregation"),
+    ):
         with pytest.raises(InputError, match=what):
             sim.set_parameters(change)
     sim.step()
@@ -220,7 +257,7 @@ def test_set_state_and_state_round_trip(ti_cpu):
     sim = Simulation(small())
     ny, nx = sim.layout.ny, sim.layout.nx
     h = np.full((ny, nx), 1e-3)
-    h[:, nx // 2:] = 0.0
+    h[:, nx // 2 :] = 0.0
     phi = np.full((ny, nx), 0.3)
     sim.set_state(h, u=np.full((ny, nx), 0.1), phi=phi)
     st = sim.state()
@@ -228,11 +265,14 @@ def test_set_state_and_state_round_trip(ti_cpu):
     np.testing.assert_allclose(st["u"][:, : nx // 2], 0.1, rtol=1e-15)
     np.testing.assert_allclose(st["phi"][:, : nx // 2], 0.3, rtol=1e-15)
     assert sim.initial_totals["mass"] == pytest.approx(h.sum() * sim.scene.dx * sim.scene.dy)
-    for _ in range(12):                                # the guard's mass balance starts here
+    for _ in range(12):  # the guard's mass balance starts here
         sim.step()
-    for kw, match in (({"h": np.ones((2, 2))}, "shape"), ({"h": -h}, ">= 0"),
-                      ({"h": h, "phi": phi + 1}, r"\[0, 1\]"),
-                      ({"h": h * np.nan}, "NaN")):
+    for kw, match in (
+        ({"h": np.ones((2, 2))}, "shape"),
+        ({"h": -h}, ">= 0"),
+        ({"h": h, "phi": phi + 1}, r"\[0, 1\]"),
+        ({"h": h * np.nan}, "NaN"),
+    ):
         with pytest.raises(InputError, match=match):
             sim.set_state(**kw)
 
@@ -247,6 +287,7 @@ def test_fixed_stage_count(ti_cpu):
 
 def test_other_precision_is_an_error_not_a_reinitialisation(ti_cpu):
     from tiseg import backend
+
     gen = backend.state().generation
     with pytest.raises(InputError, match=r"tiseg.init"):
         Simulation(small(**{"numerics.precision": "f32"}))
@@ -256,8 +297,7 @@ def test_other_precision_is_an_error_not_a_reinitialisation(ti_cpu):
 
 
 def test_estimate_command_does_not_import_run_command():
-    code = ("import sys, tiseg.commands.estimate; "
-            "print('tiseg.commands.run' in sys.modules)")
+    code = "import sys, tiseg.commands.estimate; print('tiseg.commands.run' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -273,7 +313,7 @@ def test_diagnostics_state_their_units(ti_cpu, tmp_path):
     assert "cumulative" in cols["wall_time_cumulative"]["dc:description"]
     d = read_diagnostics(tmp_path / "diagnostics.csv")
     assert np.all(np.diff(d["wall_time_cumulative"]) >= 0)
-    np.testing.assert_array_equal(d["wall_time"], d["wall_time_cumulative"])   # the old name
+    np.testing.assert_array_equal(d["wall_time"], d["wall_time_cumulative"])  # the old name
 
 
 # ------------------------------------------------------------------ review cases
@@ -283,16 +323,18 @@ def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
     from tiseg import checkpoint
     from tiseg.physics.pointwise import Params
     from tiseg.simulation import SimulationError
+
     sim = Simulation(small(**{"output.interval": None}), check_every=0)
 
     def poison(s):
         if s.stats.steps == 12:
             s.op.par[Params.G_SIN] = float("nan")
+
     sim.add_callback(poison, IterationInterval(1))
     with pytest.raises(SimulationError):
         sim.run(out_dir=tmp_path, progress=False, checkpoint_wall=0.0)
     ck = checkpoint.load(tmp_path / checkpoint.CHECKPOINT_NAME)
-    checkpoint.validate(ck, sim.scene)                 # finite: the last good step
+    checkpoint.validate(ck, sim.scene)  # finite: the last good step
     assert ck["steps"] == 12
 
 
@@ -301,7 +343,7 @@ def test_bad_callbacks_are_refused_before_the_folder_is_touched(ti_cpu, tmp_path
     with pytest.raises(InputError, match="not a tiseg.callbacks.Callback"):
         sim.run(out_dir=tmp_path / "r", progress=False, callbacks=[print])
     assert not (tmp_path / "r").exists()
-    sim.run(out_dir=tmp_path / "r", progress=False, t_end=0.1)       # nothing left locked
+    sim.run(out_dir=tmp_path / "r", progress=False, t_end=0.1)  # nothing left locked
 
 
 def test_a_later_run_into_the_same_folder_continues_it(ti_cpu, tmp_path):
@@ -310,8 +352,10 @@ def test_a_later_run_into_the_same_folder_continues_it(ti_cpu, tmp_path):
     sim = Simulation(small())
     sim.run(out_dir=tmp_path / "p", progress=False, t_end=0.3)
     sim.run(out_dir=tmp_path / "p", progress=False)
-    with netCDF4.Dataset(tmp_path / "w" / "fields.nc") as a, \
-            netCDF4.Dataset(tmp_path / "p" / "fields.nc") as b:
+    with (
+        netCDF4.Dataset(tmp_path / "w" / "fields.nc") as a,
+        netCDF4.Dataset(tmp_path / "p" / "fields.nc") as b,
+    ):
         np.testing.assert_array_equal(a["time"][:], b["time"][:])
     assert not (tmp_path / "p" / "checkpoint.npz").exists()
 

@@ -1,4 +1,5 @@
 """Scenes: built-ins load, resolved values, TOML round trip, overrides, and strict validation."""
+
 from __future__ import annotations
 
 import math
@@ -9,15 +10,29 @@ import pytest
 import tiseg
 from tiseg.errors import InputError
 from tiseg.material import Material
-from tiseg.scene import (SCENE_DIR, Scene, list_builtin_scenes, load_scene, parse_override,
-                         scene_from_text, scene_to_dict)
+from tiseg.scene import (
+    SCENE_DIR,
+    Scene,
+    list_builtin_scenes,
+    load_scene,
+    parse_override,
+    scene_from_text,
+    scene_to_dict,
+)
 from tiseg.steady import steady_state
 
 from solver_helpers import MINIMAL_SCENE
 
-BUILTINS = ["fingers", "uniform-flow", "dam-break", "monodisperse-front", "finite-release", "channel"]
+BUILTINS = [
+    "fingers",
+    "uniform-flow",
+    "dam-break",
+    "monodisperse-front",
+    "finite-release",
+    "channel",
+]
 
-MINIMAL = MINIMAL_SCENE      # a small valid 2D scene, the base of the malformed-text cases
+MINIMAL = MINIMAL_SCENE  # a small valid 2D scene, the base of the malformed-text cases
 
 
 def test_scenes_are_package_data():
@@ -30,6 +45,7 @@ def test_scenes_are_package_data():
 
 def test_sweeps_are_package_data_and_named():
     from tiseg.sweep import list_builtin_sweeps, load_sweep
+
     assert {"grid-study", "nu-study", "width-study", "tiny"} <= set(list_builtin_sweeps())
     assert load_sweep("assets/sweeps/tiny.toml").name == load_sweep("tiny").name
     with pytest.raises(InputError, match="did you mean 'grid-study'"):
@@ -62,9 +78,9 @@ def test_fingers_resolved_values():
     assert (s.domain.nx, s.domain.ny) == (1125, 375)
     assert s.shape == (375, 1125)
     assert s.dx == pytest.approx(1 / 750) and s.dy == pytest.approx(1 / 750)
-    assert s.u0 == pytest.approx(0.208, abs=1e-3)        # figure 12
-    assert s.F == pytest.approx(1.57, abs=5e-3)          # figure 12
-    assert s.material == Material()                      # Table 1
+    assert s.u0 == pytest.approx(0.208, abs=1e-3)  # figure 12
+    assert s.F == pytest.approx(1.57, abs=5e-3)  # figure 12
+    assert s.material == Material()  # Table 1
     assert s.viscous and s.feedback and s.segregation and not s.is_1d and s.has_inflow
     assert s.fields == ("h", "u", "v", "phi")
     assert s.inflow.h == 0.002 and s.inflow.u == s.u0 and s.inflow.phi == 0.8
@@ -72,12 +88,15 @@ def test_fingers_resolved_values():
     assert s.inflow.modes == 1 and s.inflow.stop_time is None
     assert s.initial.kind == "empty"
     assert s.boundary.as_tuple() == ("inflow", "outflow", "periodic", "periodic")
-    assert (s.numerics.reconstruction, s.numerics.stepper, s.numerics.precision) == \
-        ("weno", "rkc", "f64")
+    assert (s.numerics.reconstruction, s.numerics.stepper, s.numerics.precision) == (
+        "weno",
+        "rkc",
+        "f64",
+    )
     assert s.numerics.cfl == 0.25 and s.numerics.h_min == 1e-4
     for t in (1.9, 3.3, 5.1, 6.2, 7.5):
-        assert t in s.output_times                       # exact figure times, not 1.9000000001
-    assert len(s.output_times) == 76                     # 0, 0.1, ..., 7.5
+        assert t in s.output_times  # exact figure times, not 1.9000000001
+    assert len(s.output_times) == 76  # 0, 0.1, ..., 7.5
     assert s.reynolds == pytest.approx(s.u0 * math.sqrt(0.002) / 0.01)
 
 
@@ -85,7 +104,7 @@ def test_other_builtins_resolved_values():
     u = load_scene("uniform-flow")
     assert u.is_1d and u.domain.nx == 64 and u.periodic_x
     assert u.domain.Lx == pytest.approx(2 * math.pi * 0.002 / 0.2399)
-    assert u.dy == pytest.approx(u.dx)                   # 1D: Ly = Lx / nx
+    assert u.dy == pytest.approx(u.dx)  # 1D: Ly = Lx / nx
     assert u.initial.mode == "eigen" and u.initial.amplitude == 1e-6
     assert u.t_end == pytest.approx(20 * 0.002 / u.u0, rel=0.1)
     assert u.fields == ("h", "u", "phi")
@@ -116,30 +135,42 @@ def test_inflow_helpers_follow_6_8():
 
 
 # ---- overrides -----------------------------------------------------------------------------
-@pytest.mark.parametrize("text, key, value", [
-    ("flow.nu=0.01", "flow.nu", 0.01),
-    ("domain.nx=64", "domain.nx", 64),
-    ("effects.viscosity=false", "effects.viscosity", False),
-    ('numerics.reconstruction="weno"', "numerics.reconstruction", "weno"),
-    ("numerics.reconstruction=weno", "numerics.reconstruction", "weno"),
-    ("output.times=[1.9, 3.3]", "output.times", [1.9, 3.3]),
-    ("material.small.zeta1_deg=21", "material.small.zeta1_deg", 21),
-    (" flow.h0 = 0.003 ", "flow.h0", 0.003),
-    ("name=my-run", "name", "my-run"),
-])
+@pytest.mark.parametrize(
+    "text, key, value",
+    [
+        ("flow.nu=0.01", "flow.nu", 0.01),
+        ("domain.nx=64", "domain.nx", 64),
+        ("effects.viscosity=false", "effects.viscosity", False),
+        ('numerics.reconstruction="weno"', "numerics.reconstruction", "weno"),
+        ("numerics.reconstruction=weno", "numerics.reconstruction", "weno"),
+        ("output.times=[1.9, 3.3]", "output.times", [1.9, 3.3]),
+        ("material.small.zeta1_deg=21", "material.small.zeta1_deg", 21),
+        (" flow.h0 = 0.003 ", "flow.h0", 0.003),
+        ("name=my-run", "name", "my-run"),
+    ],
+)
 def test_parse_override(text, key, value):
     k, v = parse_override(text)
     assert k == key and v == value and type(v) is type(value)
 
 
 def test_overrides_change_values():
-    s = load_scene("fingers", ["domain.resolution=100", "time.t_end=2.0", "flow.nu=0",
-                               "material.small.zeta1_deg=21", "numerics.reconstruction=first_order",
-                               "inflow.modes=3", "output.times=[0.5, 1.5]"])
+    s = load_scene(
+        "fingers",
+        [
+            "domain.resolution=100",
+            "time.t_end=2.0",
+            "flow.nu=0",
+            "material.small.zeta1_deg=21",
+            "numerics.reconstruction=first_order",
+            "inflow.modes=3",
+            "output.times=[0.5, 1.5]",
+        ],
+    )
     assert (s.domain.nx, s.domain.ny) == (150, 50)
     assert s.t_end == 2.0 and not s.viscous
     assert s.material.small.zeta1_deg == 21.0
-    assert s.numerics.reconstruction == "first-order"    # alias stored canonically
+    assert s.numerics.reconstruction == "first-order"  # alias stored canonically
     assert s.inflow.modes == 3
     assert s.output_times[:3] == (0.0, 0.1, 0.2) and 1.5 in s.output_times
     assert s.output_times[-1] == 2.0
@@ -157,13 +188,22 @@ def test_dict_overrides_and_with_overrides():
     # None removes a key: back to the default
     r = load_scene("fingers", {"inflow.perturbation": None, "inflow.ramp_rate": 0})
     assert r.inflow.perturbation == 8e-5 and r.inflow.ramp_rate == 0.0
-    assert r.inflow.thickness(0.0) == 0.002              # no ramp: sudden inflow
+    assert r.inflow.thickness(0.0) == 0.002  # no ramp: sudden inflow
 
 
 def test_override_round_trip(tmp_path):
-    s = load_scene("uniform-flow", ["domain.ny=16", "domain.Ly=0.02", "initial.amplitude=1e-3",
-                                    "effects.friction=pouliquen-small", "flow.u0=0.4",
-                                    "boundary.y_lo=wall", "boundary.y_hi=wall"])
+    s = load_scene(
+        "uniform-flow",
+        [
+            "domain.ny=16",
+            "domain.Ly=0.02",
+            "initial.amplitude=1e-3",
+            "effects.friction=pouliquen-small",
+            "flow.u0=0.4",
+            "boundary.y_lo=wall",
+            "boundary.y_hi=wall",
+        ],
+    )
     assert not s.is_1d and s.u0 == 0.4 and not s.feedback
     assert s.F == pytest.approx(0.4 / math.sqrt(9.81 * 0.002 * math.cos(math.radians(27))))
     p = tmp_path / "s.toml"
@@ -172,8 +212,9 @@ def test_override_round_trip(tmp_path):
 
 
 def test_other_friction_laws_and_kinds():
-    c = load_scene("dam-break", ["effects.friction=coulomb", "effects.coulomb_mu=0.3",
-                                 "material.zeta_deg=25"])
+    c = load_scene(
+        "dam-break", ["effects.friction=coulomb", "effects.coulomb_mu=0.3", "material.zeta_deg=25"]
+    )
     assert c.effects.coulomb_mu == 0.3 and c.material.zeta_deg == 25.0
     text = MINIMAL + '[initial]\nkind = "release"\nx0 = 0.01\nx1 = 0.05\ny0 = 0.01\ny1 = 0.04\n'
     text += '[boundary]\nx_lo = "wall"\nx_hi = "outflow"\n'
@@ -183,55 +224,58 @@ def test_other_friction_laws_and_kinds():
 
 
 # ---- validation: each mistake is an InputError naming the key -------------------------------
-@pytest.mark.parametrize("override, key", [
-    ("flow.h00=1", "flow.h00"),                          # unknown key
-    ("flw.h0=1", "flw"),                                 # unknown section
-    ("flow.h0=-0.001", "flow.h0"),                       # negative size
-    ("flow.h0=0", "flow.h0"),
-    ("flow.h0=true", "flow.h0"),                         # bool for a number
-    ('flow.h0="thin"', "flow.h0"),                       # string for a number
-    ("flow.phi0=1.5", "flow.phi0"),                      # outside [0, 1]
-    ("flow.phi0=-0.1", "flow.phi0"),
-    ("flow.phi0=0.1", "flow.phi0"),                      # phi0 < phi0*: no steady flow
-    ("flow.nu=-0.01", "flow.nu"),
-    ("domain.Lx=-1.5", "domain.Lx"),
-    ("domain.Ly=0", "domain.Ly"),
-    ("domain.resolution=-5", "domain.resolution"),
-    ("domain.nx=10.5", "domain.nx"),                     # int required
-    ("domain.nx=100", "domain.nx"),                      # disagrees with the resolution
-    ("output.times=[-1.0]", "output.times"),
-    ("output.times=2.0", "output.times"),                # not a list
-    ("output.interval=0", "output.interval"),
-    ("boundary.x_hi=periodic", "boundary.x_hi"),         # periodic on one side
-    ("boundary.y_lo=wall", "boundary.y_lo"),
-    ("boundary.y_hi=inflow", "boundary.y_hi"),           # inflow not at x_lo
-    ("boundary.x_lo=sideways", "boundary.x_lo"),
-    ("numerics.reconstruction=wenno", "numerics.reconstruction"),
-    ("numerics.stepper=rk4", "numerics.stepper"),
-    ("numerics.cfl=1.5", "numerics.cfl"),
-    ("numerics.theta=3", "numerics.theta"),
-    ("numerics.h_eps=0.001", "numerics.h_eps"),
-    ("numerics.max_stages=1", "numerics.max_stages"),
-    ("effects.segregation=1", "effects.segregation"),    # number for a bool
-    ("effects.friction=mohr", "effects.friction"),
-    ("inflow.modes=200", "inflow.modes"),                # unresolvable perturbation
-    ("inflow.modes=0", "inflow.modes"),
-    ("inflow.phi=1.2", "inflow.phi"),
-    ("inflow.perturbation=0.5", "inflow.perturbation"),
-    ("inflow.stop_time=-1", "inflow.stop_time"),
-    ("initial.kind=spiral", "initial.kind"),
-    ("initial.x0=0.1", "initial.x0"),                    # not used by kind = empty
-    ("flow.u0=0.2", "flow.u0"),                          # derived with the mixture law
-    ("material.zeta_deg=95", "material.zeta_deg"),
-    ("material.small.zeta1_deg=35", "material.small"),
-    ("material.small.beta=-1", "material.small.beta"),
-    ("material.transport=cubic", "material.transport"),
-    ("time.t_end=0", "time.t_end"),
-    ("time.t_end=nan", "time.t_end"),
-    ("flow.h0.x=1", "flow.h0"),                          # a value used as a table
-    ("flow=3", "flow"),
-    ("name=", "name"),
-])
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        ("flow.h00=1", "flow.h00"),  # unknown key
+        ("flw.h0=1", "flw"),  # unknown section
+        ("flow.h0=-0.001", "flow.h0"),  # negative size
+        ("flow.h0=0", "flow.h0"),
+        ("flow.h0=true", "flow.h0"),  # bool for a number
+        ('flow.h0="thin"', "flow.h0"),  # string for a number
+        ("flow.phi0=1.5", "flow.phi0"),  # outside [0, 1]
+        ("flow.phi0=-0.1", "flow.phi0"),
+        ("flow.phi0=0.1", "flow.phi0"),  # phi0 < phi0*: no steady flow
+        ("flow.nu=-0.01", "flow.nu"),
+        ("domain.Lx=-1.5", "domain.Lx"),
+        ("domain.Ly=0", "domain.Ly"),
+        ("domain.resolution=-5", "domain.resolution"),
+        ("domain.nx=10.5", "domain.nx"),  # int required
+        ("domain.nx=100", "domain.nx"),  # disagrees with the resolution
+        ("output.times=[-1.0]", "output.times"),
+        ("output.times=2.0", "output.times"),  # not a list
+        ("output.interval=0", "output.interval"),
+        ("boundary.x_hi=periodic", "boundary.x_hi"),  # periodic on one side
+        ("boundary.y_lo=wall", "boundary.y_lo"),
+        ("boundary.y_hi=inflow", "boundary.y_hi"),  # inflow not at x_lo
+        ("boundary.x_lo=sideways", "boundary.x_lo"),
+        ("numerics.reconstruction=wenno", "numerics.reconstruction"),
+        ("numerics.stepper=rk4", "numerics.stepper"),
+        ("numerics.cfl=1.5", "numerics.cfl"),
+        ("numerics.theta=3", "numerics.theta"),
+        ("numerics.h_eps=0.001", "numerics.h_eps"),
+        ("numerics.max_stages=1", "numerics.max_stages"),
+        ("effects.segregation=1", "effects.segregation"),  # number for a bool
+        ("effects.friction=mohr", "effects.friction"),
+        ("inflow.modes=200", "inflow.modes"),  # unresolvable perturbation
+        ("inflow.modes=0", "inflow.modes"),
+        ("inflow.phi=1.2", "inflow.phi"),
+        ("inflow.perturbation=0.5", "inflow.perturbation"),
+        ("inflow.stop_time=-1", "inflow.stop_time"),
+        ("initial.kind=spiral", "initial.kind"),
+        ("initial.x0=0.1", "initial.x0"),  # not used by kind = empty
+        ("flow.u0=0.2", "flow.u0"),  # derived with the mixture law
+        ("material.zeta_deg=95", "material.zeta_deg"),
+        ("material.small.zeta1_deg=35", "material.small"),
+        ("material.small.beta=-1", "material.small.beta"),
+        ("material.transport=cubic", "material.transport"),
+        ("time.t_end=0", "time.t_end"),
+        ("time.t_end=nan", "time.t_end"),
+        ("flow.h0.x=1", "flow.h0"),  # a value used as a table
+        ("flow=3", "flow"),
+        ("name=", "name"),
+    ],
+)
 def test_bad_override_raises_input_error(override, key):
     with pytest.raises(InputError) as info:
         load_scene("fingers", [override])
@@ -278,24 +322,82 @@ def test_required_keys():
 
 # ---- fuzz: many malformed inputs, every one an InputError (never another exception) ---------
 FUZZ_OVERRIDES = [
-    "", "=", "flow", "flow.", ".h0=1", "flow..h0=1", "flow.h0", "flow.h0=", "flow.h0=[1, 2]",
-    "flow.h0={a = 1}", "flow.h0=1979-05-27", "flow.h0=inf", "flow.h0=-inf", "flow.h0=1e400",
-    "flow.phi0=nan", "flow.phi0=[0.8]", "flow.nu=yes", "domain.nx=0", "domain.nx=-3",
-    "domain.nx=2", "domain.ny=2", "domain.ny=true", "domain.nx=1e3", "domain.resolution=1e-9",
-    "domain.resolution=\"high\"", "domain=[]", "domain.Lx={}", "domain.Lx.y=2",
-    "boundary.x_lo=periodic", "boundary.x_lo=1", "boundary=\"periodic\"", "inflow.h=0",
-    "inflow.u=-0.2", "inflow.ramp_rate=-1", "inflow.modes=1.5", "inflow.modes=true",
-    "inflow.stop_time=0", "inflow.phi=-0.1", "inflow.extra=1", "initial.kind=1",
-    "initial.kind=uniform\nflow.h0=1", "initial.amplitude=0.1", "initial.x1=0.3",
-    "numerics.precision=f16", "numerics.cfl=0", "numerics.cfl=-0.1", "numerics.h_min=0",
-    "numerics.h_min=0.01", "numerics.u_eps=0", "numerics.max_stages=200.0",
-    "numerics.theta=0.5", "output.times=[1, \"a\"]", "output.times=[[1.0]]",
-    "output.checkpoint_interval=-1", "output.interval=1e-12", "output.extra=1",
-    "time.t_end=-1", "time.t_end=\"7.5\"", "time=7.5", "time.dt=0.1", "material.g=0",
-    "material.alpha=2", "material.chi=2", "material.small.L=0", "material.small=1",
-    "material.large.zeta2_deg=10", "material.large.foo=1", "material.zeta_deg=0",
-    "effects.coulomb_mu=-1", "effects.viscosity=\"no\"", "description=3", "name=\"a/b\"",
-    "name=3", "effects.friction=coulomb", "flow.u0=-1", "flow.u0=0.2",
+    "",
+    "=",
+    "flow",
+    "flow.",
+    ".h0=1",
+    "flow..h0=1",
+    "flow.h0",
+    "flow.h0=",
+    "flow.h0=[1, 2]",
+    "flow.h0={a = 1}",
+    "flow.h0=1979-05-27",
+    "flow.h0=inf",
+    "flow.h0=-inf",
+    "flow.h0=1e400",
+    "flow.phi0=nan",
+    "flow.phi0=[0.8]",
+    "flow.nu=yes",
+    "domain.nx=0",
+    "domain.nx=-3",
+    "domain.nx=2",
+    "domain.ny=2",
+    "domain.ny=true",
+    "domain.nx=1e3",
+    "domain.resolution=1e-9",
+    'domain.resolution="high"',
+    "domain=[]",
+    "domain.Lx={}",
+    "domain.Lx.y=2",
+    "boundary.x_lo=periodic",
+    "boundary.x_lo=1",
+    'boundary="periodic"',
+    "inflow.h=0",
+    "inflow.u=-0.2",
+    "inflow.ramp_rate=-1",
+    "inflow.modes=1.5",
+    "inflow.modes=true",
+    "inflow.stop_time=0",
+    "inflow.phi=-0.1",
+    "inflow.extra=1",
+    "initial.kind=1",
+    "initial.kind=uniform\nflow.h0=1",
+    "initial.amplitude=0.1",
+    "initial.x1=0.3",
+    "numerics.precision=f16",
+    "numerics.cfl=0",
+    "numerics.cfl=-0.1",
+    "numerics.h_min=0",
+    "numerics.h_min=0.01",
+    "numerics.u_eps=0",
+    "numerics.max_stages=200.0",
+    "numerics.theta=0.5",
+    'output.times=[1, "a"]',
+    "output.times=[[1.0]]",
+    "output.checkpoint_interval=-1",
+    "output.interval=1e-12",
+    "output.extra=1",
+    "time.t_end=-1",
+    'time.t_end="7.5"',
+    "time=7.5",
+    "time.dt=0.1",
+    "material.g=0",
+    "material.alpha=2",
+    "material.chi=2",
+    "material.small.L=0",
+    "material.small=1",
+    "material.large.zeta2_deg=10",
+    "material.large.foo=1",
+    "material.zeta_deg=0",
+    "effects.coulomb_mu=-1",
+    'effects.viscosity="no"',
+    "description=3",
+    'name="a/b"',
+    "name=3",
+    "effects.friction=coulomb",
+    "flow.u0=-1",
+    "flow.u0=0.2",
 ]
 
 
@@ -306,36 +408,43 @@ def test_fuzz_overrides_raise_input_error(override):
 
 
 FUZZ_TEXTS = [
-    "[flow", "flow = ", "= 3", "[[flow]]\nh0 = 1", "[flow]\nh0 = 0.002\nh0 = 0.003",
-    "[flow]\nh0 = 'thin'", "[domain]\nLx = 1\n[domain]\nLy = 1", "x = 1", "[mystery]\na = 1",
-    "[time]\nt_end = 1.0",                                     # no domain
-    "[time]\nt_end = 1.0\n[domain]\nLx = 1.0",                 # no grid
-    "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nnx = 100",       # no ny
+    "[flow",
+    "flow = ",
+    "= 3",
+    "[[flow]]\nh0 = 1",
+    "[flow]\nh0 = 0.002\nh0 = 0.003",
+    "[flow]\nh0 = 'thin'",
+    "[domain]\nLx = 1\n[domain]\nLy = 1",
+    "x = 1",
+    "[mystery]\na = 1",
+    "[time]\nt_end = 1.0",  # no domain
+    "[time]\nt_end = 1.0\n[domain]\nLx = 1.0",  # no grid
+    "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nnx = 100",  # no ny
     "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nnx = 100\nny = 1\n[boundary]\ny_lo = 'wall'\n"
-    "y_hi = 'wall'",                                           # 1D with y walls
+    "y_hi = 'wall'",  # 1D with y walls
     "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nny = 1\nresolution = 100\nnx = 10",
-    MINIMAL + "[initial]\nkind = 'dam-break'",                 # dam-break without x0
-    MINIMAL + "[initial]\nkind = 'dam-break'\nx0 = 5.0",       # x0 outside the domain
+    MINIMAL + "[initial]\nkind = 'dam-break'",  # dam-break without x0
+    MINIMAL + "[initial]\nkind = 'dam-break'\nx0 = 5.0",  # x0 outside the domain
     MINIMAL + "[initial]\nkind = 'dam-break'\nx0 = 0.1\nh_left = 0.0",
     MINIMAL + "[initial]\nkind = 'release'\nx0 = 0.1\nx1 = 0.05",
     MINIMAL + "[initial]\nkind = 'release'\nx0 = 0.1\nx1 = 0.15\ny1 = 1.0",
-    MINIMAL + "[initial]\nkind = 'uniform'\namplitude = 0.1\nmode = 'h'",   # no wavenumber
+    MINIMAL + "[initial]\nkind = 'uniform'\namplitude = 0.1\nmode = 'h'",  # no wavenumber
     MINIMAL + "[initial]\nkind = 'uniform'\namplitude = 1.5\nk = 0.2",
     MINIMAL + "[initial]\nkind = 'uniform'\nmode = 'wiggle'",
     MINIMAL + "[initial]\nkind = 'uniform'\nseed = -1",
-    MINIMAL + "[initial]\nkind = 'uniform'\nk = 0.2\nwavelengths = 3",      # disagrees with Lx
-    MINIMAL + "[initial]\nkind = 'uniform'\nky = 0.3",                     # not periodic in Ly
-    MINIMAL + "[initial]\nkind = 'uniform'\nh_left = 0.1",                 # wrong kind's key
+    MINIMAL + "[initial]\nkind = 'uniform'\nk = 0.2\nwavelengths = 3",  # disagrees with Lx
+    MINIMAL + "[initial]\nkind = 'uniform'\nky = 0.3",  # not periodic in Ly
+    MINIMAL + "[initial]\nkind = 'uniform'\nh_left = 0.1",  # wrong kind's key
     MINIMAL + "[effects]\nsegregation = false\n[initial]\nkind = 'uniform'\nmode = 'phi'",
-    MINIMAL + "[boundary]\nx_lo = 'outflow'\n[inflow]\nh = 0.002",         # unused inflow
-    MINIMAL + "[effects]\nfriction = 'none'",                              # inflow needs u
+    MINIMAL + "[boundary]\nx_lo = 'outflow'\n[inflow]\nh = 0.002",  # unused inflow
+    MINIMAL + "[effects]\nfriction = 'none'",  # inflow needs u
     MINIMAL + "[effects]\nfriction = 'none'\n[initial]\nkind = 'uniform'\n"
-    "[boundary]\nx_lo = 'periodic'\nx_hi = 'periodic'",                   # uniform needs u0
+    "[boundary]\nx_lo = 'periodic'\nx_hi = 'periodic'",  # uniform needs u0
     MINIMAL + "[output]\ntimes = 'all'",
     MINIMAL + "[material.small]\nzeta1_deg = 'twenty'",
     MINIMAL + "[material]\nsmall = [1, 2]",
     MINIMAL + "[flow]\nphi0 = 1979-05-27",
-    "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nLy = 0.01\nresolution = 100",   # ny = 1 derived
+    "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nLy = 0.01\nresolution = 100",  # ny = 1 derived
     "[time]\nt_end = 1.0\n[domain]\nLx = 1.0\nnx = 3\nny = 1\n[boundary]\nx_lo = 'wall'\n"
     "x_hi = 'wall'",
     "\x00",
@@ -360,4 +469,4 @@ def test_scene_to_dict_derived():
     d = scene_to_dict(load_scene("fingers"), derived=True)
     assert d["derived"]["u0"] == pytest.approx(0.208, abs=1e-3)
     assert d["derived"]["fields"] == ["h", "u", "v", "phi"]
-    assert "u0" not in d["flow"]          # derived, so not written as an input
+    assert "u0" not in d["flow"]  # derived, so not written as an input

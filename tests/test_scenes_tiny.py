@@ -3,6 +3,7 @@
 against the theory that applies (u0 for an inflow onto an empty chute, Ritter's 2 sqrt(g h)
 for a dam break). Parametrised over the scene list: a new scene is tested from the day it
 ships."""
+
 from __future__ import annotations
 
 import math
@@ -14,7 +15,7 @@ from tiseg.scene import list_builtin_scenes, load_scene
 from tiseg.simulation import Simulation
 
 SCENES = list_builtin_scenes()
-T_INFLOW = 1.0          # [s] of an inflow scene: the front is well inside even a short chute
+T_INFLOW = 1.0  # [s] of an inflow scene: the front is well inside even a short chute
 
 
 def tiny(name: str):
@@ -22,7 +23,7 @@ def tiny(name: str):
     sc = load_scene(name)
     over = {}
     if sc.initial.kind == "channel":
-        over["domain.resolution"] = 250      # 4 x 20 cells: the chute is a few cm wide
+        over["domain.resolution"] = 250  # 4 x 20 cells: the chute is a few cm wide
         over["time.t_end"] = 0.5
     elif sc.domain.resolution is not None:
         over["domain.resolution"] = 40
@@ -75,7 +76,7 @@ def test_builtin_scene_runs_tiny(name, ti_cpu, tmp_path):
         tip = sc.initial.x0 + (2.0 * c - 3.0 * math.sqrt(g * h_min)) * sc.t_end
         assert tip - 4 * sc.dx < x_f <= sc.initial.x0 + 2.0 * c * sc.t_end + sc.dx, (x_f, tip)
     if sc.segregation and sc.flow.phi0 == 1.0 and sc.has_inflow:
-        wet = f["h"] >= h_min                          # monodisperse stays monodisperse
+        wet = f["h"] >= h_min  # monodisperse stays monodisperse
         np.testing.assert_allclose(f["phi"][wet], 1.0, atol=1e-12)
     if sc.initial.kind == "channel":
         # nothing varies downslope and nothing moves across: v stays exactly 0

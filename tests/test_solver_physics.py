@@ -1,6 +1,7 @@
 """The solver against independent truth: uniform flow preservation (T1), conservation,
 the Ritter dam break (T2), linear growth rates of section 5 (T7), second-order convergence on a
 smooth problem with an exact solution (T6b), and bounds on h and phi at dry fronts."""
+
 import math
 
 import numpy as np
@@ -13,8 +14,12 @@ from tiseg.simulation import Simulation
 from solver_helpers import PERIODIC
 
 # numerics.flux x numerics.phi_flux: every option must keep the properties tested here
-FLUX_OPTIONS = [("kt", "central"), ("kt", "upwind"), ("central-upwind", "central"),
-                ("central-upwind", "upwind")]
+FLUX_OPTIONS = [
+    ("kt", "central"),
+    ("kt", "upwind"),
+    ("central-upwind", "central"),
+    ("central-upwind", "upwind"),
+]
 FLUX_IDS = [f"{a}+{b}" for a, b in FLUX_OPTIONS]
 
 
@@ -22,14 +27,29 @@ def flux_overrides(opt) -> dict:
     return {"numerics.flux": opt[0], "numerics.phi_flux": opt[1]}
 
 
-def uniform_scene(nx=16, ny=8, nu=0.001, amplitude=0.0, mode="h", k=0.2399, stepper="rkc",
-                  rec="minmod", t_end=0.05, **extra):
+def uniform_scene(
+    nx=16,
+    ny=8,
+    nu=0.001,
+    amplitude=0.0,
+    mode="h",
+    k=0.2399,
+    stepper="rkc",
+    rec="minmod",
+    t_end=0.05,
+    **extra,
+):
     d = {
         "flow": {"h0": 0.002, "phi0": 0.8, "nu": nu},
         "domain": {"nx": nx, "ny": ny},
         "boundary": dict(PERIODIC),
-        "initial": {"kind": "uniform", "amplitude": amplitude, "k": k, "mode": mode,
-                    "wavelengths": 1},
+        "initial": {
+            "kind": "uniform",
+            "amplitude": amplitude,
+            "k": k,
+            "mode": mode,
+            "wavelengths": 1,
+        },
         "numerics": {"reconstruction": rec, "stepper": stepper},
         "time": {"t_end": t_end},
     }
@@ -45,8 +65,9 @@ def uniform_scene(nx=16, ny=8, nu=0.001, amplitude=0.0, mode="h", k=0.2399, step
 @pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
 @pytest.mark.parametrize("rec", ["minmod", "weno"])
 def test_uniform_flow_stays_uniform_to_round_off(ti_cpu, rec, opt):
-    sim = Simulation(uniform_scene(rec=rec, t_end=0.2, numerics__flux=opt[0],
-                                   numerics__phi_flux=opt[1]))
+    sim = Simulation(
+        uniform_scene(rec=rec, t_end=0.2, numerics__flux=opt[0], numerics__phi_flux=opt[1])
+    )
     q0 = sim.conserved().copy()
     sim.advance(0.2)
     assert sim.stats.steps > 50
@@ -59,8 +80,15 @@ def test_uniform_flow_stays_uniform_to_round_off(ti_cpu, rec, opt):
 
 @pytest.mark.parametrize("opt", FLUX_OPTIONS, ids=FLUX_IDS)
 def test_lake_at_rest_on_flat_bed(ti_cpu, opt):
-    scene = load_scene("dam-break", {"initial.h_right": 0.002, "time.t_end": 0.05,
-                                     "effects.segregation": True, **flux_overrides(opt)})
+    scene = load_scene(
+        "dam-break",
+        {
+            "initial.h_right": 0.002,
+            "time.t_end": 0.05,
+            "effects.segregation": True,
+            **flux_overrides(opt),
+        },
+    )
     sim = Simulation(scene)
     q0 = sim.conserved().copy()
     sim.advance(0.05)
@@ -72,9 +100,19 @@ def test_lake_at_rest_on_flat_bed(ti_cpu, opt):
 def test_mass_conserved_in_periodic_domain(ti_cpu, opt):
     """Noisy phi in a 2D periodic box: total mass and small-particle mass change only by
     round-off while the flow evolves."""
-    sim = Simulation(uniform_scene(nx=24, ny=12, nu=0.01, amplitude=0.3, mode="noise",
-                                   t_end=0.1, initial__seed=3, numerics__flux=opt[0],
-                                   numerics__phi_flux=opt[1]))
+    sim = Simulation(
+        uniform_scene(
+            nx=24,
+            ny=12,
+            nu=0.01,
+            amplitude=0.3,
+            mode="noise",
+            t_end=0.1,
+            initial__seed=3,
+            numerics__flux=opt[0],
+            numerics__phi_flux=opt[1],
+        )
+    )
     m0 = sim.totals()
     sim.advance(0.1)
     m1 = sim.totals()
@@ -87,22 +125,38 @@ def test_mass_conserved_in_periodic_domain(ti_cpu, opt):
 def test_inflow_and_outflow_exactly_accounted(ti_cpu, opt):
     """Fingers set-up (inflow at x = 0) and a dam break leaving through x = Lx: the change of
     mass equals the accumulated boundary fluxes of the scheme to round-off."""
-    sc = load_scene("fingers", {"domain.resolution": 60, "time.t_end": 0.6, "output.times": [],
-                                "output.interval": 0.3, **flux_overrides(opt)})
+    sc = load_scene(
+        "fingers",
+        {
+            "domain.resolution": 60,
+            "time.t_end": 0.6,
+            "output.times": [],
+            "output.interval": 0.3,
+            **flux_overrides(opt),
+        },
+    )
     sim = Simulation(sc)
     sim.advance(0.6)
     tot, bud = sim.totals(), sim.budget()
     assert bud["mass_in"] > 0
     assert abs(tot["mass"] - bud["mass_in"]) / tot["mass"] < 1e-12
     assert abs(tot["small_mass"] - bud["small_mass_in"]) / tot["small_mass"] < 1e-12
-    sc = load_scene("dam-break", {"initial.x0": 0.28, "domain.nx": 150, "time.t_end": 0.2,
-                                  "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9,
-                                  **flux_overrides(opt)})
+    sc = load_scene(
+        "dam-break",
+        {
+            "initial.x0": 0.28,
+            "domain.nx": 150,
+            "time.t_end": 0.2,
+            "numerics.h_min": 1e-7,
+            "numerics.h_eps": 1e-9,
+            **flux_overrides(opt),
+        },
+    )
     sim = Simulation(sc)
     m0 = sim.totals()["mass"]
     sim.advance(0.2)
     out = -sim.budget()["mass_in"]
-    assert out > 1e-3 * m0                       # material really left the domain
+    assert out > 1e-3 * m0  # material really left the domain
     assert abs(sim.totals()["mass"] - (m0 - out)) / m0 < 1e-12
 
 
@@ -117,8 +171,10 @@ def test_dam_break_converges_to_ritter(ti_cpu):
     t_end = 0.1
     errs, fronts = [], []
     for n in (100, 200, 400):
-        sc = load_scene("dam-break", {"domain.nx": n, "time.t_end": t_end,
-                                      "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9})
+        sc = load_scene(
+            "dam-break",
+            {"domain.nx": n, "time.t_end": t_end, "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9},
+        )
         sim = Simulation(sc)
         sim.advance(t_end)
         h = sim.fields()["h"][0]
@@ -131,7 +187,9 @@ def test_dam_break_converges_to_ritter(ti_cpu):
         # positions of the h = theta h_L contours, x0 + (2 c0 - sqrt(9 theta g h_L)) t
         pos = []
         for theta in (1e-1, 1e-2):
-            xs_exact = 0.1 + (2 * math.sqrt(9.81 * 0.002) - math.sqrt(9 * theta * 9.81 * 0.002)) * t_end
+            xs_exact = (
+                0.1 + (2 * math.sqrt(9.81 * 0.002) - math.sqrt(9 * theta * 9.81 * 0.002)) * t_end
+            )
             i = np.nonzero(h >= theta * 0.002)[0].max()
             pos.append((abs(x[i] - xs_exact), xs_exact - 0.1))
         fronts.append(pos)
@@ -146,17 +204,25 @@ def test_dam_break_converges_to_ritter(ti_cpu):
 
 
 # --------------------------------------------------------------------------------------- T7
-@pytest.mark.parametrize("h0,nu,k,nx", [(0.002, 0.01, 0.2399, 64),    # unstable, growing
-                                        (0.003, 0.001, 3.0, 64)])     # beyond cutoff, decaying
+@pytest.mark.parametrize(
+    "h0,nu,k,nx",
+    [
+        (0.002, 0.01, 0.2399, 64),  # unstable, growing
+        (0.003, 0.001, 3.0, 64),
+    ],
+)  # beyond cutoff, decaying
 def test_linear_growth_rate_matches_theory(ti_cpu, h0, nu, k, nx):
     from tiseg.initial import eigenmode
-    sc = load_scene("uniform-flow", {"flow.h0": h0, "flow.nu": nu, "initial.k": k,
-                                     "domain.nx": nx, "domain.Lx": None})
+
+    sc = load_scene(
+        "uniform-flow",
+        {"flow.h0": h0, "flow.nu": nu, "initial.k": k, "domain.nx": nx, "domain.Lx": None},
+    )
     lam, _ = eigenmode(sc)
     scale = sc.flow.u0 / sc.flow.h0
     sigma = lam.real * scale
     t_end = 12 * sc.flow.h0 / sc.flow.u0
-    n_samples = 49           # dense enough that the phase moves < pi between samples
+    n_samples = 49  # dense enough that the phase moves < pi between samples
     sim = Simulation(sc)
     ts, amp, ph = [], [], []
     for j in range(n_samples):
@@ -164,7 +230,7 @@ def test_linear_growth_rate_matches_theory(ti_cpu, h0, nu, k, nx):
         c = np.fft.rfft(sim.conserved()[0, :, 0])[1]
         ts.append(sim.t), amp.append(abs(c)), ph.append(np.angle(c))
     ts = np.array(ts)
-    late = slice(n_samples // 4, None)     # let the other (damped) modes die out first
+    late = slice(n_samples // 4, None)  # let the other (damped) modes die out first
     rate = np.polyfit(ts[late], np.log(amp[late]), 1)[0]
     omega = np.polyfit(ts[late], np.unwrap(ph[late]), 1)[0]
     assert abs(rate - sigma) < 0.02 * abs(sigma), (rate, sigma)
@@ -179,16 +245,22 @@ def _transport_exact(x, t, L, u0, phi_mean=0.5, amp=0.25):
     init = lambda s: phi_mean + amp * np.cos(2 * np.pi * s / L)
     out = np.empty_like(x)
     for i, xi in enumerate(x.ravel()):
-        out.ravel()[i] = brentq(lambda p: p - init(xi - speed(p) * t),  # noqa: B023 (called here)
-                                phi_mean - amp - 1e-9, phi_mean + amp + 1e-9, xtol=1e-15)
+        out.ravel()[i] = brentq(
+            lambda p: p - init(xi - speed(p) * t),  # noqa: B023 (called here)
+            phi_mean - amp - 1e-9,
+            phi_mean + amp + 1e-9,
+            xtol=1e-15,
+        )
     return out
 
 
-@pytest.mark.parametrize("rec,opt", [("minmod", FLUX_OPTIONS[0]), ("weno", FLUX_OPTIONS[0])]
-                         + [("weno", o) for o in FLUX_OPTIONS[1:]]
-                         + [("minmod", FLUX_OPTIONS[3])],
-                         ids=["minmod", "weno"] + [f"weno-{i}" for i in FLUX_IDS[1:]]
-                         + [f"minmod-{FLUX_IDS[3]}"])
+@pytest.mark.parametrize(
+    "rec,opt",
+    [("minmod", FLUX_OPTIONS[0]), ("weno", FLUX_OPTIONS[0])]
+    + [("weno", o) for o in FLUX_OPTIONS[1:]]
+    + [("minmod", FLUX_OPTIONS[3])],
+    ids=["minmod", "weno"] + [f"weno-{i}" for i in FLUX_IDS[1:]] + [f"minmod-{FLUX_IDS[3]}"],
+)
 def test_second_order_convergence_on_smooth_transport(ti_cpu, rec, opt):
     """T6b: with a friction that exactly balances gravity (mu = tan zeta) h and u stay uniform
     and phi solves the large-particle transport equation (6.3); smooth data, t = t_break / 2."""
@@ -197,16 +269,31 @@ def test_second_order_convergence_on_smooth_transport(ti_cpu, rec, opt):
     t_end = 0.5 * t_b
     errs = []
     for n in (50, 100, 200):
-        d = {"flow": {"h0": h0, "phi0": 0.5, "nu": 0.0, "u0": u0},
-             "effects": {"friction": "coulomb", "coulomb_mu": math.tan(math.radians(27.0)),
-                         "viscosity": False, "mobility_feedback": False},
-             "domain": {"nx": n, "ny": 1},
-             "boundary": dict(PERIODIC),
-             "initial": {"kind": "uniform", "amplitude": 0.25, "mode": "phi",
-                         "k": 2 * math.pi * h0 / L, "wavelengths": 1},
-             "numerics": {"reconstruction": rec, "stepper": "rkc", "flux": opt[0],
-                          "phi_flux": opt[1]},
-             "time": {"t_end": t_end}}
+        d = {
+            "flow": {"h0": h0, "phi0": 0.5, "nu": 0.0, "u0": u0},
+            "effects": {
+                "friction": "coulomb",
+                "coulomb_mu": math.tan(math.radians(27.0)),
+                "viscosity": False,
+                "mobility_feedback": False,
+            },
+            "domain": {"nx": n, "ny": 1},
+            "boundary": dict(PERIODIC),
+            "initial": {
+                "kind": "uniform",
+                "amplitude": 0.25,
+                "mode": "phi",
+                "k": 2 * math.pi * h0 / L,
+                "wavelengths": 1,
+            },
+            "numerics": {
+                "reconstruction": rec,
+                "stepper": "rkc",
+                "flux": opt[0],
+                "phi_flux": opt[1],
+            },
+            "time": {"t_end": t_end},
+        }
         sc = scene_from_dict(d, name="t6b")
         sim = Simulation(sc)
         sim.advance(t_end)
@@ -225,9 +312,16 @@ def test_second_order_convergence_on_smooth_transport(ti_cpu, rec, opt):
 def test_small_fingers_run_forms_coarse_rich_front(ti_cpu, tmp_path, opt):
     """The paper's set-up at 100 cells per metre for 2 s: finite, conserving, h >= 0,
     0 <= phi <= 1, and a coarse-rich front (phi at the front well below phi0)."""
-    sc = load_scene("fingers", {"domain.resolution": 100, "time.t_end": 2.0,
-                                "output.times": [1.0], "output.interval": 0.5,
-                                **flux_overrides(opt)})
+    sc = load_scene(
+        "fingers",
+        {
+            "domain.resolution": 100,
+            "time.t_end": 2.0,
+            "output.times": [1.0],
+            "output.interval": 0.5,
+            **flux_overrides(opt),
+        },
+    )
     sim = Simulation(sc)
     sim.run(out_dir=tmp_path, progress=False)
     q = sim.conserved()
@@ -248,15 +342,17 @@ def test_small_fingers_run_forms_coarse_rich_front(ti_cpu, tmp_path, opt):
 def test_active_region_is_exact(ti_cpu):
     """Skipping the dry chute ahead of the front changes nothing: the same fingers run with and
     without the active x range gives the same state to round-off."""
-    sc = load_scene("fingers", {"domain.resolution": 60, "time.t_end": 1.0, "output.times": [],
-                                "output.interval": 0.5})
+    sc = load_scene(
+        "fingers",
+        {"domain.resolution": 60, "time.t_end": 1.0, "output.times": [], "output.interval": 0.5},
+    )
     runs = []
     for active in (True, False):
         sim = Simulation(sc, active_region=active)
         sim.advance(1.0)
         runs.append((sim.conserved(), sim.stats.steps, sim.op.active))
     (qa, na, act), (qf, nf, full) = runs
-    assert act[1] - act[0] < full[1] - full[0]          # the range really was restricted
+    assert act[1] - act[0] < full[1] - full[0]  # the range really was restricted
     assert na == nf
     assert np.abs(qa - qf).max() <= 1e-15 * np.abs(qf).max()
 
@@ -264,8 +360,10 @@ def test_active_region_is_exact(ti_cpu):
 def test_filling_an_empty_chute_takes_cfl_steps(ti_cpu):
     """At t = 0 the chute is empty and the ramped inflow has h = 0: the step must still obey
     the CFL limit of the inflow state, not jump to the end time."""
-    sc = load_scene("fingers", {"domain.resolution": 40, "time.t_end": 1.0, "output.times": [],
-                                "output.interval": 0.5})
+    sc = load_scene(
+        "fingers",
+        {"domain.resolution": 40, "time.t_end": 1.0, "output.times": [], "output.interval": 0.5},
+    )
     sim = Simulation(sc)
     info = sim.step(1.0)
     u0 = sc.flow.u0

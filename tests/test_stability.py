@@ -4,6 +4,7 @@ References are the paper's numbers, its analytic formulas (re-typed here from th
 from the library) and the independent prototype values of NUMERICS.md section 1. Large-k tails use
 extended precision (NUMERICS finding 2).
 """
+
 import math
 
 import numpy as np
@@ -17,13 +18,13 @@ from tiseg.stability import dispersion2d as d2
 from tiseg.stability.base import base_state, base_state_from_froude
 
 PHI0 = 0.8
-FC = 7.0 / (6.0 * 0.6)          # 1/|G'(0.8)| with G = (6/7) phi (1 - phi), (5.27)
+FC = 7.0 / (6.0 * 0.6)  # 1/|G'(0.8)| with G = (6/7) phi (1 - phi), (5.27)
 
 
 def rounds_to(value, printed: str, units: float = 0.5) -> bool:
     """|value - printed| <= `units` of the last printed digit (0.5: value rounds to printed)."""
     decimals = len(printed.split(".")[1]) if "." in printed else 0
-    return abs(value - float(printed)) <= units * 10 ** -decimals + 1e-12
+    return abs(value - float(printed)) <= units * 10**-decimals + 1e-12
 
 
 @pytest.fixture(scope="module")
@@ -44,15 +45,23 @@ def bc():
 # ---- base state --------------------------------------------------------------------------------
 def test_base_state_numbers(b2):
     # NUMERICS section 1 (independent prototype), all h0-independent at phi0 = 0.8
-    expect = {"gamma_S": "0.9538", "gamma_L": "1.8313", "mub_S": "0.47318", "mub_L": "0.65490",
-              "mu_h": "-0.08350", "mu_u": "0.05566", "mu_phi": "-0.18171", "G0": "0.13714",
-              "dG0": "-0.51429"}
+    expect = {
+        "gamma_S": "0.9538",
+        "gamma_L": "1.8313",
+        "mub_S": "0.47318",
+        "mub_L": "0.65490",
+        "mu_h": "-0.08350",
+        "mu_u": "0.05566",
+        "mu_phi": "-0.18171",
+        "G0": "0.13714",
+        "dG0": "-0.51429",
+    }
     for h0 in (0.001, 0.002, 0.003):
         bs = base_state(h0, PHI0, 1e-3)
         for name, printed in expect.items():
             assert rounds_to(getattr(bs, name), printed), (h0, name, getattr(bs, name))
     assert rounds_to(b2.R, "9.299")
-    assert b2.R == pytest.approx(b2.u0 * math.sqrt(0.002) / 1e-3, rel=1e-14)    # (5.7)
+    assert b2.R == pytest.approx(b2.u0 * math.sqrt(0.002) / 1e-3, rel=1e-14)  # (5.7)
     assert rounds_to(b2.F, "1.57") and rounds_to(b2.Fc, "1.94")
 
 
@@ -66,9 +75,11 @@ def test_friction_derivatives_by_finite_differences(b2):
     e = 1e-6
     assert (mub(1 + e, 1, PHI0) - mub(1 - e, 1, PHI0)) / (2 * e) == pytest.approx(b2.mu_h, rel=1e-7)
     assert (mub(1, 1 + e, PHI0) - mub(1, 1 - e, PHI0)) / (2 * e) == pytest.approx(b2.mu_u, rel=1e-7)
-    assert (mub(1, 1, PHI0 + e) - mub(1, 1, PHI0 - e)) / (2 * e) == pytest.approx(b2.mu_phi, rel=1e-7)
+    assert (mub(1, 1, PHI0 + e) - mub(1, 1, PHI0 - e)) / (2 * e) == pytest.approx(
+        b2.mu_phi, rel=1e-7
+    )
     assert mub(1, 1, PHI0) == pytest.approx(m.tan_zeta, abs=1e-14)
-    assert b2.mu_h < 0 < b2.mu_u and b2.mu_phi < 0          # the signs stated in (5.15)-(5.17)
+    assert b2.mu_h < 0 < b2.mu_u and b2.mu_phi < 0  # the signs stated in (5.15)-(5.17)
 
 
 def test_from_froude_and_inviscid():
@@ -77,10 +88,20 @@ def test_from_froude_and_inviscid():
     assert bs.R == math.inf and bs.inv_R == 0.0 and bs.inviscid
 
 
-@pytest.mark.parametrize("kw", [dict(h0=-0.002), dict(h0=0.0), dict(phi0=1.2), dict(phi0=-0.1),
-                                dict(nu=-1e-3), dict(nu=float("inf")), dict(phi0=0.2),
-                                dict(material=Material(zeta_deg=35.0)),
-                                dict(material=Material(zeta_deg=19.0))])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(h0=-0.002),
+        dict(h0=0.0),
+        dict(phi0=1.2),
+        dict(phi0=-0.1),
+        dict(nu=-1e-3),
+        dict(nu=float("inf")),
+        dict(phi0=0.2),
+        dict(material=Material(zeta_deg=35.0)),
+        dict(material=Material(zeta_deg=19.0)),
+    ],
+)
 def test_base_state_rejects_bad_input(kw):
     args = dict(h0=0.002, phi0=PHI0, nu=1e-3)
     args.update(kw)
@@ -97,11 +118,10 @@ def _rhs_1d(bs, h, u, phi, k, n):
     def dx(f):
         return np.real(np.fft.ifft(1j * kk * np.fft.fft(f)))
 
-    F2 = bs.F ** 2
+    F2 = bs.F**2
     mub = m.mu_mixture(bs.h0 * h, bs.F * u / np.sqrt(h), phi)
     ht = -dx(h * u)
-    ut = (-u * dx(u) - dx(h) / F2 + (bs.tan_zeta - mub) / F2
-          + bs.inv_R * dx(h ** 1.5 * dx(u)) / h)
+    ut = -u * dx(u) - dx(h) / F2 + (bs.tan_zeta - mub) / F2 + bs.inv_R * dx(h**1.5 * dx(u)) / h
     G = m.G(phi)
     pt = -u * dx(phi) + dx(h * u * G) / h
     return ht, ut, pt
@@ -109,9 +129,11 @@ def _rhs_1d(bs, h, u, phi, k, n):
 
 @pytest.mark.parametrize("k", [0.3, 1.7])
 @pytest.mark.parametrize("nu", [0.0, 1e-3, 1e-2])
-@pytest.mark.parametrize("material", [TABLE1, Material(transport="bagnold"),
-                                      Material(alpha=0.3, zeta_deg=26.0)],
-                         ids=["table1", "bagnold", "alpha0.3"])
+@pytest.mark.parametrize(
+    "material",
+    [TABLE1, Material(transport="bagnold"), Material(alpha=0.3, zeta_deg=26.0)],
+    ids=["table1", "bagnold", "alpha0.3"],
+)
 def test_matrix_linearises_the_pde(k, nu, material):
     bs = base_state(0.002, PHI0, nu, material)
     n, eps = 16, 1e-7
@@ -136,8 +158,9 @@ def test_cubic_coefficients_equal_matrix(nu):
     f0, f1, f2 = d1.char_poly_coefficients(bs, k)
     # det(sigma I - A) = sigma^3 - tr(A) sigma^2 + (sum of principal 2x2 minors) sigma - det(A)
     tr = np.trace(A, axis1=-2, axis2=-1)
-    minors = sum(A[:, i, i] * A[:, j, j] - A[:, i, j] * A[:, j, i]
-                 for i, j in ((0, 1), (0, 2), (1, 2)))
+    minors = sum(
+        A[:, i, i] * A[:, j, j] - A[:, i, j] * A[:, j, i] for i, j in ((0, 1), (0, 2), (1, 2))
+    )
     scale = 1 + np.abs(k) ** 4
     np.testing.assert_allclose(f2, -tr, atol=1e-14 * 1e4)
     np.testing.assert_allclose(f1 / scale, minors / scale, atol=1e-13)
@@ -146,8 +169,9 @@ def test_cubic_coefficients_equal_matrix(nu):
 
 def test_extended_equals_double_at_moderate_k(b3):
     k = np.array([0.1, 1.0, 2.0, 10.0])
-    np.testing.assert_allclose(d1.roots(b3, k, extended=True), d1.roots(b3, k), rtol=1e-11,
-                               atol=1e-13)
+    np.testing.assert_allclose(
+        d1.roots(b3, k, extended=True), d1.roots(b3, k), rtol=1e-11, atol=1e-13
+    )
 
 
 def test_growth_rate_is_max_real_part(b2):
@@ -159,14 +183,16 @@ def test_growth_rate_is_max_real_part(b2):
 # ---- inviscid asymptotics (5.28)-(5.31) -------------------------------------------------------
 def _inviscid_limits_from_paper(bs):
     F, g, dg, mh, mu, mp = bs.F, bs.G0, bs.dG0, bs.mu_h, bs.mu_u, bs.mu_phi
-    s1 = ((F * dg - 1) * (F * mh - mu) + F * g * (1 - F) * mp) / (2 * F ** 2 * (F * dg - 1))
-    s2 = (-(F * dg + 1) * (F * mh + mu) + F * g * (1 + F) * mp) / (2 * F ** 2 * (F * dg + 1))
-    s3 = g * (1 - dg) * mp / (F ** 2 * dg ** 2 - 1)
+    s1 = ((F * dg - 1) * (F * mh - mu) + F * g * (1 - F) * mp) / (2 * F**2 * (F * dg - 1))
+    s2 = (-(F * dg + 1) * (F * mh + mu) + F * g * (1 + F) * mp) / (2 * F**2 * (F * dg + 1))
+    s3 = g * (1 - dg) * mp / (F**2 * dg**2 - 1)
     return s1, s2, s3
 
 
-@pytest.mark.parametrize("h0,printed", [(0.002, ("-0.04031", "-0.09131", "0.10911")),
-                                        (0.003, ("-0.02594", "0.09592", "-0.07998"))])
+@pytest.mark.parametrize(
+    "h0,printed",
+    [(0.002, ("-0.04031", "-0.09131", "0.10911")), (0.003, ("-0.02594", "0.09592", "-0.07998"))],
+)
 def test_inviscid_roots_tend_to_constants(h0, printed):
     bs = base_state(h0, PHI0, 0.0)
     lim = _inviscid_limits_from_paper(bs)
@@ -183,7 +209,7 @@ def test_inviscid_roots_tend_to_constants(h0, printed):
 
 def test_inviscid_sqrt_growth_at_critical():
     bs = base_state_from_froude(FC, PHI0, 0.0)
-    c = 0.5 * math.sqrt(abs(bs.G0 * bs.dG0 * (1 - bs.dG0) * bs.mu_phi))      # (5.31)
+    c = 0.5 * math.sqrt(abs(bs.G0 * bs.dG0 * (1 - bs.dG0) * bs.mu_phi))  # (5.31)
     assert rounds_to(c, "0.06966")
     assert asy.critical_sqrt_coefficient(bs) == pytest.approx(c, rel=1e-14)
     k = np.logspace(6, 8, 5)
@@ -207,7 +233,7 @@ def test_inviscid_sup_diverges_at_critical():
 # ---- viscous asymptotics (5.32)-(5.35) --------------------------------------------------------
 def _c2_from_paper(bs):
     F, R, g, dg, mp = bs.F, bs.R, bs.G0, bs.dG0, bs.mu_phi
-    return R ** 2 * g * (1 - dg) * (F ** 2 * dg ** 2 - 1) * mp / (F ** 4 * dg ** 2)       # (5.34)
+    return R**2 * g * (1 - dg) * (F**2 * dg**2 - 1) * mp / (F**4 * dg**2)  # (5.34)
 
 
 @pytest.mark.parametrize("which,printed", [("b2", "0.697581"), ("b3", "-0.951667")])
@@ -230,7 +256,7 @@ def test_viscous_k2_tail(which, printed, request):
 
 
 def test_viscous_k4_tail_at_critical(bc):
-    c4 = 2 * bc.R ** 3 * bc.G0 ** 2 * bc.dG0 ** 2 * (1 - bc.dG0) ** 2 * bc.mu_phi ** 2   # (5.35)
+    c4 = 2 * bc.R**3 * bc.G0**2 * bc.dG0**2 * (1 - bc.dG0) ** 2 * bc.mu_phi**2  # (5.35)
     assert rounds_to(c4, "2.16402")
     assert asy.viscous_k4_coefficient(bc) == pytest.approx(c4, rel=1e-13)
     k = np.logspace(3, 4, 5)
@@ -247,10 +273,10 @@ def test_other_viscous_roots(b2, b3, bc):
         # (5.32): the most damped root ~ -k^2/R
         assert r[1, -1] / (-1e8 / bs.R) == pytest.approx(1.0, rel=1e-3)
         # (5.33): one root tends to -R/F^2 (-3.75986 at h0 = 2 mm)
-        mid = r[1, np.argmin(np.abs(r[1] + bs.R / bs.F ** 2))]
-        assert mid == pytest.approx(-bs.R / bs.F ** 2, rel=1e-4)
-        assert asy.viscous_root2_limit(bs) == pytest.approx(-bs.R / bs.F ** 2)
-    assert rounds_to(-b2.R / b2.F ** 2, "-3.75986")
+        mid = r[1, np.argmin(np.abs(r[1] + bs.R / bs.F**2))]
+        assert mid == pytest.approx(-bs.R / bs.F**2, rel=1e-4)
+        assert asy.viscous_root2_limit(bs) == pytest.approx(-bs.R / bs.F**2)
+    assert rounds_to(-b2.R / b2.F**2, "-3.75986")
 
 
 def test_double_precision_is_not_enough_at_large_k(bc):
@@ -261,9 +287,14 @@ def test_double_precision_is_not_enough_at_large_k(bc):
 
 
 # ---- most unstable mode, sigma_Max ---------------------------------------------------------------
-@pytest.mark.parametrize("which,R,sMax,kM", [("b2", "9.299", "0.06378", 1.0965),
-                                             ("bc", "14.216", "0.06321", 1.0715),
-                                             ("b3", "20.923", "0.04979", 0.767)])
+@pytest.mark.parametrize(
+    "which,R,sMax,kM",
+    [
+        ("b2", "9.299", "0.06378", 1.0965),
+        ("bc", "14.216", "0.06321", 1.0715),
+        ("b3", "20.923", "0.04979", 0.767),
+    ],
+)
 def test_sigma_max_and_k_max(which, R, sMax, kM, request):
     bs = request.getfixturevalue(which)
     assert rounds_to(bs.R, R)
@@ -302,8 +333,12 @@ FIG11 = {  # NUMERICS section 1, figure 11 table (sigma_Max at phi0 = 0.8)
     0.0: ["0.0610", "0.1084", "0.2638", None, "0.668", "0.0957", "0.0414"],
 }
 FIG11_F = [1.2, 1.57, 1.8, 1.94, 2.0, 2.36, 3.0]
-FIG11_KC = {5e-4: ["6.34", "2.83", "2.37"], 1e-3: ["4.48", "2.00", "1.67"],
-            2e-3: ["3.17", "1.42", "1.18"], 1e-2: ["1.42", "0.63", "0.53"]}
+FIG11_KC = {
+    5e-4: ["6.34", "2.83", "2.37"],
+    1e-3: ["4.48", "2.00", "1.67"],
+    2e-3: ["3.17", "1.42", "1.18"],
+    1e-2: ["1.42", "0.63", "0.53"],
+}
 
 
 @pytest.mark.parametrize("nu", sorted(FIG11))
@@ -329,16 +364,18 @@ def test_figure11_inviscid_near_critical():
 
 def test_sigma_max_falls_with_viscosity():
     for F in (1.2, 1.94, 2.36):
-        s = [d1.most_unstable(base_state_from_froude(F, PHI0, nu))[1]
-             for nu in (5e-4, 1e-3, 2e-3, 1e-2)]
+        s = [
+            d1.most_unstable(base_state_from_froude(F, PHI0, nu))[1]
+            for nu in (5e-4, 1e-3, 2e-3, 1e-2)
+        ]
         assert np.all(np.diff(s) < 0)
 
 
 # ---- cutoff (A.3) -------------------------------------------------------------------------------
 def _kc_paper(bs):
     F, R, g, dg, mh, mu, mp = bs.F, bs.R, bs.G0, bs.dG0, bs.mu_h, bs.mu_u, bs.mu_phi
-    a2 = R * ((F * dg - 1) * (F * mh - mu) + F * g * (1 - F) * mp) / (F * dg - 1)      # (A41)
-    a3 = R * (-(F * dg + 1) * (F * mh + mu) + F * g * (1 + F) * mp) / (F * dg + 1)     # (A42)
+    a2 = R * ((F * dg - 1) * (F * mh - mu) + F * g * (1 - F) * mp) / (F * dg - 1)  # (A41)
+    a3 = R * (-(F * dg + 1) * (F * mh + mu) + F * g * (1 + F) * mp) / (F * dg + 1)  # (A42)
     return (math.sqrt(a2) / F if a2 > 0 else None), (math.sqrt(a3) / F if a3 > 0 else None)
 
 
@@ -350,12 +387,12 @@ def test_cutoff_3mm(b3):
     assert kc == pytest.approx(a42, rel=1e-9)
     assert d1.sigma_M(b3, kc * (1 - 1e-3)) > 0 > d1.sigma_M(b3, kc * (1 + 1e-3))
     k = np.logspace(math.log10(kc) + 1e-3, 4, 60)
-    assert np.all(d1.sigma_M(b3, k, extended="auto") < 0)     # stable for every k > k_c
+    assert np.all(d1.sigma_M(b3, k, extended="auto") < 0)  # stable for every k > k_c
     # at k_c a root is purely imaginary, sigma = i C k_c with C from (A37)
     r = d1.roots(b3, kc)
     assert np.abs(r.real).min() < 1e-10
     C = r[np.argmin(np.abs(r.real))].imag / kc
-    assert C == pytest.approx(-1 / b3.F - 1, rel=1e-8)          # C_2 of (A37b) goes with (A42)
+    assert C == pytest.approx(-1 / b3.F - 1, rel=1e-8)  # C_2 of (A37b) goes with (A42)
 
 
 @pytest.mark.parametrize("which", ["b2", "bc"])
@@ -366,7 +403,7 @@ def test_no_cutoff_for_F_up_to_Fc(which, request):
     # (A41)/(A42) are imaginary below Fc; at Fc (to round-off) they diverge, k_c -> inf
     assert all(c is None or c > 1e6 for c in _kc_paper(bs))
     k = np.logspace(-3, 4, 120)
-    assert np.all(d1.sigma_M(bs, k, extended="auto") > 0)      # unstable for all k, figures 9a, 10
+    assert np.all(d1.sigma_M(bs, k, extended="auto") > 0)  # unstable for all k, figures 9a, 10
 
 
 def test_no_cutoff_inviscid():
@@ -415,7 +452,7 @@ def test_printed_b5_typos_do_not_match(b2):
     """The three coefficients of (B5) as printed disagree with the determinant (NUMERICS finding 3)."""
     kx, ky = 1.3, 0.9
     want = _charpoly(d2.matrix(b2, kx, ky))
-    F2, g, dg = b2.F ** 2, b2.G0, b2.dG0
+    F2, g, dg = b2.F**2, b2.G0, b2.dG0
     mh, mu, mp, t = b2.mu_h, b2.mu_u, b2.mu_phi, b2.tan_zeta
     R = b2.R
     printed = {
@@ -447,21 +484,35 @@ def test_2d_matrix_linearises_the_pde():
 
     W = np.array([0.3 + 0.1j, -0.2 + 0.5j, 0.1 - 0.4j, 0.4 - 0.3j])
     e = np.exp(1j * (kx * X + ky * Y))
-    h, u, v, p = (1 + eps * np.real(W[0] * e), 1 + eps * np.real(W[1] * e),
-                  eps * np.real(W[2] * e), PHI0 + eps * np.real(W[3] * e))
-    F2, r = bs.F ** 2, bs.inv_R
-    speed = np.sqrt(u ** 2 + v ** 2)
-    mub = TABLE1.mu_mixture(bs.h0 * h, bs.F * speed / np.sqrt(h), p)       # (6.4), (6.5)
-    K = h ** 1.5
-    Dxx, Dyy, Dxy = dx(u), dy(v), 0.5 * (dy(u) + dx(v))                     # (6.6)
+    h, u, v, p = (
+        1 + eps * np.real(W[0] * e),
+        1 + eps * np.real(W[1] * e),
+        eps * np.real(W[2] * e),
+        PHI0 + eps * np.real(W[3] * e),
+    )
+    F2, r = bs.F**2, bs.inv_R
+    speed = np.sqrt(u**2 + v**2)
+    mub = TABLE1.mu_mixture(bs.h0 * h, bs.F * speed / np.sqrt(h), p)  # (6.4), (6.5)
+    K = h**1.5
+    Dxx, Dyy, Dxy = dx(u), dy(v), 0.5 * (dy(u) + dx(v))  # (6.6)
     ht = -dx(h * u) - dy(h * v)
-    ut = (-u * dx(u) - v * dy(u) - dx(h) / F2 + (bs.tan_zeta - mub * u / speed) / F2
-          + r * (dx(K * Dxx) + dy(K * Dxy)) / h)
-    vt = (-u * dx(v) - v * dy(v) - dy(h) / F2 - mub * v / speed / F2
-          + r * (dx(K * Dxy) + dy(K * Dyy)) / h)
+    ut = (
+        -u * dx(u)
+        - v * dy(u)
+        - dx(h) / F2
+        + (bs.tan_zeta - mub * u / speed) / F2
+        + r * (dx(K * Dxx) + dy(K * Dxy)) / h
+    )
+    vt = (
+        -u * dx(v)
+        - v * dy(v)
+        - dy(h) / F2
+        - mub * v / speed / F2
+        + r * (dx(K * Dxy) + dy(K * Dyy)) / h
+    )
     G = TABLE1.G(p)
     pt = -u * dx(p) - v * dy(p) + (dx(h * u * G) + dy(h * v * G)) / h
-    got = np.array([2 * np.fft.fft2(q)[1, 1] / n ** 2 / eps for q in (ht, ut, vt, pt)])
+    got = np.array([2 * np.fft.fft2(q)[1, 1] / n**2 / eps for q in (ht, ut, vt, pt)])
     want = d2.matrix(bs, kx, ky) @ W
     np.testing.assert_allclose(got, want, atol=2e-6)
 
@@ -469,32 +520,37 @@ def test_2d_matrix_linearises_the_pde():
 def test_2d_reduces_to_1d_plus_v_mode(b2):
     for k in (0.3, 1.0, 5.0):
         r2 = d2.roots(b2, k, 0.0)
-        v_mode = -b2.tan_zeta / b2.F ** 2 - 1j * k - k ** 2 / (2 * b2.R)
+        v_mode = -b2.tan_zeta / b2.F**2 - 1j * k - k**2 / (2 * b2.R)
         r1 = np.append(d1.roots(b2, k), v_mode)
-        key = lambda z: (round(z.real, 9), round(z.imag, 9))   # noqa: E731
+        key = lambda z: (round(z.real, 9), round(z.imag, 9))  # noqa: E731
         np.testing.assert_allclose(sorted(r2, key=key), sorted(r1, key=key), atol=1e-12)
 
 
 @pytest.mark.parametrize("nu", [0.0, 1e-3, 1e-2])
 def test_cross_slope_modes_b9(nu):
     bs = base_state(0.002, PHI0, nu)
-    F2, t = bs.F ** 2, bs.tan_zeta
+    F2, t = bs.F**2, bs.tan_zeta
     for ky in (0.5, 1.3, 10.0):
         if nu > 0:
             R = bs.R
-            b = F2 * ky ** 2 + R * t
-            d = np.sqrt(complex(b ** 2 - 4 * F2 * R ** 2 * ky ** 2))
-            want = [0, -(bs.mu_u / F2 + ky ** 2 / (2 * R)), (-b + d) / (2 * F2 * R),
-                    (-b - d) / (2 * F2 * R)]                                              # (B9)
+            b = F2 * ky**2 + R * t
+            d = np.sqrt(complex(b**2 - 4 * F2 * R**2 * ky**2))
+            want = [
+                0,
+                -(bs.mu_u / F2 + ky**2 / (2 * R)),
+                (-b + d) / (2 * F2 * R),
+                (-b - d) / (2 * F2 * R),
+            ]  # (B9)
         else:
-            d = np.sqrt(complex(t ** 2 - 4 * F2 * ky ** 2))
+            d = np.sqrt(complex(t**2 - 4 * F2 * ky**2))
             want = [0, -bs.mu_u / F2, (-t + d) / (2 * F2), (-t - d) / (2 * F2)]
         got = d2.roots(bs, 0.0, ky)
-        key = lambda z: (round(z.real, 9), round(z.imag, 9))   # noqa: E731
+        key = lambda z: (round(z.real, 9), round(z.imag, 9))  # noqa: E731
         np.testing.assert_allclose(sorted(got, key=key), sorted(want, key=key), atol=1e-12)
-        np.testing.assert_allclose(sorted(d2.cross_slope_roots(bs, ky), key=key),
-                                   sorted(want, key=key), atol=1e-13)
-        assert abs(d2.sigma_M(bs, 0.0, ky)) < 1e-12        # neutral: sigma_M = 0 for k_x = 0
+        np.testing.assert_allclose(
+            sorted(d2.cross_slope_roots(bs, ky), key=key), sorted(want, key=key), atol=1e-13
+        )
+        assert abs(d2.sigma_M(bs, 0.0, ky)) < 1e-12  # neutral: sigma_M = 0 for k_x = 0
 
 
 def test_2d_oblique_example():
@@ -513,7 +569,7 @@ def test_2d_maximum_is_downslope(nu):
     KX, KY = np.meshgrid(np.linspace(0.02, 4 * k_M, 60), np.linspace(0.0, 3 * k_M, 41))
     s = d2.sigma_M(bs, KX, KY)
     assert s.max() <= s_M + 1e-12
-    assert np.all(s[1:].max(axis=1) < s[0].max())           # every ky > 0 row is below ky = 0
+    assert np.all(s[1:].max(axis=1) < s[0].max())  # every ky > 0 row is below ky = 0
 
 
 @pytest.mark.parametrize("which", ["b2", "b3", "bc"])
@@ -535,10 +591,10 @@ def test_2d_downslope_asymptotics_b7(b2):
     kx = 1e4
     for ky in (0.0, 0.7, 3.0):
         r = d2.roots(b2, kx, ky, extended=True).real
-        assert r[0] * kx ** 2 == pytest.approx(_c2_from_paper(b2), rel=1e-4)       # (B7) root 4
-        assert r[1] == pytest.approx(-b2.R / b2.F ** 2, rel=1e-4)                 # (B7) root 3
-        assert r[2] / kx ** 2 == pytest.approx(-1 / (2 * b2.R), rel=1e-4)         # (B7) root 2
-        assert r[3] / kx ** 2 == pytest.approx(-1 / b2.R, rel=1e-4)               # (B7) root 1
+        assert r[0] * kx**2 == pytest.approx(_c2_from_paper(b2), rel=1e-4)  # (B7) root 4
+        assert r[1] == pytest.approx(-b2.R / b2.F**2, rel=1e-4)  # (B7) root 3
+        assert r[2] / kx**2 == pytest.approx(-1 / (2 * b2.R), rel=1e-4)  # (B7) root 2
+        assert r[3] / kx**2 == pytest.approx(-1 / b2.R, rel=1e-4)  # (B7) root 1
     a = asy.downslope_2d(b2)
     assert a["a4"] == pytest.approx(_c2_from_paper(b2)) and a["a2"] == pytest.approx(-0.5 / b2.R)
 
@@ -547,10 +603,12 @@ def test_2d_critical_b8(bc):
     kx = 1e4
     for ky in (0.0, 0.7, 2.0):
         R, g, dg, mp = bc.R, bc.G0, bc.dG0, bc.mu_phi
-        c = 2 * R ** 3 * g ** 2 * dg ** 2 * (1 - dg) ** 2 * mp ** 2 \
-            - R ** 2 * g * dg ** 2 * (1 - dg) * mp * ky ** 2                                # (B8)
+        c = (
+            2 * R**3 * g**2 * dg**2 * (1 - dg) ** 2 * mp**2
+            - R**2 * g * dg**2 * (1 - dg) * mp * ky**2
+        )  # (B8)
         s = d2.sigma_M(bc, kx, ky, extended=True)
-        assert s * kx ** 4 == pytest.approx(c, rel=1e-5)
+        assert s * kx**4 == pytest.approx(c, rel=1e-5)
         assert asy.critical_2d_coefficient(bc, ky) == pytest.approx(c, rel=1e-13)
 
 
@@ -558,18 +616,23 @@ def test_2d_cross_slope_b11(b2):
     ky = 1e4
     for kx in (0.5, 2.0):
         R, F, g, dg, mp = b2.R, b2.F, b2.G0, b2.dG0, b2.mu_phi
-        c = -R ** 2 * g * (1 - dg) * mp * kx ** 2 / (R ** 2 + F ** 4 * dg ** 2 * kx ** 2)  # (B11)
+        c = -(R**2) * g * (1 - dg) * mp * kx**2 / (R**2 + F**4 * dg**2 * kx**2)  # (B11)
         r = d2.roots(b2, kx, ky, extended=True).real
-        assert r[0] * ky ** 2 == pytest.approx(c, rel=1e-5)
-        assert r[1] == pytest.approx(-R / F ** 2, rel=1e-4)
-        assert r[2] / ky ** 2 == pytest.approx(-1 / (2 * R), rel=1e-4)
-        assert r[3] / ky ** 2 == pytest.approx(-1 / R, rel=1e-4)
+        assert r[0] * ky**2 == pytest.approx(c, rel=1e-5)
+        assert r[1] == pytest.approx(-R / F**2, rel=1e-4)
+        assert r[2] / ky**2 == pytest.approx(-1 / (2 * R), rel=1e-4)
+        assert r[3] / ky**2 == pytest.approx(-1 / R, rel=1e-4)
         assert asy.cross_slope_2d(b2, kx)["b4"] == pytest.approx(c, rel=1e-13)
 
 
-@pytest.mark.parametrize("h0,nu,k,re,im", [(0.002, 1e-3, 1.0965, "6.63135", "-168.9643"),
-                                           (0.003, 1e-3, 3.0, "-8.22235", "-573.0111"),
-                                           (0.002, 1e-2, 0.2399, "3.85655", None)])
+@pytest.mark.parametrize(
+    "h0,nu,k,re,im",
+    [
+        (0.002, 1e-3, 1.0965, "6.63135", "-168.9643"),
+        (0.003, 1e-3, 3.0, "-8.22235", "-573.0111"),
+        (0.002, 1e-2, 0.2399, "3.85655", None),
+    ],
+)
 def test_t7_reference_rates(h0, nu, k, re, im):
     # NUMERICS T7 reference growth rates in 1/s (sigma^ u0/h0) used by the nonlinear solver tests
     bs = base_state(h0, PHI0, nu)

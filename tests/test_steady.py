@@ -1,4 +1,5 @@
 """Steady uniform flows, section 4: numbers printed in the paper and analytic identities."""
+
 import math
 
 import numpy as np
@@ -14,7 +15,7 @@ T = math.tan
 def rounds_to(value, printed: str) -> bool:
     """True when `value` rounds to the decimal string `printed` (as typeset in the paper)."""
     decimals = len(printed.split(".")[1]) if "." in printed else 0
-    return abs(value - float(printed)) <= 0.5 * 10 ** -decimals + 1e-12
+    return abs(value - float(printed)) <= 0.5 * 10**-decimals + 1e-12
 
 
 def test_paper_numbers_2mm():
@@ -27,8 +28,8 @@ def test_paper_numbers_2mm():
 def test_paper_numbers_3mm_and_critical():
     assert rounds_to(froude(0.003, 0.8), "2.36")
     s = steady_state(0.002, 0.8)
-    assert rounds_to(s.Fc, "1.94")                 # (5.27), figure 9 caption
-    assert rounds_to(s.h0_at_Fc * 1e3, "2.47")     # figure 10 caption: Fc reached at 2.47 mm
+    assert rounds_to(s.Fc, "1.94")  # (5.27), figure 9 caption
+    assert rounds_to(s.h0_at_Fc * 1e3, "2.47")  # figure 10 caption: Fc reached at 2.47 mm
     assert froude(s.h0_at_Fc, 0.8) == pytest.approx(s.Fc, rel=1e-13)
 
 
@@ -70,9 +71,20 @@ def test_pure_small_limit_is_4_10():
         assert froude(h0, 1.0) == pytest.approx(expected, rel=1e-13)
 
 
-@pytest.mark.parametrize("h0,phi", [(0.002, 0.2), (0.002, 0.0), (0.002, phi0_star()),
-                                    (0.0, 0.8), (-0.001, 0.8), (0.002, -0.1), (0.002, 1.5),
-                                    (float("nan"), 0.8), (0.002, float("inf"))])
+@pytest.mark.parametrize(
+    "h0,phi",
+    [
+        (0.002, 0.2),
+        (0.002, 0.0),
+        (0.002, phi0_star()),
+        (0.0, 0.8),
+        (-0.001, 0.8),
+        (0.002, -0.1),
+        (0.002, 1.5),
+        (float("nan"), 0.8),
+        (0.002, float("inf")),
+    ],
+)
 def test_bad_input_raises(h0, phi):
     with pytest.raises(InputError):
         steady_state(h0, phi)
@@ -82,8 +94,16 @@ def test_viscosity_3_8():
     # (3.8) for the small particles (zeta1^S = 20 < 27 < zeta2^S = 30) ...
     z = math.radians(27)
     tz, m1, m2 = T(z), T(math.radians(20)), T(math.radians(30))
-    expected = 2 * 2.0e-4 * math.sqrt(9.81) / (9 * 0.150) * math.sin(z) / math.sqrt(math.cos(z)) \
-        * (m2 - tz) / (tz - m1)
+    expected = (
+        2
+        * 2.0e-4
+        * math.sqrt(9.81)
+        / (9 * 0.150)
+        * math.sin(z)
+        / math.sqrt(math.cos(z))
+        * (m2 - tz)
+        / (tz - m1)
+    )
     assert TABLE1.nu("small") == pytest.approx(expected, rel=1e-14)
     assert TABLE1.nu("small") > 0
     # ... and is undefined for the large ones (27 < zeta1^L = 29): "undefined" in section 3

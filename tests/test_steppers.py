@@ -1,5 +1,6 @@
 """Each time stepper on its own: order of accuracy on a linear ODE and on a smooth PDE
 (semi-discrete heat equation with an exact solution), and RKC's stability interval."""
+
 import numpy as np
 import pytest
 
@@ -21,7 +22,7 @@ class ArrayOperator:
         self.s[dst] = r + (self.forcing(t) if self.forcing else 0.0)
 
     def combine(self, dst, terms, limit=False):
-        self.s[dst] = sum(c * self.s[k] for c, k in terms)   # no limiter for a linear ODE
+        self.s[dst] = sum(c * self.s[k] for c, k in terms)  # no limiter for a linear ODE
 
 
 def _integrate(stepper, op, y0, t_end, n, stages):
@@ -32,17 +33,23 @@ def _integrate(stepper, op, y0, t_end, n, stages):
     return op.s[0]
 
 
-CASES = [("euler", {}, 1, 1), ("ssprk2", {}, 2, 2), ("ssprk3", {}, 3, 3),
-         ("rkc", {}, 2, 2), ("rkc", {}, 2, 5),
-         ("rkc", {}, 2, 12)]
+CASES = [
+    ("euler", {}, 1, 1),
+    ("ssprk2", {}, 2, 2),
+    ("ssprk3", {}, 3, 3),
+    ("rkc", {}, 2, 2),
+    ("rkc", {}, 2, 5),
+    ("rkc", {}, 2, 12),
+]
 
 
 @pytest.mark.parametrize("name,kw,order,stages", CASES)
 def test_order_on_forced_linear_ode(name, kw, order, stages):
     # y' = lam y + cos t, y(0) = 1: exact y = C e^{lam t} + (sin t - lam cos t)/(1 + lam^2) ...
     lam = -3.0
-    exact = lambda t: ((1 + lam / (1 + lam ** 2)) * np.exp(lam * t)
-                       + (np.sin(t) - lam * np.cos(t)) / (1 + lam ** 2))
+    exact = lambda t: (
+        (1 + lam / (1 + lam**2)) * np.exp(lam * t) + (np.sin(t) - lam * np.cos(t)) / (1 + lam**2)
+    )
     errs = []
     for n in (20, 40, 80, 160):
         op = ArrayOperator(lambda y: lam * y, forcing=np.cos)
@@ -59,9 +66,9 @@ def test_order_on_smooth_pde(name, kw, order, stages):
     n_cells, kappa = 32, 1e-2
     dx = 1.0 / n_cells
     x = (np.arange(n_cells) + 0.5) * dx
-    lap = lambda u: kappa * (np.roll(u, 1) - 2 * u + np.roll(u, -1)) / dx ** 2
+    lap = lambda u: kappa * (np.roll(u, 1) - 2 * u + np.roll(u, -1)) / dx**2
     m = 3
-    lam = -kappa * (2 - 2 * np.cos(2 * np.pi * m * dx)) / dx ** 2
+    lam = -kappa * (2 - 2 * np.cos(2 * np.pi * m * dx)) / dx**2
     u0 = np.sin(2 * np.pi * m * x)
     t_end = 0.5 / abs(lam)
     errs = []

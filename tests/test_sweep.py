@@ -5,6 +5,7 @@ The sweep is the built-in ``tiny`` (``tiseg/data/sweeps/tiny.toml``: the fingers
 grid to t = 0.5 s, two values of nu), so the shipped example is exercised too. Most of the time goes into starting the
 Dask workers and compiling the Taichi kernels in them, not into the runs.
 """
+
 from __future__ import annotations
 
 import csv
@@ -14,9 +15,18 @@ from pathlib import Path
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.sweep import (DONE_MARKER, _run_names, load_sweep, read_marker, read_table,
-                         run_sweep, summary_columns, summary_rows, sweep_from_dict,
-                         table_columns)
+from tiseg.sweep import (
+    DONE_MARKER,
+    _run_names,
+    load_sweep,
+    read_marker,
+    read_table,
+    run_sweep,
+    summary_columns,
+    summary_rows,
+    sweep_from_dict,
+    table_columns,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ROOT / "tiseg" / "data" / "sweeps" / "tiny.toml"
@@ -24,8 +34,11 @@ TINY = ROOT / "tiseg" / "data" / "sweeps" / "tiny.toml"
 
 def _mtimes(out: Path) -> dict[str, int]:
     """Modification times (ns) of every file of the run folders."""
-    return {str(p.relative_to(out)): p.stat().st_mtime_ns
-            for p in sorted(out.glob("*/*")) if p.is_file()}
+    return {
+        str(p.relative_to(out)): p.stat().st_mtime_ns
+        for p in sorted(out.glob("*/*"))
+        if p.is_file()
+    }
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +46,14 @@ def tiny_sweep(tmp_path_factory):
     """The tiny sweep run once on a local cluster of 2 workers: (folder, printed lines, result)."""
     out = tmp_path_factory.mktemp("sweep") / "tiny"
     lines: list[str] = []
-    res = run_sweep(load_sweep(TINY), out, workers=2, threads_per_task=1, echo=lines.append,
-                    progress_interval=0.0)
+    res = run_sweep(
+        load_sweep(TINY),
+        out,
+        workers=2,
+        threads_per_task=1,
+        echo=lines.append,
+        progress_interval=0.0,
+    )
     return out, lines, res
 
 
@@ -51,9 +70,21 @@ def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
     with open(out / "sweep.csv", newline="") as fh:
         header = next(csv.reader(fh))
     assert header == table_columns(sweep)
-    for col in ("run", "flow.nu", "status", "cells", "finger_count", "wavelength", "elongation",
-                "x_front_max", "finger_count@0.25", "elongation@0.25", "wall_s", "steps",
-                "rhs_evaluations"):
+    for col in (
+        "run",
+        "flow.nu",
+        "status",
+        "cells",
+        "finger_count",
+        "wavelength",
+        "elongation",
+        "x_front_max",
+        "finger_count@0.25",
+        "elongation@0.25",
+        "wall_s",
+        "steps",
+        "rhs_evaluations",
+    ):
         assert col in header
     rows = read_table(out / "sweep.csv")
     assert [r["run"] for r in rows] == ["nu-0.01", "nu-0.02"]
@@ -62,7 +93,7 @@ def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
         assert r["status"] == "done"
         assert r["cells"] == 12 * 4 and r["t_final"] == 0.5
         assert r["steps"] > 0 and r["rhs_evaluations"] >= r["steps"] and r["wall_s"] > 0
-        assert r["finger_count"] == 0            # far too early and too coarse for fingers
+        assert r["finger_count"] == 0  # far too early and too coarse for fingers
         assert 0 < r["x_front_max"] < 0.3
     # every run folder is complete: outputs, finger diagnostics, then the marker
     for name in ("nu-0.01", "nu-0.02"):
@@ -79,7 +110,9 @@ def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
         assert next(csv.reader(fh)) == summary_columns(sweep)
     summ = read_table(out / "summary.csv")
     assert [(r["flow.nu"], r["n"], r["finger_count_mean"]) for r in summ] == [
-        (0.01, 1, 0), (0.02, 1, 0)]
+        (0.01, 1, 0),
+        (0.02, 1, 0),
+    ]
     assert summ[0]["finger_count_std"] is None and summ[0]["wavelength_n"] == 0
 
     # Re-run: everything is reused, no cluster is started and no file is touched.
@@ -94,13 +127,20 @@ def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
     # An interrupted sweep (one marker missing) resumes: only that run is computed again,
     # here on an existing Dask cluster reached by its address (--scheduler).
     from distributed import LocalCluster
+
     (out / "nu-0.02" / DONE_MARKER).unlink()
     kept = {k: v for k, v in before.items() if k.startswith("nu-0.01")}
     lines.clear()
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=":0") as cluster:
-        res3 = run_sweep(load_sweep(TINY), out, scheduler=cluster.scheduler_address,
-                         threads_per_task=1, echo=lines.append)
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        res3 = run_sweep(
+            load_sweep(TINY),
+            out,
+            scheduler=cluster.scheduler_address,
+            threads_per_task=1,
+            echo=lines.append,
+        )
     assert [r["status"] for r in res3.records] == ["reused", "done"], lines
     assert any("1 already finished, 1 to run" in s for s in lines)
     assert any("on the Dask scheduler tcp://" in s for s in lines), lines
@@ -119,24 +159,36 @@ def test_fingers_figures_from_sweep_results(tiny_sweep, tmp_path):
     out with a note, and the summary table still lists every run."""
     import shutil
     from tiseg.figures.fingers import make_all
+
     out, _, _ = tiny_sweep
     runs = tmp_path / "runs"
     shutil.copytree(out, runs / "nu-study")
     lines: list[str] = []
     paths = make_all(tmp_path / "figs", runs, run=False, echo=lines.append, dpi=40)
-    assert sorted(p.name for p in paths) == ["fig17_nu.png", "fig18_fronts.png",
-                                             "fingers_studies.csv", "fingers_studies.json"]
+    assert sorted(p.name for p in paths) == [
+        "fig17_nu.png",
+        "fig18_fronts.png",
+        "fingers_studies.csv",
+        "fingers_studies.json",
+    ]
     assert any("no finished runs of the grid-study" in s for s in lines)
     rows = read_table(tmp_path / "figs" / "fingers_studies.csv")
     assert [(r["study"], r["run"], r["nu"]) for r in rows] == [
-        ("nu-study", "nu-0.01", 0.01), ("nu-study", "nu-0.02", 0.02)]
+        ("nu-study", "nu-0.01", 0.01),
+        ("nu-study", "nu-0.02", 0.02),
+    ]
     assert all(r["finger_count"] == 0 and r["steps"] > 0 for r in rows)
 
 
 # ------------------------------------------------------------------ validation
-BASE = {"scene": "fingers", "set": {"domain": {"Lx": 0.3, "Ly": 0.1, "resolution": 40},
-                                    "time": {"t_end": 0.5},
-                                    "output": {"interval": 0.25, "times": [0.25, 0.5]}}}
+BASE = {
+    "scene": "fingers",
+    "set": {
+        "domain": {"Lx": 0.3, "Ly": 0.1, "resolution": 40},
+        "time": {"t_end": 0.5},
+        "output": {"interval": 0.25, "times": [0.25, 0.5]},
+    },
+}
 
 
 def _with(**changes) -> dict:
@@ -149,25 +201,31 @@ def _with(**changes) -> dict:
     return d
 
 
-@pytest.mark.parametrize("data, message", [
-    (_with(grids={"flow.nu": [0.01]}), "unknown key 'grids' (did you mean 'grid'?)"),
-    (_with(scene=None), "the key 'scene' is required"),
-    (_with(scene="fingerz"), "unknown built-in scene 'fingerz' (did you mean 'fingers'?)"),
-    (_with(grid={"flow.nu": 0.01}), "grid key 'flow.nu' = 0.01: give a non-empty list"),
-    (_with(grid={"flow.nu": []}), "give a non-empty list"),
-    (_with(grid={"flow.nu": [0.01, 0.01]}), "lists the value 0.01 more than once"),
-    (_with(grid={"domain.resolution": [40, 50]}), "'domain.resolution' is both in [set] and in [grid]"),
-    (_with(grid={"flow.nuu": [0.01, 0.02]}), "run 'nuu-0.01'"),
-    (_with(grid={"domain.resolution2": [1]}), "domain.resolution2"),
-    (_with(grid={"flow.nu": [0.01, -1.0]}), "run 'nu--1'"),
-    (_with(grid={"nu": [0.01]}), "must be a dotted scene key"),
-    (_with(times=[0.3]), "times lists 0.3 s, which is not an output time"),
-    (_with(times=[2.0]), "after time.t_end"),
-    (_with(times="0.25"), "must be a list of times"),
-    (_with(name="a b"), "name='a b' must be 1-128 letters"),
-    (_with(name=".."), "name='..' must be 1-128 letters"),
-    (_with(set=[1, 2]), "[set] must be a table"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (_with(grids={"flow.nu": [0.01]}), "unknown key 'grids' (did you mean 'grid'?)"),
+        (_with(scene=None), "the key 'scene' is required"),
+        (_with(scene="fingerz"), "unknown built-in scene 'fingerz' (did you mean 'fingers'?)"),
+        (_with(grid={"flow.nu": 0.01}), "grid key 'flow.nu' = 0.01: give a non-empty list"),
+        (_with(grid={"flow.nu": []}), "give a non-empty list"),
+        (_with(grid={"flow.nu": [0.01, 0.01]}), "lists the value 0.01 more than once"),
+        (
+            _with(grid={"domain.resolution": [40, 50]}),
+            "'domain.resolution' is both in [set] and in [grid]",
+        ),
+        (_with(grid={"flow.nuu": [0.01, 0.02]}), "run 'nuu-0.01'"),
+        (_with(grid={"domain.resolution2": [1]}), "domain.resolution2"),
+        (_with(grid={"flow.nu": [0.01, -1.0]}), "run 'nu--1'"),
+        (_with(grid={"nu": [0.01]}), "must be a dotted scene key"),
+        (_with(times=[0.3]), "times lists 0.3 s, which is not an output time"),
+        (_with(times=[2.0]), "after time.t_end"),
+        (_with(times="0.25"), "must be a list of times"),
+        (_with(name="a b"), "name='a b' must be 1-128 letters"),
+        (_with(name=".."), "name='..' must be 1-128 letters"),
+        (_with(set=[1, 2]), "[set] must be a table"),
+    ],
+)
 def test_bad_sweeps_are_clean_input_errors(data, message):
     with pytest.raises(InputError) as err:
         sweep_from_dict(data, source="bad.toml")
@@ -178,9 +236,11 @@ def test_bad_sweeps_are_clean_input_errors(data, message):
 
 def test_unknown_scene_key_names_the_key_and_nothing_runs(tmp_path):
     f = tmp_path / "s.toml"
-    f.write_text('scene = "fingers"\n[set]\n"domain.resolution" = 40\n"domain.Lx" = 0.3\n'
-                 '"domain.Ly" = 0.1\n"time.t_end" = 0.5\n[grid]\n"flow.nu" = [0.01, 0.02]\n'
-                 '"domain.fooo" = [1]\n')
+    f.write_text(
+        'scene = "fingers"\n[set]\n"domain.resolution" = 40\n"domain.Lx" = 0.3\n'
+        '"domain.Ly" = 0.1\n"time.t_end" = 0.5\n[grid]\n"flow.nu" = [0.01, 0.02]\n'
+        '"domain.fooo" = [1]\n'
+    )
     with pytest.raises(InputError, match=r"run 'nu-0.01_fooo-1': .*domain.fooo"):
         load_sweep(f)
     assert not (tmp_path / "runs").exists()
@@ -188,6 +248,7 @@ def test_unknown_scene_key_names_the_key_and_nothing_runs(tmp_path):
 
 def test_file_errors_and_cli_exit_status(tmp_path, capsys):
     from tiseg.cli import main
+
     with pytest.raises(InputError, match="not found"):
         load_sweep(tmp_path / "missing.toml")
     bad = tmp_path / "bad.toml"
@@ -204,22 +265,44 @@ def test_file_errors_and_cli_exit_status(tmp_path, capsys):
 
 def test_check_lists_runs_and_grid_override(capsys, tmp_path):
     from tiseg.cli import main
-    assert main(["sweep", str(TINY), "--check", "--out", str(tmp_path),
-                 "--grid", "flow.nu=[0.01, 0.03, 0.05]", "--set", "inflow.ramp_rate=5",
-                 ]) == 0
+
+    assert (
+        main(
+            [
+                "sweep",
+                str(TINY),
+                "--check",
+                "--out",
+                str(tmp_path),
+                "--grid",
+                "flow.nu=[0.01, 0.03, 0.05]",
+                "--set",
+                "inflow.ramp_rate=5",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "3 runs, valid" in out and "nu-0.05: 12 x 4 cells, t_end 0.5 s" in out
 
 
 def test_run_names_are_stable_and_safe():
-    combos = [{"domain.resolution": 250, "flow.nu": 0.01}, {"domain.resolution": 375.0,
-                                                            "flow.nu": 1e-5}]
+    combos = [
+        {"domain.resolution": 250, "flow.nu": 0.01},
+        {"domain.resolution": 375.0, "flow.nu": 1e-5},
+    ]
     assert _run_names(combos) == ["resolution-250_nu-0.01", "resolution-375_nu-1e-05"]
     # keys sharing a last part are shown in full; unsafe characters are replaced
-    names = _run_names([{"material.small.beta": 0.1, "material.large.beta": 0.2,
-                         "numerics.reconstruction": "first order/x"}])
-    assert names == ["material.small.beta-0.1_material.large.beta-0.2_"
-                     "reconstruction-first_order_x"]
+    names = _run_names(
+        [
+            {
+                "material.small.beta": 0.1,
+                "material.large.beta": 0.2,
+                "numerics.reconstruction": "first order/x",
+            }
+        ]
+    )
+    assert names == ["material.small.beta-0.1_material.large.beta-0.2_reconstruction-first_order_x"]
     # values equal after formatting get a hash of the exact values: distinct, and stable
     a = _run_names([{"k.s": "a b"}, {"k.s": "a/b"}])
     assert len(set(a)) == 2 and a == _run_names([{"k.s": "a b"}, {"k.s": "a/b"}])
@@ -230,18 +313,34 @@ def test_run_names_are_stable_and_safe():
 def test_ensemble_summary_statistics():
     """summary.csv rows: one per nu, over the seeds; mean, sample sd (ddof 1) and the count of
     runs where a metric is defined, from records with known numbers."""
-    sweep = sweep_from_dict({**BASE, "times": [0.25], "grid": {"flow.nu": [0.01, 0.02],
-                                              "inflow.seed": [1, 2, 3]}})
-    assert [r.name for r in sweep.runs][:3] == ["nu-0.01_seed-1", "nu-0.01_seed-2",
-                                                 "nu-0.01_seed-3"]
-    counts = {"nu-0.01_seed-1": 4, "nu-0.01_seed-2": 5, "nu-0.01_seed-3": 6,
-              "nu-0.02_seed-1": 2, "nu-0.02_seed-2": 0}          # seed 3 of nu 0.02 failed
+    sweep = sweep_from_dict(
+        {**BASE, "times": [0.25], "grid": {"flow.nu": [0.01, 0.02], "inflow.seed": [1, 2, 3]}}
+    )
+    assert [r.name for r in sweep.runs][:3] == [
+        "nu-0.01_seed-1",
+        "nu-0.01_seed-2",
+        "nu-0.01_seed-3",
+    ]
+    counts = {
+        "nu-0.01_seed-1": 4,
+        "nu-0.01_seed-2": 5,
+        "nu-0.01_seed-3": 6,
+        "nu-0.02_seed-1": 2,
+        "nu-0.02_seed-2": 0,
+    }  # seed 3 of nu 0.02 failed
     records = {}
     for name, c in counts.items():
         wl = 0.1 / c if c else None
-        records[name] = {"status": "done", "wall_s": 10.0 + c, "metrics": {
-            "time": [0.25, 0.5], "finger_count": [0, c], "wavelength": [None, wl],
-            "elongation": [0.01, 0.02 * c]}}
+        records[name] = {
+            "status": "done",
+            "wall_s": 10.0 + c,
+            "metrics": {
+                "time": [0.25, 0.5],
+                "finger_count": [0, c],
+                "wavelength": [None, wl],
+                "elongation": [0.01, 0.02 * c],
+            },
+        }
     records["nu-0.02_seed-3"] = {"status": "failed", "error": "x"}
     rows = summary_rows(sweep, records)
     assert [(r["flow.nu"], r["n"]) for r in rows] == [(0.01, 3), (0.02, 2)]
@@ -264,6 +363,7 @@ def test_reused_run_with_old_diagnostics_is_analysed_again(tiny_sweep, tmp_path)
     is analysed again from its fields.nc when the sweep is re-run; nothing is simulated."""
     import shutil
     from tiseg.analysis.fingers import ANALYSIS_VERSION
+
     src, _, _ = tiny_sweep
     out = tmp_path / "tiny"
     shutil.copytree(src, out)
@@ -279,8 +379,10 @@ def test_reused_run_with_old_diagnostics_is_analysed_again(tiny_sweep, tmp_path)
     new = json.loads(marker.read_text())
     assert new["metrics"]["analysis_version"] == ANALYSIS_VERSION
     assert "wavelength_spectral" in new["metrics"] and new["steps"] == rec["steps"]
-    assert json.loads((out / "nu-0.01" / "fingers.json").read_text())["analysis_version"] == \
-        ANALYSIS_VERSION
+    assert (
+        json.loads((out / "nu-0.01" / "fingers.json").read_text())["analysis_version"]
+        == ANALYSIS_VERSION
+    )
     assert (out / "nu-0.01" / "fields.nc").stat().st_mtime_ns == fields
 
 
@@ -288,10 +390,17 @@ def test_figure_series_are_ensemble_means_with_sd():
     """The error bars of figures 16-17: runs grouped by the study value, mean and sample sd
     over the seeds, runs without the metric (no fingers) left out and counted."""
     from tiseg.figures.fingers import StudyRun, _series
+
     data = {(0.01, 1): 0.05, (0.01, 2): 0.06, (0.01, 3): 0.07, (0.02, 1): 0.1, (0.02, 2): None}
-    runs = [StudyRun(f"nu-{nu}_seed-{s}", {"flow.nu": nu}, Path("."),
-                     {"metrics": {"time": [7.5], "wavelength": [wl]}})
-            for (nu, s), wl in data.items()]
+    runs = [
+        StudyRun(
+            f"nu-{nu}_seed-{s}",
+            {"flow.nu": nu},
+            Path("."),
+            {"metrics": {"time": [7.5], "wavelength": [wl]}},
+        )
+        for (nu, s), wl in data.items()
+    ]
     s = _series(runs, lambda r: r.values["flow.nu"], "wavelength", 7.5)
     assert list(s.x) == [0.01, 0.02] and list(s.runs) == [3, 2] and list(s.n) == [3, 1]
     assert s.mean == pytest.approx([0.06, 0.1]) and s.std == pytest.approx([0.01, 0.0])

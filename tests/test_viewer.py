@@ -4,6 +4,7 @@ renderer's, controls, and a live window under Xvfb.
 GGUI needs Vulkan. Where software Vulkan (mesa-vulkan-drivers + libvulkan1) or Xvfb is missing
 the tests that need them are skipped; the CI script installs both, so there they run.
 """
+
 import math
 import shutil
 import subprocess
@@ -28,6 +29,7 @@ needs_vulkan = pytest.mark.skipif(VULKAN is not None, reason=f"no Vulkan: {VULKA
 def test_no_display_one_line_exit_2(monkeypatch, capsys):
     """Without a display: one line naming the off-screen path, exit status 2, no traceback."""
     from tiseg.cli import main
+
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert display_problem(True) == "no display (DISPLAY is not set)"
@@ -40,8 +42,14 @@ def test_no_display_one_line_exit_2(monkeypatch, capsys):
     env.pop("WAYLAND_DISPLAY", None)
     # the package's module anywhere, and the source checkout's `python -m viewer` alias
     for module, cwd in (("tiseg.viewer", ROOT / "tests"), ("viewer", ROOT)):
-        p = subprocess.run([sys.executable, "-m", module, "fingers"], cwd=cwd, env=env,
-                           capture_output=True, text=True, timeout=60)
+        p = subprocess.run(
+            [sys.executable, "-m", module, "fingers"],
+            cwd=cwd,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
         assert p.returncode == 2, (module, p.stderr)
         assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
         assert "tiseg render" in p.stderr
@@ -51,6 +59,7 @@ def test_no_vulkan_one_line_exit_2(monkeypatch, capsys):
     """With a display but no Vulkan the viewer refuses before any window exists."""
     import tiseg.viewer.app as app
     from tiseg.cli import main
+
     monkeypatch.setenv("DISPLAY", ":97")
     monkeypatch.setattr(app, "_x_display_opens", lambda name: True)
     monkeypatch.setattr(app, "vulkan_problem", lambda: "no Vulkan loader (libvulkan.so.1)")
@@ -81,15 +90,21 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
                 v.paused = True
                 v.run_frames(1)
             got = v.capture_map().astype(int)
-            ref = render_fields(sim.fields(), sim.scene.numerics.h_min, field=field,
-                                scale=v.renderer.scale, dx=sim.scene.dx,
-                                vrange=v.renderer.vrange, colourbar=False)
+            ref = render_fields(
+                sim.fields(),
+                sim.scene.numerics.h_min,
+                field=field,
+                scale=v.renderer.scale,
+                dx=sim.scene.dx,
+                vrange=v.renderer.vrange,
+                colourbar=False,
+            )
             assert got.shape == ref.shape
             # GGUI quantises floats itself: allow a few levels, require nearly all pixels
             assert (np.abs(got - ref).max(axis=2) <= 3).mean() > 0.95, field
             assert np.abs(got.reshape(-1, 3).mean(0) - ref.reshape(-1, 3).mean(0)).max() < 2
         # the colour bar beside the map shows the viridis table for h
-        bar = v.capture()[:v.map_h, v.map_w + 12 + 8].astype(int)
+        bar = v.capture()[: v.map_h, v.map_w + 12 + 8].astype(int)
         rows = np.nonzero(bar.max(axis=1) - bar.min(axis=1) > 30)[0]
         assert abs(bar[rows[0]] - C.to_uint8(C.viridis_table()[-1])).max() < 25
 
@@ -139,13 +154,28 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
 def test_live_window_under_xvfb(tmp_path):
     """A real window on a virtual X display starts, steps, records and closes by itself."""
     rec = tmp_path / "live.mp4"
-    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", sys.executable, "-m", "tiseg.viewer",
-           "fingers", *TINY_ARGS, "--frames", "5", "--record", str(rec),
-           "--save-dir", str(tmp_path)]
+    cmd = [
+        "xvfb-run",
+        "-a",
+        "-s",
+        "-screen 0 1280x1024x24",
+        sys.executable,
+        "-m",
+        "tiseg.viewer",
+        "fingers",
+        *TINY_ARGS,
+        "--frames",
+        "5",
+        "--record",
+        str(rec),
+        "--save-dir",
+        str(tmp_path),
+    ]
     p = subprocess.run(cmd, cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=180)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "viewer: 5 frames" in p.stdout
     import imageio.v2 as iio2
+
     r = iio2.get_reader(str(rec))
     n = sum(1 for _ in r)
     r.close()

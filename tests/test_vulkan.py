@@ -7,6 +7,7 @@ correctness, not of speed. Each test runs its own process, because Taichi's back
 precision are process-wide. Where no Vulkan loader or driver is installed they are skipped
 with the reason.
 """
+
 from __future__ import annotations
 
 import json
@@ -35,15 +36,21 @@ def test_operator_render_and_viewer_suites_pass_on_vulkan_f64():
     every effect, the inflow noise: 1e-12 relative in f64), the renderer tests and the GGUI
     viewer tests, run again with arch=vulkan."""
     files = ["tests/test_operator_reference.py", "tests/test_render.py", "tests/test_viewer.py"]
-    p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *files],
-                       cwd=ROOT, env=child_env(TISEG_TEST_ARCH="vulkan"), capture_output=True,
-                       text=True, timeout=900)
+    p = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *files],
+        cwd=ROOT,
+        env=child_env(TISEG_TEST_ARCH="vulkan"),
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     tail = p.stdout[-3000:]
     assert p.returncode == 0, tail
     last = tail.splitlines()[-1]
     assert " passed" in last and "failed" not in last, tail
     # nothing skipped, except the live-window test where xvfb-run is missing
     import shutil
+
     allowed = 0 if shutil.which("xvfb-run") else 1
     skipped = int(last.split(" skipped")[0].split()[-1]) if " skipped" in last else 0
     assert skipped <= allowed, tail
@@ -85,9 +92,16 @@ print(json.dumps(out))
 def test_operator_matches_reference_in_f32_on_vulkan_and_cpu():
     """f32 kernels against the f64 reference of the same f32 state: within a few f32 ulps
     (measured 1.5e-7 .. 5e-7 relative on both backends), on Vulkan as on the CPU."""
-    procs = {arch: subprocess.Popen([sys.executable, "-c", F32_SCRIPT, str(HERE), arch],
-                                    env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                    text=True) for arch in ("vulkan", "cpu")}
+    procs = {
+        arch: subprocess.Popen(
+            [sys.executable, "-c", F32_SCRIPT, str(HERE), arch],
+            env=child_env(),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for arch in ("vulkan", "cpu")
+    }
     rel = {}
     for arch, proc in procs.items():
         out, err = proc.communicate(timeout=600)
@@ -109,12 +123,25 @@ def test_fingers_run_on_vulkan_matches_the_cpu(tmp_path):
     procs = {}
     for arch in ("vulkan", "cpu"):
         for prec in ("f32", "f64"):
-            cmd = [sys.executable, "-m", "tiseg.cli", "run", "fingers", "--arch", arch,
-                   "--precision", prec, "--no-progress", "--out", str(tmp_path / f"{arch}-{prec}")]
+            cmd = [
+                sys.executable,
+                "-m",
+                "tiseg.cli",
+                "run",
+                "fingers",
+                "--arch",
+                arch,
+                "--precision",
+                prec,
+                "--no-progress",
+                "--out",
+                str(tmp_path / f"{arch}-{prec}"),
+            ]
             for s in SETS:
                 cmd += ["--set", s]
-            procs[arch, prec] = subprocess.Popen(cmd, env=child_env(), stdout=subprocess.PIPE,
-                                                 stderr=subprocess.PIPE, text=True)
+            procs[arch, prec] = subprocess.Popen(
+                cmd, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            )
     for key, proc in procs.items():
         out, err = proc.communicate(timeout=900)
         assert proc.returncode == 0, f"{key}: {err[-2000:]}"
@@ -122,11 +149,13 @@ def test_fingers_run_on_vulkan_matches_the_cpu(tmp_path):
     for prec, mass_tol, field_tol in (("f32", 1e-5, 1e-3), ("f64", 1e-13, 1e-12)):
         dv = read_diagnostics(tmp_path / f"vulkan-{prec}" / "diagnostics.csv")
         dc = read_diagnostics(tmp_path / f"cpu-{prec}" / "diagnostics.csv")
-        assert len(dv["time"]) == len(dc["time"]) > 50                   # the same steps
+        assert len(dv["time"]) == len(dc["time"]) > 50  # the same steps
         assert abs(int(dv["stages"].sum()) - int(dc["stages"].sum())) <= 1
         np.testing.assert_allclose(dv["mass"][-1], dc["mass"][-1], rtol=mass_tol)
-        with netCDF4.Dataset(tmp_path / f"vulkan-{prec}" / "fields.nc") as a, \
-                netCDF4.Dataset(tmp_path / f"cpu-{prec}" / "fields.nc") as b:
+        with (
+            netCDF4.Dataset(tmp_path / f"vulkan-{prec}" / "fields.nc") as a,
+            netCDF4.Dataset(tmp_path / f"cpu-{prec}" / "fields.nc") as b,
+        ):
             assert a.getncattr("tiseg_arch") == "vulkan" and b.getncattr("tiseg_arch") == "cpu"
             for name in ("h", "u", "phi"):
                 x, y = np.asarray(a[name][-1]), np.asarray(b[name][-1])
@@ -140,8 +169,14 @@ def _error_lines(stderr: str) -> list[str]:
 
 
 def _run_code(code: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=child_env(),
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 @needs_vulkan
@@ -152,9 +187,23 @@ def test_gpu_and_auto_never_pick_vulkan():
     assert p.returncode == 0 and p.stdout.split()[-1] == "cpu", p.stderr
     p = _run_code("import tiseg; print(tiseg.init('vulkan', 'f32').arch)")
     assert p.returncode == 0 and p.stdout.split()[-1] == "vulkan", p.stderr
-    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "run", "fingers", "--arch", "gpu",
-                        "--set", "domain.resolution=40"], env=child_env(), capture_output=True,
-                       text=True, timeout=300)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tiseg.cli",
+            "run",
+            "fingers",
+            "--arch",
+            "gpu",
+            "--set",
+            "domain.resolution=40",
+        ],
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     errors = _error_lines(p.stderr)
     assert p.returncode == 2 and len(errors) == 1 and "no CUDA or Metal" in errors[0]
 
@@ -163,19 +212,46 @@ def test_gpu_and_auto_never_pick_vulkan():
 def test_f64_on_a_device_without_it_is_one_line(tmp_path):
     """A Vulkan device without 64-bit floats (here simulated: the probe reports none) refuses
     an f64 run in one line that says to use --precision f32; f32 still runs."""
-    code = ("import sys; import tiseg.backend as b; b._f64_works = lambda ti: False; "
-            "from tiseg.cli import main; sys.exit(main(sys.argv[1:]))")
-    base = [sys.executable, "-c", code, "run", "fingers", "--arch", "vulkan", "--no-progress",
-            "--set", "domain.resolution=40", "--set", "time.t_end=0.05", "--set",
-            "output.times=[]", "--set", "output.interval=0.05"]
-    p = subprocess.run(base + ["--out", str(tmp_path / "run")], env=child_env(),
-                       capture_output=True, text=True, timeout=300)
+    code = (
+        "import sys; import tiseg.backend as b; b._f64_works = lambda ti: False; "
+        "from tiseg.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
+    base = [
+        sys.executable,
+        "-c",
+        code,
+        "run",
+        "fingers",
+        "--arch",
+        "vulkan",
+        "--no-progress",
+        "--set",
+        "domain.resolution=40",
+        "--set",
+        "time.t_end=0.05",
+        "--set",
+        "output.times=[]",
+        "--set",
+        "output.interval=0.05",
+    ]
+    p = subprocess.run(
+        base + ["--out", str(tmp_path / "run")],
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 2, p.stderr
     errors = _error_lines(p.stderr)
     assert len(errors) == 1 and errors[0].startswith("tiseg run: error:")
     assert "64-bit floats" in errors[0] and "--precision f32" in errors[0]
-    p = subprocess.run(base + ["--precision", "f32", "--out", str(tmp_path / "f32")], env=child_env(),
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        base + ["--precision", "f32", "--out", str(tmp_path / "f32")],
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr
 
 
@@ -186,6 +262,7 @@ def test_metal_f64_is_refused_before_taichi_starts(monkeypatch, ti_cpu):
 
     import tiseg.backend as b
     from tiseg.errors import InputError
+
     before = b.state()
     monkeypatch.setattr(b, "_probe_gpu", lambda _ti: ti.metal)
     with pytest.raises(InputError) as err:
@@ -198,9 +275,25 @@ def test_metal_f64_is_refused_before_taichi_starts(monkeypatch, ti_cpu):
 def test_gpu_check_runs_on_vulkan(tmp_path):
     """`tiseg bench gpu --arch vulkan --quick`: every part of the GPU check runs and reports
     (throughput of both backends in both precisions, the fingers run, the headless viewer)."""
-    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--arch", "vulkan",
-                        "--quick", "--json", "--out", str(tmp_path)], env=child_env(),
-                       capture_output=True, text=True, timeout=900)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tiseg.cli",
+            "bench",
+            "gpu",
+            "--arch",
+            "vulkan",
+            "--quick",
+            "--json",
+            "--out",
+            str(tmp_path),
+        ],
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert p.returncode == 0, p.stderr[-2000:]
     rep = json.loads(p.stdout)
     assert rep == json.loads((tmp_path / "gpu_check.json").read_text())
@@ -222,12 +315,32 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
 def test_vulkan_without_a_driver_is_one_line(tmp_path):
     """--arch vulkan where no Vulkan driver can be found (none named by VK_ICD_FILENAMES):
     one line that names the driver packages, exit status 2 (needs no Vulkan to run)."""
-    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "run", "fingers", "--arch", "vulkan",
-                        "--no-progress", "--out", str(tmp_path / "run"), "--set",
-                        "domain.resolution=40", "--set", "time.t_end=0.05", "--set",
-                        "output.times=[]", "--set", "output.interval=0.05"],
-                       env=child_env(VK_ICD_FILENAMES=str(tmp_path / "no-such-driver.json")),
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tiseg.cli",
+            "run",
+            "fingers",
+            "--arch",
+            "vulkan",
+            "--no-progress",
+            "--out",
+            str(tmp_path / "run"),
+            "--set",
+            "domain.resolution=40",
+            "--set",
+            "time.t_end=0.05",
+            "--set",
+            "output.times=[]",
+            "--set",
+            "output.interval=0.05",
+        ],
+        env=child_env(VK_ICD_FILENAMES=str(tmp_path / "no-such-driver.json")),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     errors = _error_lines(p.stderr)
     tiseg_errors = [ln for ln in errors if ln.startswith("tiseg run: error:")]
     assert p.returncode == 2 and len(tiseg_errors) == 1, p.stderr
@@ -239,6 +352,7 @@ def test_gpu_check_viewer_row_without_vulkan_times_the_loop(monkeypatch):
     """Where GGUI cannot start (no Vulkan driver), the viewer row of the GPU check times the
     same loop without a window and says so (needs no Vulkan)."""
     from tiseg.bench.gpu import viewer_speed
+
     monkeypatch.setenv("VK_ICD_FILENAMES", "/nonexistent/no-such-driver.json")
     row = viewer_speed("cpu", "f64", 40, 3, 2)
     assert row["ok"] and row["how"].startswith("steps + colour kernel, no window")
@@ -249,10 +363,16 @@ def test_gpu_check_without_a_gpu_is_one_line():
     """`tiseg bench gpu` (CUDA or Metal by default) on a machine without one stops at once with
     one line that names the alternatives, instead of a table of failures."""
     from tiseg.bench import available_backends
+
     if "gpu" in available_backends():
         pytest.skip("this machine has a CUDA or Metal GPU")
-    p = subprocess.run([sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--quick"],
-                       env=child_env(), capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--quick"],
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     errors = [ln for ln in _error_lines(p.stderr) if ln.startswith("tiseg bench: error:")]
     assert p.returncode == 2 and len(errors) == 1, p.stderr
     assert "no CUDA or Metal GPU" in errors[0] and "--arch vulkan" in errors[0]

@@ -2,6 +2,7 @@
 built-in scenes and sweeps through importlib.resources (no assets/ folder beside it), holds no
 top-level package but tiseg, and runs from there. (.ci/run also installs it into a fresh venv
 with its dependencies and runs scenes with it.)"""
+
 import json
 import os
 import subprocess
@@ -24,19 +25,39 @@ print(json.dumps({"file": tiseg.__file__, "scenes": list_builtin_scenes(),
 
 def test_wheel_finds_its_scenes_and_sweeps_outside_the_tree(tmp_path):
     wheels = tmp_path / "wheels"
-    p = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps",
-                        "--no-build-isolation", "-w", str(wheels), str(ROOT)],
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "-q",
+            "--no-deps",
+            "--no-build-isolation",
+            "-w",
+            str(wheels),
+            str(ROOT),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr[-2000:]
     (whl,) = wheels.glob("tiseg-*.whl")
     names = zipfile.ZipFile(whl).namelist()
     top = {n.split("/")[0] for n in names if ".dist-info" not in n.split("/")[0]}
-    assert top == {"tiseg"}, top                       # no top-level `viewer`
+    assert top == {"tiseg"}, top  # no top-level `viewer`
     site = tmp_path / "site"
     zipfile.ZipFile(whl).extractall(site)
-    env = dict(os.environ, PYTHONPATH=str(site))       # ahead of this checkout's install
-    p = subprocess.run([sys.executable, "-c", PROBE], cwd=tmp_path, env=env,
-                       capture_output=True, text=True, timeout=120)
+    env = dict(os.environ, PYTHONPATH=str(site))  # ahead of this checkout's install
+    p = subprocess.run(
+        [sys.executable, "-c", PROBE],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert p.returncode == 0, p.stderr[-2000:]
     got = json.loads(p.stdout.strip().splitlines()[-1])
     assert Path(got["file"]).resolve().is_relative_to(site.resolve())

@@ -4,6 +4,7 @@ Taichi reads its floating-point type (``default_fp``) at initialisation, so prec
 process-wide choice; calling :func:`init` again with other settings resets the Taichi runtime and
 invalidates every field made before (simulations check :func:`generation` to refuse stale fields).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -23,17 +24,22 @@ PRECISIONS = ("f32", "f64")
 
 @dataclass(frozen=True)
 class BackendState:
-    arch: str          # resolved: "cpu", "cuda", "metal" or "vulkan"
-    precision: str     # "f32" or "f64"
-    threads: int       # CPU threads Taichi may use (0 = Taichi's default)
-    generation: int    # increases with every (re)initialisation
+    arch: str  # resolved: "cpu", "cuda", "metal" or "vulkan"
+    precision: str  # "f32" or "f64"
+    threads: int  # CPU threads Taichi may use (0 = Taichi's default)
+    generation: int  # increases with every (re)initialisation
 
 
 _state: BackendState | None = None
 
 
-def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: bool = False,
-         force: bool = False) -> BackendState:
+def init(
+    arch: str = "cpu",
+    precision: str = "f64",
+    threads: int = 0,
+    debug: bool = False,
+    force: bool = False,
+) -> BackendState:
     """Initialise Taichi once for this process.
 
     arch: "cpu", "gpu" (CUDA or Metal; an error when there is none), "auto" (GPU if present)
@@ -56,9 +62,13 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
     problem = threads_problem(threads)
     if problem:
         raise InputError(problem)
-    if (_state is not None and not force and _state.precision == precision
-            and _state.threads == threads
-            and (arch == "auto" or _requested_matches(arch, _state.arch))):
+    if (
+        _state is not None
+        and not force
+        and _state.precision == precision
+        and _state.threads == threads
+        and (arch == "auto" or _requested_matches(arch, _state.arch))
+    ):
         return _state
 
     import taichi as ti
@@ -67,20 +77,29 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
         ti_arch = ti.cpu
     elif arch == "vulkan":
         from taichi._lib import core as _ti_core
-        if not _ti_core.with_vulkan():          # no loader, no driver, or a build without it
+
+        if not _ti_core.with_vulkan():  # no loader, no driver, or a build without it
             raise InputError(NO_VULKAN)
         ti_arch = ti.vulkan
     else:
         ti_arch = _probe_gpu(ti)
         if ti_arch is None:
             if arch == "gpu":
-                raise InputError("arch='gpu' was asked for but no CUDA or Metal GPU is available "
-                                 "here; use --arch cpu (or auto)")
+                raise InputError(
+                    "arch='gpu' was asked for but no CUDA or Metal GPU is available "
+                    "here; use --arch cpu (or auto)"
+                )
             ti_arch = ti.cpu
     if ti_arch == ti.metal and precision == "f64":
         raise InputError(NO_F64.format(device="Metal"))
-    kwargs = dict(arch=ti_arch, default_fp=ti.f64 if precision == "f64" else ti.f32,
-                  fast_math=False, debug=debug, offline_cache=True, log_level=ti.WARN)
+    kwargs = dict(
+        arch=ti_arch,
+        default_fp=ti.f64 if precision == "f64" else ti.f32,
+        fast_math=False,
+        debug=debug,
+        offline_cache=True,
+        log_level=ti.WARN,
+    )
     if threads and ti_arch == ti.cpu:
         kwargs["cpu_max_num_threads"] = threads
     # Taichi prints "[Taichi] Starting on arch=..." on stdout; keep stdout for results (JSON)
@@ -88,23 +107,29 @@ def init(arch: str = "cpu", precision: str = "f64", threads: int = 0, debug: boo
         ti.init(**kwargs)
     if ti_arch == ti.vulkan:
         _check_vulkan(ti, precision)
-    resolved = {ti.cpu: "cpu", ti.cuda: "cuda", ti.metal: "metal",
-                ti.vulkan: "vulkan"}.get(ti_arch, str(ti_arch))
+    resolved = {ti.cpu: "cpu", ti.cuda: "cuda", ti.metal: "metal", ti.vulkan: "vulkan"}.get(
+        ti_arch, str(ti_arch)
+    )
     generation = 1 if _state is None else _state.generation + 1
     _state = BackendState(resolved, precision, threads, generation)
     return _state
 
 
-NO_VULKAN = ("arch='vulkan': no Vulkan device works here (install a driver, e.g. Debian's "
-             "mesa-vulkan-drivers and libvulkan1 for software Vulkan), or use --arch cpu")
-NO_F64 = ("the {device} device has no 64-bit floats, which precision 'f64' needs; use "
-          "--precision f32 (or precision='f32')")
+NO_VULKAN = (
+    "arch='vulkan': no Vulkan device works here (install a driver, e.g. Debian's "
+    "mesa-vulkan-drivers and libvulkan1 for software Vulkan), or use --arch cpu"
+)
+NO_F64 = (
+    "the {device} device has no 64-bit floats, which precision 'f64' needs; use "
+    "--precision f32 (or precision='f32')"
+)
 
 
 def _check_vulkan(ti, precision: str) -> None:
     """Taichi falls back to the CPU when no Vulkan device works, and a device may lack f64:
     refuse both with one line (after resetting Taichi, so nothing half-made stays)."""
     from taichi.lang import impl
+
     if impl.current_cfg().arch != ti.vulkan:
         ti.reset()
         raise InputError(NO_VULKAN)
@@ -117,20 +142,22 @@ def _f64_works(ti) -> bool:
     """Whether the device computes in 64-bit floats: a product and an atomic max that only f64
     resolves (1 + 2^-40 is 1 in f32), as the solver's kernels use them."""
     import numpy as np
+
     a = ti.field(ti.f64, shape=2)
     try:
+
         @ti.kernel
         def probe():
             x = a[0]
             a[1] = x * x
             ti.atomic_max(a[1], x * x - 1.0)
 
-        a[0] = 1.0 + 2.0 ** -40
+        a[0] = 1.0 + 2.0**-40
         probe()
         got = a.to_numpy()
-    except Exception:        # a device without shaderFloat64 fails to compile the kernel
+    except Exception:  # a device without shaderFloat64 fails to compile the kernel
         return False
-    return bool(got[1] == np.float64(1.0 + 2.0 ** -40) ** 2)
+    return bool(got[1] == np.float64(1.0 + 2.0**-40) ** 2)
 
 
 def requested_arch(resolved: str) -> str:
@@ -157,6 +184,7 @@ def _probe_gpu(ti):
         try:
             if cand == ti.cuda:
                 import ctypes
+
                 for name in ("libcuda.so.1", "libcuda.so"):
                     try:
                         lib = ctypes.CDLL(name)
@@ -200,11 +228,14 @@ def conflict(arch: str | None, precision: str, threads: int = 0) -> str | None:
         diff.append(f"{threads} threads")
     if not diff:
         return None
-    have = f"{_state.arch}/{_state.precision}" + (f" with {_state.threads} threads"
-                                                  if _state.threads else "")
-    return (f"Taichi is already initialised for {have} in this process, and this simulation "
-            f"asks for {' and '.join(diff)}; call tiseg.init(...) with the new settings first "
-            "(that invalidates every existing simulation), or use a new process")
+    have = f"{_state.arch}/{_state.precision}" + (
+        f" with {_state.threads} threads" if _state.threads else ""
+    )
+    return (
+        f"Taichi is already initialised for {have} in this process, and this simulation "
+        f"asks for {' and '.join(diff)}; call tiseg.init(...) with the new settings first "
+        "(that invalidates every existing simulation), or use a new process"
+    )
 
 
 def available_cores() -> int:
@@ -220,15 +251,17 @@ def threads_problem(threads: int, what: str = "threads") -> str | None:
     cores only slows a run down, and a huge number can exhaust the machine)."""
     cores = available_cores()
     if threads > cores:
-        return (f"{what}={threads}: this machine offers {cores} core(s) to this process; use "
-                f"at most {cores} (0 = all of them)")
+        return (
+            f"{what}={threads}: this machine offers {cores} core(s) to this process; use "
+            f"at most {cores} (0 = all of them)"
+        )
     return None
 
 
 # Taichi's LLVM backends hold at most 512 field trees per runtime (one or a few per simulation,
 # never freed until ti.init): past that, a kernel launch crashes the process
 MAX_FIELD_TREES = 512
-SPARE_FIELD_TREES = 24      # what one more simulation with a renderer may need
+SPARE_FIELD_TREES = 24  # what one more simulation with a renderer may need
 
 
 def field_trees() -> int:
@@ -237,8 +270,9 @@ def field_trees() -> int:
         return 0
     try:
         from taichi.lang import impl
+
         return int(impl.get_runtime().prog.get_snode_tree_size())
-    except Exception:             # an odd Taichi without the count: nothing to check
+    except Exception:  # an odd Taichi without the count: nothing to check
         return 0
 
 
@@ -247,7 +281,10 @@ def check_field_room() -> None:
     n = field_trees()
     if n > MAX_FIELD_TREES - SPARE_FIELD_TREES:
         from .errors import TisegError
-        raise TisegError(f"this process holds {n} Taichi field trees (Taichi allows "
-                         f"{MAX_FIELD_TREES}; each simulation takes a few and keeps them): "
-                         "call tiseg.init(..., force=True) to free every simulation's fields, "
-                         "or use a new process")
+
+        raise TisegError(
+            f"this process holds {n} Taichi field trees (Taichi allows "
+            f"{MAX_FIELD_TREES}; each simulation takes a few and keeps them): "
+            "call tiseg.init(..., force=True) to free every simulation's fields, "
+            "or use a new process"
+        )

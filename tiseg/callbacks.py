@@ -23,6 +23,7 @@ resolution. Being a convex combination it keeps h >= 0 and 0 <= phi <= 1, and th
 budget is interpolated the same way, so the mass balance of a snapshot holds to round-off. A
 time that coincides with the step's end (t_end, always) is the step state itself, bit for bit.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,6 +41,7 @@ class Snapshot:
     :class:`tiseg.render.FrameRenderer` draws it with ``to_numpy(state=snap)``. ``step``: steps
     taken when it was made (the step that crossed t included); ``theta``: where t lies in that
     step (1: the step state itself)."""
+
     sim: object
     t: float
     slot: int
@@ -66,15 +68,24 @@ class Callback:
     everything it must agree with has been written). ``checked``: the guard checks the state
     first (checkpoints and snapshots: no broken state is ever saved)."""
 
-    def __init__(self, func: Callable, schedule: Schedule, name: str | None = None,
-                 snapshot: bool = False, order: int = 0, checked: bool = False):
+    def __init__(
+        self,
+        func: Callable,
+        schedule: Schedule,
+        name: str | None = None,
+        snapshot: bool = False,
+        order: int = 0,
+        checked: bool = False,
+    ):
         if not callable(func):
             raise InputError(f"Callback: {func!r} is not callable")
         if not isinstance(schedule, Schedule):
             raise InputError(f"Callback: schedule {schedule!r} is not a tiseg.schedules schedule")
         if snapshot and not schedule.timed:
-            raise InputError(f"Callback {name or func!r}: a snapshot callback needs a time "
-                             f"schedule (TimeInterval or SpecifiedTimes), not {schedule!r}")
+            raise InputError(
+                f"Callback {name or func!r}: a snapshot callback needs a time "
+                f"schedule (TimeInterval or SpecifiedTimes), not {schedule!r}"
+            )
         self.func = func
         self.schedule = schedule
         self.name = name or getattr(func, "__name__", type(func).__name__)
@@ -98,16 +109,25 @@ class ProgressBar:
         from tqdm import tqdm
 
         from .log import bar_disable
-        self.bar = tqdm(total=total, initial=start, unit="s", desc=name, disable=bar_disable(),
-                        bar_format=(
-            "{desc}: {percentage:3.0f}%|{bar}| t={n:.3f}/{total:.3f} s "
-            "[{elapsed}<{remaining}{postfix}]"))
+
+        self.bar = tqdm(
+            total=total,
+            initial=start,
+            unit="s",
+            desc=name,
+            disable=bar_disable(),
+            bar_format=(
+                "{desc}: {percentage:3.0f}%|{bar}| t={n:.3f}/{total:.3f} s "
+                "[{elapsed}<{remaining}{postfix}]"
+            ),
+        )
 
     def __call__(self, sim) -> None:
         info = sim.last_step
         self.bar.update(info.t - self.bar.n)
-        self.bar.set_postfix(steps=sim.stats.steps, stages=info.stages, dt=f"{info.dt:.2e}",
-                             refresh=False)
+        self.bar.set_postfix(
+            steps=sim.stats.steps, stages=info.stages, dt=f"{info.dt:.2e}", refresh=False
+        )
 
     def close(self) -> None:
         self.bar.close()

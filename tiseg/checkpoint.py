@@ -61,6 +61,7 @@ scene must agree with ``DIR/scene.toml``), restores the state, trims ``fields.nc
 ``diagnostics.csv`` to what the checkpoint knows of (dropping anything written after it by the
 killed run), and appends from there.
 """
+
 from __future__ import annotations
 
 import math
@@ -75,7 +76,7 @@ from .output.atomic import replacing
 CHECKPOINT_NAME = "checkpoint.npz"
 FORMAT = "tiseg-checkpoint"
 VERSION = 1
-DEFAULT_WALL_INTERVAL = 300.0     # [s] of wall time between checkpoints at most (see above)
+DEFAULT_WALL_INTERVAL = 300.0  # [s] of wall time between checkpoints at most (see above)
 
 
 class CheckpointError(TisegError):
@@ -89,31 +90,42 @@ def write_npz_atomic(path, arrays: dict) -> Path:
     """Write ``arrays`` as an uncompressed .npz via a temporary file and ``os.replace``."""
     path = Path(path)
     with replacing(path) as tmp:
-        with open(tmp, "wb") as fh:        # a file object: np.savez(name) would add ".npz"
+        with open(tmp, "wb") as fh:  # a file object: np.savez(name) would add ".npz"
             np.savez(fh, **arrays)
     return path
 
 
-def state_arrays(sim, q: np.ndarray | None = None, budget: np.ndarray | None = None,
-                 meta: dict | None = None, **extra) -> dict:
+def state_arrays(
+    sim,
+    q: np.ndarray | None = None,
+    budget: np.ndarray | None = None,
+    meta: dict | None = None,
+    **extra,
+) -> dict:
     """The checkpoint dict of ``sim`` (its current state unless q/budget/meta are given)."""
     from . import __version__
+
     op = sim.op
     meta = dict(meta) if meta is not None else sim.checkpoint_meta()
     q = op.get(0) if q is None else q
     budget = op.budget(0) if budget is None else budget
     d = {
-        "format": np.array(FORMAT), "version": np.array(VERSION),
+        "format": np.array(FORMAT),
+        "version": np.array(VERSION),
         "tiseg_version": np.array(__version__),
-        "q": np.asarray(q).astype(op.np_fp), "budget": np.asarray(budget).astype(op.np_fp),
-        "t": np.array(float(meta["t"])), "steps": np.array(int(meta["steps"])),
-        "stages": np.array(int(meta["stages"])), "last_stages": np.array(int(meta["last_stages"])),
+        "q": np.asarray(q).astype(op.np_fp),
+        "budget": np.asarray(budget).astype(op.np_fp),
+        "t": np.array(float(meta["t"])),
+        "steps": np.array(int(meta["steps"])),
+        "stages": np.array(int(meta["stages"])),
+        "last_stages": np.array(int(meta["last_stages"])),
         "wall": np.array(float(meta.get("wall", 0.0))),
         "initial": np.array([meta["initial_mass"], meta["initial_small_mass"]], dtype=float),
         "snapshots": np.array(int(meta.get("snapshots", 0))),
         "diag_rows": np.array(int(meta.get("diag_rows", 0))),
         "next_sim": np.array(float(meta.get("next_sim", math.nan))),
-        "scene": np.array(sim.scene.to_toml()), "precision": np.array(sim.backend.precision),
+        "scene": np.array(sim.scene.to_toml()),
+        "precision": np.array(sim.backend.precision),
         "arch": np.array(sim.backend.arch),
         "layout": np.array([op.nc, op.NX, op.NY]),
     }
@@ -146,11 +158,12 @@ def load(path) -> dict:
     except (KeyError, TypeError, ValueError):
         raise CheckpointError(f"{str(path)!r} has no readable checkpoint version") from None
     if version != VERSION:
-        raise CheckpointError(f"{str(path)!r} has checkpoint version {version}; "
-                              f"this tiseg reads version {VERSION}")
+        raise CheckpointError(
+            f"{str(path)!r} has checkpoint version {version}; this tiseg reads version {VERSION}"
+        )
     out = {}
     for k, v in data.items():
-        if v.ndim > 0:                       # q, budget, initial, layout, saved fields
+        if v.ndim > 0:  # q, budget, initial, layout, saved fields
             out[k] = v
         elif v.dtype.kind == "U":
             out[k] = str(v)
@@ -161,8 +174,21 @@ def load(path) -> dict:
     return out
 
 
-REQUIRED = ("q", "budget", "t", "steps", "stages", "last_stages", "initial", "scene",
-            "precision", "layout", "snapshots", "diag_rows", "wall")
+REQUIRED = (
+    "q",
+    "budget",
+    "t",
+    "steps",
+    "stages",
+    "last_stages",
+    "initial",
+    "scene",
+    "precision",
+    "layout",
+    "snapshots",
+    "diag_rows",
+    "wall",
+)
 
 
 def validate(ck: dict, scene, path="checkpoint") -> None:
@@ -173,8 +199,10 @@ def validate(ck: dict, scene, path="checkpoint") -> None:
         raise CheckpointError(f"{path} lacks {', '.join(missing)}: it is not a whole checkpoint")
     t = ck["t"]
     if not (isinstance(t, float) and math.isfinite(t) and 0.0 <= t <= scene.t_end * (1 + 1e-12)):
-        raise CheckpointError(f"{path} is at t={t!r} s, outside [0, time.t_end={scene.t_end!r}]: "
-                              "it does not belong to this run")
+        raise CheckpointError(
+            f"{path} is at t={t!r} s, outside [0, time.t_end={scene.t_end!r}]: "
+            "it does not belong to this run"
+        )
     for k in ("steps", "stages", "last_stages", "snapshots", "diag_rows"):
         if not (isinstance(ck[k], int) and ck[k] >= 0):
             raise CheckpointError(f"{path}: {k}={ck[k]!r} must be a count >= 0")
@@ -185,8 +213,10 @@ def validate(ck: dict, scene, path="checkpoint") -> None:
     for k in ("q", "budget", "initial"):
         a = np.asarray(ck[k])
         if a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):
-            raise CheckpointError(f"{path}: {k} holds NaN, Inf or non-numbers: the state is "
-                                  "damaged; start the run again")
+            raise CheckpointError(
+                f"{path}: {k} holds NaN, Inf or non-numbers: the state is "
+                "damaged; start the run again"
+            )
     if np.asarray(ck["q"]).ndim != 3 or np.asarray(ck["layout"]).shape != (3,):
         raise CheckpointError(f"{path}: the state has the wrong shape")
 
@@ -196,11 +226,14 @@ def restore(sim, ck: dict) -> None:
     op = sim.op
     shape = (op.nc, op.NX, op.NY)
     if tuple(int(n) for n in ck["layout"]) != shape or ck["q"].shape != shape:
-        raise CheckpointError(f"checkpoint layout {tuple(ck['layout'])} does not match this "
-                              f"scene's {shape}")
+        raise CheckpointError(
+            f"checkpoint layout {tuple(ck['layout'])} does not match this scene's {shape}"
+        )
     if ck["precision"] != sim.backend.precision:
-        raise CheckpointError(f"checkpoint precision {ck['precision']} differs from the run's "
-                              f"{sim.backend.precision}: resume in {ck['precision']}")
+        raise CheckpointError(
+            f"checkpoint precision {ck['precision']} differs from the run's "
+            f"{sim.backend.precision}: resume in {ck['precision']}"
+        )
     op.set(0, ck["q"])
     op.reset_budget(ck["budget"])
     sim.restore_meta(ck)
@@ -212,31 +245,39 @@ def restore(sim, ck: dict) -> None:
 def open_run_dir(run_dir) -> tuple[object, dict]:
     """(scene, checkpoint) of a run folder to resume; a clear error if it is not one."""
     from .scene import load_scene, scene_from_text
+
     d = Path(run_dir)
     if not d.is_dir():
         raise InputError(f"--resume {str(run_dir)!r}: no such folder")
     missing = [n for n in ("scene.toml", "fields.nc", "diagnostics.csv") if not (d / n).is_file()]
     if missing:
-        raise InputError(f"--resume {str(run_dir)!r} is not a tiseg run folder (missing "
-                         f"{', '.join(missing)})")
+        raise InputError(
+            f"--resume {str(run_dir)!r} is not a tiseg run folder (missing {', '.join(missing)})"
+        )
     if not (d / CHECKPOINT_NAME).is_file():
-        raise InputError(f"--resume {str(run_dir)!r}: the run has no {CHECKPOINT_NAME} (it "
-                         "finished, or was stopped before its first checkpoint); nothing to resume")
+        raise InputError(
+            f"--resume {str(run_dir)!r}: the run has no {CHECKPOINT_NAME} (it "
+            "finished, or was stopped before its first checkpoint); nothing to resume"
+        )
     try:
         ck = load(d / CHECKPOINT_NAME)
     except CheckpointError as exc:
         raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
     if "scene" not in ck:
-        raise InputError(f"--resume {str(run_dir)!r}: {CHECKPOINT_NAME} lacks scene: it is not "
-                         "a whole checkpoint")
+        raise InputError(
+            f"--resume {str(run_dir)!r}: {CHECKPOINT_NAME} lacks scene: it is not "
+            "a whole checkpoint"
+        )
     try:
         saved = load_scene(str(d / "scene.toml"))
         scene = scene_from_text(ck["scene"], name=saved.name, source=str(d / "scene.toml"))
     except InputError as exc:
         raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
     if saved.to_dict() != scene.to_dict():
-        raise InputError(f"--resume {str(run_dir)!r}: scene.toml was changed after the run "
-                         "started (it differs from the scene in the checkpoint); restore it")
+        raise InputError(
+            f"--resume {str(run_dir)!r}: scene.toml was changed after the run "
+            "started (it differs from the scene in the checkpoint); restore it"
+        )
     try:
         validate(ck, scene, CHECKPOINT_NAME)
     except CheckpointError as exc:
@@ -253,6 +294,7 @@ def append_diagnostics(path, keep_rows: int):
     import io
 
     from .output import DiagnosticsWriter, write_text_atomic
+
     path = Path(path)
     try:
         with open(path, newline="", encoding="utf-8") as fh:
@@ -264,11 +306,12 @@ def append_diagnostics(path, keep_rows: int):
     header = rows[0]
     body = [r for r in rows[1:] if len(r) == len(header)][:keep_rows]
     if len(body) < keep_rows:
-        raise CheckpointError(f"{str(path)!r} has {len(body)} complete rows, the checkpoint "
-                              f"expects {keep_rows}")
+        raise CheckpointError(
+            f"{str(path)!r} has {len(body)} complete rows, the checkpoint expects {keep_rows}"
+        )
     buf = io.StringIO(newline="")
     csv.writer(buf).writerows([header] + body)
-    write_text_atomic(path, buf.getvalue())     # keeps the file's permissions
+    write_text_atomic(path, buf.getvalue())  # keeps the file's permissions
 
     class _Appending(DiagnosticsWriter):
         """DiagnosticsWriter that opens for appending instead of writing a new header."""
@@ -283,6 +326,16 @@ def append_diagnostics(path, keep_rows: int):
     return _Appending()
 
 
-__all__ = ["CHECKPOINT_NAME", "DEFAULT_WALL_INTERVAL", "CheckpointError", "save", "load",
-           "restore", "validate", "state_arrays", "write_npz_atomic", "open_run_dir",
-           "append_diagnostics"]
+__all__ = [
+    "CHECKPOINT_NAME",
+    "DEFAULT_WALL_INTERVAL",
+    "CheckpointError",
+    "save",
+    "load",
+    "restore",
+    "validate",
+    "state_arrays",
+    "write_npz_atomic",
+    "open_run_dir",
+    "append_diagnostics",
+]

@@ -1,6 +1,7 @@
 """The command-line reference, generated from the argparse parser (for the documentation site):
 one section per command and sub-command with its ``--help`` text, so the page lists exactly
 the options the installed ``tiseg`` accepts."""
+
 from __future__ import annotations
 
 import argparse
@@ -16,20 +17,38 @@ def _children(parser: argparse.ArgumentParser):
 
 def markdown() -> str:
     from .cli import build_parser
+
     old = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "100"       # argparse wraps help to the terminal width
+    os.environ["COLUMNS"] = "100"  # argparse wraps help to the terminal width
     try:
         root = build_parser()
-        lines = ["# Command-line reference", "",
-                 "*Generated from the argparse parser of `tiseg` (`tiseg.cli_reference`): the "
-                 "same text as `tiseg COMMAND --help`.*", "",
-                 "## `tiseg`", "", "```text", root.format_help().rstrip(), "```", ""]
+        lines = [
+            "# Command-line reference",
+            "",
+            "*Generated from the argparse parser of `tiseg` (`tiseg.cli_reference`): the "
+            "same text as `tiseg COMMAND --help`.*",
+            "",
+            "## `tiseg`",
+            "",
+            "```text",
+            root.format_help().rstrip(),
+            "```",
+            "",
+        ]
 
         def walk(parser, prefix, depth):
             for name, sub in _children(parser):
                 full = f"{prefix} {name}"
-                lines.extend([f"{'#' * depth} `{full}`", "", "```text",
-                              sub.format_help().rstrip(), "```", ""])
+                lines.extend(
+                    [
+                        f"{'#' * depth} `{full}`",
+                        "",
+                        "```text",
+                        sub.format_help().rstrip(),
+                        "```",
+                        "",
+                    ]
+                )
                 walk(sub, full, min(depth + 1, 4))
 
         walk(root, "tiseg", 2)

@@ -50,6 +50,7 @@ predicts a run started now, at the machine's present load (``wall_s``); the mini
 same run takes with no other job in the way (``wall_idle_s``). On a shared machine the two can
 differ by several times, and a run takes longer when the load grows while it runs.
 """
+
 from __future__ import annotations
 
 import math
@@ -61,17 +62,17 @@ from pathlib import Path
 import numpy as np
 
 # Flow-model constants (see the module docstring for where they come from).
-HEAD_THICKNESS = 2.5      # coarse-rich head thickness / h0 before fingering
-CHANNEL_SPEED = 2.0       # channel speed / u0 once fingers have formed (paper, section 6.2)
-CHANNEL_THICKNESS = 2.0   # channel thickness / h0 once fingers have formed
-T_ONSET = 5.1             # [s] the front becomes unstable (figure 12)
-T_FORMED = 7.5            # [s] fingers formed (figure 12)
-FRONT_SPEED = 0.8         # front speed / u0 of a segregating front (measured, 100-250 cells/m)
-SLOW_BEFORE = 1.0 / 4.0   # slowest wet speed / u0 before fingering (measured rho_fric)
+HEAD_THICKNESS = 2.5  # coarse-rich head thickness / h0 before fingering
+CHANNEL_SPEED = 2.0  # channel speed / u0 once fingers have formed (paper, section 6.2)
+CHANNEL_THICKNESS = 2.0  # channel thickness / h0 once fingers have formed
+T_ONSET = 5.1  # [s] the front becomes unstable (figure 12)
+T_FORMED = 7.5  # [s] fingers formed (figure 12)
+FRONT_SPEED = 0.8  # front speed / u0 of a segregating front (measured, 100-250 cells/m)
+SLOW_BEFORE = 1.0 / 4.0  # slowest wet speed / u0 before fingering (measured rho_fric)
 SLOW_FINGERS = 1.0 / 30.0  # slowest wet speed / u0 with levees (measured rho_fric)
-CROSS_SPEED = 0.2         # |v| / u0 in the fingers
-SAMPLES = 400             # time samples of the model over the run
-CAL_FRACTION = 0.25       # the smaller calibration wet fraction of x
+CROSS_SPEED = 0.2  # |v| / u0 in the fingers
+SAMPLES = 400  # time samples of the model over the run
+CAL_FRACTION = 0.25  # the smaller calibration wet fraction of x
 
 
 # =================================================================================================
@@ -80,12 +81,13 @@ CAL_FRACTION = 0.25       # the smaller calibration wet fraction of x
 @dataclass
 class FlowModel:
     """Functions of time t [s] describing what limits the step (see the module docstring)."""
+
     kind: str
-    ax: object                       # t -> largest a along x [m/s]
-    ay: object                       # t -> largest a along y [m/s]
-    h_max: object                    # t -> largest thickness [m]
-    u_slow: object                   # t -> slowest wet speed [m/s] (friction stiffness)
-    wet: object                      # t -> (x_lo, x_hi) wet range [m], or None (everything)
+    ax: object  # t -> largest a along x [m/s]
+    ay: object  # t -> largest a along y [m/s]
+    h_max: object  # t -> largest thickness [m]
+    u_slow: object  # t -> slowest wet speed [m/s] (friction stiffness)
+    wet: object  # t -> (x_lo, x_hi) wet range [m], or None (everything)
     notes: list = field(default_factory=list)
 
 
@@ -116,12 +118,15 @@ def flow_model(scene) -> FlowModel:
         h_in, u_in, phi_in = inf.h, inf.u, inf.phi
         a_in = speed(u_in, h_in, phi_in)
         c_in = math.sqrt(gc * h_in)
-        fingers = scene.feedback and phi_in < 1.0       # a coarse-rich head can form
+        fingers = scene.feedback and phi_in < 1.0  # a coarse-rich head can form
         two_d = not scene.is_1d
         front = FRONT_SPEED if fingers else 1.0
         a_head = speed(u_in, HEAD_THICKNESS * fl.h0, phi_in) if fingers else a_in
-        a_ch = (speed(CHANNEL_SPEED * u_in, CHANNEL_THICKNESS * fl.h0, phi_in)
-                if fingers and two_d else a_head)
+        a_ch = (
+            speed(CHANNEL_SPEED * u_in, CHANNEL_THICKNESS * fl.h0, phi_in)
+            if fingers and two_d
+            else a_head
+        )
         h_top = HEAD_THICKNESS * fl.h0 if fingers else h_in
 
         def ax(t):
@@ -149,11 +154,15 @@ def flow_model(scene) -> FlowModel:
 
         notes = [f"inflow a = {a_in:.3f} m/s (u0 + sqrt(g' h0) = {u_in + c_in:.3f})"]
         if fingers:
-            notes.append(f"coarse head {HEAD_THICKNESS:g} h0 by t = {T_ONSET:g} s: a = {a_head:.3f} m/s")
+            notes.append(
+                f"coarse head {HEAD_THICKNESS:g} h0 by t = {T_ONSET:g} s: a = {a_head:.3f} m/s"
+            )
             if two_d:
-                notes.append(f"fingers by t = {T_FORMED:g} s: channels {CHANNEL_SPEED:g} u0 on "
-                             f"{CHANNEL_THICKNESS:g} h0, a = {a_ch:.3f} m/s, levees at "
-                             f"u0/{1 / SLOW_FINGERS:.0f}")
+                notes.append(
+                    f"fingers by t = {T_FORMED:g} s: channels {CHANNEL_SPEED:g} u0 on "
+                    f"{CHANNEL_THICKNESS:g} h0, a = {a_ch:.3f} m/s, levees at "
+                    f"u0/{1 / SLOW_FINGERS:.0f}"
+                )
         notes.append(f"front at {front:g} u0 = {front * u_in:.3f} m/s")
         return FlowModel("inflow", ax, ay, h_max, u_slow, wet, notes)
 
@@ -163,17 +172,26 @@ def flow_model(scene) -> FlowModel:
         amp = abs(ini.amplitude or 0.0)
         h = fl.h0 * (1.0 + amp)
         a = speed(u0, h, fl.phi0)
-        return FlowModel("uniform", lambda t: a,
-                         lambda t: 0.0 if scene.is_1d else math.sqrt(gc * h) + amp * u0,
-                         lambda t: h, lambda t: max(u0 * (1.0 - amp), 1e-12), lambda t: None,
-                         [f"uniform flow a = {a:.3f} m/s throughout"])
+        return FlowModel(
+            "uniform",
+            lambda t: a,
+            lambda t: 0.0 if scene.is_1d else math.sqrt(gc * h) + amp * u0,
+            lambda t: h,
+            lambda t: max(u0 * (1.0 - amp), 1e-12),
+            lambda t: None,
+            [f"uniform flow a = {a:.3f} m/s throughout"],
+        )
 
     if ini.kind in ("dam-break", "release"):
         if ini.kind == "dam-break":
             h = max(ini.h_left or 0.0, ini.h_right or 0.0)
-            x0, x1 = (0.0, ini.x0) if (ini.h_left or 0.0) >= (ini.h_right or 0.0) else (ini.x0, scene.domain.Lx)
+            x0, x1 = (
+                (0.0, ini.x0)
+                if (ini.h_left or 0.0) >= (ini.h_right or 0.0)
+                else (ini.x0, scene.domain.Lx)
+            )
             if min(ini.h_left or 0.0, ini.h_right or 0.0) >= scene.numerics.h_min:
-                x0, x1 = 0.0, scene.domain.Lx           # wet on both sides: everything
+                x0, x1 = 0.0, scene.domain.Lx  # wet on both sides: everything
         else:
             h = ini.h
             x0, x1 = ini.x0, ini.x1
@@ -184,7 +202,7 @@ def flow_model(scene) -> FlowModel:
         if scene.effects.friction == "coulomb":
             mu = scene.effects.coulomb_mu
         elif scene.effects.friction != "none":
-            mu = min(m.small.mu1, m.large.mu1)           # the least friction a law can give
+            mu = min(m.small.mu1, m.large.mu1)  # the least friction a law can give
         acc = max(0.0, m.g * (math.sin(m.zeta) - mu * math.cos(m.zeta)))
 
         def ax(t):
@@ -194,14 +212,27 @@ def flow_model(scene) -> FlowModel:
             grow = (tip + 0.5 * acc * t) * t
             return (max(0.0, x0 - c * t), min(scene.domain.Lx, x1 + grow))
 
-        return FlowModel(ini.kind, ax, (lambda t: 0.0) if scene.is_1d else (lambda t: tip),
-                         lambda t: h, lambda t: max(c, 1e-12), wet,
-                         [f"front speed {tip:.3f} m/s + {acc:.3g} m/s^2 t"])
+        return FlowModel(
+            ini.kind,
+            ax,
+            (lambda t: 0.0) if scene.is_1d else (lambda t: tip),
+            lambda t: h,
+            lambda t: max(c, 1e-12),
+            wet,
+            [f"front speed {tip:.3f} m/s + {acc:.3g} m/s^2 t"],
+        )
 
     # an empty chute without inflow: nothing moves
     zero = lambda t: 0.0
-    return FlowModel("empty", zero, zero, zero, lambda t: math.inf, lambda t: (0.0, 0.0),
-                     ["nothing flows: one step per output interval"])
+    return FlowModel(
+        "empty",
+        zero,
+        zero,
+        zero,
+        lambda t: math.inf,
+        lambda t: (0.0, 0.0),
+        ["nothing flows: one step per output interval"],
+    )
 
 
 def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, float, float]:
@@ -209,18 +240,19 @@ def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, flo
     m = scene.material
     gc = m.g * math.cos(m.zeta)
     ax, ay = model.ax(t), model.ay(t)
-    if scene.has_inflow:      # the run never plans with less than the inflow's speed
+    if scene.has_inflow:  # the run never plans with less than the inflow's speed
         ax = max(ax, model.ax(0.0))
     rho_v = 0.0
     if scene.viscous:
         h = model.h_max(t)
-        s = 4.0 * scene.flow.nu * math.sqrt(max(h, 0.0))    # sum over faces of K (1/h + 1/h)
+        s = 4.0 * scene.flow.nu * math.sqrt(max(h, 0.0))  # sum over faces of K (1/h + 1/h)
         dx, dy = scene.dx, scene.dy
         if scene.is_1d:
-            rho_v = s / dx ** 2
+            rho_v = s / dx**2
         else:
-            rho_v = max(s / dx ** 2 + 0.5 * s / dy ** 2, 0.5 * s / dx ** 2 + s / dy ** 2) \
-                + 0.125 * 2 * s / (dx * dy)
+            rho_v = max(
+                s / dx**2 + 0.5 * s / dy**2, 0.5 * s / dx**2 + s / dy**2
+            ) + 0.125 * 2 * s / (dx * dy)
     rho_f = 0.0
     if scene.effects.friction != "none" and model.kind != "empty":
         u = max(model.u_slow(t), scene.numerics.u_eps)
@@ -232,6 +264,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
     """Steps, operator evaluations and the per-step (t, dt, stages, active cells) of a run."""
     from .simulation import ACTIVE_MARGIN, step_limits
     from .timestepping import stepper_for
+
     model = model or flow_model(scene)
     num = scene.numerics
     stepper = stepper_for(num)
@@ -245,7 +278,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
     inflow = scene.has_inflow
     h_dt = t_end / SAMPLES
     steps, evals, t0 = 0, 0, 0.0
-    rows = []                            # (t, dt, stages, active cells, steps in the piece)
+    rows = []  # (t, dt, stages, active cells, steps in the piece)
     for t1 in (t_end,):
         # sample the run in pieces of about t_end / SAMPLES; the step count is the ceiling of
         # the summed fractions (the last step is trimmed to land on t_end)
@@ -278,8 +311,12 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
             evals += s * n
         steps += n_int
         t0 = t1
-    return {"steps": steps, "rhs_evals": int(round(evals)), "outputs": len(times) + 1,
-            "profile": rows}
+    return {
+        "steps": steps,
+        "rhs_evals": int(round(evals)),
+        "outputs": len(times) + 1,
+        "profile": rows,
+    }
 
 
 # =================================================================================================
@@ -288,17 +325,18 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
 @dataclass
 class Calibration:
     """Measured costs on the scene's grid in this process [s]."""
+
     cells: int
-    active_cells: tuple           # active cells at the calibration points
-    stage_s: tuple                # one stage (operator + combination + limiter) at each point
-    step_overhead_s: tuple        # per step beyond its stages at each point
-    stage_idle_s: tuple           # the same, minima over the repeats (an idle machine)
+    active_cells: tuple  # active cells at the calibration points
+    stage_s: tuple  # one stage (operator + combination + limiter) at each point
+    step_overhead_s: tuple  # per step beyond its stages at each point
+    stage_idle_s: tuple  # the same, minima over the repeats (an idle machine)
     step_overhead_idle_s: tuple
-    diagnostics_s: float          # one diagnostics row (totals) per step of a run with output
-    output_s: float               # one snapshot + checkpoint at an output time
-    compile_s: float              # kernel compilation of a fresh run (first calls)
-    setup_s: float                # building the Simulation (before the run starts)
-    wall_s: float                 # the calibration itself
+    diagnostics_s: float  # one diagnostics row (totals) per step of a run with output
+    output_s: float  # one snapshot + checkpoint at an output time
+    compile_s: float  # kernel compilation of a fresh run (first calls)
+    setup_s: float  # building the Simulation (before the run starts)
+    wall_s: float  # the calibration itself
     arch: str = "cpu"
     precision: str = "f64"
     threads: int = 0
@@ -307,8 +345,9 @@ class Calibration:
         return _interp(active, self.active_cells, self.stage_idle_s if idle else self.stage_s)
 
     def overhead(self, active: float, idle: bool = False) -> float:
-        return _interp(active, self.active_cells,
-                       self.step_overhead_idle_s if idle else self.step_overhead_s)
+        return _interp(
+            active, self.active_cells, self.step_overhead_idle_s if idle else self.step_overhead_s
+        )
 
 
 def _interp(x, xs, ys):
@@ -367,8 +406,14 @@ def _timed(fn, repeats: int, min_s: float) -> tuple[float, float]:
     return float(np.median(times)), min(times)
 
 
-def calibrate(scene, arch: str | None = None, precision: str | None = None, threads: int = 0,
-              output: bool = True, repeats: int = 5) -> Calibration:
+def calibrate(
+    scene,
+    arch: str | None = None,
+    precision: str | None = None,
+    threads: int = 0,
+    output: bool = True,
+    repeats: int = 5,
+) -> Calibration:
     """Time the scene's own kernels on its grid in this process (see the module docstring)."""
     from .simulation import Simulation
 
@@ -389,7 +434,7 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
 
     # the step at a fixed stage count: its time less that many stages is the per-step work
     s_cal = 2 if rkc else stepper.stages
-    far = sim.t + 1e9                      # a target never reached: no trimmed steps
+    far = sim.t + 1e9  # a target never reached: no trimmed steps
 
     fixed = s_cal if rkc else None
 
@@ -397,7 +442,9 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
         for _ in range(k):
             sim.step(far, stages=fixed)
 
-    fractions = (1.0,) if (scene.boundary.x_lo == "periodic" or lay.nx < 40) else (CAL_FRACTION, 1.0)
+    fractions = (
+        (1.0,) if (scene.boundary.x_lo == "periodic" or lay.nx < 40) else (CAL_FRACTION, 1.0)
+    )
     actives = []
     med = {"stage": [], "over": []}
     low = {"stage": [], "over": []}
@@ -413,12 +460,12 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
     for k, f in enumerate(fractions):
         q_full = _wet_state(sim, f, rng)
         _load(sim, q_full)
-        if k == 0 and not output:      # first calls compile: the compile time of a run
+        if k == 0 and not output:  # first calls compile: the compile time of a run
             c0 = time.perf_counter()
             steps(1)
             compile_s = time.perf_counter() - c0
             _load(sim, q_full)
-        sim.plan(far)                  # sets the active range of this state
+        sim.plan(far)  # sets the active range of this state
         actives.append((op.active[1] - op.active[0]) * lay.ny)
         st_med, st_min = _timed(stage, repeats, 0.05)
         # whole steps, as many as the guard's period so that its check is counted once
@@ -446,12 +493,22 @@ def calibrate(scene, arch: str | None = None, precision: str | None = None, thre
         compile_s = max(0.0, t1 - t2)
         step2 = n2 * (s2 / max(n2, 1) * med["stage"][-1] + med["over"][-1])
         out_s = max(0.0, (t2 - step2) / 2.0)
-    return Calibration(cells=lay.nx * lay.ny, active_cells=tuple(actives),
-                       stage_s=tuple(med["stage"]), step_overhead_s=tuple(med["over"]),
-                       stage_idle_s=tuple(low["stage"]), step_overhead_idle_s=tuple(low["over"]),
-                       diagnostics_s=diag, output_s=out_s, compile_s=compile_s, setup_s=setup,
-                       wall_s=time.perf_counter() - w0, arch=sim.backend.arch,
-                       precision=sim.backend.precision, threads=sim.backend.threads)
+    return Calibration(
+        cells=lay.nx * lay.ny,
+        active_cells=tuple(actives),
+        stage_s=tuple(med["stage"]),
+        step_overhead_s=tuple(med["over"]),
+        stage_idle_s=tuple(low["stage"]),
+        step_overhead_idle_s=tuple(low["over"]),
+        diagnostics_s=diag,
+        output_s=out_s,
+        compile_s=compile_s,
+        setup_s=setup,
+        wall_s=time.perf_counter() - w0,
+        arch=sim.backend.arch,
+        precision=sim.backend.precision,
+        threads=sim.backend.threads,
+    )
 
 
 def _short_run(sim, q_full) -> tuple[float, tuple[int, int]]:
@@ -461,7 +518,7 @@ def _short_run(sim, q_full) -> tuple[float, tuple[int, int]]:
     with tempfile.TemporaryDirectory(prefix="tiseg-estimate-") as tmp:
         sim.reset()
         _load(sim, q_full)
-        t0 = time.perf_counter()           # the planning compiles kernels too: timed
+        t0 = time.perf_counter()  # the planning compiles kernels too: timed
         dt = sim.plan(1e9).dt
         later = [t for t in sim.scene.output_times if t > 0]
         t_end = min(dt, 0.5 * min(later)) if later else dt
@@ -484,13 +541,13 @@ class Estimate:
     dt_min: float
     dt_max: float
     mean_active_cells: float
-    wall_steps_s: float           # stepping (stages + per-step work)
-    wall_diagnostics_s: float     # the diagnostics row per step (runs with output)
-    wall_output_s: float          # snapshots and checkpoints at output times
-    wall_compile_s: float         # kernel compilation at the start of the run
-    wall_s: float                 # all of the above: what `tiseg run` reports as wall time
-    wall_idle_s: float            # the same with the calibration's minima (an idle machine)
-    setup_s: float                # building the simulation before the run (not in wall_s)
+    wall_steps_s: float  # stepping (stages + per-step work)
+    wall_diagnostics_s: float  # the diagnostics row per step (runs with output)
+    wall_output_s: float  # snapshots and checkpoints at output times
+    wall_compile_s: float  # kernel compilation at the start of the run
+    wall_s: float  # all of the above: what `tiseg run` reports as wall time
+    wall_idle_s: float  # the same with the calibration's minima (an idle machine)
+    setup_s: float  # building the simulation before the run (not in wall_s)
     model: list
     calibration: dict
 
@@ -524,9 +581,15 @@ def _hms(s: float) -> str:
     return f"{s / 3600:.2f} h"
 
 
-def estimate(scene, arch: str | None = None, precision: str | None = None, threads: int = 0,
-             output: bool = True, calibration: Calibration | None = None,
-             t_end: float | None = None) -> Estimate:
+def estimate(
+    scene,
+    arch: str | None = None,
+    precision: str | None = None,
+    threads: int = 0,
+    output: bool = True,
+    calibration: Calibration | None = None,
+    t_end: float | None = None,
+) -> Estimate:
     """Predict a run of ``scene`` (a :class:`tiseg.scene.Scene`) on this machine.
 
     ``output``: the run writes files (snapshots, checkpoints, a diagnostics row per step), as
@@ -549,11 +612,22 @@ def estimate(scene, arch: str | None = None, precision: str | None = None, threa
     out = (pred["outputs"] * cal.output_s) if output else 0.0
     total = wall_steps + diag + out + cal.compile_s
     return Estimate(
-        scene=scene.name, grid=(scene.domain.nx, scene.domain.ny),
-        t_end=scene.t_end if t_end is None else t_end, steps=pred["steps"],
-        rhs_evals=pred["rhs_evals"], mean_stages=evals / max(n_sum, 1e-12),
-        dt_min=min(dts) if dts else 0.0, dt_max=max(dts) if dts else 0.0,
-        mean_active_cells=act_sum / max(n_sum, 1e-12), wall_steps_s=wall_steps,
-        wall_diagnostics_s=diag, wall_output_s=out, wall_compile_s=cal.compile_s, wall_s=total,
+        scene=scene.name,
+        grid=(scene.domain.nx, scene.domain.ny),
+        t_end=scene.t_end if t_end is None else t_end,
+        steps=pred["steps"],
+        rhs_evals=pred["rhs_evals"],
+        mean_stages=evals / max(n_sum, 1e-12),
+        dt_min=min(dts) if dts else 0.0,
+        dt_max=max(dts) if dts else 0.0,
+        mean_active_cells=act_sum / max(n_sum, 1e-12),
+        wall_steps_s=wall_steps,
+        wall_diagnostics_s=diag,
+        wall_output_s=out,
+        wall_compile_s=cal.compile_s,
+        wall_s=total,
         wall_idle_s=total - wall_steps + idle_steps,
-        setup_s=cal.setup_s, model=model.notes, calibration=asdict(cal))
+        setup_s=cal.setup_s,
+        model=model.notes,
+        calibration=asdict(cal),
+    )

@@ -38,35 +38,41 @@ from .numerics.operator import NBUDGET
 
 # Rules, in the order of the result table; a cell is reported under the first rule it breaks.
 NONFINITE, NEG_H, PHI_LOW, PHI_HIGH = range(4)
-RULES = ("non-finite value", "negative thickness", "concentration below 0",
-         "concentration above 1")
-_NO_CELL = 2 ** 31 - 1
+RULES = ("non-finite value", "negative thickness", "concentration below 0", "concentration above 1")
+_NO_CELL = 2**31 - 1
 
 
 @dataclass
 class Violation:
     """One broken rule: what, where (cell indices and metres) and how many cells."""
-    rule: str            # one of RULES, or "mass balance"
-    field: str           # "h", "hu", "hv", "h*phi", "phi" or "mass"
-    i: int               # interior cell index along x (0 .. nx-1); -1 for the mass balance
-    j: int               # interior cell index along y (0 .. ny-1)
-    x: float             # cell centre [m]
+
+    rule: str  # one of RULES, or "mass balance"
+    field: str  # "h", "hu", "hv", "h*phi", "phi" or "mass"
+    i: int  # interior cell index along x (0 .. nx-1); -1 for the mass balance
+    j: int  # interior cell index along y (0 .. ny-1)
+    x: float  # cell centre [m]
     y: float
-    value: float         # the offending value (phi for phi rules, h for h, the component else)
-    count: int           # cells breaking this rule
-    t: float             # simulated time [s]
-    step: int            # steps taken when it was found
+    value: float  # the offending value (phi for phi rules, h for h, the component else)
+    count: int  # cells breaking this rule
+    t: float  # simulated time [s]
+    step: int  # steps taken when it was found
 
     def message(self) -> str:
         if self.rule == "mass balance":
-            what = (f"differs from initial + boundary inflow by a relative {self.value:.3g}"
-                    if math.isfinite(self.value) else
-                    "is not finite (NaN in the total or in the boundary budget)")
-            return (f"mass balance broken at t={self.t:.9g} s (step {self.step}): the {self.field} "
-                    f"{what}")
+            what = (
+                f"differs from initial + boundary inflow by a relative {self.value:.3g}"
+                if math.isfinite(self.value)
+                else "is not finite (NaN in the total or in the boundary budget)"
+            )
+            return (
+                f"mass balance broken at t={self.t:.9g} s (step {self.step}): the {self.field} "
+                f"{what}"
+            )
         more = f" (and {self.count - 1} more cells)" if self.count > 1 else ""
-        return (f"{self.rule} {self.field}={self.value!r} at t={self.t:.9g} s (step {self.step}) "
-                f"in cell (i={self.i}, j={self.j}) at x={self.x:.6g} m, y={self.y:.6g} m{more}")
+        return (
+            f"{self.rule} {self.field}={self.value!r} at t={self.t:.9g} s (step {self.step}) "
+            f"in cell (i={self.i}, j={self.j}) at x={self.x:.6g} m, y={self.y:.6g} m{more}"
+        )
 
 
 @ti.data_oriented
@@ -90,10 +96,10 @@ class StateGuard:
             mass_tol = 1e-6 if op.np_fp == np.float64 else 1e-3
         self.mass_tol = float(mass_tol)
         self.res = ti.field(ti.i32, shape=(4, 2))
-        self.par = ti.field(op.fp, shape=3)           # h_tol, phi_tol, h_min
+        self.par = ti.field(op.fp, shape=3)  # h_tol, phi_tol, h_min
         self.good = ti.Vector.field(op.nc, op.fp, shape=(op.NX, op.NY))
         self.good_bud = ti.field(op.fp, shape=NBUDGET)
-        self.good_meta: dict | None = None            # t, steps, ... of the copy in self.good
+        self.good_meta: dict | None = None  # t, steps, ... of the copy in self.good
         self.set_params()
 
     def set_params(self) -> None:
@@ -154,17 +160,19 @@ class StateGuard:
                 return self._describe(rule, count, idx, t, step)
         return None
 
-    def check_mass(self, totals: dict, initial: dict, budget: dict, t: float,
-                   step: int) -> Violation | None:
+    def check_mass(
+        self, totals: dict, initial: dict, budget: dict, t: float, step: int
+    ) -> Violation | None:
         """Total mass against initial + inflow (a backstop for losses the scan cannot see)."""
         if not self.mass_tol > 0:
             return None
         expected = initial["mass"] + budget["mass_in"]
         scale = max(abs(initial["mass"]), abs(totals["mass"]), abs(budget["mass_in"]), 1e-300)
         rel = abs(totals["mass"] - expected) / scale
-        if not rel <= self.mass_tol:          # also catches a NaN total
-            return Violation("mass balance", "mass", -1, -1, float("nan"), float("nan"),
-                             rel, 0, t, step)
+        if not rel <= self.mass_tol:  # also catches a NaN total
+            return Violation(
+                "mass balance", "mass", -1, -1, float("nan"), float("nan"), rel, 0, t, step
+            )
         return None
 
     def keep(self, meta: dict) -> None:
@@ -192,17 +200,19 @@ class StateGuard:
         else:
             field, value = "phi", float(q[lay.HPHI] / q[0])
         cfg = self.op.cfg
-        return Violation(RULES[rule], field, i, j, (i + 0.5) * cfg.dx,
-                         (j + 0.5) * cfg.dy, value, count, t, step)
+        return Violation(
+            RULES[rule], field, i, j, (i + 0.5) * cfg.dx, (j + 0.5) * cfg.dy, value, count, t, step
+        )
 
 
 def measure_overhead(sim, steps: int = 200) -> dict:
     """Wall time of one guard check against one time step of ``sim`` (which is advanced by
     ``steps`` steps without checks, then checked ``steps`` times). For the README's numbers."""
     import time
+
     every = sim.check_every
     sim.check_every = 0
-    sim.step()                                      # compile everything before timing
+    sim.step()  # compile everything before timing
     sim.guard.scan(sim.t, sim.stats.steps)
     sim.guard.keep({"t": sim.t})
     try:

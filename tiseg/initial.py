@@ -8,6 +8,7 @@
 * release of a finite block of material at rest;
 * a straight channel between levees, at rest (the sharp-contact verification case).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,26 +19,31 @@ from .numerics.config import Layout
 
 def _cell_avg_wave(k: float, d: float, centres: np.ndarray) -> np.ndarray:
     """Cell averages of exp(i k x) over cells of width d centred at ``centres``."""
-    return np.exp(1j * k * centres) * np.sinc(k * d / (2 * np.pi))   # np.sinc(x) = sin(pi x)/(pi x)
+    return np.exp(1j * k * centres) * np.sinc(k * d / (2 * np.pi))  # np.sinc(x) = sin(pi x)/(pi x)
 
 
 def eigenmode(scene) -> tuple[complex, np.ndarray]:
     """Most unstable eigenvalue (dimensionless) and eigenvector (H, U[, V], Phi) normalised to
     H = 1 for the scene's perturbation wavenumbers (k, ky) in the scalings (5.1)."""
     from .stability.base import base_state
+
     ini, fl = scene.initial, scene.flow
     bs = base_state(fl.h0, fl.phi0, fl.nu if scene.viscous else 0.0, scene.material)
     if scene.is_1d or not ini.ky:
         from .stability.dispersion1d import matrix
+
         A = matrix(bs, np.array([ini.k]))[0]
     else:
         from .stability.dispersion2d import matrix
+
         A = matrix(bs, np.array([ini.k]), np.array([ini.ky]))[0]
     lam, vec = np.linalg.eig(A)
     i = int(np.argmax(lam.real))
     v = vec[:, i]
     if abs(v[0]) == 0:
-        raise InputError("the most unstable mode has no thickness component; use initial.mode='phi'")
+        raise InputError(
+            "the most unstable mode has no thickness component; use initial.mode='phi'"
+        )
     return complex(lam[i]), v / v[0]
 
 
@@ -54,7 +60,7 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
     q = np.zeros((lay.nc, lay.NX, lay.NY))
     ix, iy = lay.interior()
     x, y = scene.domain.cell_centres()
-    X, Y = np.meshgrid(x, y, indexing="ij")           # (nx, ny)
+    X, Y = np.meshgrid(x, y, indexing="ij")  # (nx, ny)
     ini, fl = scene.initial, scene.flow
     h = np.zeros_like(X)
     u = np.zeros_like(X)
@@ -64,14 +70,17 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
         pass
     elif ini.kind == "uniform":
         if fl.u0 is None:
-            raise InputError("initial.kind='uniform' needs a steady velocity: give flow.u0 or use "
-                             "the pouliquen-mixture friction")
+            raise InputError(
+                "initial.kind='uniform' needs a steady velocity: give flow.u0 or use "
+                "the pouliquen-mixture friction"
+            )
         h[:], u[:], phi[:] = fl.h0, fl.u0, fl.phi0
         eps = ini.amplitude or 0.0
         if eps:
-            kx, ky = scene.perturbation_wavenumbers      # SI [1/m]
-            wave = (_cell_avg_wave(kx, scene.dx, X)
-                    * (1.0 if scene.is_1d else _cell_avg_wave(ky, scene.dy, Y)))
+            kx, ky = scene.perturbation_wavenumbers  # SI [1/m]
+            wave = _cell_avg_wave(kx, scene.dx, X) * (
+                1.0 if scene.is_1d else _cell_avg_wave(ky, scene.dy, Y)
+            )
             if ini.mode == "eigen":
                 _, W = eigenmode(scene)
                 H, U = W[0], W[1]
@@ -100,7 +109,8 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
     elif ini.kind == "channel":
         h[:] = ini.h
         phi[:] = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * channel_fraction(
-            Y, scene.dy, scene.domain.Ly, ini.width)
+            Y, scene.dy, scene.domain.Ly, ini.width
+        )
     else:  # pragma: no cover - the scene validator allows only the kinds above
         raise InputError(f"initial.kind={ini.kind!r} is not known")
     phi = np.clip(phi, 0.0, 1.0)

@@ -5,6 +5,7 @@ and work arrays, the guard's last-good copy) with the memory the machine has ava
 refuses with the numbers when it does not fit, before Taichi tries to allocate it.
 :func:`disk_note` warns when the expected output of a run exceeds the free space where it goes.
 """
+
 from __future__ import annotations
 
 import os
@@ -14,7 +15,7 @@ from pathlib import Path
 from .errors import InputError
 from .log import note
 
-GB = 1024 ** 3
+GB = 1024**3
 # arrays of one state's size besides the state slots: primitives, x fluxes, x slopes, y
 # fluxes, y slopes (TaichiOperator) and the guard's last-good copy
 WORK_ARRAYS = 6
@@ -50,7 +51,8 @@ def check_memory(layout, nslots: int, precision: str) -> None:
             f"the grid of {layout.nx} x {layout.ny} cells needs about {need / GB:.3g} GB of "
             f"memory in {precision} and this machine has {have / GB:.3g} GB available; use a "
             "coarser domain.resolution (memory grows with its square in 2D)"
-            + (" or --precision f32" if precision == "f64" else ""))
+            + (" or --precision f32" if precision == "f64" else "")
+        )
 
 
 def output_volume(scene, precision: str, snapshots: int) -> int:
@@ -67,6 +69,8 @@ def disk_note(folder, scene, precision: str, snapshots: int) -> None:
         return
     need = output_volume(scene, precision, snapshots)
     if need > free:
-        note(f"the output may need up to {need / GB:.3g} GB ({snapshots} snapshots, "
-             f"uncompressed) and {str(folder)!r} has {free / GB:.3g} GB free; the run stops "
-             "with a message if the disk fills (resume it after making room)")
+        note(
+            f"the output may need up to {need / GB:.3g} GB ({snapshots} snapshots, "
+            f"uncompressed) and {str(folder)!r} has {free / GB:.3g} GB free; the run stops "
+            "with a message if the disk fills (resume it after making room)"
+        )

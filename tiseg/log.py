@@ -11,6 +11,7 @@ verbosity of ``-q`` / ``-v``); stdout carries results and JSON only. Progress ba
 on a terminal and not with ``-q`` (:func:`bar_disable`). An application may route or silence
 the ``tiseg`` logger as it likes.
 """
+
 from __future__ import annotations
 
 import logging
@@ -54,8 +55,9 @@ def configure(verbosity: int = 0) -> None:
     global _quiet
     cli_handler()
     _quiet = verbosity < 0
-    logger.setLevel(logging.ERROR if verbosity < 0 else
-                    logging.INFO if verbosity == 0 else logging.DEBUG)
+    logger.setLevel(
+        logging.ERROR if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
+    )
 
 
 class _Stderr(logging.Handler):

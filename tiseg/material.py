@@ -10,6 +10,7 @@ Pure NumPy functions, vectorised over arrays; the Taichi kernels have ``ti.func`
   profile (2.18).
 * Monodisperse viscosity coefficient (3.8), defined only for zeta_1 < zeta < zeta_2.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,10 +26,11 @@ GRAVITY = 9.81
 @dataclass(frozen=True)
 class Species:
     """Friction parameters of one monodisperse constituent (Table 1)."""
-    zeta1_deg: float      # minimum angle of steady flow, mu1 = tan(zeta1)
-    zeta2_deg: float      # maximum angle of steady flow, mu2 = tan(zeta2)
-    beta: float           # dimensionless constant of (3.7)
-    L: float              # length scale of (3.7) [m]
+
+    zeta1_deg: float  # minimum angle of steady flow, mu1 = tan(zeta1)
+    zeta2_deg: float  # maximum angle of steady flow, mu2 = tan(zeta2)
+    beta: float  # dimensionless constant of (3.7)
+    L: float  # length scale of (3.7) [m]
 
     @property
     def mu1(self) -> float:
@@ -47,28 +49,37 @@ class Species:
 @dataclass(frozen=True)
 class Material:
     """Table 1 of the paper; every constant can be overridden (``Material(zeta_deg=28)`` etc.)."""
-    zeta_deg: float = 27.0            # slope angle zeta [degrees]
+
+    zeta_deg: float = 27.0  # slope angle zeta [degrees]
     small: Species = Species(20.0, 30.0, 0.150, 2.0e-4)
     large: Species = Species(29.0, 40.0, 0.72, 5.0e-4)
-    alpha: float = 1.0 / 7.0          # basal slip parameter of the linear shear profile (2.12)
-    transport: str = "linear"         # "linear" (2.17) or "bagnold" (2.18)
-    g: float = GRAVITY                # gravitational acceleration [m/s^2]
-    chi: float = 1.0                  # shape factor; the model assumes chi = 1 (section 3)
+    alpha: float = 1.0 / 7.0  # basal slip parameter of the linear shear profile (2.12)
+    transport: str = "linear"  # "linear" (2.17) or "bagnold" (2.18)
+    g: float = GRAVITY  # gravitational acceleration [m/s^2]
+    chi: float = 1.0  # shape factor; the model assumes chi = 1 (section 3)
 
     def __post_init__(self):
-        require(0.0 <= self.zeta_deg < 90.0,
-                f"material.zeta_deg={self.zeta_deg!r}: slope angle must lie in [0, 90) degrees")
+        require(
+            0.0 <= self.zeta_deg < 90.0,
+            f"material.zeta_deg={self.zeta_deg!r}: slope angle must lie in [0, 90) degrees",
+        )
         require(0.0 <= self.alpha <= 1.0, f"material.alpha={self.alpha!r} must lie in [0, 1]")
-        require(self.transport in ("linear", "bagnold"),
-                f"material.transport={self.transport!r}: choose 'linear' or 'bagnold'")
+        require(
+            self.transport in ("linear", "bagnold"),
+            f"material.transport={self.transport!r}: choose 'linear' or 'bagnold'",
+        )
         require(self.g > 0, f"material.g={self.g!r} must be positive")
         require(self.chi == 1.0, "material.chi: only chi = 1 is supported by the model (section 3)")
         for name, sp in (("small", self.small), ("large", self.large)):
-            require(0.0 <= sp.zeta1_deg < sp.zeta2_deg < 90.0,
-                    f"material.{name}: need 0 <= zeta1 < zeta2 < 90 degrees, got "
-                    f"{sp.zeta1_deg}, {sp.zeta2_deg}")
-            require(sp.beta > 0 and sp.L > 0,
-                    f"material.{name}: beta and L must be positive, got {sp.beta}, {sp.L}")
+            require(
+                0.0 <= sp.zeta1_deg < sp.zeta2_deg < 90.0,
+                f"material.{name}: need 0 <= zeta1 < zeta2 < 90 degrees, got "
+                f"{sp.zeta1_deg}, {sp.zeta2_deg}",
+            )
+            require(
+                sp.beta > 0 and sp.L > 0,
+                f"material.{name}: beta and L must be positive, got {sp.beta}, {sp.L}",
+            )
 
     @property
     def zeta(self) -> float:
@@ -92,10 +103,12 @@ class Material:
 
     def require_finger_range(self) -> None:
         s, l = self.small, self.large
-        require(self.in_finger_range(),
-                f"slope angle zeta={self.zeta_deg} deg is outside the range (3.10) "
-                f"zeta1^S={s.zeta1_deg} < zeta < zeta1^L={l.zeta1_deg} < zeta2^S={s.zeta2_deg} "
-                f"< zeta2^L={l.zeta2_deg} where the segregation-mobility model applies")
+        require(
+            self.in_finger_range(),
+            f"slope angle zeta={self.zeta_deg} deg is outside the range (3.10) "
+            f"zeta1^S={s.zeta1_deg} < zeta < zeta1^L={l.zeta1_deg} < zeta2^S={s.zeta2_deg} "
+            f"< zeta2^L={l.zeta2_deg} where the segregation-mobility model applies",
+        )
 
     # ---- transport function -------------------------------------------------------------
     def G(self, phi):
@@ -129,7 +142,9 @@ class Material:
 
     def nu(self, species: str) -> float:
         """Monodisperse viscosity coefficient nu^N of (3.8) [m^(3/2)/s]."""
-        sp = {"small": self.small, "S": self.small, "large": self.large, "L": self.large}.get(species)
+        sp = {"small": self.small, "S": self.small, "large": self.large, "L": self.large}.get(
+            species
+        )
         require(sp is not None, f"species={species!r}: choose 'small' or 'large'")
         return nu_monodisperse(self.zeta_deg, sp, self.g)
 
@@ -137,8 +152,11 @@ class Material:
         out = {}
         for f in fields(self):
             v = getattr(self, f.name)
-            out[f.name] = (dict(zeta1_deg=v.zeta1_deg, zeta2_deg=v.zeta2_deg, beta=v.beta, L=v.L)
-                           if isinstance(v, Species) else v)
+            out[f.name] = (
+                dict(zeta1_deg=v.zeta1_deg, zeta2_deg=v.zeta2_deg, beta=v.beta, L=v.L)
+                if isinstance(v, Species)
+                else v
+            )
         return out
 
 
@@ -171,13 +189,13 @@ def G_bagnold(phi):
     """G_B = 2/3 (1 - phi)(1 - (1 - phi)^(3/2)), eq. (2.18); phi is clipped to [0, 1] first
     because (1 - phi)^(3/2) is complex for phi > 1 (the reason the paper prefers (2.17))."""
     c = 1.0 - np.clip(np.asarray(phi, dtype=float), 0.0, 1.0)
-    return (2.0 / 3.0) * c * (1.0 - c ** 1.5)
+    return (2.0 / 3.0) * c * (1.0 - c**1.5)
 
 
 def dG_bagnold(phi):
     c = 1.0 - np.clip(np.asarray(phi, dtype=float), 0.0, 1.0)
     # d/dphi [2/3 (c - c^{5/2})] with dc/dphi = -1
-    return -(2.0 / 3.0) * (1.0 - 2.5 * c ** 1.5)
+    return -(2.0 / 3.0) * (1.0 - 2.5 * c**1.5)
 
 
 def shear_profile_linear(zhat, alpha: float = 1.0 / 7.0):
@@ -200,8 +218,17 @@ def nu_monodisperse(zeta_deg: float, sp: Species, g: float = GRAVITY) -> float:
         raise InputError(
             f"viscosity (3.8) is undefined at zeta={zeta_deg} deg: it needs "
             f"zeta1={sp.zeta1_deg} < zeta < zeta2={sp.zeta2_deg} deg (outside, nu would be "
-            f"negative and the theory ill posed); give a constant nu instead")
+            f"negative and the theory ill posed); give a constant nu instead"
+        )
     z = math.radians(zeta_deg)
     t = math.tan(z)
-    return (2.0 * sp.L * math.sqrt(g) / (9.0 * sp.beta) * math.sin(z) / math.sqrt(math.cos(z))
-            * (sp.mu2 - t) / (t - sp.mu1))
+    return (
+        2.0
+        * sp.L
+        * math.sqrt(g)
+        / (9.0 * sp.beta)
+        * math.sin(z)
+        / math.sqrt(math.cos(z))
+        * (sp.mu2 - t)
+        / (t - sp.mu1)
+    )

@@ -8,6 +8,7 @@
 * :class:`RunLock`: a lock file per run folder (the maintained ``filelock`` library); a second
   writer is refused with one line naming the holder (host, process, since when).
 """
+
 from __future__ import annotations
 
 import json
@@ -22,16 +23,18 @@ from .errors import InputError
 SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]{0,127}")
 UNSAFE_CHARS = re.compile(r"[^A-Za-z0-9._+-]+")
 LOCK_NAME = ".tiseg.lock"
-_LOCKS: dict = {}               # lock file -> FileLock, one per process
+_LOCKS: dict = {}  # lock file -> FileLock, one per process
 HOLDER_NAME = ".tiseg.lock.json"
 
 
 def check_name(name: str, key: str = "name") -> str:
     """``name`` if it is safe as a folder name, else an InputError saying what is allowed."""
     if not isinstance(name, str) or not SAFE_NAME.fullmatch(name):
-        raise InputError(f"{key}={name!r} must be 1-128 letters, digits, '.', '_', '+' or '-', "
-                         f"starting with a letter or digit (it names the output folder); "
-                         f"e.g. {safe_name(str(name))!r}")
+        raise InputError(
+            f"{key}={name!r} must be 1-128 letters, digits, '.', '_', '+' or '-', "
+            f"starting with a letter or digit (it names the output folder); "
+            f"e.g. {safe_name(str(name))!r}"
+        )
     return name
 
 
@@ -46,8 +49,10 @@ def refuse_symlinks(folder: Path, names) -> None:
     for n in names:
         p = Path(folder) / n
         if p.is_symlink():
-            raise InputError(f"{str(p)!r} is a symbolic link; tiseg does not write through "
-                             "links (they may point outside the output folder): remove it")
+            raise InputError(
+                f"{str(p)!r} is a symbolic link; tiseg does not write through "
+                "links (they may point outside the output folder): remove it"
+            )
 
 
 class RunLock:
@@ -59,6 +64,7 @@ class RunLock:
 
     def __init__(self, folder):
         from filelock import FileLock
+
         self.folder = Path(folder)
         key = str((self.folder / LOCK_NAME).resolve())
         # one OS lock per folder and process, counted: a sweep task holds its member's folder
@@ -70,27 +76,38 @@ class RunLock:
 
     def acquire(self) -> "RunLock":
         from filelock import Timeout
+
         try:
             self._lock.acquire(timeout=0)
             self._held = True
             if self._lock.lock_counter > 1:
-                return self                   # this process holds it already
+                return self  # this process holds it already
         except Timeout:
-            raise InputError(f"{str(self.folder)!r} is in use by another tiseg run "
-                             f"({self.holder()}); wait for it to finish or stop it") from None
+            raise InputError(
+                f"{str(self.folder)!r} is in use by another tiseg run "
+                f"({self.holder()}); wait for it to finish or stop it"
+            ) from None
         except OSError as exc:
             raise InputError(f"cannot lock {str(self.folder)!r}: {exc.strerror or exc}") from None
         try:
-            (self.folder / HOLDER_NAME).write_text(json.dumps({
-                "host": socket.gethostname(), "pid": os.getpid(),
-                "since": time.strftime("%Y-%m-%dT%H:%M:%S%z")}), encoding="utf-8")
+            (self.folder / HOLDER_NAME).write_text(
+                json.dumps(
+                    {
+                        "host": socket.gethostname(),
+                        "pid": os.getpid(),
+                        "since": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                    }
+                ),
+                encoding="utf-8",
+            )
         except OSError:
-            pass                          # the description is a courtesy, the lock is the OS's
+            pass  # the description is a courtesy, the lock is the OS's
         return self
 
     def busy(self) -> str | None:
         """The holder's description when another process holds the lock now, else None."""
         from filelock import Timeout
+
         if not (self.folder / LOCK_NAME).exists() or self._lock.is_locked:
             return None
         try:
@@ -113,7 +130,7 @@ class RunLock:
         if not self._held:
             return
         self._held = False
-        if self._lock.lock_counter == 1:          # the outermost holder: the folder is free
+        if self._lock.lock_counter == 1:  # the outermost holder: the folder is free
             try:
                 (self.folder / HOLDER_NAME).unlink(missing_ok=True)
             except OSError:

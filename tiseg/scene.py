@@ -20,6 +20,7 @@ before validation, so an override is checked exactly like the same value written
 :func:`load_scene` turns back into an equal :class:`Scene`; a run stores it next to its output so
 that the run can be repeated exactly.
 """
+
 from __future__ import annotations
 
 import difflib
@@ -69,11 +70,21 @@ SECTION_KEYS = {
     "effects": ("segregation", "mobility_feedback", "viscosity", "friction", "coulomb_mu"),
     "domain": ("Lx", "Ly", "resolution", "nx", "ny"),
     "boundary": ("x_lo", "x_hi", "y_lo", "y_hi"),
-    "inflow": ("h", "u", "phi", "ramp_rate", "perturbation", "modes", "stop_time", "noise",
-               "seed"),
+    "inflow": ("h", "u", "phi", "ramp_rate", "perturbation", "modes", "stop_time", "noise", "seed"),
     "initial": tuple(dict.fromkeys(k for keys in INITIAL_KEYS.values() for k in keys)),
-    "numerics": ("reconstruction", "theta", "flux", "phi_flux", "stepper", "cfl", "precision",
-                 "h_min", "h_eps", "u_eps", "max_stages"),
+    "numerics": (
+        "reconstruction",
+        "theta",
+        "flux",
+        "phi_flux",
+        "stepper",
+        "cfl",
+        "precision",
+        "h_min",
+        "h_eps",
+        "u_eps",
+        "max_stages",
+    ),
     "time": ("t_end",),
     "output": ("interval", "times", "checkpoint_interval", "precision", "significant_digits"),
 }
@@ -81,11 +92,11 @@ TOP_LEVEL_KEYS = ("name", "description") + tuple(SECTION_KEYS)
 SPECIES_KEYS = ("zeta1_deg", "zeta2_deg", "beta", "L")
 
 DEFAULT_COULOMB_MU = math.tan(math.radians(20.0))
-MIN_CELLS = 4                    # a periodic axis needs at least 2 x GHOST(=2) interior cells
-MIN_CELLS_PER_PERTURBATION = 4   # cells across one wavelength Ly/modes of the inflow (6.9)
-MAX_CELLS = 2 ** 31 - 1          # Taichi fields are indexed with 32-bit integers
-MAX_NU = 1e3                     # [m^(3/2)/s] largest viscosity coefficient accepted
-MAX_OUTPUT_TIMES = 1_000_000     # guards against e.g. output.interval = 1e-12
+MIN_CELLS = 4  # a periodic axis needs at least 2 x GHOST(=2) interior cells
+MIN_CELLS_PER_PERTURBATION = 4  # cells across one wavelength Ly/modes of the inflow (6.9)
+MAX_CELLS = 2**31 - 1  # Taichi fields are indexed with 32-bit integers
+MAX_NU = 1e3  # [m^(3/2)/s] largest viscosity coefficient accepted
+MAX_OUTPUT_TIMES = 1_000_000  # guards against e.g. output.interval = 1e-12
 
 _MISSING = object()
 
@@ -105,21 +116,23 @@ class FlowConfig:
     is none, for the error of whatever does need it (an inflow without inflow.u, a uniform
     initial state).
     """
-    h0: float = 0.002          # thickness of the reference steady uniform flow [m]
-    phi0: float = 0.8          # its small-particle concentration, in [0, 1]
-    nu: float = 0.01           # [m^(3/2)/s], coefficient of the viscous term of (6.2)
-    u0: float | None = None    # its speed [m/s]: derived from (4.3), (4.9) for the
-                               # pouliquen-mixture friction, else give it
-    F: float | None = None     # Froude number (4.3)
+
+    h0: float = 0.002  # thickness of the reference steady uniform flow [m]
+    phi0: float = 0.8  # its small-particle concentration, in [0, 1]
+    nu: float = 0.01  # [m^(3/2)/s], coefficient of the viscous term of (6.2)
+    u0: float | None = None  # its speed [m/s]: derived from (4.3), (4.9) for the
+    # pouliquen-mixture friction, else give it
+    F: float | None = None  # Froude number (4.3)
     no_steady: str | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
 class EffectsConfig:
     """Which physics is switched on; see the resolved properties on :class:`Scene`."""
-    segregation: bool = True             # large-particle transport (6.3); false: no phi field
-    mobility_feedback: bool = True       # friction (3.4) uses the local phi, else flow.phi0
-    viscosity: bool = True               # the nu h^(3/2) D term of (6.2)
+
+    segregation: bool = True  # large-particle transport (6.3); false: no phi field
+    mobility_feedback: bool = True  # friction (3.4) uses the local phi, else flow.phi0
+    viscosity: bool = True  # the nu h^(3/2) D term of (6.2)
     friction: str = "pouliquen-mixture"  # one of FRICTION_LAWS
     coulomb_mu: float = DEFAULT_COULOMB_MU  # constant friction coefficient for "coulomb"
 
@@ -127,11 +140,12 @@ class EffectsConfig:
 @dataclass(frozen=True)
 class DomainConfig:
     """Rectangle x in [0, Lx] (downslope), y in [0, Ly] (cross-slope) of nx x ny cells."""
-    Lx: float                            # downslope length [m]
-    Ly: float                            # cross-slope width [m]
-    nx: int                              # cells downslope (or give resolution)
-    ny: int                              # cells across the slope; 1 = a 1D run
-    resolution: float | None = None      # cells per metre, only used to derive nx, ny
+
+    Lx: float  # downslope length [m]
+    Ly: float  # cross-slope width [m]
+    nx: int  # cells downslope (or give resolution)
+    ny: int  # cells across the slope; 1 = a 1D run
+    resolution: float | None = None  # cells per metre, only used to derive nx, ny
 
     @property
     def dx(self) -> float:
@@ -159,10 +173,10 @@ class DomainConfig:
 
 @dataclass(frozen=True)
 class BoundaryConfig:
-    x_lo: str = "inflow"      # upslope edge x = 0: inflow (6.8) needs an [inflow] table
-    x_hi: str = "outflow"     # downslope edge x = Lx
-    y_lo: str = "periodic"    # cross-slope edge y = 0
-    y_hi: str = "periodic"    # cross-slope edge y = Ly (periodic needs both sides periodic)
+    x_lo: str = "inflow"  # upslope edge x = 0: inflow (6.8) needs an [inflow] table
+    x_hi: str = "outflow"  # downslope edge x = Lx
+    y_lo: str = "periodic"  # cross-slope edge y = 0
+    y_hi: str = "periodic"  # cross-slope edge y = Ly (periodic needs both sides periodic)
 
     def as_tuple(self) -> tuple[str, str, str, str]:
         """(x_lo, x_hi, y_lo, y_hi), the order of ``OperatorConfig.bc``."""
@@ -186,15 +200,16 @@ class InflowConfig:
     draw that changes with any change of the numerics; with it, runs that differ only in
     ``seed`` are physically different realisations (ensembles, ``tiseg sweep``).
     """
-    h: float                          # inflow thickness [m] (default flow.h0)
-    u: float                          # inflow speed [m/s] (default flow.u0)
-    phi: float                        # inflow concentration of (6.9) (default flow.phi0)
-    ramp_rate: float = 10.0           # [1/s]; 0 = sudden inflow
-    perturbation: float = 8e-5        # delta of (6.9)
-    modes: int = 1                    # number of sine periods across Ly
-    stop_time: float | None = None    # [s]; None = continuous inflow
-    noise: float = 0.0                # relative RMS amplitude of the random profile
-    seed: int = 0                     # realisation of the random profile
+
+    h: float  # inflow thickness [m] (default flow.h0)
+    u: float  # inflow speed [m/s] (default flow.u0)
+    phi: float  # inflow concentration of (6.9) (default flow.phi0)
+    ramp_rate: float = 10.0  # [1/s]; 0 = sudden inflow
+    perturbation: float = 8e-5  # delta of (6.9)
+    modes: int = 1  # number of sine periods across Ly
+    stop_time: float | None = None  # [s]; None = continuous inflow
+    noise: float = 0.0  # relative RMS amplitude of the random profile
+    seed: int = 0  # realisation of the random profile
 
     def thickness(self, t: float) -> float:
         """Inflow thickness at time t, (6.8a); 0 after ``stop_time``."""
@@ -205,8 +220,9 @@ class InflowConfig:
 
     def concentration(self, y, Ly: float):
         """Inflow concentration (6.8d), (6.9) plus the noise at cross-slope positions y [m]."""
-        return inflow_concentration(y, Ly, self.phi, self.perturbation, self.modes, self.noise,
-                                    self.seed)
+        return inflow_concentration(
+            y, Ly, self.phi, self.perturbation, self.modes, self.noise, self.seed
+        )
 
 
 @dataclass(frozen=True)
@@ -225,59 +241,61 @@ class InitialConfig:
       concentration ``phi_channel`` and ``width`` centred at y = Ly/2 between levees of
       ``phi_levee`` (the verification case of sharp contacts, :mod:`tiseg.steady_channel`).
     """
-    kind: str = "empty"                 # which initial state (the list above)
-    amplitude: float | None = None      # uniform: relative perturbation amplitude, < 1
-    k: float | None = None              # uniform: downslope wavenumber in the scalings (5.1)
-    ky: float | None = None             # uniform: cross-slope wavenumber, (5.1) scalings
-    mode: str | None = None             # uniform: eigen (most unstable mode), h, phi or noise
-    seed: int | None = None             # uniform: random seed of mode = "noise"
-    wavelengths: float | None = None    # uniform: downslope wavelengths in Lx (sets Lx)
-    x0: float | None = None             # dam-break: dam position; release: block start [m]
-    x1: float | None = None             # release: block end [m]
-    y0: float | None = None             # release: block start across the slope [m]
-    y1: float | None = None             # release: block end across the slope [m]
-    h_left: float | None = None         # dam-break: thickness upslope of x0 [m]
-    h_right: float | None = None        # dam-break: thickness downslope of x0 [m]
-    h: float | None = None              # release, channel: thickness [m] (default flow.h0)
-    phi: float | None = None            # dam-break, release: concentration (default flow.phi0)
-    width: float | None = None          # channel: width of the channel at y = Ly/2 [m]
-    phi_channel: float | None = None    # channel: concentration in the channel (default 1)
-    phi_levee: float | None = None      # channel: concentration in the levees (default 0)
+
+    kind: str = "empty"  # which initial state (the list above)
+    amplitude: float | None = None  # uniform: relative perturbation amplitude, < 1
+    k: float | None = None  # uniform: downslope wavenumber in the scalings (5.1)
+    ky: float | None = None  # uniform: cross-slope wavenumber, (5.1) scalings
+    mode: str | None = None  # uniform: eigen (most unstable mode), h, phi or noise
+    seed: int | None = None  # uniform: random seed of mode = "noise"
+    wavelengths: float | None = None  # uniform: downslope wavelengths in Lx (sets Lx)
+    x0: float | None = None  # dam-break: dam position; release: block start [m]
+    x1: float | None = None  # release: block end [m]
+    y0: float | None = None  # release: block start across the slope [m]
+    y1: float | None = None  # release: block end across the slope [m]
+    h_left: float | None = None  # dam-break: thickness upslope of x0 [m]
+    h_right: float | None = None  # dam-break: thickness downslope of x0 [m]
+    h: float | None = None  # release, channel: thickness [m] (default flow.h0)
+    phi: float | None = None  # dam-break, release: concentration (default flow.phi0)
+    width: float | None = None  # channel: width of the channel at y = Ly/2 [m]
+    phi_channel: float | None = None  # channel: concentration in the channel (default 1)
+    phi_levee: float | None = None  # channel: concentration in the levees (default 0)
 
 
 @dataclass(frozen=True)
 class NumericsConfig:
-    reconstruction: str = "weno"      # "weno" (a WENO-type slope; docs/numerics.md says how it
-                                      # differs from Noelle 2000's), "minmod", "first-order"
-    theta: float = 1.5                # generalised minmod parameter, in [1, 2]
-    flux: str = "kt"                  # "kt" (Kurganov-Tadmor 2000, as in section 6.2) or
-                                      # "central-upwind" (Kurganov, Noelle & Petrova 2001)
-    phi_flux: str = "central"         # h phi flux: the flux scheme's own ("central"), or the mass
-                                      # flux times the upwind phi - G(phi) ("upwind")
-    stepper: str = "rkc"              # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
-    cfl: float = 0.25                 # Courant number of the hyperbolic part, in (0, 1]
-    precision: str = "f64"            # floating-point precision of the kernels
-    h_min: float = 1e-4               # fluxes vanish where h < h_min (section 6.2) [m]
-    h_eps: float = 1e-7               # desingularisation thickness for u = hu / h [m], < h_min
-    u_eps: float = 1e-3               # regularises the friction direction u / |u| [m/s]
-    max_stages: int = 200             # upper bound on the number of RKC stages
+    reconstruction: str = "weno"  # "weno" (a WENO-type slope; docs/numerics.md says how it
+    # differs from Noelle 2000's), "minmod", "first-order"
+    theta: float = 1.5  # generalised minmod parameter, in [1, 2]
+    flux: str = "kt"  # "kt" (Kurganov-Tadmor 2000, as in section 6.2) or
+    # "central-upwind" (Kurganov, Noelle & Petrova 2001)
+    phi_flux: str = "central"  # h phi flux: the flux scheme's own ("central"), or the mass
+    # flux times the upwind phi - G(phi) ("upwind")
+    stepper: str = "rkc"  # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
+    cfl: float = 0.25  # Courant number of the hyperbolic part, in (0, 1]
+    precision: str = "f64"  # floating-point precision of the kernels
+    h_min: float = 1e-4  # fluxes vanish where h < h_min (section 6.2) [m]
+    h_eps: float = 1e-7  # desingularisation thickness for u = hu / h [m], < h_min
+    u_eps: float = 1e-3  # regularises the friction direction u / |u| [m/s]
+    max_stages: int = 200  # upper bound on the number of RKC stages
 
 
 @dataclass(frozen=True)
 class TimeConfig:
-    t_end: float                      # end time of the run [s]
+    t_end: float  # end time of the run [s]
 
 
 @dataclass(frozen=True)
 class OutputConfig:
     """Snapshot times. ``output_times`` is the resolved, sorted union of ``times``, the multiples
     of ``interval`` up to t_end, t = 0 and t_end."""
-    interval: float | None = None     # a snapshot every interval seconds [s]
-    times: tuple[float, ...] = ()     # snapshots at these times too [s]
-    checkpoint_interval: float | None = None   # simulated seconds between checkpoints [s]
+
+    interval: float | None = None  # a snapshot every interval seconds [s]
+    times: tuple[float, ...] = ()  # snapshots at these times too [s]
+    checkpoint_interval: float | None = None  # simulated seconds between checkpoints [s]
     output_times: tuple[float, ...] = ()
-    precision: str | None = None      # fields.nc data type: "f8", "f4"; None: the run's precision
-    significant_digits: int | None = None   # quantise fields.nc to this many decimal digits
+    precision: str | None = None  # fields.nc data type: "f8", "f4"; None: the run's precision
+    significant_digits: int | None = None  # quantise fields.nc to this many decimal digits
 
     def dtype(self, run_precision: str) -> str:
         """NetCDF type of the stored fields for a run in ``run_precision`` ("f64"/"f32")."""
@@ -289,6 +307,7 @@ class OutputConfig:
 @dataclass(frozen=True)
 class Scene:
     """A fully validated simulation set-up; build it with :func:`load_scene`."""
+
     name: str
     description: str
     material: Material
@@ -296,12 +315,12 @@ class Scene:
     effects: EffectsConfig
     domain: DomainConfig
     boundary: BoundaryConfig
-    inflow: InflowConfig | None       # None unless boundary.x_lo == "inflow"
+    inflow: InflowConfig | None  # None unless boundary.x_lo == "inflow"
     initial: InitialConfig
     numerics: NumericsConfig
     time: TimeConfig
     output: OutputConfig
-    source: str | None = field(default=None, compare=False)   # file it was read from
+    source: str | None = field(default=None, compare=False)  # file it was read from
 
     # ---- resolved switches ------------------------------------------------------------------
     @property
@@ -317,8 +336,11 @@ class Scene:
     @property
     def feedback(self) -> bool:
         """Friction (3.4) depends on the local phi (segregation-mobility feedback)."""
-        return (self.effects.segregation and self.effects.mobility_feedback
-                and self.effects.friction == "pouliquen-mixture")
+        return (
+            self.effects.segregation
+            and self.effects.mobility_feedback
+            and self.effects.friction == "pouliquen-mixture"
+        )
 
     @property
     def friction_phi(self) -> float:
@@ -344,8 +366,7 @@ class Scene:
     @property
     def fields(self) -> tuple[str, ...]:
         """Primitive output fields: h, u, v (2D only), phi (with segregation only)."""
-        return (("h", "u") + (() if self.is_1d else ("v",))
-                + (("phi",) if self.segregation else ()))
+        return ("h", "u") + (() if self.is_1d else ("v",)) + (("phi",) if self.segregation else ())
 
     # ---- derived numbers ---------------------------------------------------------------------
     @property
@@ -386,7 +407,9 @@ class Scene:
         """Granular Reynolds number R = u0 sqrt(h0) / nu (5.7); inf when inviscid."""
         if self.flow.u0 is None:
             return None
-        return math.inf if not self.viscous else self.flow.u0 * math.sqrt(self.flow.h0) / self.flow.nu
+        return (
+            math.inf if not self.viscous else self.flow.u0 * math.sqrt(self.flow.h0) / self.flow.nu
+        )
 
     @property
     def perturbation_wavenumbers(self) -> tuple[float, float]:
@@ -407,9 +430,13 @@ class Scene:
         d = []
         if self.flow.u0 is not None:
             d.append(f"u0 = {self.flow.u0:.6g} m/s, F = {self.flow.F:.6g}")
-        d.append(f"dx = {self.dx:.6g} m, dy = {self.dy:.6g} m, grid {self.domain.nx} x {self.domain.ny}")
-        d.append(f"{len(self.output_times)} output times from {self.output_times[0]:g} to "
-                 f"{self.output_times[-1]:g} s")
+        d.append(
+            f"dx = {self.dx:.6g} m, dy = {self.dy:.6g} m, grid {self.domain.nx} x {self.domain.ny}"
+        )
+        d.append(
+            f"{len(self.output_times)} output times from {self.output_times[0]:g} to "
+            f"{self.output_times[-1]:g} s"
+        )
         head.append("# derived: " + "; ".join(d))
         return "\n".join(head) + "\n\n" + tomli_w.dumps(scene_to_dict(self))
 
@@ -446,10 +473,10 @@ def parse_override(text: str) -> tuple[str, Any]:
     try:
         doc = tomllib.loads(f"v = {raw}")
     except tomllib.TOMLDecodeError:
-        return key, raw          # a bare word such as `weno`: take it as a string
+        return key, raw  # a bare word such as `weno`: take it as a string
     except RecursionError:
         raise InputError(f"override {key!r}: the value nests too deeply") from None
-    if set(doc) != {"v"}:        # e.g. `1 \n x = 2` smuggling a second key
+    if set(doc) != {"v"}:  # e.g. `1 \n x = 2` smuggling a second key
         return key, raw
     return key, doc["v"]
 
@@ -470,16 +497,28 @@ def load_scene(name_or_path, overrides=None) -> Scene:
     except UnicodeDecodeError as exc:
         raise InputError(f"scene file {str(path)!r} is not UTF-8 text: {exc}") from None
     except OSError as exc:
-        raise InputError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}; "
-                         f"built-in scenes: {', '.join(list_builtin_scenes())}") from None
+        raise InputError(
+            f"cannot read scene file {str(path)!r}: {exc.strerror or exc}; "
+            f"built-in scenes: {', '.join(list_builtin_scenes())}"
+        ) from None
     # error messages name a built-in scene by its name, any other file by its path
     builtin = path.resolve().parent == SCENE_DIR
-    return scene_from_text(text, name=path.stem, overrides=overrides, source=str(path),
-                           label=repr(path.stem) if builtin else None)
+    return scene_from_text(
+        text,
+        name=path.stem,
+        overrides=overrides,
+        source=str(path),
+        label=repr(path.stem) if builtin else None,
+    )
 
 
-def scene_from_text(text: str, name: str = "scene", overrides=None,
-                    source: str | None = None, label: str | None = None) -> Scene:
+def scene_from_text(
+    text: str,
+    name: str = "scene",
+    overrides=None,
+    source: str | None = None,
+    label: str | None = None,
+) -> Scene:
     """Validate a scene given as TOML text (``name`` is the default for the top-level name)."""
     where = source or "<text>"
     try:
@@ -491,8 +530,13 @@ def scene_from_text(text: str, name: str = "scene", overrides=None,
     return scene_from_dict(data, name=name, overrides=overrides, source=source, label=label)
 
 
-def scene_from_dict(data: Mapping, name: str = "scene", overrides=None,
-                    source: str | None = None, label: str | None = None) -> Scene:
+def scene_from_dict(
+    data: Mapping,
+    name: str = "scene",
+    overrides=None,
+    source: str | None = None,
+    label: str | None = None,
+) -> Scene:
     """Validate a scene given as the nested dict a TOML file parses to."""
     if not isinstance(data, Mapping):
         raise InputError(f"a scene must be a table of sections, got {_type_name(data)}")
@@ -513,11 +557,15 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
     material = {k: v for k, v in m.as_dict().items() if k not in ("small", "large")}
     for sp_name in ("small", "large"):
         sp: Species = getattr(m, sp_name)
-        material[sp_name] = {"zeta1_deg": sp.zeta1_deg, "zeta2_deg": sp.zeta2_deg,
-                             "beta": sp.beta, "L": sp.L}
+        material[sp_name] = {
+            "zeta1_deg": sp.zeta1_deg,
+            "zeta2_deg": sp.zeta2_deg,
+            "beta": sp.beta,
+            "L": sp.L,
+        }
     flow = {"h0": scene.flow.h0, "phi0": scene.flow.phi0, "nu": scene.flow.nu}
     if scene.effects.friction != "pouliquen-mixture" and scene.flow.u0 is not None:
-        flow["u0"] = scene.flow.u0       # user-given; with the mixture law it is derived
+        flow["u0"] = scene.flow.u0  # user-given; with the mixture law it is derived
     e = scene.effects
     dom = scene.domain
     # With a resolution the cell counts are derived from it (and left out, so that an override
@@ -547,36 +595,67 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
         "description": scene.description,
         "material": material,
         "flow": flow,
-        "effects": {"segregation": e.segregation, "mobility_feedback": e.mobility_feedback,
-                    "viscosity": e.viscosity, "friction": e.friction,
-                    "coulomb_mu": e.coulomb_mu},
+        "effects": {
+            "segregation": e.segregation,
+            "mobility_feedback": e.mobility_feedback,
+            "viscosity": e.viscosity,
+            "friction": e.friction,
+            "coulomb_mu": e.coulomb_mu,
+        },
         "domain": domain,
         "boundary": {"x_lo": b.x_lo, "x_hi": b.x_hi, "y_lo": b.y_lo, "y_hi": b.y_hi},
     }
     if scene.inflow is not None:
         i = scene.inflow
-        inflow = {"h": i.h, "u": i.u, "phi": i.phi, "ramp_rate": i.ramp_rate,
-                  "perturbation": i.perturbation, "modes": i.modes, "noise": i.noise,
-                  "seed": i.seed}
+        inflow = {
+            "h": i.h,
+            "u": i.u,
+            "phi": i.phi,
+            "ramp_rate": i.ramp_rate,
+            "perturbation": i.perturbation,
+            "modes": i.modes,
+            "noise": i.noise,
+            "seed": i.seed,
+        }
         if i.stop_time is not None:
             inflow["stop_time"] = i.stop_time
         d["inflow"] = inflow
     ini = scene.initial
-    d["initial"] = {k: getattr(ini, k) for k in INITIAL_KEYS[ini.kind]
-                    if getattr(ini, k) is not None}
-    d["numerics"] = {"reconstruction": n.reconstruction, "theta": n.theta, "flux": n.flux,
-                     "phi_flux": n.phi_flux, "stepper": n.stepper,
-                     "cfl": n.cfl, "precision": n.precision, "h_min": n.h_min, "h_eps": n.h_eps,
-                     "u_eps": n.u_eps, "max_stages": n.max_stages}
+    d["initial"] = {
+        k: getattr(ini, k) for k in INITIAL_KEYS[ini.kind] if getattr(ini, k) is not None
+    }
+    d["numerics"] = {
+        "reconstruction": n.reconstruction,
+        "theta": n.theta,
+        "flux": n.flux,
+        "phi_flux": n.phi_flux,
+        "stepper": n.stepper,
+        "cfl": n.cfl,
+        "precision": n.precision,
+        "h_min": n.h_min,
+        "h_eps": n.h_eps,
+        "u_eps": n.u_eps,
+        "max_stages": n.max_stages,
+    }
     d["time"] = {"t_end": scene.time.t_end}
     d["output"] = output
     if derived:
-        der = {"dx": scene.dx, "dy": scene.dy, "is_1d": scene.is_1d, "viscous": scene.viscous,
-               "feedback": scene.feedback, "fields": list(scene.fields),
-               "output_times": list(scene.output_times)}
+        der = {
+            "dx": scene.dx,
+            "dy": scene.dy,
+            "is_1d": scene.is_1d,
+            "viscous": scene.viscous,
+            "feedback": scene.feedback,
+            "fields": list(scene.fields),
+            "output_times": list(scene.output_times),
+        }
         if scene.flow.u0 is not None:
-            der.update(u0=scene.flow.u0, F=scene.flow.F, time_scale=scene.time_scale,
-                       reynolds=scene.reynolds)
+            der.update(
+                u0=scene.flow.u0,
+                F=scene.flow.F,
+                time_scale=scene.time_scale,
+                reynolds=scene.reynolds,
+            )
         d["derived"] = der
     return d
 
@@ -599,23 +678,30 @@ def _resolve_scene_path(name_or_path) -> Path:
             return SCENE_DIR / f"{text}.toml"
         close = difflib.get_close_matches(text, builtins, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"unknown built-in scene {text!r}{hint}; built-in scenes: "
-                         f"{', '.join(builtins) or '(none)'}; or give a path to a .toml file")
+        raise InputError(
+            f"unknown built-in scene {text!r}{hint}; built-in scenes: "
+            f"{', '.join(builtins) or '(none)'}; or give a path to a .toml file"
+        )
     old = legacy_path(text)
     if old is not None:
         from .log import note
+
         note(f"{text} moved into the package: using the built-in scene {old.stem!r}")
         return old
     path = Path(text).expanduser()
     if path.is_dir():
-        raise InputError(f"scene {text!r} is a folder, not a scene file (give a .toml file; "
-                         "to continue a run in a folder: tiseg run --resume DIR)")
+        raise InputError(
+            f"scene {text!r} is a folder, not a scene file (give a .toml file; "
+            "to continue a run in a folder: tiseg run --resume DIR)"
+        )
     if path.exists() and not path.is_file():
-        raise InputError(f"scene {text!r} is not a regular file (a pipe or device?); give a "
-                         ".toml file")
+        raise InputError(
+            f"scene {text!r} is not a regular file (a pipe or device?); give a .toml file"
+        )
     if not path.is_file():
-        raise InputError(f"scene file {text!r} not found; built-in scenes: "
-                         f"{', '.join(builtins) or '(none)'}")
+        raise InputError(
+            f"scene file {text!r} not found; built-in scenes: {', '.join(builtins) or '(none)'}"
+        )
     return path
 
 
@@ -631,7 +717,7 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     if top.has("name"):
         name = check_name(top.string("name", default_name))
     else:
-        name = safe_name(default_name)     # a file's stem: made safe, not refused
+        name = safe_name(default_name)  # a file's stem: made safe, not refused
     description = top.string("description", "")
 
     material = _read_material(top.table("material"))
@@ -649,9 +735,21 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     initial = _read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects)
     numerics = _read_numerics(top.table("numerics"), flow)
     output = _read_output(top.table("output"), time.t_end)
-    return Scene(name=name, description=description, material=material, flow=flow,
-                 effects=effects, domain=domain, boundary=boundary, inflow=inflow,
-                 initial=initial, numerics=numerics, time=time, output=output, source=source)
+    return Scene(
+        name=name,
+        description=description,
+        material=material,
+        flow=flow,
+        effects=effects,
+        domain=domain,
+        boundary=boundary,
+        inflow=inflow,
+        initial=initial,
+        numerics=numerics,
+        time=time,
+        output=output,
+        source=source,
+    )
 
 
 def _read_material(t: "_Table") -> Material:
@@ -666,11 +764,13 @@ def _read_material(t: "_Table") -> Material:
     for sp_name in ("small", "large"):
         st = t.table(sp_name, SPECIES_KEYS)
         sp0: Species = getattr(base, sp_name)
-        kw[sp_name] = Species(zeta1_deg=st.number("zeta1_deg", sp0.zeta1_deg),
-                              zeta2_deg=st.number("zeta2_deg", sp0.zeta2_deg),
-                              beta=st.number("beta", sp0.beta, positive=True),
-                              L=st.number("L", sp0.L, positive=True))
-    return Material(**kw)      # checks the remaining ranges, naming material.<key>
+        kw[sp_name] = Species(
+            zeta1_deg=st.number("zeta1_deg", sp0.zeta1_deg),
+            zeta2_deg=st.number("zeta2_deg", sp0.zeta2_deg),
+            beta=st.number("beta", sp0.beta, positive=True),
+            L=st.number("L", sp0.L, positive=True),
+        )
+    return Material(**kw)  # checks the remaining ranges, naming material.<key>
 
 
 def _read_effects(t: "_Table") -> EffectsConfig:
@@ -689,25 +789,35 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
     nu = t.number("nu", 0.01, nonneg=True)
     # (6.2)'s coefficient is 0.01 m^(3/2)/s in the paper; beyond MAX_NU the viscous stiffness
     # nu sqrt(h) / dx^2 leaves no representable step on any grid (and overflows in the kernels)
-    _require(nu <= MAX_NU, "flow.nu", nu, f"must be at most {MAX_NU:g} m^(3/2)/s (the paper "
-             "uses 0.01); a larger viscosity leaves no time step that can advance")
+    _require(
+        nu <= MAX_NU,
+        "flow.nu",
+        nu,
+        f"must be at most {MAX_NU:g} m^(3/2)/s (the paper "
+        "uses 0.01); a larger viscosity leaves no time step that can advance",
+    )
     derived = effects.friction == "pouliquen-mixture"
     if derived:
         if t.has("u0"):
             raise InputError(
                 f"flow.u0={_show(t.get('u0'))}: with effects.friction='pouliquen-mixture' u0 is "
                 "derived from the steady uniform flow (4.3), (4.9) of h0 and phi0; remove flow.u0 "
-                "(it may only be given for the other friction laws)")
+                "(it may only be given for the other friction laws)"
+            )
         try:
             st = steady_state(h0, phi0, material)
         except InputError as exc:
-            why = (f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; effects.friction="
-                   "'pouliquen-mixture' defines u0 only from a steady uniform flow (raise "
-                   "flow.phi0 or change material.zeta_deg)")
+            why = (
+                f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; effects.friction="
+                "'pouliquen-mixture' defines u0 only from a steady uniform flow (raise "
+                "flow.phi0 or change material.zeta_deg)"
+            )
             return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         except (ArithmeticError, ValueError) as exc:
-            why = (f"flow.h0={h0!r}, flow.phi0={phi0!r}: no steady uniform flow for this "
-                   f"material ({exc})")
+            why = (
+                f"flow.h0={h0!r}, flow.phi0={phi0!r}: no steady uniform flow for this "
+                f"material ({exc})"
+            )
             return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         return FlowConfig(h0=h0, phi0=phi0, nu=nu, u0=st.u0, F=st.F)
     u0 = t.number("u0", None, positive=True)
@@ -731,15 +841,21 @@ def _read_domain(t: "_Table", ini: "_Table", kind: str, flow: FlowConfig):
                 raise InputError(
                     f"domain.Lx={Lx!r} holds {implied:.6g} wavelengths of initial.k={k!r} "
                     f"(2 pi h0 / k = {2 * math.pi * flow.h0 / k:.6g} m) but "
-                    f"initial.wavelengths={wavelengths!r}; give only one of them")
+                    f"initial.wavelengths={wavelengths!r}; give only one of them"
+                )
             wavelengths = implied if wavelengths is None else wavelengths
     elif k:
         wavelengths = 1.0 if wavelengths is None else wavelengths
         Lx = wavelengths * 2.0 * math.pi * flow.h0 / k
     else:
-        raise InputError("domain.Lx is required (a positive length in metres"
-                         + ("; or give initial.k > 0 to size the domain by wavelengths)"
-                            if kind == "uniform" else ")"))
+        raise InputError(
+            "domain.Lx is required (a positive length in metres"
+            + (
+                "; or give initial.k > 0 to size the domain by wavelengths)"
+                if kind == "uniform"
+                else ")"
+            )
+        )
     if kind == "uniform" and not k and wavelengths is not None:
         raise InputError(f"initial.wavelengths={wavelengths!r} needs initial.k > 0")
 
@@ -749,27 +865,40 @@ def _read_domain(t: "_Table", ini: "_Table", kind: str, flow: FlowConfig):
     elif resolution is not None and t.has("Ly"):
         ny = _cells_of(t.number("Ly", positive=True), resolution, "domain.Ly")
         # only an explicit ny = 1 makes a 1D run; a derived count must resolve the width
-        _require(ny >= MIN_CELLS, "domain.ny", ny,
-                 f"domain.resolution x domain.Ly gives {ny} cells across the slope; a 2D run "
-                 f"needs at least {MIN_CELLS} (give domain.ny = 1 for a 1D run)")
+        _require(
+            ny >= MIN_CELLS,
+            "domain.ny",
+            ny,
+            f"domain.resolution x domain.Ly gives {ny} cells across the slope; a 2D run "
+            f"needs at least {MIN_CELLS} (give domain.ny = 1 for a 1D run)",
+        )
     else:
-        raise InputError("domain.ny is required (1 for a 1D run), or give domain.Ly with "
-                         "domain.resolution")
+        raise InputError(
+            "domain.ny is required (1 for a 1D run), or give domain.Ly with domain.resolution"
+        )
     if ny == 1:
         # 1D run: one cell row; its width is immaterial, dy = dx keeps the grid square.
-        t.number("Ly", None, positive=True)   # still type-checked when given
+        t.number("Ly", None, positive=True)  # still type-checked when given
         Ly = Lx / nx
     else:
         if not t.has("Ly"):
             raise InputError(f"domain.Ly is required for a 2D run (domain.ny={ny})")
         Ly = t.number("Ly", positive=True)
         if t.has("ny") and resolution is not None:
-            _grid_count(t, "ny", "Ly", Ly, resolution)   # consistency check only
-        _require(ny >= MIN_CELLS, "domain.ny", ny,
-                 f"a 2D run needs at least {MIN_CELLS} cells across the slope (or ny = 1 for 1D)")
+            _grid_count(t, "ny", "Ly", Ly, resolution)  # consistency check only
+        _require(
+            ny >= MIN_CELLS,
+            "domain.ny",
+            ny,
+            f"a 2D run needs at least {MIN_CELLS} cells across the slope (or ny = 1 for 1D)",
+        )
     _require(nx >= MIN_CELLS, "domain.nx", nx, f"needs at least {MIN_CELLS} cells")
-    _require(nx * ny <= MAX_CELLS, "domain.nx * domain.ny", nx * ny,
-             f"at most {MAX_CELLS} cells are supported")
+    _require(
+        nx * ny <= MAX_CELLS,
+        "domain.nx * domain.ny",
+        nx * ny,
+        f"at most {MAX_CELLS} cells are supported",
+    )
     return DomainConfig(Lx=Lx, Ly=Ly, nx=nx, ny=ny, resolution=resolution), wavelengths
 
 
@@ -777,13 +906,16 @@ def _cells_of(length: float, resolution: float, key: str) -> int:
     """round(length x resolution), refused when it overflows or exceeds MAX_CELLS."""
     n = length * resolution
     if not (math.isfinite(n) and n <= MAX_CELLS):
-        raise InputError(f"{key}={length!r} at domain.resolution={resolution!r} gives {n:.3g} "
-                         f"cells; at most {MAX_CELLS} are supported")
+        raise InputError(
+            f"{key}={length!r} at domain.resolution={resolution!r} gives {n:.3g} "
+            f"cells; at most {MAX_CELLS} are supported"
+        )
     return round(n)
 
 
-def _grid_count(t: "_Table", key: str, length_key: str, length: float,
-                resolution: float | None) -> int:
+def _grid_count(
+    t: "_Table", key: str, length_key: str, length: float, resolution: float | None
+) -> int:
     if resolution is not None:
         implied = _cells_of(length, resolution, f"domain.{length_key}")
         if t.has(key):
@@ -792,10 +924,15 @@ def _grid_count(t: "_Table", key: str, length_key: str, length: float,
                 raise InputError(
                     f"domain.{key}={n} disagrees with domain.resolution={resolution!r} x "
                     f"domain.{length_key}={length!r} = {implied} cells; change "
-                    f"domain.resolution instead, or give domain.{key} without a resolution")
+                    f"domain.resolution instead, or give domain.{key} without a resolution"
+                )
             return n
-        _require(implied >= 1, f"domain.{key}", implied,
-                 f"domain.resolution={resolution!r} x domain.{length_key}={length!r} gives no cells")
+        _require(
+            implied >= 1,
+            f"domain.{key}",
+            implied,
+            f"domain.resolution={resolution!r} x domain.{length_key}={length!r} gives no cells",
+        )
         return implied
     if not t.has(key):
         raise InputError(f"domain.{key} or domain.resolution is required (cells in {length_key})")
@@ -804,38 +941,54 @@ def _grid_count(t: "_Table", key: str, length_key: str, length: float,
 
 def _read_boundary(t: "_Table", domain: DomainConfig) -> BoundaryConfig:
     sides = {}
-    for side, default in (("x_lo", "inflow"), ("x_hi", "outflow"), ("y_lo", "periodic"),
-                          ("y_hi", "periodic")):
+    for side, default in (
+        ("x_lo", "inflow"),
+        ("x_hi", "outflow"),
+        ("y_lo", "periodic"),
+        ("y_hi", "periodic"),
+    ):
         v = t.choice(side, BOUNDARY_KINDS, default)
         if v == "inflow" and side != "x_lo":
-            raise InputError(f"boundary.{side}='inflow': an inflow is only supported at x_lo "
-                             "(the top of the slope)")
+            raise InputError(
+                f"boundary.{side}='inflow': an inflow is only supported at x_lo "
+                "(the top of the slope)"
+            )
         sides[side] = v
     for lo, hi in (("x_lo", "x_hi"), ("y_lo", "y_hi")):
         if (sides[lo] == "periodic") != (sides[hi] == "periodic"):
-            raise InputError(f"boundary.{lo}={sides[lo]!r}, boundary.{hi}={sides[hi]!r}: "
-                             "'periodic' must be given on both ends of an axis")
+            raise InputError(
+                f"boundary.{lo}={sides[lo]!r}, boundary.{hi}={sides[hi]!r}: "
+                "'periodic' must be given on both ends of an axis"
+            )
     if domain.is_1d and sides["y_lo"] != "periodic":
-        raise InputError(f"boundary.y_lo={sides['y_lo']!r}, boundary.y_hi={sides['y_hi']!r}: a "
-                         "1D run (domain.ny = 1) has no cross-slope boundaries; keep them "
-                         "'periodic'")
+        raise InputError(
+            f"boundary.y_lo={sides['y_lo']!r}, boundary.y_hi={sides['y_hi']!r}: a "
+            "1D run (domain.ny = 1) has no cross-slope boundaries; keep them "
+            "'periodic'"
+        )
     return BoundaryConfig(**sides)
 
 
-def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: DomainConfig,
-                 flow: FlowConfig) -> InflowConfig | None:
+def _read_inflow(
+    t: "_Table", given: bool, boundary: BoundaryConfig, domain: DomainConfig, flow: FlowConfig
+) -> InflowConfig | None:
     if boundary.x_lo != "inflow":
         if given:
-            raise InputError(f"[inflow] is given but boundary.x_lo={boundary.x_lo!r}; set "
-                             "boundary.x_lo = 'inflow' or remove the [inflow] section")
+            raise InputError(
+                f"[inflow] is given but boundary.x_lo={boundary.x_lo!r}; set "
+                "boundary.x_lo = 'inflow' or remove the [inflow] section"
+            )
         return None
     h = t.number("h", flow.h0, positive=True)
     if not t.has("u") and flow.u0 is None:
         if flow.no_steady:
-            raise InputError(f"{flow.no_steady}; the inflow velocity defaults to that u0, so "
-                             "give inflow.u")
-        raise InputError("inflow.u is required: without the 'pouliquen-mixture' friction there is "
-                         "no derived steady velocity (give inflow.u or flow.u0)")
+            raise InputError(
+                f"{flow.no_steady}; the inflow velocity defaults to that u0, so give inflow.u"
+            )
+        raise InputError(
+            "inflow.u is required: without the 'pouliquen-mixture' friction there is "
+            "no derived steady velocity (give inflow.u or flow.u0)"
+        )
     u = t.number("u", flow.u0, positive=True)
     phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
     ramp = t.number("ramp_rate", 10.0, nonneg=True)
@@ -843,20 +996,24 @@ def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: Dom
     modes = t.integer("modes", 1, lo=1)
     stop = t.number("stop_time", None, positive=True, allow_inf=True)
     if stop is not None and math.isinf(stop):
-        stop = None                      # inf = never stops = continuous inflow
+        stop = None  # inf = never stops = continuous inflow
     if not (0.0 <= phi - abs(delta) and phi + abs(delta) <= 1.0):
-        raise InputError(f"inflow.perturbation={delta!r}: phi = inflow.phi={phi!r} +- "
-                         f"{abs(delta)!r} leaves [0, 1]; use a smaller perturbation (or 0)")
+        raise InputError(
+            f"inflow.perturbation={delta!r}: phi = inflow.phi={phi!r} +- "
+            f"{abs(delta)!r} leaves [0, 1]; use a smaller perturbation (or 0)"
+        )
     noise = t.number("noise", 0.0, nonneg=True)
     seed = t.integer("seed", 0, lo=0)
-    if seed >= 2 ** 63:
+    if seed >= 2**63:
         raise InputError(f"inflow.seed={seed}: must be below 2**63")
     # the random profile never exceeds sqrt(2 N) in magnitude (inflow_noise)
     reach = abs(delta) + noise * phi * math.sqrt(2.0 * noise_modes(domain.Ly))
     if noise and not (0.0 <= phi - reach and phi + reach <= 1.0):
-        raise InputError(f"inflow.noise={noise!r}: phi = inflow.phi={phi!r} + perturbation + "
-                         f"noise can reach {phi - reach:.4g}..{phi + reach:.4g}, outside [0, 1]; "
-                         "use a smaller noise (1e-4 is the scale of (6.9))")
+        raise InputError(
+            f"inflow.noise={noise!r}: phi = inflow.phi={phi!r} + perturbation + "
+            f"noise can reach {phi - reach:.4g}..{phi + reach:.4g}, outside [0, 1]; "
+            "use a smaller noise (1e-4 is the scale of (6.9))"
+        )
     if delta != 0.0 and not domain.is_1d:
         cells = domain.ny / modes
         if cells < MIN_CELLS_PER_PERTURBATION:
@@ -864,81 +1021,136 @@ def _read_inflow(t: "_Table", given: bool, boundary: BoundaryConfig, domain: Dom
                 f"inflow.modes={modes}: the perturbation (6.9) has a wavelength of Ly/modes = "
                 f"{domain.ny / modes:.3g} cells (domain.ny={domain.ny}); at least "
                 f"{MIN_CELLS_PER_PERTURBATION} cells are needed to resolve it (raise "
-                "domain.resolution or domain.ny, or lower inflow.modes)")
-    return InflowConfig(h=h, u=u, phi=phi, ramp_rate=ramp, perturbation=delta, modes=modes,
-                        stop_time=stop, noise=noise, seed=seed)
+                "domain.resolution or domain.ny, or lower inflow.modes)"
+            )
+    return InflowConfig(
+        h=h,
+        u=u,
+        phi=phi,
+        ramp_rate=ramp,
+        perturbation=delta,
+        modes=modes,
+        stop_time=stop,
+        noise=noise,
+        seed=seed,
+    )
 
 
-def _read_initial(t: "_Table", kind: str, wavelengths: float | None, domain: DomainConfig,
-                  boundary: BoundaryConfig, flow: FlowConfig,
-                  effects: EffectsConfig) -> InitialConfig:
+def _read_initial(
+    t: "_Table",
+    kind: str,
+    wavelengths: float | None,
+    domain: DomainConfig,
+    boundary: BoundaryConfig,
+    flow: FlowConfig,
+    effects: EffectsConfig,
+) -> InitialConfig:
     if kind == "empty":
         return InitialConfig(kind="empty")
     if kind == "uniform":
         if flow.no_steady:
-            raise InputError(f"initial.kind='uniform' needs the steady uniform flow: "
-                             f"{flow.no_steady}")
+            raise InputError(
+                f"initial.kind='uniform' needs the steady uniform flow: {flow.no_steady}"
+            )
         if flow.u0 is None:
-            raise InputError("initial.kind='uniform' needs the steady velocity u0: give flow.u0 "
-                             f"(effects.friction={effects.friction!r} does not define one)")
+            raise InputError(
+                "initial.kind='uniform' needs the steady velocity u0: give flow.u0 "
+                f"(effects.friction={effects.friction!r} does not define one)"
+            )
         amplitude = t.number("amplitude", 0.0, lo=0.0)
-        _require(amplitude < 1.0, "initial.amplitude", amplitude,
-                 "relative amplitude must be < 1 (h must stay positive)")
+        _require(
+            amplitude < 1.0,
+            "initial.amplitude",
+            amplitude,
+            "relative amplitude must be < 1 (h must stay positive)",
+        )
         k = t.number("k", 0.0, nonneg=True)
         ky = t.number("ky", 0.0, nonneg=True)
         mode = t.choice("mode", PERTURBATION_MODES, "eigen")
         seed = t.integer("seed", 0, lo=0)
         if domain.is_1d and ky != 0.0:
-            raise InputError(f"initial.ky={ky!r}: a 1D run (domain.ny = 1) has no cross-slope "
-                             "wavenumber; use 0")
+            raise InputError(
+                f"initial.ky={ky!r}: a 1D run (domain.ny = 1) has no cross-slope wavenumber; use 0"
+            )
         if amplitude > 0 and mode != "noise" and k == 0.0 and ky == 0.0:
-            raise InputError(f"initial.amplitude={amplitude!r} with initial.mode={mode!r} needs "
-                             "initial.k > 0 or initial.ky > 0")
+            raise InputError(
+                f"initial.amplitude={amplitude!r} with initial.mode={mode!r} needs "
+                "initial.k > 0 or initial.ky > 0"
+            )
         if mode == "phi" and not effects.segregation:
-            raise InputError("initial.mode='phi' perturbs the concentration, but "
-                             "effects.segregation = false has no phi field")
+            raise InputError(
+                "initial.mode='phi' perturbs the concentration, but "
+                "effects.segregation = false has no phi field"
+            )
         if k and boundary.x_lo == "periodic" and not _near_integer(wavelengths):
             raise InputError(
                 f"initial.wavelengths={wavelengths:.6g}: domain.Lx={domain.Lx!r} holds that many "
                 f"wavelengths of initial.k={k!r}, but a periodic domain needs a whole number "
-                "(set initial.wavelengths to an integer and leave domain.Lx out)")
+                "(set initial.wavelengths to an integer and leave domain.Lx out)"
+            )
         if ky and boundary.y_lo == "periodic":
             ny_waves = domain.Ly * ky / (2.0 * math.pi * flow.h0)
             if not _near_integer(ny_waves):
                 raise InputError(
                     f"initial.ky={ky!r}: domain.Ly={domain.Ly!r} holds {ny_waves:.6g} wavelengths; "
-                    "a periodic domain needs a whole number (ky = 2 pi h0 n / Ly)")
-        return InitialConfig(kind=kind, amplitude=amplitude, k=k, ky=ky, mode=mode, seed=seed,
-                             wavelengths=wavelengths)
+                    "a periodic domain needs a whole number (ky = 2 pi h0 n / Ly)"
+                )
+        return InitialConfig(
+            kind=kind,
+            amplitude=amplitude,
+            k=k,
+            ky=ky,
+            mode=mode,
+            seed=seed,
+            wavelengths=wavelengths,
+        )
     if kind == "dam-break":
         x0 = t.number("x0")
         _require(0.0 < x0 < domain.Lx, "initial.x0", x0, f"must lie inside (0, Lx={domain.Lx!r})")
         h_left = t.number("h_left", flow.h0, nonneg=True)
         h_right = t.number("h_right", 0.0, nonneg=True)
-        _require(h_left > 0 or h_right > 0, "initial.h_left", h_left,
-                 "h_left and h_right cannot both be 0 (nothing would move)")
+        _require(
+            h_left > 0 or h_right > 0,
+            "initial.h_left",
+            h_left,
+            "h_left and h_right cannot both be 0 (nothing would move)",
+        )
         phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
         return InitialConfig(kind=kind, x0=x0, h_left=h_left, h_right=h_right, phi=phi)
     if kind == "channel":
-        _require(not domain.is_1d, "initial.kind", kind,
-                 "a channel lies across the slope: it needs a 2D domain (domain.ny > 1)")
+        _require(
+            not domain.is_1d,
+            "initial.kind",
+            kind,
+            "a channel lies across the slope: it needs a 2D domain (domain.ny > 1)",
+        )
         width = t.number("width", positive=True)
-        _require(width < domain.Ly, "initial.width", width,
-                 f"must be narrower than the chute, Ly={domain.Ly!r}")
+        _require(
+            width < domain.Ly,
+            "initial.width",
+            width,
+            f"must be narrower than the chute, Ly={domain.Ly!r}",
+        )
         phi_channel = t.number("phi_channel", 1.0, lo=0.0, hi=1.0)
         phi_levee = t.number("phi_levee", 0.0, lo=0.0, hi=1.0)
         h = t.number("h", flow.h0, positive=True)
-        return InitialConfig(kind=kind, width=width, phi_channel=phi_channel,
-                             phi_levee=phi_levee, h=h)
+        return InitialConfig(
+            kind=kind, width=width, phi_channel=phi_channel, phi_levee=phi_levee, h=h
+        )
     # release: a block of material at rest
     x0 = t.number("x0", lo=0.0)
     x1 = t.number("x1")
-    _require(x0 < x1 <= domain.Lx, "initial.x1", x1,
-             f"need initial.x0={x0!r} < x1 <= Lx={domain.Lx!r}")
+    _require(
+        x0 < x1 <= domain.Lx, "initial.x1", x1, f"need initial.x0={x0!r} < x1 <= Lx={domain.Lx!r}"
+    )
     y0 = t.number("y0", 0.0, lo=0.0)
     y1 = t.number("y1", domain.Ly)
-    _require(y0 < y1 <= domain.Ly * (1 + 1e-12), "initial.y1", y1,
-             f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}")
+    _require(
+        y0 < y1 <= domain.Ly * (1 + 1e-12),
+        "initial.y1",
+        y1,
+        f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}",
+    )
     h = t.number("h", flow.h0, positive=True)
     phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
     return InitialConfig(kind=kind, x0=x0, x1=x1, y0=y0, y1=y1, h=h, phi=phi)
@@ -946,8 +1158,9 @@ def _read_initial(t: "_Table", kind: str, wavelengths: float | None, domain: Dom
 
 def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
     n = NumericsConfig(
-        reconstruction=t.choice("reconstruction", RECONSTRUCTIONS, "weno",
-                                aliases=RECONSTRUCTION_ALIASES),
+        reconstruction=t.choice(
+            "reconstruction", RECONSTRUCTIONS, "weno", aliases=RECONSTRUCTION_ALIASES
+        ),
         theta=t.number("theta", 1.5, lo=1.0, hi=2.0),
         flux=t.choice("flux", FLUXES, "kt"),
         phi_flux=t.choice("phi_flux", PHI_FLUXES, "central"),
@@ -959,10 +1172,18 @@ def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
         u_eps=t.number("u_eps", 1e-3, positive=True),
         max_stages=t.integer("max_stages", 200, lo=2),
     )
-    _require(n.h_eps < n.h_min, "numerics.h_eps", n.h_eps,
-             f"must be smaller than numerics.h_min={n.h_min!r}")
-    _require(n.h_min < flow.h0, "numerics.h_min", n.h_min,
-             f"must be smaller than flow.h0={flow.h0!r} (else the reference flow counts as empty)")
+    _require(
+        n.h_eps < n.h_min,
+        "numerics.h_eps",
+        n.h_eps,
+        f"must be smaller than numerics.h_min={n.h_min!r}",
+    )
+    _require(
+        n.h_min < flow.h0,
+        "numerics.h_min",
+        n.h_min,
+        f"must be smaller than flow.h0={flow.h0!r} (else the reference flow counts as empty)",
+    )
     return n
 
 
@@ -975,16 +1196,23 @@ def _read_output(t: "_Table", t_end: float) -> OutputConfig:
     if late:
         # one override (time.t_end) shortens a run: its later snapshots go, with a note
         from .log import note
-        note(f"output.times {', '.join(f'{v:g}' for v in late)} lie past time.t_end="
-             f"{t_end:g} s and are dropped")
+
+        note(
+            f"output.times {', '.join(f'{v:g}' for v in late)} lie past time.t_end="
+            f"{t_end:g} s and are dropped"
+        )
         times = tuple(v for v in times if v <= t_end * (1 + 1e-12))
     checkpoint = t.number("checkpoint_interval", None, positive=True)
     # (time, priority): explicit times, 0 and t_end win over a nearby multiple of the interval
     cands = [(0.0, 0), (t_end, 0)] + [(min(v, t_end), 0) for v in times]
     if interval is not None:
         n = int(math.floor(t_end / interval * (1 + 1e-12)))
-        _require(n <= MAX_OUTPUT_TIMES, "output.interval", interval,
-                 f"gives {n} snapshots up to t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed")
+        _require(
+            n <= MAX_OUTPUT_TIMES,
+            "output.interval",
+            interval,
+            f"gives {n} snapshots up to t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed",
+        )
         # %.12g turns 19 * 0.1 = 1.9000000000000001 into 1.9
         cands += [(min(float(f"{i * interval:.12g}"), t_end), 1) for i in range(n + 1)]
     cands.sort()
@@ -996,14 +1224,26 @@ def _read_output(t: "_Table", t_end: float) -> OutputConfig:
                 merged[-1] = (tv, pr)
             continue
         merged.append((tv, pr))
-    precision = (t.choice("precision", OUTPUT_PRECISIONS, aliases={"f64": "f8", "f32": "f4"})
-                 if t.has("precision") else None)
+    precision = (
+        t.choice("precision", OUTPUT_PRECISIONS, aliases={"f64": "f8", "f32": "f4"})
+        if t.has("precision")
+        else None
+    )
     digits = t.integer("significant_digits", lo=1) if t.has("significant_digits") else None
-    _require(digits is None or digits <= 15, "output.significant_digits", digits,
-             "at most 15 (an f8 holds about 16 decimal digits)")
-    return OutputConfig(interval=interval, times=times, checkpoint_interval=checkpoint,
-                        output_times=tuple(tv for tv, _ in merged), precision=precision,
-                        significant_digits=digits)
+    _require(
+        digits is None or digits <= 15,
+        "output.significant_digits",
+        digits,
+        "at most 15 (an f8 holds about 16 decimal digits)",
+    )
+    return OutputConfig(
+        interval=interval,
+        times=times,
+        checkpoint_interval=checkpoint,
+        output_times=tuple(tv for tv, _ in merged),
+        precision=precision,
+        significant_digits=digits,
+    )
 
 
 # =================================================================================================
@@ -1029,16 +1269,19 @@ class _Table:
         close = difflib.get_close_matches(str(key), self.allowed, n=1, cutoff=0.5)
         hint = f" (did you mean {self.full(close[0])!r}?)" if close else ""
         what = "key" if self.prefix else "section or key"
-        raise InputError(f"unknown {what} {full!r} in {where}{hint}; allowed: "
-                         f"{', '.join(self.allowed)}")
+        raise InputError(
+            f"unknown {what} {full!r} in {where}{hint}; allowed: {', '.join(self.allowed)}"
+        )
 
     def only(self, allowed: Iterable[str], because: str) -> None:
         """Reject keys that are valid for the section but not in this configuration."""
         allowed = tuple(allowed)
         for key in self.data:
             if key not in allowed:
-                raise InputError(f"{self.full(key)} is not used by {because} (its keys: "
-                                 f"{', '.join(allowed)}); remove it or change the kind")
+                raise InputError(
+                    f"{self.full(key)} is not used by {because} (its keys: "
+                    f"{', '.join(allowed)}); remove it or change the kind"
+                )
 
     def full(self, key: str) -> str:
         return f"{self.prefix}.{key}" if self.prefix else str(key)
@@ -1057,42 +1300,58 @@ class _Table:
         v = self.data.get(key, {})
         full = self.full(key)
         if not isinstance(v, Mapping):
-            raise InputError(f"{full}={_show(v)}: expected a table ([{full}]), got "
-                             f"{_type_name(v)}")
+            raise InputError(f"{full}={_show(v)}: expected a table ([{full}]), got {_type_name(v)}")
         return _Table(v, full, SECTION_KEYS[key] if allowed is None else allowed)
 
     def string(self, key: str, default=_MISSING) -> str:
         v = self.get(key, default)
         if not isinstance(v, str):
-            raise InputError(f"{self.full(key)}={_show(v)}: expected a string, got "
-                             f"{_type_name(v)}")
+            raise InputError(f"{self.full(key)}={_show(v)}: expected a string, got {_type_name(v)}")
         return v
 
     def boolean(self, key: str, default=_MISSING) -> bool:
         v = self.get(key, default)
         if not isinstance(v, bool):
-            raise InputError(f"{self.full(key)}={_show(v)}: expected true or false, got "
-                             f"{_type_name(v)}")
+            raise InputError(
+                f"{self.full(key)}={_show(v)}: expected true or false, got {_type_name(v)}"
+            )
         return v
 
-    def choice(self, key: str, choices: tuple[str, ...], default=_MISSING,
-               aliases: Mapping[str, str] | None = None) -> str:
+    def choice(
+        self,
+        key: str,
+        choices: tuple[str, ...],
+        default=_MISSING,
+        aliases: Mapping[str, str] | None = None,
+    ) -> str:
         v = self.get(key, default)
         full = self.full(key)
         if not isinstance(v, str):
-            raise InputError(f"{full}={_show(v)}: expected a string, one of "
-                             f"{', '.join(map(repr, choices))}; got {_type_name(v)}")
+            raise InputError(
+                f"{full}={_show(v)}: expected a string, one of "
+                f"{', '.join(map(repr, choices))}; got {_type_name(v)}"
+            )
         if aliases and v in aliases:
             return aliases[v]
         if v not in choices:
             close = difflib.get_close_matches(v, list(choices) + list(aliases or ()), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise InputError(f"{full}={v!r}: allowed values are "
-                             f"{', '.join(map(repr, choices))}{hint}")
+            raise InputError(
+                f"{full}={v!r}: allowed values are {', '.join(map(repr, choices))}{hint}"
+            )
         return v
 
-    def number(self, key: str, default=_MISSING, *, positive=False, nonneg=False, lo=None,
-               hi=None, allow_inf=False) -> float | None:
+    def number(
+        self,
+        key: str,
+        default=_MISSING,
+        *,
+        positive=False,
+        nonneg=False,
+        lo=None,
+        hi=None,
+        allow_inf=False,
+    ) -> float | None:
         """A real number (int or float, never bool), finite unless ``allow_inf``; None only as
         a default. ``lo``/``hi`` are inclusive bounds."""
         v = self.get(key, default)
@@ -1130,13 +1389,16 @@ class _Table:
         v = self.get(key, default)
         full = self.full(key)
         if not isinstance(v, (list, tuple)):
-            raise InputError(f"{full}={_show(v)}: expected an array of numbers such as "
-                             f"[1.0, 2.5], got {_type_name(v)}")
+            raise InputError(
+                f"{full}={_show(v)}: expected an array of numbers such as "
+                f"[1.0, 2.5], got {_type_name(v)}"
+            )
         out = []
         for i, x in enumerate(v):
             if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(x):
-                raise InputError(f"{full}[{i}]={_show(x)}: expected a finite number, got "
-                                 f"{_type_name(x)}")
+                raise InputError(
+                    f"{full}[{i}]={_show(x)}: expected a finite number, got {_type_name(x)}"
+                )
             out.append(float(x))
         return out
 
@@ -1149,8 +1411,10 @@ _KEY_PART = re.compile(r"^[A-Za-z0-9_-]+$")
 
 def _check_dotted_key(key, context) -> None:
     if not isinstance(key, str) or not key or not all(_KEY_PART.match(p) for p in key.split(".")):
-        raise InputError(f"override {context!r}: the key {key!r} must be dotted names such as "
-                         "'flow.h0' or 'material.small.zeta1_deg'")
+        raise InputError(
+            f"override {context!r}: the key {key!r} must be dotted names such as "
+            "'flow.h0' or 'material.small.zeta1_deg'"
+        )
 
 
 def _apply_overrides(data: dict, overrides) -> None:
@@ -1167,12 +1431,15 @@ def _apply_overrides(data: dict, overrides) -> None:
         seen: dict = {}
         for key, value in items:
             if key in seen:
-                raise InputError(f"--set {key} is given twice ({seen[key]!r} and {value!r}); "
-                                 "give it once")
+                raise InputError(
+                    f"--set {key} is given twice ({seen[key]!r} and {value!r}); give it once"
+                )
             seen[key] = value
     else:
-        raise InputError(f"overrides must be a dict or a list of 'section.key=value' strings, "
-                         f"got {_type_name(overrides)}")
+        raise InputError(
+            f"overrides must be a dict or a list of 'section.key=value' strings, "
+            f"got {_type_name(overrides)}"
+        )
     for key, value in items:
         parts = key.split(".")
         node = data
@@ -1181,10 +1448,12 @@ def _apply_overrides(data: dict, overrides) -> None:
             if nxt is None:
                 nxt = node[part] = {}
             elif not isinstance(nxt, dict):
-                raise InputError(f"override {key!r}: {'.'.join(parts[:i + 1])} is "
-                                 f"{_type_name(nxt)}, not a table")
+                raise InputError(
+                    f"override {key!r}: {'.'.join(parts[: i + 1])} is "
+                    f"{_type_name(nxt)}, not a table"
+                )
             node = nxt
-        if value is None:            # dict overrides only: remove the key
+        if value is None:  # dict overrides only: remove the key
             node.pop(parts[-1], None)
         else:
             node[parts[-1]] = _deep_copy(value)
@@ -1221,7 +1490,7 @@ def _type_name(v) -> str:
         return "an array"
     if isinstance(v, Mapping):
         return "a table"
-    return f"a {type(v).__name__}"   # e.g. TOML dates and times
+    return f"a {type(v).__name__}"  # e.g. TOML dates and times
 
 
 def _close(a: float, b: float, rel: float = 1e-9) -> bool:
@@ -1232,7 +1501,23 @@ def _near_integer(x: float | None, rel: float = 1e-6) -> bool:
     return x is not None and round(x) >= 1 and abs(x - round(x)) <= rel * max(1.0, abs(x))
 
 
-__all__ = ["Scene", "FlowConfig", "EffectsConfig", "DomainConfig", "BoundaryConfig",
-           "InflowConfig", "InitialConfig", "NumericsConfig", "TimeConfig", "OutputConfig",
-           "load_scene", "scene_from_text", "scene_from_dict", "scene_to_dict", "parse_override",
-           "list_builtin_scenes", "SCENE_DIR", "InputError"]
+__all__ = [
+    "Scene",
+    "FlowConfig",
+    "EffectsConfig",
+    "DomainConfig",
+    "BoundaryConfig",
+    "InflowConfig",
+    "InitialConfig",
+    "NumericsConfig",
+    "TimeConfig",
+    "OutputConfig",
+    "load_scene",
+    "scene_from_text",
+    "scene_from_dict",
+    "scene_to_dict",
+    "parse_override",
+    "list_builtin_scenes",
+    "SCENE_DIR",
+    "InputError",
+]

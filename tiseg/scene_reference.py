@@ -6,6 +6,7 @@ comment after the field of the configuration dataclass that holds it (``FlowConf
 value in the built-in scenes is read from them. So the page cannot drift from the code:
 ``tests/test_docs.py`` checks that every key has a description.
 """
+
 from __future__ import annotations
 
 import inspect
@@ -15,20 +16,35 @@ from . import scene as S
 from .material import Material, Species
 
 # the dataclass that holds the keys of each section
-SECTION_CLASSES = {"material": Material, "flow": S.FlowConfig, "effects": S.EffectsConfig,
-                   "domain": S.DomainConfig, "boundary": S.BoundaryConfig,
-                   "inflow": S.InflowConfig, "initial": S.InitialConfig,
-                   "numerics": S.NumericsConfig, "time": S.TimeConfig, "output": S.OutputConfig}
+SECTION_CLASSES = {
+    "material": Material,
+    "flow": S.FlowConfig,
+    "effects": S.EffectsConfig,
+    "domain": S.DomainConfig,
+    "boundary": S.BoundaryConfig,
+    "inflow": S.InflowConfig,
+    "initial": S.InitialConfig,
+    "numerics": S.NumericsConfig,
+    "time": S.TimeConfig,
+    "output": S.OutputConfig,
+}
 
 # the allowed values of the keys that take a word
 CHOICES = {
-    "material.transport": S.TRANSPORTS, "effects.friction": S.FRICTION_LAWS,
-    "boundary.x_lo": S.BOUNDARY_KINDS, "boundary.x_hi": S.BOUNDARY_KINDS,
-    "boundary.y_lo": S.BOUNDARY_KINDS, "boundary.y_hi": S.BOUNDARY_KINDS,
-    "initial.kind": S.INITIAL_KINDS, "initial.mode": S.PERTURBATION_MODES,
-    "numerics.reconstruction": S.RECONSTRUCTIONS, "numerics.flux": S.FLUXES,
-    "numerics.phi_flux": S.PHI_FLUXES, "numerics.stepper": S.STEPPERS,
-    "numerics.precision": S.PRECISIONS, "output.precision": S.OUTPUT_PRECISIONS,
+    "material.transport": S.TRANSPORTS,
+    "effects.friction": S.FRICTION_LAWS,
+    "boundary.x_lo": S.BOUNDARY_KINDS,
+    "boundary.x_hi": S.BOUNDARY_KINDS,
+    "boundary.y_lo": S.BOUNDARY_KINDS,
+    "boundary.y_hi": S.BOUNDARY_KINDS,
+    "initial.kind": S.INITIAL_KINDS,
+    "initial.mode": S.PERTURBATION_MODES,
+    "numerics.reconstruction": S.RECONSTRUCTIONS,
+    "numerics.flux": S.FLUXES,
+    "numerics.phi_flux": S.PHI_FLUXES,
+    "numerics.stepper": S.STEPPERS,
+    "numerics.precision": S.PRECISIONS,
+    "output.precision": S.OUTPUT_PRECISIONS,
 }
 
 _FIELD = re.compile(r"^\s+(\w+)\s*:\s*[^#]*?#\s?(.*)$")
@@ -62,8 +78,9 @@ def descriptions() -> dict[str, str]:
         for key in keys:
             text = comments.get(key, "")
             if section == "material" and key in ("small", "large"):
-                text = (f"table of the {key} grains' friction constants: "
-                        + "; ".join(f"``{k}``: {v}" for k, v in species.items()))
+                text = f"table of the {key} grains' friction constants: " + "; ".join(
+                    f"``{k}``: {v}" for k, v in species.items()
+                )
             out[f"{section}.{key}"] = text
     return out
 
@@ -97,16 +114,28 @@ def markdown() -> str:
     desc = descriptions()
     values = _builtin_values()
     fingers = values.get("fingers", {})
-    lines = ["# Scenes reference", "",
-             "A scene is a TOML file of the sections below (`tiseg run SCENE`, `--set "
-             "section.key=value`). Unknown keys, wrong types and impossible values are one-line "
-             "errors naming the key. Built-in scenes: "
-             + ", ".join(f"`{n}`" for n in values) + " (`tiseg/data/scenes/`).", "",
-             "*This page is generated from the scene schema (`tiseg.scene_reference`).*", ""]
+    lines = [
+        "# Scenes reference",
+        "",
+        "A scene is a TOML file of the sections below (`tiseg run SCENE`, `--set "
+        "section.key=value`). Unknown keys, wrong types and impossible values are one-line "
+        "errors naming the key. Built-in scenes: "
+        + ", ".join(f"`{n}`" for n in values)
+        + " (`tiseg/data/scenes/`).",
+        "",
+        "*This page is generated from the scene schema (`tiseg.scene_reference`).*",
+        "",
+    ]
     for section, keys in S.SECTION_KEYS.items():
         doc = inspect.getdoc(SECTION_CLASSES[section]) or ""
-        lines += [f"## `[{section}]`", "", doc.split("\n\n")[0].replace("\n", " "), "",
-                  "| key | meaning | allowed | in `fingers` |", "|---|---|---|---|"]
+        lines += [
+            f"## `[{section}]`",
+            "",
+            doc.split("\n\n")[0].replace("\n", " "),
+            "",
+            "| key | meaning | allowed | in `fingers` |",
+            "|---|---|---|---|",
+        ]
         for key in keys:
             full = f"{section}.{key}"
             allowed = ", ".join(f"`{c}`" for c in CHOICES.get(full, ()))

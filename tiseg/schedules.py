@@ -16,6 +16,7 @@ step: the sequence of steps of a run does not depend on them.
 Every schedule depends on the simulation's (t, steps) alone, except the wall-time one; so a
 resumed run fires the same callbacks at the same steps as an uninterrupted one.
 """
+
 from __future__ import annotations
 
 import bisect
@@ -52,12 +53,14 @@ class TimeInterval(Schedule):
 
     The times are k * interval rounded to 12 significant digits (so 19 * 0.1 is 1.9, the time
     a user wrote, not 1.9000000000000001), as the scene's output times are."""
+
     timed = True
 
     def __init__(self, interval: float):
         if not (isinstance(interval, (int, float)) and math.isfinite(interval) and interval > 0):
-            raise InputError(f"TimeInterval({interval!r}): the interval must be a positive number "
-                             "of seconds")
+            raise InputError(
+                f"TimeInterval({interval!r}): the interval must be a positive number of seconds"
+            )
         self.interval = float(interval)
 
     def _time(self, k: int) -> float:
@@ -86,6 +89,7 @@ class TimeInterval(Schedule):
 
 class SpecifiedTimes(Schedule):
     """At the given simulated times (sorted; duplicates merged)."""
+
     timed = True
 
     def __init__(self, times: Iterable[float]):
@@ -95,8 +99,9 @@ class SpecifiedTimes(Schedule):
         self.times = tuple(ts)
 
     def times_in(self, t0, t1):
-        return list(self.times[bisect.bisect_right(self.times, t0):
-                               bisect.bisect_right(self.times, t1)])
+        return list(
+            self.times[bisect.bisect_right(self.times, t0) : bisect.bisect_right(self.times, t1)]
+        )
 
     def due(self, t0, t1, steps):
         return bisect.bisect_right(self.times, t0) < bisect.bisect_right(self.times, t1)
@@ -162,11 +167,17 @@ class AnyOf(Schedule):
             s.start()
 
     def due(self, t0, t1, steps):
-        return any([s.due(t0, t1, steps) for s in self.schedules])   # a list: ask them all
+        return any([s.due(t0, t1, steps) for s in self.schedules])  # a list: ask them all
 
     def __repr__(self):
         return f"AnyOf({', '.join(map(repr, self.schedules))})"
 
 
-__all__ = ["Schedule", "TimeInterval", "SpecifiedTimes", "IterationInterval",
-           "WallTimeInterval", "AnyOf"]
+__all__ = [
+    "Schedule",
+    "TimeInterval",
+    "SpecifiedTimes",
+    "IterationInterval",
+    "WallTimeInterval",
+    "AnyOf",
+]

@@ -30,6 +30,7 @@ The Python API::
 with the explicit mutators :meth:`Simulation.set_parameters`, :meth:`Simulation.set_state`
 and :meth:`Simulation.reset`.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -56,14 +57,22 @@ from .timestepping import stepper_for
 ACTIVE_MARGIN = 3
 
 # OperatorConfig fields the kernels are compiled for: set_parameters cannot change them
-MIN_STEP_FRACTION = 1e-9   # a step this much below the CFL limit: stiffness out of range
-GUARD_ORDER = -100      # the guard callback runs before everything else after a step
+MIN_STEP_FRACTION = 1e-9  # a step this much below the CFL limit: stiffness out of range
+GUARD_ORDER = -100  # the guard callback runs before everything else after a step
 
-COMPILED = {"layout": "the grid or the segregation switch", "dx": "the grid", "dy": "the grid",
-            "Ly": "the domain", "viscous": "effects.viscosity", "feedback":
-            "effects.mobility_feedback", "friction": "effects.friction",
-            "reconstruction": "numerics.reconstruction", "flux": "numerics.flux",
-            "phi_flux": "numerics.phi_flux", "bc": "the boundaries"}
+COMPILED = {
+    "layout": "the grid or the segregation switch",
+    "dx": "the grid",
+    "dy": "the grid",
+    "Ly": "the domain",
+    "viscous": "effects.viscosity",
+    "feedback": "effects.mobility_feedback",
+    "friction": "effects.friction",
+    "reconstruction": "numerics.reconstruction",
+    "flux": "numerics.flux",
+    "phi_flux": "numerics.phi_flux",
+    "bc": "the boundaries",
+}
 
 
 def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, float]:
@@ -91,12 +100,13 @@ class StepInfo:
 class StepPlan:
     """The next step: ``dt``, ``stages``, the stability numbers it was planned from, and the
     time it ends at (``t_next``, exactly the stop time when it lands there)."""
+
     dt: float
     stages: int
     stability: object
     t_next: float
-    dt_cfl: float = math.inf      # the convective limit it was planned from
-    lands: bool = False           # it ends exactly on the stop time
+    dt_cfl: float = math.inf  # the convective limit it was planned from
+    lands: bool = False  # it ends exactly on the stop time
 
 
 class SimulationError(TisegError):
@@ -115,8 +125,8 @@ class SimulationError(TisegError):
 @dataclass
 class RunStats:
     steps: int = 0
-    stages: int = 0          # operator evaluations
-    wall: float = 0.0        # cumulative wall time of run() calls (resumed runs continue it)
+    stages: int = 0  # operator evaluations
+    wall: float = 0.0  # cumulative wall time of run() calls (resumed runs continue it)
     history: list = field(default_factory=list)
 
 
@@ -128,9 +138,16 @@ class Simulation:
     :class:`InputError`: switching means ``tiseg.init(...)``, which invalidates every
     existing simulation, so it is never done behind the caller's back."""
 
-    def __init__(self, scene, arch: str | None = None, precision: str | None = None,
-                 threads: int = 0, active_region: bool = True, check_every: int = 10,
-                 mass_tol: float | None = None):
+    def __init__(
+        self,
+        scene,
+        arch: str | None = None,
+        precision: str | None = None,
+        threads: int = 0,
+        active_region: bool = True,
+        check_every: int = 10,
+        mass_tol: float | None = None,
+    ):
         """``check_every``: guard check every that many steps (0: only on steps that make a
         snapshot); ``mass_tol``: relative mass-balance tolerance of the guard (tiseg.guards)."""
         from .numerics.operator import TaichiOperator
@@ -151,7 +168,7 @@ class Simulation:
         # time, and the snapshot interpolated from it and the state after the step
         nstep = max(self.stepper.slots, 2)
         self.PREV, self.SNAP = nstep, nstep + 1
-        if self.backend.arch == "cpu":            # before Taichi tries the allocation
+        if self.backend.arch == "cpu":  # before Taichi tries the allocation
             check_memory(self.layout, nstep + 2, self.backend.precision)
         self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
         # Work only on the x range that can change (the wet region and a margin): exact,
@@ -159,10 +176,10 @@ class Simulation:
         self.active_region = active_region and scene.boundary.x_lo != "periodic"
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
         self.callbacks: dict[str, Callback] = {}
-        self.check_every = check_every           # registers the guard callback
-        self.failure_dir: Path | None = None     # where a guard failure saves its states
-        self._io_counts = (0, 0)                 # (snapshots, diagnostics rows) written
-        self._wall0: float | None = None         # perf_counter() at wall time 0 during run()
+        self.check_every = check_every  # registers the guard callback
+        self.failure_dir: Path | None = None  # where a guard failure saves its states
+        self._io_counts = (0, 0)  # (snapshots, diagnostics rows) written
+        self._wall0: float | None = None  # perf_counter() at wall time 0 during run()
         self.reset()
 
     @classmethod
@@ -172,14 +189,17 @@ class Simulation:
         scene, ck = _ckpt.open_run_dir(run_dir)
         sim = cls(scene, arch=arch, precision=ck["precision"], threads=threads, **kwargs)
         _ckpt.restore(sim, ck)
-        sim._resume = {"dir": Path(run_dir).resolve(), **{k: ck[k] for k in (
-            "snapshots", "diag_rows", "wall")}}
+        sim._resume = {
+            "dir": Path(run_dir).resolve(),
+            **{k: ck[k] for k in ("snapshots", "diag_rows", "wall")},
+        }
         return sim
 
     @classmethod
     def from_scene(cls, scene, overrides=None, **kwargs) -> "Simulation":
         """Build from a Scene, a built-in scene name or a TOML path, with ``section.key`` overrides."""
         from .scene import Scene, load_scene
+
         if not isinstance(scene, Scene):
             scene = load_scene(scene, overrides)
         elif overrides:
@@ -215,21 +235,26 @@ class Simulation:
         old = self.scene
         cfg = config_from_scene(scene)
         if self.cfg.viscous and not cfg.viscous and scene.effects.viscosity:
-            cfg = dataclasses.replace(cfg, viscous=True, nu=0.0)   # nu = 0: the same kernels
+            cfg = dataclasses.replace(cfg, viscous=True, nu=0.0)  # nu = 0: the same kernels
         what = sorted({v for k, v in COMPILED.items() if getattr(cfg, k) != getattr(self.cfg, k)})
         for key in ("stepper", "max_stages", "precision"):
             if getattr(scene.numerics, key) != getattr(old.numerics, key):
                 what.append(f"numerics.{key}")
         if what:
-            why = ("; the viscous kernels were left out because flow.nu was 0 when the "
-                   "simulation was built" if "effects.viscosity" in what and not self.cfg.viscous
-                   and old.effects.viscosity else "")
-            raise InputError(f"set_parameters: this changes {', '.join(what)}, which the "
-                             f"simulation was compiled for{why}; build a new Simulation for that")
+            why = (
+                "; the viscous kernels were left out because flow.nu was 0 when the "
+                "simulation was built"
+                if "effects.viscosity" in what and not self.cfg.viscous and old.effects.viscosity
+                else ""
+            )
+            raise InputError(
+                f"set_parameters: this changes {', '.join(what)}, which the "
+                f"simulation was compiled for{why}; build a new Simulation for that"
+            )
         self.scene = scene
         self.cfg = cfg
         self.op.set_params(cfg)
-        self.guard.set_params()            # h_min of the phi rule
+        self.guard.set_params()  # h_min of the phi rule
 
     def set_state(self, h, u=None, v=None, phi=None) -> None:
         """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
@@ -243,8 +268,9 @@ class Simulation:
                 return np.full(shape, float(default))
             a = np.asarray(a, dtype=float)
             if a.shape != shape:
-                raise InputError(f"set_state: {name} has shape {a.shape}, expected {shape} "
-                                 "(ny, nx)")
+                raise InputError(
+                    f"set_state: {name} has shape {a.shape}, expected {shape} (ny, nx)"
+                )
             if not np.all(np.isfinite(a)):
                 raise InputError(f"set_state: {name} holds NaN or Inf")
             return a
@@ -276,15 +302,23 @@ class Simulation:
         return self.fields()
 
     # ------------------------------------------------------------------ callbacks
-    def add_callback(self, func, schedule: Schedule | None = None, name: str | None = None,
-                     snapshot: bool = False, order: int = 0) -> Callback:
+    def add_callback(
+        self,
+        func,
+        schedule: Schedule | None = None,
+        name: str | None = None,
+        snapshot: bool = False,
+        order: int = 0,
+    ) -> Callback:
         """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.callbacks`),
         or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
         if isinstance(func, Callback):
             cb = func
         elif schedule is None:
-            raise InputError("add_callback: give a schedule (e.g. IterationInterval(10) or "
-                             "TimeInterval(0.1) from tiseg.schedules)")
+            raise InputError(
+                "add_callback: give a schedule (e.g. IterationInterval(10) or "
+                "TimeInterval(0.1) from tiseg.schedules)"
+            )
         else:
             cb = Callback(func, schedule, name, snapshot, order)
         self.callbacks[cb.name] = cb
@@ -306,27 +340,37 @@ class Simulation:
         self.callbacks.pop("guard", None)
         if n:
             # before the step's snapshots (negative order): nothing is written unchecked
-            self.callbacks["guard"] = Callback(lambda sim: sim._guard(), IterationInterval(n),
-                                               name="guard", order=GUARD_ORDER)
+            self.callbacks["guard"] = Callback(
+                lambda sim: sim._guard(), IterationInterval(n), name="guard", order=GUARD_ORDER
+            )
 
     # ------------------------------------------------------------------ state
     def checkpoint_meta(self) -> dict:
         """The numbers besides slot 0 and the budget that a checkpoint needs (tiseg.checkpoint)."""
         snaps, rows = self._io_counts
-        return {"t": self.t, "steps": self.stats.steps, "stages": self.stats.stages,
-                "last_stages": self._last_stages, "wall": self.stats.wall,
-                "initial_mass": self.initial_totals["mass"],
-                "initial_small_mass": self.initial_totals["small_mass"],
-                "snapshots": snaps, "diag_rows": rows}
+        return {
+            "t": self.t,
+            "steps": self.stats.steps,
+            "stages": self.stats.stages,
+            "last_stages": self._last_stages,
+            "wall": self.stats.wall,
+            "initial_mass": self.initial_totals["mass"],
+            "initial_small_mass": self.initial_totals["small_mass"],
+            "snapshots": snaps,
+            "diag_rows": rows,
+        }
 
     def restore_meta(self, ck: dict) -> None:
         """Inverse of :meth:`checkpoint_meta` (after slot 0 and the budget were restored)."""
         self.t = float(ck["t"])
-        self.stats = RunStats(steps=int(ck["steps"]), stages=int(ck["stages"]),
-                              wall=float(ck["wall"]))
+        self.stats = RunStats(
+            steps=int(ck["steps"]), stages=int(ck["stages"]), wall=float(ck["wall"])
+        )
         self._last_stages = int(ck["last_stages"])
-        self.initial_totals = {"mass": float(ck["initial"][0]),
-                               "small_mass": float(ck["initial"][1])}
+        self.initial_totals = {
+            "mass": float(ck["initial"][0]),
+            "small_mass": float(ck["initial"][1]),
+        }
         self._io_counts = (int(ck.get("snapshots", 0)), int(ck.get("diag_rows", 0)))
         self.guard.keep(self.checkpoint_meta())
 
@@ -368,7 +412,10 @@ class Simulation:
         """Mass and small-particle mass that entered through the boundaries since the start."""
         b = self.op.budget(slot)
         scale = 1.0 if not self.layout.is_1d else 1.0 / self.scene.dy
-        return {"mass_in": float((b[0] + b[2]) * scale), "small_mass_in": float((b[1] + b[3]) * scale)}
+        return {
+            "mass_in": float((b[0] + b[2]) * scale),
+            "small_mass_in": float((b[1] + b[3]) * scale),
+        }
 
     def wall_time(self) -> float:
         """Cumulative wall time of the run [s] (continues across resumes)."""
@@ -400,22 +447,22 @@ class Simulation:
         dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc)
         stop = self._stop_time(t_stop)
         remaining = max(stop - self.t, 0.0)
-        if not math.isfinite(dt_cfl) and rho == 0:      # nothing moves and nothing is stiff
+        if not math.isfinite(dt_cfl) and rho == 0:  # nothing moves and nothing is stiff
             dt_cfl = remaining if math.isfinite(remaining) else 1.0
         dt, s = self.stepper.plan(dt_cfl, rho, math.inf, stages)
         t_next = self.t + dt
-        if remaining <= dt * (1.0 + 1e-9):               # the last step lands on the stop
+        if remaining <= dt * (1.0 + 1e-9):  # the last step lands on the stop
             dt, s = self.stepper.plan(dt_cfl, rho, remaining, stages)
-            if remaining - dt <= 1e-9 * remaining:     # (an RKC stage cap may trim it)
+            if remaining - dt <= 1e-9 * remaining:  # (an RKC stage cap may trim it)
                 dt, t_next = remaining, stop
             else:
                 t_next = self.t + dt
-        elif remaining < 2.0 * dt:                       # two equal steps rather than a sliver
+        elif remaining < 2.0 * dt:  # two equal steps rather than a sliver
             dt, s = self.stepper.plan(dt_cfl, rho, 0.5 * remaining, stages)
             t_next = self.t + dt
         self.last_stability = stab
         if self.active_region and s > self._last_stages:
-            self._set_active(extent, s)          # wet cells spread at most one cell per stage
+            self._set_active(extent, s)  # wet cells spread at most one cell per stage
         self._last_stages = s
         return StepPlan(dt, s, stab, t_next, dt_cfl, t_next == stop)
 
@@ -436,7 +483,7 @@ class Simulation:
         first, last = extent
         pad = stages + ACTIVE_MARGIN
         inflow = self.scene.boundary.x_lo == "inflow"
-        if last < 0:                              # nothing wet: only an inflow can wet cells
+        if last < 0:  # nothing wet: only an inflow can wet cells
             a, b = lay.gx, (lay.gx + pad if inflow else lay.gx)
         else:
             a = lay.gx if inflow else first - pad
@@ -449,20 +496,24 @@ class Simulation:
         stage count (benchmarks)."""
         self.op.check_alive()
         if t_stop is not None and not float(t_stop) > self.t:
-            raise InputError(f"step(t_stop={t_stop!r}): the simulation is already at "
-                             f"t={self.t!r} s; give a later stop time")
+            raise InputError(
+                f"step(t_stop={t_stop!r}): the simulation is already at "
+                f"t={self.t!r} s; give a later stop time"
+            )
         p = self.plan(t_stop, stages)
         dt, s = p.dt, p.stages
         if not (dt > 0 and math.isfinite(dt)):
             # usually a NaN in the state: name it if the guard finds one
             self._guard(full=False)
-            self._fail(None, f"time step collapsed to dt={dt!r} at t={self.t:.9g} s "
-                             f"(step {self.stats.steps})")
+            self._fail(
+                None,
+                f"time step collapsed to dt={dt!r} at t={self.t:.9g} s (step {self.stats.steps})",
+            )
         t0, t1 = self.t, p.t_next
         self._check_progress(p)
         pending = self._pending_snapshots(t0, t1)
         if any(tk < t1 for tk, _ in pending):
-            self.op.blend(self.PREV, 0, 0, 0.0)      # keep the state before the step
+            self.op.blend(self.PREV, 0, 0, 0.0)  # keep the state before the step
         self.stepper.step(self.op, t0, dt, s)
         self.t = t1
         self.stats.steps += 1
@@ -477,17 +528,23 @@ class Simulation:
         explicit stepper's stability limit under a stiffness out of range, a huge flow.nu
         say): the message says which term."""
         stab = p.stability
-        small = (math.isfinite(p.dt_cfl) and p.dt < MIN_STEP_FRACTION * p.dt_cfl
-                 and not p.lands)           # a last step may be short: what was left
+        small = (
+            math.isfinite(p.dt_cfl) and p.dt < MIN_STEP_FRACTION * p.dt_cfl and not p.lands
+        )  # a last step may be short: what was left
         if p.t_next > self.t and not small:
             return
-        why = (f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
-               if p.t_next <= self.t else
-               f"dt={p.dt:.3g} s is {p.dt / p.dt_cfl:.2g} of the convective limit "
-               f"{p.dt_cfl:.3g} s")
-        self._fail(None, f"{why} (step {self.stats.steps}); the stiffness is out of range: "
-                         f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
-                         f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters")
+        why = (
+            f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
+            if p.t_next <= self.t
+            else f"dt={p.dt:.3g} s is {p.dt / p.dt_cfl:.2g} of the convective limit "
+            f"{p.dt_cfl:.3g} s"
+        )
+        self._fail(
+            None,
+            f"{why} (step {self.stats.steps}); the stiffness is out of range: "
+            f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
+            f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters",
+        )
 
     def advance(self, t_target: float, on_step=None) -> None:
         """Step until t == t_target exactly (the last step lands there)."""
@@ -519,13 +576,17 @@ class Simulation:
         snapshots at the scheduled times the step crossed, then the other callbacks due, in
         increasing order (the checkpoint last)."""
         steps = self.stats.steps
-        due = sorted((cb for cb in self.callbacks.values()
-                      if not cb.snapshot and cb.schedule.due(t0, t1, steps)),
-                     key=lambda c: c.order)       # every schedule is asked (wall clocks)
+        due = sorted(
+            (
+                cb
+                for cb in self.callbacks.values()
+                if not cb.snapshot and cb.schedule.due(t0, t1, steps)
+            ),
+            key=lambda c: c.order,
+        )  # every schedule is asked (wall clocks)
         before = [cb for cb in due if cb.order < 0]
-        if (pending or any(cb.checked for cb in due)) and \
-                "guard" not in (cb.name for cb in before):
-            self._guard()                   # nothing is saved from an unchecked state
+        if (pending or any(cb.checked for cb in due)) and "guard" not in (cb.name for cb in before):
+            self._guard()  # nothing is saved from an unchecked state
         for cb in before:
             cb(self)
         for tk, cbs in pending:
@@ -552,8 +613,9 @@ class Simulation:
         """One guard check (tiseg.guards); on success the state becomes the last good one."""
         v = self.guard.scan(self.t, self.stats.steps)
         if v is None and full:
-            v = self.guard.check_mass(self.totals(), self.initial_totals, self.budget(), self.t,
-                                      self.stats.steps)
+            v = self.guard.check_mass(
+                self.totals(), self.initial_totals, self.budget(), self.t, self.stats.steps
+            )
         if v is not None:
             self._fail(v, v.message())
         if full:
@@ -569,9 +631,11 @@ class Simulation:
                 message += f" (could not save the failure states: {exc})"
         if files:
             good = self.guard.good_meta or {}
-            message += (f"; last good state (t={good.get('t', float('nan')):.9g} s, step "
-                        f"{good.get('steps', '?')}) and the offending state saved in "
-                        f"{files[0].parent}/")
+            message += (
+                f"; last good state (t={good.get('t', float('nan')):.9g} s, step "
+                f"{good.get('steps', '?')}) and the offending state saved in "
+                f"{files[0].parent}/"
+            )
         raise SimulationError(message, violation, files)
 
     def _save_failure(self, message: str) -> list[Path]:
@@ -580,10 +644,17 @@ class Simulation:
         good = self.guard.last_good()
         if good is not None:
             q, bud, meta = good
-            files.append(_ckpt.write_npz_atomic(d / "last_good.npz", _ckpt.state_arrays(
-                self, q=q, budget=bud, meta=meta, reason=message)))
-        files.append(_ckpt.write_npz_atomic(d / "offending.npz", _ckpt.state_arrays(
-            self, reason=message, **self.fields())))
+            files.append(
+                _ckpt.write_npz_atomic(
+                    d / "last_good.npz",
+                    _ckpt.state_arrays(self, q=q, budget=bud, meta=meta, reason=message),
+                )
+            )
+        files.append(
+            _ckpt.write_npz_atomic(
+                d / "offending.npz", _ckpt.state_arrays(self, reason=message, **self.fields())
+            )
+        )
         return files
 
     # ------------------------------------------------------------------ the loop
@@ -592,12 +663,20 @@ class Simulation:
         t_end = self.scene.t_end if t_end is None else float(t_end)
         times = [min(t, t_end) for t in self.scene.output_times if t <= t_end * (1 + 1e-12)]
         if not times or times[-1] < t_end - 1e-12 * max(1.0, t_end):
-            times.append(t_end)               # an earlier end than the scene's is a snapshot too
+            times.append(t_end)  # an earlier end than the scene's is a snapshot too
         return sorted(set(times))
 
-    def run(self, out_dir=None, progress: bool = True, t_end: float | None = None,
-            on_output=None, checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
-            callbacks=(), overwrite: bool = False, signals: bool = False) -> RunStats:
+    def run(
+        self,
+        out_dir=None,
+        progress: bool = True,
+        t_end: float | None = None,
+        on_output=None,
+        checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
+        callbacks=(),
+        overwrite: bool = False,
+        signals: bool = False,
+    ) -> RunStats:
         """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
 
         * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
@@ -622,32 +701,36 @@ class Simulation:
         # everything that can be refused is checked before the folder is touched
         extra = []
         if on_output is not None:
-            extra.append(Callback(on_output, SpecifiedTimes(times), name="on_output",
-                                  snapshot=True))
+            extra.append(
+                Callback(on_output, SpecifiedTimes(times), name="on_output", snapshot=True)
+            )
         for cb in callbacks:
             if not isinstance(cb, Callback):
-                raise InputError(f"run(callbacks=...): {cb!r} is not a tiseg.callbacks.Callback "
-                                 "(wrap a function as Callback(func, schedule))")
+                raise InputError(
+                    f"run(callbacks=...): {cb!r} is not a tiseg.callbacks.Callback "
+                    "(wrap a function as Callback(func, schedule))"
+                )
             extra.append(cb)
         if checkpoint_wall is not None and not (checkpoint_wall >= 0):
             raise InputError(f"checkpoint_wall={checkpoint_wall!r} must be a number >= 0")
         resume = self._resume
         if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
-            resume = None                    # continuing elsewhere: a fresh set of files
+            resume = None  # continuing elsewhere: a fresh set of files
         saved, failure_dir = dict(self.callbacks), self.failure_dir
         folder = bar = stop = None
         try:
             if out_dir is not None:
                 folder = RunFolder(self, out_dir, resume, overwrite)
-                self._resume = None          # the files are open: what resume knew is used
+                self._resume = None  # the files are open: what resume knew is used
                 extra = list(folder.callbacks(times, checkpoint_wall)) + extra
             if progress:
                 bar = ProgressBar(t_end, self.scene.name, self.t)
                 extra.append(Callback(bar, IterationInterval(1), name="progress"))
             if signals:
                 stop = _SignalStop(self, folder, t_end)
-                extra.append(Callback(stop, IterationInterval(1), name="signals", order=1000,
-                                      checked=True))
+                extra.append(
+                    Callback(stop, IterationInterval(1), name="signals", order=1000, checked=True)
+                )
             for cb in extra:
                 self.callbacks[f"run:{cb.name}"] = cb
             for cb in self.callbacks.values():
@@ -662,7 +745,7 @@ class Simulation:
                 self.step(t_end)
             if folder is not None:
                 folder.finish()
-                if folder.checkpoint_path.is_file():   # stopped before the scene's end:
+                if folder.checkpoint_path.is_file():  # stopped before the scene's end:
                     self._resume = folder.resume_info()  # a later run() there continues it
         finally:
             if stop is not None:
@@ -686,6 +769,7 @@ class _SignalStop:
     def __init__(self, sim, folder, t_end: float):
         import signal
         import threading
+
         self.sim, self.folder, self.signum, self.t_end = sim, folder, None, t_end
         self.old = {}
         if threading.current_thread() is threading.main_thread():
@@ -694,30 +778,46 @@ class _SignalStop:
 
     def _handle(self, signum, frame):
         import signal
-        if self.signum is not None:            # a second signal: stop now, mid-step
-            raise RunInterrupted(f"stopped at once by a second {signal.Signals(signum).name}; "
-                                 "the last checkpoint (if any) is kept", signum)
+
+        if self.signum is not None:  # a second signal: stop now, mid-step
+            raise RunInterrupted(
+                f"stopped at once by a second {signal.Signals(signum).name}; "
+                "the last checkpoint (if any) is kept",
+                signum,
+            )
         self.signum = signum
 
     def __call__(self, sim) -> None:
         if self.signum is None or sim.t >= self.t_end - 1e-12 * max(1.0, self.t_end):
-            return                             # the last step: the run simply finishes
+            return  # the last step: the run simply finishes
         import signal
+
         name = signal.Signals(self.signum).name
         where = f"at t = {sim.t:.6g} s (step {sim.stats.steps})"
         if self.folder is None:
-            raise RunInterrupted(f"stopped by {name} {where}; nothing was being saved",
-                                 self.signum)
+            raise RunInterrupted(f"stopped by {name} {where}; nothing was being saved", self.signum)
         self.folder.save_checkpoint(sim)
-        raise RunInterrupted(f"stopped by {name} {where}; checkpoint written: continue with "
-                             f"`tiseg run --resume {self.folder.path}`", self.signum)
+        raise RunInterrupted(
+            f"stopped by {name} {where}; checkpoint written: continue with "
+            f"`tiseg run --resume {self.folder.path}`",
+            self.signum,
+        )
 
     def restore(self) -> None:
         import signal
+
         for sig, handler in self.old.items():
             signal.signal(sig, handler)
         self.old = {}
 
 
-__all__ = ["Simulation", "SimulationError", "RunInterrupted", "StepInfo", "StepPlan", "RunStats", "step_limits",
-           "ACTIVE_MARGIN"]
+__all__ = [
+    "Simulation",
+    "SimulationError",
+    "RunInterrupted",
+    "StepInfo",
+    "StepPlan",
+    "RunStats",
+    "step_limits",
+    "ACTIVE_MARGIN",
+]

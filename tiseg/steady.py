@@ -5,6 +5,7 @@ For given thickness h0 and concentration phi0 the force balance tan(zeta) = mu_b
 its positive root (4.9) exists only for phi0 > phi0* (4.8). The steady velocity is
 u0 = F sqrt(g h0 cos zeta) (4.3). F is exactly proportional to h0 at fixed phi0.
 """
+
 from __future__ import annotations
 
 import math
@@ -15,21 +16,28 @@ from .material import TABLE1, Material
 
 
 def check_thickness(h0: float, name: str = "h0") -> None:
-    require(isinstance(h0, (int, float)) and math.isfinite(h0) and h0 > 0,
-            f"{name}={h0!r}: thickness must be a positive number of metres")
+    require(
+        isinstance(h0, (int, float)) and math.isfinite(h0) and h0 > 0,
+        f"{name}={h0!r}: thickness must be a positive number of metres",
+    )
 
 
 def check_concentration(phi0: float, name: str = "phi0") -> None:
-    require(isinstance(phi0, (int, float)) and math.isfinite(phi0) and 0.0 <= phi0 <= 1.0,
-            f"{name}={phi0!r}: concentration must lie in [0, 1]")
+    require(
+        isinstance(phi0, (int, float)) and math.isfinite(phi0) and 0.0 <= phi0 <= 1.0,
+        f"{name}={phi0!r}: concentration must lie in [0, 1]",
+    )
 
 
 def quadratic_coefficients(phi0: float, m: Material = TABLE1) -> tuple[float, float, float]:
     """A, B, C of (4.5)-(4.7) (B in 1/m, C in 1/m^2)."""
     s, l, t = m.small, m.large, m.tan_zeta
     A = phi0 * s.mu2 + (1 - phi0) * l.mu2 - t
-    B = (phi0 * (s.M * s.mu1 + l.M * s.mu2) + (1 - phi0) * (s.M * l.mu2 + l.M * l.mu1)
-         - (s.M + l.M) * t)
+    B = (
+        phi0 * (s.M * s.mu1 + l.M * s.mu2)
+        + (1 - phi0) * (s.M * l.mu2 + l.M * l.mu1)
+        - (s.M + l.M) * t
+    )
     C = (phi0 * s.mu1 + (1 - phi0) * l.mu1 - t) * s.M * l.M
     return A, B, C
 
@@ -49,7 +57,8 @@ def froude_per_thickness(phi0: float, m: Material = TABLE1) -> float:
         star = phi0_star(m)
         raise InputError(
             f"no steady uniform flow at phi0={phi0}: it needs phi0 > phi0*={star:.4f} (4.8) "
-            f"at zeta={m.zeta_deg} deg (too many frictional large particles)")
+            f"at zeta={m.zeta_deg} deg (too many frictional large particles)"
+        )
     return root
 
 
@@ -73,17 +82,19 @@ def critical_froude(phi0: float, m: Material = TABLE1) -> float:
 
 @dataclass(frozen=True)
 class SteadyState:
-    h0: float          # [m]
+    h0: float  # [m]
     phi0: float
-    F: float           # (4.9)
-    u0: float          # [m/s]
-    phi0_star: float   # (4.8)
-    Fc: float          # (5.27)
-    h0_at_Fc: float    # thickness at which F = Fc for this phi0 [m]
+    F: float  # (4.9)
+    u0: float  # [m/s]
+    phi0_star: float  # (4.8)
+    Fc: float  # (5.27)
+    h0_at_Fc: float  # thickness at which F = Fc for this phi0 [m]
 
     def as_dict(self) -> dict:
-        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                for k, v in self.__dict__.items()}
+        return {
+            k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in self.__dict__.items()
+        }
 
 
 def steady_state(h0: float, phi0: float, m: Material = TABLE1) -> SteadyState:
@@ -93,9 +104,25 @@ def steady_state(h0: float, phi0: float, m: Material = TABLE1) -> SteadyState:
     per = froude_per_thickness(phi0, m)
     F = h0 * per
     Fc = critical_froude(phi0, m)
-    return SteadyState(h0=h0, phi0=phi0, F=F, u0=F * math.sqrt(m.g * h0 * m.cos_zeta),
-                       phi0_star=phi0_star(m), Fc=Fc, h0_at_Fc=Fc / per)
+    return SteadyState(
+        h0=h0,
+        phi0=phi0,
+        F=F,
+        u0=F * math.sqrt(m.g * h0 * m.cos_zeta),
+        phi0_star=phi0_star(m),
+        Fc=Fc,
+        h0_at_Fc=Fc / per,
+    )
 
 
-__all__ = ["SteadyState", "steady_state", "froude", "velocity", "phi0_star", "critical_froude",
-           "quadratic_coefficients", "froude_per_thickness", "InputError"]
+__all__ = [
+    "SteadyState",
+    "steady_state",
+    "froude",
+    "velocity",
+    "phi0_star",
+    "critical_froude",
+    "quadratic_coefficients",
+    "froude_per_thickness",
+    "InputError",
+]

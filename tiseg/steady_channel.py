@@ -20,6 +20,7 @@ smooth pieces, levee [0, y_c] and channel [y_c, Ly/2] with y_c = (Ly - width)/2,
 continuity of u and of the stress at y_c, with scipy's collocation solver ``solve_bvp``. Without
 viscosity the profile is the local balance, piecewise constant.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,11 +34,12 @@ from .errors import InputError
 @dataclass(frozen=True)
 class ChannelProfile:
     """u(y) of the steady channel; ``u(y)`` evaluates it anywhere in [0, Ly] (periodic)."""
+
     Ly: float
     width: float
-    u_channel: float      # at the channel centre y = Ly/2 [m/s]
-    u_levee: float        # at the levee centre y = 0 [m/s]
-    _solution: object     # scipy's BVP solution on s in [0, 1], or None (inviscid)
+    u_channel: float  # at the channel centre y = Ly/2 [m/s]
+    u_levee: float  # at the levee centre y = 0 [m/s]
+    _solution: object  # scipy's BVP solution on s in [0, 1], or None (inviscid)
 
     @property
     def y_contact(self) -> float:
@@ -45,7 +47,7 @@ class ChannelProfile:
 
     def u(self, y) -> np.ndarray:
         y = np.mod(np.asarray(y, dtype=float), self.Ly)
-        r = np.where(y > 0.5 * self.Ly, self.Ly - y, y)      # fold onto [0, Ly/2]
+        r = np.where(y > 0.5 * self.Ly, self.Ly - y, y)  # fold onto [0, Ly/2]
         yc = self.y_contact
         if self._solution is None:
             return np.where(r < yc, self.u_levee, self.u_channel)
@@ -67,10 +69,12 @@ def channel_profile(scene, tol: float = 1e-7) -> ChannelProfile:
 
     from .numerics.config import config_from_scene
     from .reference import ReferenceOperator
+
     ini = scene.initial
     if ini.kind != "channel":
-        raise InputError(f"the steady channel profile needs initial.kind='channel', not "
-                         f"{ini.kind!r}")
+        raise InputError(
+            f"the steady channel profile needs initial.kind='channel', not {ini.kind!r}"
+        )
     cfg = config_from_scene(scene)
     ref = ReferenceOperator(cfg)
     h = float(ini.h)
@@ -88,15 +92,18 @@ def channel_profile(scene, tol: float = 1e-7) -> ChannelProfile:
     def balance(phi):
         """Root of accel(u, phi) = 0 for u >= 0: the local speed without viscosity."""
         from scipy.optimize import brentq
-        f = lambda u: float(accel(np.array([u]), phi)[0])   # noqa: E731
+
+        f = lambda u: float(accel(np.array([u]), phi)[0])  # noqa: E731
         if f(0.0) <= 0.0:
             return 0.0
         hi = 1.0
         while f(hi) > 0.0:
             hi *= 2.0
             if hi > 1e4:
-                raise InputError("no steady channel speed: the friction never balances gravity "
-                                 f"at phi={phi:g} (the material accelerates without bound)")
+                raise InputError(
+                    "no steady channel speed: the friction never balances gravity "
+                    f"at phi={phi:g} (the material accelerates without bound)"
+                )
         return brentq(f, 0.0, hi, xtol=1e-14, rtol=1e-14)
 
     u_l = balance(ini.phi_levee)
@@ -104,11 +111,17 @@ def channel_profile(scene, tol: float = 1e-7) -> ChannelProfile:
     nu = scene.flow.nu if scene.viscous else 0.0
     if nu <= 0.0:
         return ChannelProfile(Ly, width, u_c, u_l, None)
-    D = 0.5 * nu * h * math.sqrt(h)            # u'' = -(g h / D) accel(u)
+    D = 0.5 * nu * h * math.sqrt(h)  # u'' = -(g h / D) accel(u)
 
     def rhs(s, Y):
-        return np.vstack([Y[1], -(yc * yc) * h / D * accel(Y[0], ini.phi_levee),
-                          Y[3], -(Lc * Lc) * h / D * accel(Y[2], ini.phi_channel)])
+        return np.vstack(
+            [
+                Y[1],
+                -(yc * yc) * h / D * accel(Y[0], ini.phi_levee),
+                Y[3],
+                -(Lc * Lc) * h / D * accel(Y[2], ini.phi_channel),
+            ]
+        )
 
     def bc(Ya, Yb):
         # symmetry at both centres; u and the stress D u' continuous at the contact
@@ -117,14 +130,21 @@ def channel_profile(scene, tol: float = 1e-7) -> ChannelProfile:
     # initial guess: exponential boundary layers on either side of the contact, of the width
     # over which the viscous stress can turn the speed difference, ell^2 ~ D (u_c - u_l) / (g h)
     du = max(u_c - u_l, 1e-12)
-    drive = (abs(float(accel(np.array([0.5 * (u_c + u_l)]), ini.phi_levee)[0]))
-             + abs(float(accel(np.array([0.5 * (u_c + u_l)]), ini.phi_channel)[0])))
+    drive = abs(float(accel(np.array([0.5 * (u_c + u_l)]), ini.phi_levee)[0])) + abs(
+        float(accel(np.array([0.5 * (u_c + u_l)]), ini.phi_channel)[0])
+    )
     ell = math.sqrt(D * du / (h * max(drive, 1e-12)))
     s = np.linspace(0.0, 1.0, 1001)
     ea = np.exp(-(1.0 - s) * yc / ell)
     eb = np.exp(-s * Lc / ell)
-    guess = np.vstack([u_l + 0.5 * du * ea, 0.5 * du * ea * yc / ell,
-                       u_c - 0.5 * du * eb, 0.5 * du * eb * Lc / ell])
+    guess = np.vstack(
+        [
+            u_l + 0.5 * du * ea,
+            0.5 * du * ea * yc / ell,
+            u_c - 0.5 * du * eb,
+            0.5 * du * eb * Lc / ell,
+        ]
+    )
     sol = solve_bvp(rhs, bc, s, guess, tol=tol, max_nodes=200_000)
     if not sol.success:
         raise InputError(f"the steady channel profile did not converge: {sol.message}")

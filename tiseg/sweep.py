@@ -61,6 +61,7 @@ Finished runs keep their diagnostics in ``fingers.json`` with the version of the
 (:data:`tiseg.analysis.fingers.ANALYSIS_VERSION`); a reused run whose diagnostics are older is
 analysed again from its ``fields.nc`` (seconds, not a re-run).
 """
+
 from __future__ import annotations
 
 import csv
@@ -92,21 +93,45 @@ SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid")
 DONE_MARKER = "done.json"
 FINGERS_FILE = "fingers.json"
 PROGRESS_TOPIC = "tiseg-sweep-progress"
-MAX_RUNS = 10_000                 # a guard against a grid that multiplies out by mistake
-MAX_NAME = 120                    # longest run-folder name before it is shortened with a hash
+MAX_RUNS = 10_000  # a guard against a grid that multiplies out by mistake
+MAX_NAME = 120  # longest run-folder name before it is shortened with a hash
 MARKER_VERSION = 1
 
 # Metrics tabulated at the final time and at each extra time (a subset of analyse_run's keys).
-FINAL_METRICS = ("finger_count", "wavelength", "wavelength_spectral", "elongation",
-                 "x_front_max", "x_front_min", "front_speed", "max_channel_speed_over_u0",
-                 "channel_speed_over_u0", "channel_phi", "levee_speed_over_u0")
-TIME_METRICS = ("finger_count", "wavelength", "wavelength_spectral", "elongation",
-                "x_front_max", "x_front_min", "channel_speed_over_u0")
+FINAL_METRICS = (
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "elongation",
+    "x_front_max",
+    "x_front_min",
+    "front_speed",
+    "max_channel_speed_over_u0",
+    "channel_speed_over_u0",
+    "channel_phi",
+    "levee_speed_over_u0",
+)
+TIME_METRICS = (
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "elongation",
+    "x_front_max",
+    "x_front_min",
+    "channel_speed_over_u0",
+)
 COST_COLUMNS = ("wall_s", "task_s", "steps", "rhs_evaluations", "cell_updates_per_s")
 # Ensemble statistics (summary.csv): over the runs that differ only in these grid keys.
 ENSEMBLE_KEYS = ("inflow.seed",)
-SUMMARY_METRICS = ("finger_count", "wavelength", "wavelength_spectral", "elongation",
-                   "channel_speed_over_u0", "channel_phi", "levee_speed_over_u0")
+SUMMARY_METRICS = (
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "elongation",
+    "channel_speed_over_u0",
+    "channel_phi",
+    "levee_speed_over_u0",
+)
 
 log = logging.getLogger(__name__)
 
@@ -117,9 +142,10 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class SweepRun:
     """One member of a sweep: its folder name, its grid values and its validated scene."""
+
     name: str
-    values: dict            # grid key -> value for this run (grid order)
-    overrides: dict         # fixed overrides and grid values, as applied to the base scene
+    values: dict  # grid key -> value for this run (grid order)
+    overrides: dict  # fixed overrides and grid values, as applied to the base scene
     scene: Scene
 
     @property
@@ -135,25 +161,34 @@ class SweepRun:
 @dataclass(frozen=True)
 class Sweep:
     """A validated sweep file (see the module docstring)."""
+
     name: str
     description: str
-    source: str | None      # the sweep file
-    scene: str              # base scene as resolved (built-in name or absolute path)
-    fixed: dict             # dotted key -> value
-    grid: dict              # dotted key -> list of values
+    source: str | None  # the sweep file
+    scene: str  # base scene as resolved (built-in name or absolute path)
+    fixed: dict  # dotted key -> value
+    grid: dict  # dotted key -> list of values
     times: tuple[float, ...]
     runs: tuple[SweepRun, ...]
 
     def to_dict(self) -> dict:
         """The definition as plain data (for sweep.json)."""
-        return {"name": self.name, "description": self.description, "source": self.source,
-                "scene": self.scene, "set": self.fixed, "grid": self.grid,
-                "times": list(self.times), "runs": [r.name for r in self.runs]}
+        return {
+            "name": self.name,
+            "description": self.description,
+            "source": self.source,
+            "scene": self.scene,
+            "set": self.fixed,
+            "grid": self.grid,
+            "times": list(self.times),
+            "runs": [r.name for r in self.runs],
+        }
 
 
 def list_builtin_sweeps() -> list[str]:
     """Names of the sweeps shipped in the package (``tiseg/data/sweeps``)."""
     from .data import SWEEP_DIR, builtin_names
+
     return builtin_names(SWEEP_DIR)
 
 
@@ -161,26 +196,35 @@ def resolve_sweep_path(path) -> Path:
     """A sweep file's path: ``path`` itself, or the built-in sweep of that name (no '/' and no
     '.toml'), or the built-in an old ``assets/sweeps/<name>.toml`` path meant."""
     from .data import SWEEP_DIR, legacy_path
+
     text = str(path)
-    if isinstance(path, str) and "/" not in text and "\\" not in text \
-            and not text.endswith(".toml"):
+    if (
+        isinstance(path, str)
+        and "/" not in text
+        and "\\" not in text
+        and not text.endswith(".toml")
+    ):
         names = list_builtin_sweeps()
         if text in names:
             return SWEEP_DIR / f"{text}.toml"
         close = difflib.get_close_matches(text, names, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"unknown built-in sweep {text!r}{hint}; built-in sweeps: "
-                         f"{', '.join(names) or '(none)'}; or give a path to a .toml file")
+        raise InputError(
+            f"unknown built-in sweep {text!r}{hint}; built-in sweeps: "
+            f"{', '.join(names) or '(none)'}; or give a path to a .toml file"
+        )
     old = legacy_path(text)
     if old is not None:
         from .log import note
+
         note(f"{text} moved into the package: using the built-in sweep {old.stem!r}")
         return old
     return Path(text).expanduser()
 
 
-def load_sweep(path, extra_overrides: Mapping | None = None,
-               grid_overrides: Mapping | None = None) -> Sweep:
+def load_sweep(
+    path, extra_overrides: Mapping | None = None, grid_overrides: Mapping | None = None
+) -> Sweep:
     """Read and strictly validate a sweep file, building the scene of every combination.
 
     ``extra_overrides`` (``{"section.key": value}``) are added to the file's ``[set]`` table
@@ -202,13 +246,24 @@ def load_sweep(path, extra_overrides: Mapping | None = None,
         raise InputError(f"{where} is not valid TOML: {exc}") from None
     except RecursionError:
         raise InputError(f"{where} nests arrays or tables too deeply") from None
-    return sweep_from_dict(data, default_name=p.stem, source=str(p), base_dir=p.parent,
-                           extra_overrides=extra_overrides, grid_overrides=grid_overrides)
+    return sweep_from_dict(
+        data,
+        default_name=p.stem,
+        source=str(p),
+        base_dir=p.parent,
+        extra_overrides=extra_overrides,
+        grid_overrides=grid_overrides,
+    )
 
 
-def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | None = None,
-                    base_dir=None, extra_overrides: Mapping | None = None,
-                    grid_overrides: Mapping | None = None) -> Sweep:
+def sweep_from_dict(
+    data: Mapping,
+    default_name: str = "sweep",
+    source: str | None = None,
+    base_dir=None,
+    extra_overrides: Mapping | None = None,
+    grid_overrides: Mapping | None = None,
+) -> Sweep:
     """Validate a sweep given as the dict a sweep file parses to (see :func:`load_sweep`)."""
     where = f"sweep file {source!r}" if source else "sweep"
 
@@ -235,8 +290,10 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
         fail(f"description={description!r} must be a string")
 
     if "scene" not in data:
-        fail("the key 'scene' is required: a built-in scene name "
-             f"({', '.join(list_builtin_scenes())}) or a path to a scene .toml file")
+        fail(
+            "the key 'scene' is required: a built-in scene name "
+            f"({', '.join(list_builtin_scenes())}) or a path to a scene .toml file"
+        )
     scene_ref = data["scene"]
     if not isinstance(scene_ref, str) or not scene_ref.strip():
         fail(f"scene={scene_ref!r} must be a built-in scene name or a path")
@@ -245,14 +302,16 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
     fixed = _flatten(data.get("set", {}), "set", fail)
     grid = _flatten(data.get("grid", {}), "grid", fail)
     for key, values in (grid_overrides or {}).items():
-        grid[key] = values          # replaces the file's axis, or makes a fixed value an axis
+        grid[key] = values  # replaces the file's axis, or makes a fixed value an axis
         fixed.pop(key, None)
     for key, value in (extra_overrides or {}).items():
         fixed[key] = value
     for key, values in grid.items():
         if not isinstance(values, list) or not values:
-            fail(f"grid key {key!r} = {_show(values)}: give a non-empty list of values, "
-                 f"e.g. {key} = [a, b, c]")
+            fail(
+                f"grid key {key!r} = {_show(values)}: give a non-empty list of values, "
+                f"e.g. {key} = [a, b, c]"
+            )
         canon = [_canonical(v) for v in values]
         dup = next((v for v, c in zip(values, canon) if canon.count(c) > 1), None)
         if dup is not None:
@@ -265,8 +324,9 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
 
     times = data.get("times", [])
     if not isinstance(times, list) or not all(
-            isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t) and t >= 0
-            for t in times):
+        isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t) and t >= 0
+        for t in times
+    ):
         fail(f"times={_show(times)} must be a list of times >= 0 [s], e.g. times = [2.5, 5.0]")
     times = tuple(sorted({float(t) for t in times}))
 
@@ -284,19 +344,27 @@ def sweep_from_dict(data: Mapping, default_name: str = "sweep", source: str | No
             problem = str(exc)
         else:
             problem = None
-        if problem is not None:         # raised here, not inside except: one clean error
+        if problem is not None:  # raised here, not inside except: one clean error
             fail(f"{label}: {problem}")
         for t in times:
             if t > scene.t_end * (1 + 1e-12):
                 fail(f"{label}: times lists {t:g} s, after time.t_end = {scene.t_end:g} s")
             if time_index(scene.output_times, t) is None:
-                fail(f"{label}: times lists {t:g} s, which is not an output time of the scene; "
-                     f"add it to output.times in [set]")
+                fail(
+                    f"{label}: times lists {t:g} s, which is not an output time of the scene; "
+                    f"add it to output.times in [set]"
+                )
         runs.append(SweepRun(run_name, values, overrides, scene))
-    return Sweep(name=name, description=description, source=source, scene=scene_ref,
-                 fixed=fixed, grid=grid, times=times, runs=tuple(runs))
-
-
+    return Sweep(
+        name=name,
+        description=description,
+        source=source,
+        scene=scene_ref,
+        fixed=fixed,
+        grid=grid,
+        times=times,
+        runs=tuple(runs),
+    )
 
 
 def _resolve_scene_ref(ref: str, base_dir) -> str:
@@ -325,9 +393,12 @@ def _flatten(table, section: str, fail) -> dict:
                 walk(v, key)
             else:
                 if "." not in key:
-                    fail(f"[{section}] key {key!r} must be a dotted scene key such as "
-                         f"'domain.resolution' or 'flow.nu'")
+                    fail(
+                        f"[{section}] key {key!r} must be a dotted scene key such as "
+                        f"'domain.resolution' or 'flow.nu'"
+                    )
                 out[key] = v
+
     walk(table, "")
     return out
 
@@ -368,13 +439,15 @@ def _run_names(combos: list[dict]) -> list[str]:
     keys = list(combos[0])
     last = [k.rsplit(".", 1)[-1] for k in keys]
     labels = {k: (s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
-    names = ["_".join(f"{UNSAFE_CHARS.sub('_', labels[k])}-{_format_value(v)}" for k, v in c.items())
-             for c in combos]
+    names = [
+        "_".join(f"{UNSAFE_CHARS.sub('_', labels[k])}-{_format_value(v)}" for k, v in c.items())
+        for c in combos
+    ]
     out = []
     for name, c in zip(names, combos):
         if names.count(name) > 1 or len(name) > MAX_NAME:
             digest = hashlib.sha256(_canonical(c).encode()).hexdigest()[:8]
-            name = f"{name[:MAX_NAME - 9]}-{digest}"
+            name = f"{name[: MAX_NAME - 9]}-{digest}"
         out.append(name)
     return out
 
@@ -395,6 +468,7 @@ def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
     current code, so a new scene key with a default (which does not change what was computed)
     does not invalidate finished runs, while any changed value does."""
     from .scene import scene_from_text
+
     run_dir = Path(run_dir)
     try:
         rec = json.loads((run_dir / DONE_MARKER).read_text(encoding="utf-8"))
@@ -427,14 +501,15 @@ def execute_run(spec: dict) -> dict:
     run_dir = Path(spec["dir"])
     scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
     rec = read_marker(run_dir, scene)
-    if rec is not None:                     # checked again here: the worker's view counts
+    if rec is not None:  # checked again here: the worker's view counts
         return {**rec, "status": "reused"}
     from .paths import RunLock
+
     run_dir.mkdir(parents=True, exist_ok=True)
     lock = RunLock(run_dir)
-    try:                                    # held from here to the marker: one writer only
+    try:  # held from here to the marker: one writer only
         lock.acquire()
-    except InputError:                      # another worker (or an orphaned task) runs it now
+    except InputError:  # another worker (or an orphaned task) runs it now
         return {"name": spec["name"], "status": "busy", "holder": lock.holder()}
     try:
         return _execute_locked(spec, run_dir, scene)
@@ -448,10 +523,11 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     from .analysis.fingers import analyse_run
     from .output import write_json_atomic
     from .simulation import Simulation
+
     rec = read_marker(run_dir, scene)
-    if rec is not None:                     # finished meanwhile by the holder we waited on
+    if rec is not None:  # finished meanwhile by the holder we waited on
         return {**rec, "status": "reused"}
-    (run_dir / DONE_MARKER).unlink(missing_ok=True)   # a stale marker of another scene
+    (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene
     t0 = _time.perf_counter()
     # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
     threads = spec.get("threads", 0)
@@ -460,8 +536,9 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
     sim = Simulation(scene)
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
-    stats = sim.run(out_dir=run_dir, progress=False, on_output=report,
-                    overwrite=True)            # its own folder, without a completion marker
+    stats = sim.run(
+        out_dir=run_dir, progress=False, on_output=report, overwrite=True
+    )  # its own folder, without a completion marker
     metrics = analyse_run(run_dir)
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
     nx, ny = scene.domain.nx, scene.domain.ny
@@ -472,21 +549,29 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
         "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "host": socket.gethostname(),
         "pid": os.getpid(),
-        "arch": sim.backend.arch, "precision": sim.backend.precision,
+        "arch": sim.backend.arch,
+        "precision": sim.backend.precision,
         "threads": sim.backend.threads,
-        "nx": nx, "ny": ny, "cells": nx * ny, "dx": scene.dx, "t_end": sim.t,
-        "wall_s": stats.wall, "task_s": _time.perf_counter() - t0,
-        "steps": stats.steps, "rhs_evaluations": stats.stages,
+        "nx": nx,
+        "ny": ny,
+        "cells": nx * ny,
+        "dx": scene.dx,
+        "t_end": sim.t,
+        "wall_s": stats.wall,
+        "task_s": _time.perf_counter() - t0,
+        "steps": stats.steps,
+        "rhs_evaluations": stats.stages,
         "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
         "metrics": _record_metrics(metrics),
     }
-    write_json_atomic(run_dir / DONE_MARKER, rec)   # last: its presence means "complete"
+    write_json_atomic(run_dir / DONE_MARKER, rec)  # last: its presence means "complete"
     return {**rec, "status": "done"}
 
 
 def _record_metrics(metrics: dict) -> dict:
     """What a completion record keeps of analyse_run's result: every per-time series."""
     from .analysis.fingers import ANALYSIS_VERSION, RUN_KEYS
+
     return {"analysis_version": ANALYSIS_VERSION, **{k: metrics[k] for k in RUN_KEYS}}
 
 
@@ -496,6 +581,7 @@ def refresh_metrics(run_dir, rec: dict) -> dict:
     rewritten (atomically). A run whose fields cannot be read keeps its old record."""
     from .analysis.fingers import ANALYSIS_VERSION, analyse_run
     from .output import write_json_atomic
+
     if (rec.get("metrics") or {}).get("analysis_version") == ANALYSIS_VERSION:
         return rec
     run_dir = Path(run_dir)
@@ -514,6 +600,7 @@ def _worker_threads() -> int:
     """The thread count of the Dask worker running this task (0 outside a worker)."""
     try:
         from distributed import get_worker
+
         w = get_worker()
         n = getattr(getattr(w, "state", None), "nthreads", None) or getattr(w, "nthreads", 0)
         return max(0, min(int(n), available_cores()))
@@ -525,18 +612,27 @@ def _reporter(name: str, t_end: float) -> Callable | None:
     """A callback sending (run, t, steps, wall) to the client as a Dask worker event."""
     try:
         from distributed import get_worker
+
         worker = get_worker()
     except (ImportError, ValueError):
-        return None                         # not inside a Dask worker
+        return None  # not inside a Dask worker
     t0 = _time.perf_counter()
 
     def report(snap) -> None:
         try:
-            worker.log_event(PROGRESS_TOPIC, {"run": name, "t": snap.t, "t_end": t_end,
-                                              "steps": snap.step,
-                                              "wall": _time.perf_counter() - t0})
-        except Exception:                   # progress is best effort, never fails a run
+            worker.log_event(
+                PROGRESS_TOPIC,
+                {
+                    "run": name,
+                    "t": snap.t,
+                    "t_end": t_end,
+                    "steps": snap.step,
+                    "wall": _time.perf_counter() - t0,
+                },
+            )
+        except Exception:  # progress is best effort, never fails a run
             pass
+
     return report
 
 
@@ -547,15 +643,25 @@ def _reporter(name: str, t_end: float) -> Callable | None:
 class SweepResult:
     out: Path
     table: Path
-    records: list[dict]      # one per run, grid order; status done / reused / failed / busy
+    records: list[dict]  # one per run, grid order; status done / reused / failed / busy
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.records if r.get("status") == status)
 
     def as_dict(self) -> dict:
         """The summary ``tiseg sweep --json`` prints: folders, counts and one entry per run."""
-        keep = ("name", "status", "error", "holder", "wall_s", "steps", "rhs_evaluations",
-                "nx", "ny", "t_end")
+        keep = (
+            "name",
+            "status",
+            "error",
+            "holder",
+            "wall_s",
+            "steps",
+            "rhs_evaluations",
+            "nx",
+            "ny",
+            "t_end",
+        )
         runs = [{k: r[k] for k in keep if k in r} for r in self.records]
         counts = {}
         for r in self.records:
@@ -563,10 +669,17 @@ class SweepResult:
         return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
 
 
-def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int | None = None,
-              threads_per_task: int | None = None, arch: str = "cpu",
-              echo: Callable[[str], None] | None = stderr_line,
-              progress_interval: float = 30.0) -> SweepResult:
+def run_sweep(
+    sweep: Sweep,
+    out,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    threads_per_task: int | None = None,
+    arch: str = "cpu",
+    echo: Callable[[str], None] | None = stderr_line,
+    progress_interval: float = 30.0,
+) -> SweepResult:
     """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
 
     ``scheduler``: address of an existing Dask scheduler (``tcp://host:8786``); default: a
@@ -588,6 +701,7 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
         raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
     if threads_per_task and scheduler is None:
         from .backend import threads_problem
+
         problem = threads_problem(threads_per_task, "--threads-per-task")
         if problem:
             raise InputError(problem)
@@ -605,37 +719,56 @@ def run_sweep(sweep: Sweep, out, *, scheduler: str | None = None, workers: int |
             records[run.name] = {**rec, "status": "reused"}
         else:
             pending.append(run)
-    say(f"sweep {sweep.name!r}: {len(sweep.runs)} runs, {len(records)} already finished, "
-        f"{len(pending)} to run; output in {out}/")
+    say(
+        f"sweep {sweep.name!r}: {len(sweep.runs)} runs, {len(records)} already finished, "
+        f"{len(pending)} to run; output in {out}/"
+    )
     # written now and after every finished run (a partial table survives an interruption)
     table = _write_outputs(sweep, out, records)
     if pending:
-        _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_task, arch,
-                     say, progress_interval)
-    result = SweepResult(out, table, [records.get(r.name, {"name": r.name, "status": "missing"})
-                                      for r in sweep.runs])
-    say(f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
+        _run_on_dask(
+            sweep,
+            out,
+            pending,
+            records,
+            scheduler,
+            workers,
+            threads_per_task,
+            arch,
+            say,
+            progress_interval,
+        )
+    result = SweepResult(
+        out, table, [records.get(r.name, {"name": r.name, "status": "missing"}) for r in sweep.runs]
+    )
+    say(
+        f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
         f"{result.count('failed')} failed; table {table}, ensembles "
-        f"{table.parent / 'summary.csv'}")
+        f"{table.parent / 'summary.csv'}"
+    )
     return result
 
 
-def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_task, arch,
-                 say, progress_interval) -> None:
+def _run_on_dask(
+    sweep, out, pending, records, scheduler, workers, threads_per_task, arch, say, progress_interval
+) -> None:
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
-        raise TisegError("sweeps need Dask: pip install 'tiseg[sweep]' "
-                         "(dask[distributed])") from None
+        raise TisegError(
+            "sweeps need Dask: pip install 'tiseg[sweep]' (dask[distributed])"
+        ) from None
     cores = available_cores()
     cluster = None
     if scheduler:
         try:
             client = Client(scheduler, timeout="10s")
-        except Exception as exc:       # OSError, TimeoutError, ValueError for a bad address...
+        except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
             first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
-            raise InputError(f"cannot connect to the Dask scheduler at {scheduler!r}: "
-                             f"{first.strip()} (give an address like tcp://host:8786)") from None
+            raise InputError(
+                f"cannot connect to the Dask scheduler at {scheduler!r}: "
+                f"{first.strip()} (give an address like tcp://host:8786)"
+            ) from None
         # None: each task takes as many threads as its worker runs (its --nthreads)
         threads = threads_per_task
         where = f"Dask scheduler {scheduler}"
@@ -645,14 +778,21 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
         # processes=True: Taichi's runtime is per process, one run per worker at a time.
         # The scheduler always serves HTTP; ":0" picks a free port so that several sweeps
         # (or other Dask users) on one machine never collide on 8787.
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.ERROR)
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
         client = Client(cluster)
         where = f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)"
         say(f"Dask dashboard: {client.dashboard_link}")
     per = "the worker's" if threads is None else (threads or "all")
-    say(f"running {len(pending)} runs on the {where}, {per} Taichi thread"
-        f"{'' if threads == 1 else 's'} per run")
+    say(
+        f"running {len(pending)} runs on the {where}, {per} Taichi thread"
+        f"{'' if threads == 1 else 's'} per run"
+    )
 
     last_report: dict[str, float] = {}
 
@@ -664,9 +804,11 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
             if now - last_report.get(name, -math.inf) < progress_interval:
                 return
             last_report[name] = now
-            say(f"  running {name}: t = {msg['t']:.2f} / {msg['t_end']:.2f} s "
+            say(
+                f"  running {name}: t = {msg['t']:.2f} / {msg['t_end']:.2f} s "
                 f"({100 * msg['t'] / msg['t_end']:.0f} %), {msg['steps']} steps, "
-                f"{msg['wall']:.0f} s")
+                f"{msg['wall']:.0f} s"
+            )
         except Exception:
             pass
 
@@ -674,17 +816,29 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
     try:
         try:
             client.subscribe_topic(PROGRESS_TOPIC, on_progress)
-        except Exception:       # older distributed: no events, only completion lines
+        except Exception:  # older distributed: no events, only completion lines
             pass
-        for run in sorted(pending, key=lambda r: -r.cost):   # longest first: better packing
-            spec = {"name": run.name, "dir": str((out / run.name).resolve()),
-                    "scene_toml": run.scene.to_toml(), "scene_name": run.scene.name,
-                    "fingerprint": scene_fingerprint(run.scene), "arch": arch,
-                    "threads": threads, "report": True}
+        for run in sorted(pending, key=lambda r: -r.cost):  # longest first: better packing
+            spec = {
+                "name": run.name,
+                "dir": str((out / run.name).resolve()),
+                "scene_toml": run.scene.to_toml(),
+                "scene_name": run.scene.name,
+                "fingerprint": scene_fingerprint(run.scene),
+                "arch": arch,
+                "threads": threads,
+                "report": True,
+            }
             # retries=1: a transient failure (a worker lost, ti.init briefly out of resources)
             # is tried once more; a run's own error fails again and is reported
-            fut = client.submit(execute_run, spec, key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
-                                pure=False, priority=int(run.cost // 1e6), retries=1)
+            fut = client.submit(
+                execute_run,
+                spec,
+                key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
+                pure=False,
+                priority=int(run.cost // 1e6),
+                retries=1,
+            )
             futures[fut] = run
         done = 0
         for fut in as_completed(list(futures)):
@@ -692,15 +846,18 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
             done += 1
             try:
                 rec = fut.result()
-            except Exception as exc:      # a failed run is reported, the others go on
+            except Exception as exc:  # a failed run is reported, the others go on
                 first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
-                rec = {"name": run.name, "status": "failed",
-                       "error": f"{type(exc).__name__}: {first.strip()}"}
+                rec = {
+                    "name": run.name,
+                    "status": "failed",
+                    "error": f"{type(exc).__name__}: {first.strip()}",
+                }
                 say(f"[{done}/{len(futures)}] {run.name}: FAILED ({rec['error']})")
             else:
                 say(f"[{done}/{len(futures)}] {run.name}: {_summary(rec)}")
             records[run.name] = rec
-            _write_outputs(sweep, out, records)    # a partial table survives an interruption
+            _write_outputs(sweep, out, records)  # a partial table survives an interruption
     except BaseException:
         for fut in futures:
             fut.cancel()
@@ -717,27 +874,31 @@ def _run_on_dask(sweep, out, pending, records, scheduler, workers, threads_per_t
 
 def _summary(rec: dict) -> str:
     if rec.get("status") == "busy":
-        return (f"skipped: another process is running it now ({rec.get('holder')}); "
-                "run the sweep again when it has finished")
+        return (
+            f"skipped: another process is running it now ({rec.get('holder')}); "
+            "run the sweep again when it has finished"
+        )
     m = rec.get("metrics") or {}
-    last = {k: (m.get(k) or [None])[-1] for k in ("time", "finger_count", "wavelength",
-                                                   "elongation")}
+    last = {
+        k: (m.get(k) or [None])[-1] for k in ("time", "finger_count", "wavelength", "elongation")
+    }
     wl = last["wavelength"]
     xl = last["elongation"]
     verb = "reused" if rec.get("status") == "reused" else "done"
-    return (f"{verb} in {rec.get('wall_s', 0):.1f} s ({rec.get('steps')} steps, "
-            f"{rec.get('rhs_evaluations')} operator evaluations); at t = {last['time']:g} s: "
-            f"{last['finger_count']} fingers, wavelength "
-            f"{'-' if wl is None else f'{100 * wl:.1f} cm'}, elongation "
-            f"{'-' if xl is None else f'{xl:.3f} m'}")
+    return (
+        f"{verb} in {rec.get('wall_s', 0):.1f} s ({rec.get('steps')} steps, "
+        f"{rec.get('rhs_evaluations')} operator evaluations); at t = {last['time']:g} s: "
+        f"{last['finger_count']} fingers, wavelength "
+        f"{'-' if wl is None else f'{100 * wl:.1f} cm'}, elongation "
+        f"{'-' if xl is None else f'{xl:.3f} m'}"
+    )
 
 
 # =================================================================================================
 # The table
 # =================================================================================================
 def table_columns(sweep: Sweep) -> list[str]:
-    cols = ["run", *sweep.grid, "status", "nx", "ny", "cells", "dx", "t_final",
-            *FINAL_METRICS]
+    cols = ["run", *sweep.grid, "status", "nx", "ny", "cells", "dx", "t_final", *FINAL_METRICS]
     for t in sweep.times:
         cols += [f"{m}@{t:g}" for m in TIME_METRICS]
     return cols + [*COST_COLUMNS, "dir", "error"]
@@ -748,10 +909,16 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
     rows = []
     for run in sweep.runs:
         rec = records.get(run.name)
-        row: dict[str, Any] = {"run": run.name, **{k: _cell(v) for k, v in run.values.items()},
-                               "status": "pending" if rec is None else rec.get("status"),
-                               "nx": run.scene.domain.nx, "ny": run.scene.domain.ny,
-                               "cells": run.cells, "dx": run.scene.dx, "dir": run.name}
+        row: dict[str, Any] = {
+            "run": run.name,
+            **{k: _cell(v) for k, v in run.values.items()},
+            "status": "pending" if rec is None else rec.get("status"),
+            "nx": run.scene.domain.nx,
+            "ny": run.scene.domain.ny,
+            "cells": run.cells,
+            "dx": run.scene.dx,
+            "dir": run.name,
+        }
         if rec is not None:
             m = rec.get("metrics") or {}
             times = m.get("time") or []
@@ -784,8 +951,9 @@ def summary_groups(sweep: Sweep) -> tuple[list[str], list[tuple[dict, list[Sweep
 
 def summary_columns(sweep: Sweep) -> list[str]:
     keys, _ = summary_groups(sweep)
-    names = list(SUMMARY_METRICS) + [f"{m}@{t:g}" for t in sweep.times for m in SUMMARY_METRICS
-                                     if m in TIME_METRICS]
+    names = list(SUMMARY_METRICS) + [
+        f"{m}@{t:g}" for t in sweep.times for m in SUMMARY_METRICS if m in TIME_METRICS
+    ]
     stats = [f"{m}_{s}" for m in names for s in ("mean", "std", "n")]
     return [*keys, "n", "runs", *stats, "wall_s_mean", "wall_s_std"]
 
@@ -793,6 +961,7 @@ def summary_columns(sweep: Sweep) -> list[str]:
 def summary_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
     """One row per ensemble (see the module docstring): n, mean, sd and count of each metric."""
     import numpy as np
+
     keys, groups = summary_groups(sweep)
     by_run = {r["run"]: r for r in table_rows(sweep, records)}
     rows = []
@@ -802,8 +971,9 @@ def summary_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
         row["n"] = len(done)
         row["runs"] = " ".join(r["run"] for r in done)
         for col in [c[:-5] for c in summary_columns(sweep) if c.endswith("_mean")]:
-            vals = np.array([r[col] for r in done if isinstance(r.get(col), (int, float))],
-                            dtype=float)
+            vals = np.array(
+                [r[col] for r in done if isinstance(r.get(col), (int, float))], dtype=float
+            )
             row[f"{col}_mean"] = float(vals.mean()) if vals.size else None
             row[f"{col}_std"] = float(vals.std(ddof=1)) if vals.size > 1 else None
             if col != "wall_s":
@@ -827,13 +997,22 @@ def _cell(v):
 def _write_outputs(sweep: Sweep, out: Path, records: Mapping[str, dict]) -> Path:
     """Write sweep.csv (the table) and sweep.json (definition and full records) atomically."""
     from .output import write_json_atomic, write_text_atomic
+
     table = out / "sweep.csv"
     write_text_atomic(table, _csv_text(table_columns(sweep), table_rows(sweep, records)))
-    write_text_atomic(out / "summary.csv",
-                      _csv_text(summary_columns(sweep), summary_rows(sweep, records)))
-    write_json_atomic(out / "sweep.json", {"sweep": sweep.to_dict(), "runs": [
-        {"run": r.name, "values": r.values, **records.get(r.name, {"status": "pending"})}
-        for r in sweep.runs]})
+    write_text_atomic(
+        out / "summary.csv", _csv_text(summary_columns(sweep), summary_rows(sweep, records))
+    )
+    write_json_atomic(
+        out / "sweep.json",
+        {
+            "sweep": sweep.to_dict(),
+            "runs": [
+                {"run": r.name, "values": r.values, **records.get(r.name, {"status": "pending"})}
+                for r in sweep.runs
+            ],
+        },
+    )
     return table
 
 
@@ -872,7 +1051,21 @@ def _parse(v: str):
     return v
 
 
-__all__ = ["Sweep", "SweepRun", "SweepResult", "load_sweep", "sweep_from_dict", "run_sweep",
-           "execute_run", "read_marker", "read_table", "refresh_metrics", "scene_fingerprint",
-           "summary_columns", "summary_rows", "table_columns",
-           "DONE_MARKER", "FINGERS_FILE"]
+__all__ = [
+    "Sweep",
+    "SweepRun",
+    "SweepResult",
+    "load_sweep",
+    "sweep_from_dict",
+    "run_sweep",
+    "execute_run",
+    "read_marker",
+    "read_table",
+    "refresh_metrics",
+    "scene_fingerprint",
+    "summary_columns",
+    "summary_rows",
+    "table_columns",
+    "DONE_MARKER",
+    "FINGERS_FILE",
+]

@@ -1,4 +1,5 @@
 """``python -m viewer SCENE ...`` from the repository root: the same as ``tiseg view SCENE``."""
+
 import sys
 
 from tiseg.viewer.app import main

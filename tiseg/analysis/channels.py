@@ -37,13 +37,14 @@ Over the runs that belong to counted fingers (objects of extent >= min_span afte
   of the finger tips and the coarse head ahead of them, which move with the front, border dry
   slope or other coarse cells, not a channel, and are left out.
 """
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-DEFAULT_MIN_SPAN = 0.1     # fraction of x_l a finger must reach along x
+DEFAULT_MIN_SPAN = 0.1  # fraction of x_l a finger must reach along x
 
 
 def periodic_runs(mask, min_width: int = 1, min_gap: int = 1) -> list[tuple[int, int]]:
@@ -60,11 +61,11 @@ def periodic_runs(mask, min_width: int = 1, min_gap: int = 1) -> list[tuple[int,
     if n == 0 or m.all() or not m.any():
         return []
     # Rotate so that index 0 is a gap cell: then no run wraps and plain linear runs suffice.
-    k = int(np.argmin(m))                      # first False
+    k = int(np.argmin(m))  # first False
     r = np.roll(m, -k)
     edges = np.diff(np.concatenate(([0], r.astype(np.int8), [0])))
     starts = np.flatnonzero(edges == 1)
-    ends = np.flatnonzero(edges == -1)         # exclusive
+    ends = np.flatnonzero(edges == -1)  # exclusive
     runs = [[int(s), int(e)] for s, e in zip(starts, ends) if e - s >= min_width]
     if not runs:
         return []
@@ -78,7 +79,7 @@ def periodic_runs(mask, min_width: int = 1, min_gap: int = 1) -> list[tuple[int,
     wrap_gap = n - merged[-1][1] + merged[0][0]
     if wrap_gap < min_gap:
         if len(merged) == 1:
-            return []                          # closes on itself: no levee on this line
+            return []  # closes on itself: no levee on this line
         last = merged.pop()
         merged[0] = [last[0], merged[0][1] + n]
     return [((s + k) % n, e - s) for s, e in merged]
@@ -93,7 +94,7 @@ class _Objects:
         self.low: list[float] = []
         self.span = span
         self.dx = dx
-        self.qualifying = 0          # roots whose extent reaches span
+        self.qualifying = 0  # roots whose extent reaches span
 
     def _q(self, r: int) -> bool:
         return self.tip[r] - self.low[r] + self.dx >= self.span * (1.0 - 1e-12)
@@ -134,7 +135,7 @@ def count_channels(line_runs, cols, x, ny: int, min_span_m: float) -> tuple[int,
     nodes: list[list[int]] = [[] for _ in cols]
     best = 0
     prev = np.full(ny, -1, dtype=np.int64)
-    for k in range(len(cols) - 1, -1, -1):         # from the front x_f^+ backwards
+    for k in range(len(cols) - 1, -1, -1):  # from the front x_f^+ backwards
         xk = float(x[cols[k]])
         lab = np.full(ny, -1, dtype=np.int64)
         for start, length in line_runs[k]:
@@ -151,8 +152,9 @@ def count_channels(line_runs, cols, x, ny: int, min_span_m: float) -> tuple[int,
     return best, in_finger
 
 
-def channel_numbers(line_runs, in_finger, cols, h, phi, speed, h_min: float, thr: float,
-                    u0: float | None) -> dict:
+def channel_numbers(
+    line_runs, in_finger, cols, h, phi, speed, h_min: float, thr: float, u0: float | None
+) -> dict:
     """Channel-centre speed, channel phi and levee speed over the counted fingers."""
     ny = h.shape[0]
     centre_speed, chan_phi, levee_speed = [], [], []
@@ -176,9 +178,11 @@ def channel_numbers(line_runs, in_finger, cols, h, phi, speed, h_min: float, thr
             return math.nan
         return float(np.median(values)) / u0
 
-    return {"channel_speed_over_u0": ratio(centre_speed),
-            "channel_phi": float(np.mean(chan_phi)) if chan_phi else math.nan,
-            "levee_speed_over_u0": ratio(levee_speed)}
+    return {
+        "channel_speed_over_u0": ratio(centre_speed),
+        "channel_phi": float(np.mean(chan_phi)) if chan_phi else math.nan,
+        "levee_speed_over_u0": ratio(levee_speed),
+    }
 
 
 __all__ = ["periodic_runs", "count_channels", "channel_numbers", "DEFAULT_MIN_SPAN"]

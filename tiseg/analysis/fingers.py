@@ -72,6 +72,7 @@ Speeds
 
 Undefined quantities are None (JSON null), never NaN.
 """
+
 from __future__ import annotations
 
 import math
@@ -84,14 +85,27 @@ from ..errors import InputError
 from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels, periodic_runs
 from .spectrum import spectral_wavelength
 
-DEFAULT_MIN_PERSISTENCE = 0.1    # fraction of the lines in [x_f^-, x_f^+] the count must hold on
-DEFAULT_NOISE_CELLS = 2          # default min_width and min_gap, in grid cells
+DEFAULT_MIN_PERSISTENCE = 0.1  # fraction of the lines in [x_f^-, x_f^+] the count must hold on
+DEFAULT_NOISE_CELLS = 2  # default min_width and min_gap, in grid cells
 
 # Per-time keys of :func:`analyse_run` (in table order).
-RUN_KEYS = ("time", "x_front_max", "x_front_min", "elongation", "finger_count", "wavelength",
-            "wavelength_spectral", "front_speed", "front_speed_over_u0", "max_channel_speed",
-            "max_channel_speed_over_u0", "channel_speed_over_u0", "channel_phi",
-            "levee_speed_over_u0", "finger_count_lines")
+RUN_KEYS = (
+    "time",
+    "x_front_max",
+    "x_front_min",
+    "elongation",
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "front_speed",
+    "front_speed_over_u0",
+    "max_channel_speed",
+    "max_channel_speed_over_u0",
+    "channel_speed_over_u0",
+    "channel_phi",
+    "levee_speed_over_u0",
+    "finger_count_lines",
+)
 # Version of the definitions above: stored in fingers.json, so that results computed with
 # older definitions are recognised and recomputed from fields.nc (tiseg sweep does).
 ANALYSIS_VERSION = 4
@@ -123,13 +137,26 @@ def front_min(h, phi, x, h_min: float, phi0: float) -> float:
 # =================================================================================================
 # One snapshot
 # =================================================================================================
-def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | None = None, *,
-                   phi_threshold: float | None = None,
-                   line_fractions: Sequence[float] | None = None,
-                   min_persistence: float = DEFAULT_MIN_PERSISTENCE,
-                   min_span: float = DEFAULT_MIN_SPAN,
-                   min_width: float | None = None, min_gap: float | None = None,
-                   min_speed_over_u0: float | None = None, Ly: float | None = None) -> dict:
+def finger_metrics(
+    h,
+    u,
+    v,
+    phi,
+    x,
+    y,
+    h_min: float,
+    phi0: float,
+    u0: float | None = None,
+    *,
+    phi_threshold: float | None = None,
+    line_fractions: Sequence[float] | None = None,
+    min_persistence: float = DEFAULT_MIN_PERSISTENCE,
+    min_span: float = DEFAULT_MIN_SPAN,
+    min_width: float | None = None,
+    min_gap: float | None = None,
+    min_speed_over_u0: float | None = None,
+    Ly: float | None = None,
+) -> dict:
     """Finger diagnostics of one snapshot (see the module docstring for the definitions).
 
     ``h``, ``u``, ``v``, ``phi``: (ny, nx) arrays [m, m/s, m/s, -]; ``u`` or ``v`` may be None
@@ -158,14 +185,16 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
     phi = np.asarray(phi, dtype=float)
     x = np.asarray(x, dtype=float).reshape(-1)
     y = np.asarray(y, dtype=float).reshape(-1)
-    if h.ndim == 1:                       # a 1D run: one cell row
+    if h.ndim == 1:  # a 1D run: one cell row
         h, phi = h[None, :], phi.reshape(1, -1)
     ny, nx = h.shape
     if phi.shape != h.shape:
         raise InputError(f"phi has shape {phi.shape}, h has {h.shape}")
     if x.size != nx or y.size != ny:
-        raise InputError(f"coordinates x ({x.size}) and y ({y.size}) do not match the fields "
-                         f"of shape (ny, nx) = {h.shape}")
+        raise InputError(
+            f"coordinates x ({x.size}) and y ({y.size}) do not match the fields "
+            f"of shape (ny, nx) = {h.shape}"
+        )
     u = np.zeros_like(h) if u is None else np.asarray(u, dtype=float).reshape(h.shape)
     v = np.zeros_like(h) if v is None else np.asarray(v, dtype=float).reshape(h.shape)
     if not (math.isfinite(h_min) and h_min > 0):
@@ -195,24 +224,23 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
 
     xf_max = front_max(h, x, h_min)
     xf_min = front_min(h, phi, x, h_min, phi0)
-    x_l = xf_max - xf_min            # NaN if either is undefined
+    x_l = xf_max - xf_min  # NaN if either is undefined
 
-    band: list[int] = []                 # every column of the fingered zone
+    band: list[int] = []  # every column of the fingered zone
     if math.isfinite(x_l):
         band = [int(j) for j in np.flatnonzero((x >= xf_min) & (x <= xf_max))]
     band_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in band]
     if fractions is None:
         cols, line_runs = band, band_runs
     else:
-        cols = ([int(np.argmin(np.abs(x - (xf_min + f * x_l)))) for f in fractions]
-                if band else [])
+        cols = [int(np.argmin(np.abs(x - (xf_min + f * x_l)))) for f in fractions] if band else []
         line_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in cols]
     line_counts = [len(r) for r in line_runs]
     # the persistent line count: the non-zero count held over the longest downslope distance
     count_lines = 0
     values, hits = np.unique([len(r) for r in band_runs if r], return_counts=True)
     if values.size:
-        best = int(np.flatnonzero(hits == hits.max())[-1])        # ties: the larger count
+        best = int(np.flatnonzero(hits == hits.max())[-1])  # ties: the larger count
         if hits[best] >= max(2, min_persistence * len(band_runs)):
             count_lines = int(values[best])
     # no lines (x_f^- undefined: no coarse-rich region, no levees) -> no segregation fingers
@@ -233,22 +261,24 @@ def finger_metrics(h, u, v, phi, x, y, h_min: float, phi0: float, u0: float | No
         if sel.any():
             max_speed = float(speed[sel].max())
 
-    return _none_for_nan({
-        "x_front_max": xf_max,
-        "x_front_min": xf_min,
-        "elongation": x_l,
-        "finger_count": int(count),
-        "wavelength": Ly / count if count > 0 else math.nan,
-        "wavelength_spectral": spectral_wavelength(h, phi, band, Ly, h_min),
-        "max_channel_speed": max_speed,
-        "max_channel_speed_over_u0": max_speed / u0 if u0 else math.nan,
-        **numbers,
-        "finger_count_lines": count_lines,
-        "line_x": [float(x[j]) for j in cols],
-        "line_counts": line_counts,
-        "count_length": count_length,
-        "channel_widths": [n * dy for _, n in widths],
-    })
+    return _none_for_nan(
+        {
+            "x_front_max": xf_max,
+            "x_front_min": xf_min,
+            "elongation": x_l,
+            "finger_count": int(count),
+            "wavelength": Ly / count if count > 0 else math.nan,
+            "wavelength_spectral": spectral_wavelength(h, phi, band, Ly, h_min),
+            "max_channel_speed": max_speed,
+            "max_channel_speed_over_u0": max_speed / u0 if u0 else math.nan,
+            **numbers,
+            "finger_count_lines": count_lines,
+            "line_x": [float(x[j]) for j in cols],
+            "line_counts": line_counts,
+            "count_length": count_length,
+            "channel_widths": [n * dy for _, n in widths],
+        }
+    )
 
 
 # =================================================================================================
@@ -276,9 +306,16 @@ def front_speed(times, x_front) -> list[float | None]:
     return out
 
 
-def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None,
-                u0: float | None = None, h_min: float | None = None, Ly: float | None = None,
-                **opts) -> dict:
+def analyse_run(
+    run_dir,
+    *,
+    time: float | None = None,
+    phi0: float | None = None,
+    u0: float | None = None,
+    h_min: float | None = None,
+    Ly: float | None = None,
+    **opts,
+) -> dict:
     """Finger diagnostics of every output time of a saved run.
 
     ``run_dir``: a run folder holding ``fields.nc`` (as written by ``tiseg run``) or the path of
@@ -299,6 +336,7 @@ def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None
     """
     path = _fields_path(run_dir)
     from ..output import read_fields
+
     try:
         ds = read_fields(path)
     except Exception as exc:  # netCDF4 / HDF5 errors have no common base class
@@ -306,9 +344,11 @@ def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None
     with ds:
         missing = [name for name in ("h", "phi") if name not in ds.variables]
         if missing:
-            raise InputError(f"{str(path)!r} has no {' and no '.join(missing)} field "
-                             f"(finger diagnostics need h and phi; phi exists only with "
-                             f"segregation)")
+            raise InputError(
+                f"{str(path)!r} has no {' and no '.join(missing)} field "
+                f"(finger diagnostics need h and phi; phi exists only with "
+                f"segregation)"
+            )
         if "time" not in ds.variables or "x" not in ds.variables or "y" not in ds.variables:
             raise InputError(f"{str(path)!r} lacks the time, x or y coordinate of a fields file")
         scene = None
@@ -331,38 +371,57 @@ def analyse_run(run_dir, *, time: float | None = None, phi0: float | None = None
 
         # x_f^+ at every time (needs h only) so that the front speed has its neighbours
         h_all = ds["h"]
-        xf_all = [front_max(np.asarray(h_all.isel(time=i).values), x, h_min)
-                  for i in range(times.size)]
+        xf_all = [
+            front_max(np.asarray(h_all.isel(time=i).values), x, h_min) for i in range(times.size)
+        ]
         speeds = front_speed(times, xf_all)
 
         result = {k: [] for k in RUN_KEYS}
         for i in idx:
-            snap = {name: (np.asarray(ds[name].isel(time=i).values) if name in ds.variables
-                           else None) for name in ("h", "u", "v", "phi")}
-            m = finger_metrics(snap["h"], snap["u"], snap["v"], snap["phi"], x, y, h_min, phi0,
-                               u0, Ly=Ly, **opts)
+            snap = {
+                name: (np.asarray(ds[name].isel(time=i).values) if name in ds.variables else None)
+                for name in ("h", "u", "v", "phi")
+            }
+            m = finger_metrics(
+                snap["h"], snap["u"], snap["v"], snap["phi"], x, y, h_min, phi0, u0, Ly=Ly, **opts
+            )
             sp = speeds[i]
-            row = dict(m, time=float(times[i]), front_speed=sp,
-                       front_speed_over_u0=(sp / u0 if sp is not None and u0 else None))
+            row = dict(
+                m,
+                time=float(times[i]),
+                front_speed=sp,
+                front_speed_over_u0=(sp / u0 if sp is not None and u0 else None),
+            )
             for k in RUN_KEYS:
                 result[k].append(row[k])
 
     # the settings finger_metrics used, resolved (defaults filled in, widths in whole cells)
     dy = _spacing(y)
-    thr, w_cells, g_cells = _settings(dy, phi0, opts.get("phi_threshold"), opts.get("min_width"),
-                                      opts.get("min_gap"))
+    thr, w_cells, g_cells = _settings(
+        dy, phi0, opts.get("phi_threshold"), opts.get("min_width"), opts.get("min_gap")
+    )
     fr = opts.get("line_fractions")
-    options = {"phi_threshold": thr,
-               "line_fractions": None if fr is None else [float(f) for f in fr],
-               "min_persistence": opts.get("min_persistence", DEFAULT_MIN_PERSISTENCE),
-               "min_span": opts.get("min_span", DEFAULT_MIN_SPAN),
-               "min_width": w_cells * dy, "min_gap": g_cells * dy,
-               "min_width_cells": w_cells, "min_gap_cells": g_cells,
-               "min_speed_over_u0": opts.get("min_speed_over_u0")}
-    head = {"analysis_version": ANALYSIS_VERSION, "file": str(path), "phi0": float(phi0),
-            "u0": None if u0 is None else float(u0),
-            "h_min": float(h_min), "Ly": float(Ly) if Ly is not None else len(y) * _spacing(y),
-            "options": options, "times": len(idx)}
+    options = {
+        "phi_threshold": thr,
+        "line_fractions": None if fr is None else [float(f) for f in fr],
+        "min_persistence": opts.get("min_persistence", DEFAULT_MIN_PERSISTENCE),
+        "min_span": opts.get("min_span", DEFAULT_MIN_SPAN),
+        "min_width": w_cells * dy,
+        "min_gap": g_cells * dy,
+        "min_width_cells": w_cells,
+        "min_gap_cells": g_cells,
+        "min_speed_over_u0": opts.get("min_speed_over_u0"),
+    }
+    head = {
+        "analysis_version": ANALYSIS_VERSION,
+        "file": str(path),
+        "phi0": float(phi0),
+        "u0": None if u0 is None else float(u0),
+        "h_min": float(h_min),
+        "Ly": float(Ly) if Ly is not None else len(y) * _spacing(y),
+        "options": options,
+        "times": len(idx),
+    }
     return {**head, **result}
 
 
@@ -384,6 +443,7 @@ def _settings(dy: float, phi0: float, phi_threshold, min_width, min_gap) -> tupl
         if not (math.isfinite(w) and w >= 0):
             raise InputError(f"min_width / min_gap = {w!r} must be a non-negative length [m]")
         return max(1, math.ceil(w / dy - 1e-9))
+
     return thr, cells(min_width), cells(min_gap)
 
 
@@ -407,6 +467,7 @@ def _fields_path(run_dir) -> Path:
 def _stored_scene(ds, path: Path):
     """The scene stored with the run (file attribute, else scene.toml beside it), or None."""
     from ..scene import scene_from_text
+
     text = ds.attrs.get("scene")
     where = f"the scene attribute of {str(path)!r}"
     if not isinstance(text, str):
@@ -425,11 +486,23 @@ def _time_index(times: np.ndarray, t: float, path: Path) -> int:
         raise InputError(f"{str(path)!r} holds no snapshots")
     i = int(np.argmin(np.abs(times - t)))
     if abs(times[i] - t) > 1e-6 * max(1.0, abs(t)):
-        raise InputError(f"--time {t:g} is not an output time of {str(path)!r}; the nearest is "
-                         f"{times[i]:g} (output times {times[0]:g} .. {times[-1]:g} s)")
+        raise InputError(
+            f"--time {t:g} is not an output time of {str(path)!r}; the nearest is "
+            f"{times[i]:g} (output times {times[0]:g} .. {times[-1]:g} s)"
+        )
     return i
 
 
-__all__ = ["finger_metrics", "analyse_run", "front_max", "front_min", "front_speed",
-           "periodic_runs", "RUN_KEYS", "ANALYSIS_VERSION", "DEFAULT_MIN_PERSISTENCE",
-           "DEFAULT_MIN_SPAN", "DEFAULT_NOISE_CELLS"]
+__all__ = [
+    "finger_metrics",
+    "analyse_run",
+    "front_max",
+    "front_min",
+    "front_speed",
+    "periodic_runs",
+    "RUN_KEYS",
+    "ANALYSIS_VERSION",
+    "DEFAULT_MIN_PERSISTENCE",
+    "DEFAULT_MIN_SPAN",
+    "DEFAULT_NOISE_CELLS",
+]

@@ -23,6 +23,7 @@ independently:
 Undefined (None) without a fingered zone, or when the cross-slope RMS of the signal averaged
 over the zone is below ``min_rms`` (default 0.02 in phi): a uniform front has no wavelength.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,17 +33,18 @@ import numpy as np
 DEFAULT_MIN_RMS = 0.02
 
 
-def spectral_wavelength(h, phi, cols, Ly: float, h_min: float,
-                        min_rms: float = DEFAULT_MIN_RMS) -> float:
+def spectral_wavelength(
+    h, phi, cols, Ly: float, h_min: float, min_rms: float = DEFAULT_MIN_RMS
+) -> float:
     """Ly / n of the peak of the column-averaged cross-slope power spectrum; NaN if undefined."""
-    if len(cols) == 0 or h.shape[0] < 6:          # modes 1..3 at least
+    if len(cols) == 0 or h.shape[0] < 6:  # modes 1..3 at least
         return math.nan
     s = np.where(h[:, cols] >= h_min, phi[:, cols], 0.0)
     s = s - s.mean(axis=0)
-    if not float(np.mean(s * s)) > min_rms ** 2:       # the mean cross-slope variance
+    if not float(np.mean(s * s)) > min_rms**2:  # the mean cross-slope variance
         return math.nan
     power = (np.abs(np.fft.rfft(s, axis=0)) ** 2).mean(axis=1)
-    n = int(np.argmax(power[2:])) + 2                # mode 1 is the envelope (step 3)
+    n = int(np.argmax(power[2:])) + 2  # mode 1 is the envelope (step 3)
     shift = 0.0
     if n + 1 < power.size:
         lo, mid, hi = power[n - 1], power[n], power[n + 1]

@@ -13,6 +13,7 @@ Taichi's precision is fixed when it is initialised, so every (precision, backend
 measured in a child process of its own (:func:`run_child`); this module holds the small pieces
 both benchmarks share (machine description, backends, children).
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -42,6 +43,7 @@ def machine_info(threads: int = 0) -> dict:
 
     ``threads`` is what the run asked Taichi for (0 = Taichi's default, all cores)."""
     import numpy as np
+
     info = {
         "date": _dt.date.today().isoformat(),
         "cpu_model": cpu_model(),
@@ -54,9 +56,10 @@ def machine_info(threads: int = 0) -> dict:
     }
     try:
         import importlib.metadata as md
+
         info["taichi"] = md.version("taichi")
         info["tiseg"] = md.version("tiseg")
-    except Exception:          # pragma: no cover - metadata missing in odd installs
+    except Exception:  # pragma: no cover - metadata missing in odd installs
         pass
     # L3 size matters for reading bandwidth numbers (arrays that fit in it are not DRAM-bound)
     try:
@@ -71,14 +74,17 @@ def machine_info(threads: int = 0) -> dict:
 
 def machine_line(info: dict) -> str:
     """One line naming the machine, for tables and plot titles."""
-    return (f"{info.get('cpu_model', '?')}, {info.get('cpu_count', '?')} cores, "
-            f"{info.get('threads', '?')} threads, {info.get('date', '')}")
+    return (
+        f"{info.get('cpu_model', '?')}, {info.get('cpu_count', '?')} cores, "
+        f"{info.get('threads', '?')} threads, {info.get('date', '')}"
+    )
 
 
 def available_backends() -> list[str]:
     """["cpu"] plus "gpu" where a CUDA or Metal device really works (without initialising)."""
     from .. import backend
     import taichi as ti
+
     return ["cpu"] + (["gpu"] if backend._probe_gpu(ti) is not None else [])
 
 
@@ -86,6 +92,7 @@ def log_stderr(message: str) -> None:
     """Progress lines of the benchmarks: the ``tiseg`` logger (stderr, not with -q); stdout
     carries results and JSON. Without logging configured (a benchmark child) plain stderr."""
     from ..log import info, logger, stderr_line
+
     if logger.handlers:
         info(message)
     else:
@@ -94,8 +101,13 @@ def log_stderr(message: str) -> None:
 
 def child_env(**extra) -> dict:
     """The environment of a benchmark's child process: Taichi offline and quiet, no display."""
-    return dict(os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0",
-                MPLBACKEND="Agg", **extra)
+    return dict(
+        os.environ,
+        TI_SKIP_VERSION_CHECK="ON",
+        ENABLE_TAICHI_HEADER_PRINT="0",
+        MPLBACKEND="Agg",
+        **extra,
+    )
 
 
 def run_child(module: str, task: dict, work_dir: Path, tag: str) -> dict:
@@ -111,9 +123,14 @@ def run_child(module: str, task: dict, work_dir: Path, tag: str) -> dict:
     if result_path.exists():
         result_path.unlink()
     env = child_env()
-    proc = subprocess.run([sys.executable, "-m", module, "--child", str(task_path)],
-                          stdout=subprocess.DEVNULL, env=env)
+    proc = subprocess.run(
+        [sys.executable, "-m", module, "--child", str(task_path)],
+        stdout=subprocess.DEVNULL,
+        env=env,
+    )
     if proc.returncode != 0 or not result_path.exists():
-        raise TisegError(f"benchmark child {tag} ({module}) failed with exit status "
-                         f"{proc.returncode}; see the messages above")
+        raise TisegError(
+            f"benchmark child {tag} ({module}) failed with exit status "
+            f"{proc.returncode}; see the messages above"
+        )
     return json.loads(result_path.read_text())

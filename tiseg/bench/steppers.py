@@ -17,6 +17,7 @@ and a one-stage stepper looks cheapest; on the paper's grid (750 cells/m) the vi
 stiffness shortens the single-stage steppers' steps, and only a measurement at that grid can say
 what a stepper costs there (benchmarks/README.md, section 3).
 """
+
 from __future__ import annotations
 
 import math
@@ -35,6 +36,7 @@ REFERENCE_CFL_FACTOR = 0.2
 
 def _run_scene(run_dir: Path):
     from ..scene import load_scene
+
     path = run_dir / "scene.toml"
     if not path.is_file():
         raise InputError(f"{run_dir}: no scene.toml here; give the folder of a tiseg run")
@@ -45,6 +47,7 @@ def _states(run_dir: Path, times: Sequence[float] | None, count: int = 2):
     """[(t, conserved (nc, nx, ny))] from the run's fields.nc at the snapshots nearest
     ``times`` (default: ``count`` snapshots, the last and ones evenly before it, t > 0)."""
     from ..output.netcdf import read_fields
+
     path = run_dir / "fields.nc"
     if not path.is_file():
         raise InputError(f"{run_dir}: no fields.nc here (the run saved no snapshots)")
@@ -58,18 +61,24 @@ def _states(run_dir: Path, times: Sequence[float] | None, count: int = 2):
             for t in times:
                 k = int(np.argmin(np.abs(tt - t)))
                 if abs(tt[k] - t) > 1e-6 * max(1.0, abs(t)):
-                    raise InputError(f"--times {t:g}: the run has no snapshot at that time "
-                                     f"(saved: {', '.join(f'{v:g}' for v in tt[:12])}"
-                                     f"{' ...' if tt.size > 12 else ''})")
+                    raise InputError(
+                        f"--times {t:g}: the run has no snapshot at that time "
+                        f"(saved: {', '.join(f'{v:g}' for v in tt[:12])}"
+                        f"{' ...' if tt.size > 12 else ''})"
+                    )
                 idx.append(k)
         else:
             pos = np.nonzero(tt > 0)[0]
-            idx = sorted({int(pos[round(f * (len(pos) - 1))])
-                          for f in np.linspace(1.0 / count, 1.0, count)})
+            idx = sorted(
+                {int(pos[round(f * (len(pos) - 1))]) for f in np.linspace(1.0 / count, 1.0, count)}
+            )
         out = []
         for k in idx:
-            f = {c: np.asarray(ds[c].isel(time=k).values, dtype=float).T
-                 for c in ("h", "u", "v", "phi") if c in ds}
+            f = {
+                c: np.asarray(ds[c].isel(time=k).values, dtype=float).T
+                for c in ("h", "u", "v", "phi")
+                if c in ds
+            }
             h = np.nan_to_num(f["h"])
             comps = [h, h * np.nan_to_num(f["u"])]
             if "v" in f:
@@ -85,11 +94,12 @@ def _states(run_dir: Path, times: Sequence[float] | None, count: int = 2):
 def _advance(sim, q0, t0: float, span: float, repeats: int):
     """Minimum wall time of advancing q0 from t0 by span; the final state and the counts."""
     import taichi as ti
+
     best = math.inf
     for _ in range(max(1, repeats)):
         sim.set_conserved(q0)
         sim.t = t0
-        sim.step(t0 + span)                  # warm-up (compiles this stepper's kernels)
+        sim.step(t0 + span)  # warm-up (compiles this stepper's kernels)
         sim.set_conserved(q0)
         sim.t = t0
         steps0, evals0 = sim.stats.steps, sim.stats.stages
@@ -105,9 +115,16 @@ def _rel_l1(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).sum() / den) if den > 0 else float(np.abs(a - b).sum())
 
 
-def measure(run_dir, times: Sequence[float] | None = None, span: float | None = None,
-            steppers: Sequence[str] = STEPPERS, repeats: int = 2, arch: str = "cpu",
-            threads: int = 0, log=None) -> dict:
+def measure(
+    run_dir,
+    times: Sequence[float] | None = None,
+    span: float | None = None,
+    steppers: Sequence[str] = STEPPERS,
+    repeats: int = 2,
+    arch: str = "cpu",
+    threads: int = 0,
+    log=None,
+) -> dict:
     """Measure every stepper from the run's snapshots; return the report (see module doc)."""
     from .. import backend
     from ..simulation import Simulation
@@ -127,18 +144,27 @@ def measure(run_dir, times: Sequence[float] | None = None, span: float | None = 
     states = _states(run_dir, times)
     shape = (scene.domain.nx, scene.domain.ny)
     if states and states[0][1].shape[1:] != shape:
-        raise InputError(f"{run_dir}: scene.toml describes {shape[0]} x {shape[1]} cells but "
-                         f"fields.nc holds {states[0][1].shape[1]} x {states[0][1].shape[2]}: "
-                         "scene.toml was edited after the run; restore it")
+        raise InputError(
+            f"{run_dir}: scene.toml describes {shape[0]} x {shape[1]} cells but "
+            f"fields.nc holds {states[0][1].shape[1]} x {states[0][1].shape[2]}: "
+            "scene.toml was edited after the run; restore it"
+        )
     cfl = scene.numerics.cfl
     prec = scene.numerics.precision
     backend.init(arch, prec, threads)
     base = {"time.t_end": 1e9, "output.times": [], "output.interval": 1e9}
-    report = {"run": str(run_dir), "scene": scene.name, "cells": [scene.domain.nx, scene.domain.ny],
-              "precision": prec, "arch": backend.state().arch, "cfl": cfl,
-              "own_stepper": scene.numerics.stepper,
-              "reference": {"stepper": REFERENCE_STEPPER, "cfl": cfl * REFERENCE_CFL_FACTOR},
-              "machine": machine_info(threads), "starts": []}
+    report = {
+        "run": str(run_dir),
+        "scene": scene.name,
+        "cells": [scene.domain.nx, scene.domain.ny],
+        "precision": prec,
+        "arch": backend.state().arch,
+        "cfl": cfl,
+        "own_stepper": scene.numerics.stepper,
+        "reference": {"stepper": REFERENCE_STEPPER, "cfl": cfl * REFERENCE_CFL_FACTOR},
+        "machine": machine_info(threads),
+        "starts": [],
+    }
     sims = {}
 
     def sim_for(stepper: str, c: float):
@@ -155,12 +181,15 @@ def measure(run_dir, times: Sequence[float] | None = None, span: float | None = 
         own.set_conserved(q0)
         own.t = t0
         dt0 = own.plan().dt
-        sp = span if span is not None else 40 * dt0     # about 40 steps of the run's own stepper
+        sp = span if span is not None else 40 * dt0  # about 40 steps of the run's own stepper
         if log:
-            log(f"t = {t0:g} s: span {sp:.3g} s; reference {REFERENCE_STEPPER} at cfl "
-                f"{cfl * REFERENCE_CFL_FACTOR:g}")
+            log(
+                f"t = {t0:g} s: span {sp:.3g} s; reference {REFERENCE_STEPPER} at cfl "
+                f"{cfl * REFERENCE_CFL_FACTOR:g}"
+            )
         ref_wall, ref_q, ref_steps, ref_evals = _advance(
-            sim_for(REFERENCE_STEPPER, cfl * REFERENCE_CFL_FACTOR), q0, t0, sp, 1)
+            sim_for(REFERENCE_STEPPER, cfl * REFERENCE_CFL_FACTOR), q0, t0, sp, 1
+        )
         if not np.all(np.isfinite(ref_q)):
             raise InputError(f"the reference run from t = {t0:g} s did not stay finite")
         rows = []
@@ -170,18 +199,36 @@ def measure(run_dir, times: Sequence[float] | None = None, span: float | None = 
             e_h = _rel_l1(q[0], ref_q[0]) if ok else math.nan
             e_p = _rel_l1(q[-1], ref_q[-1]) if ok and scene.effects.segregation else math.nan
             err = max(e_h, e_p) if math.isfinite(e_p) else e_h
-            rows.append({"stepper": s, "wall_s": wall, "steps": steps, "evaluations": evals,
-                         "error_h": e_h, "error_hphi": e_p, "error": err,
-                         "status": "ok" if ok else "unstable"})
+            rows.append(
+                {
+                    "stepper": s,
+                    "wall_s": wall,
+                    "steps": steps,
+                    "evaluations": evals,
+                    "error_h": e_h,
+                    "error_hphi": e_p,
+                    "error": err,
+                    "status": "ok" if ok else "unstable",
+                }
+            )
             if log:
-                log(f"  {s}: {wall:.3g} s, {steps} steps, {evals} evaluations, "
-                    f"L1(h) {e_h:.3g}, L1(h phi) {e_p:.3g}")
+                log(
+                    f"  {s}: {wall:.3g} s, {steps} steps, {evals} evaluations, "
+                    f"L1(h) {e_h:.3g}, L1(h phi) {e_p:.3g}"
+                )
         front = pareto_front([r["error"] for r in rows], [r["wall_s"] for r in rows])
         for i, r in enumerate(rows):
             r["pareto"] = i in front
-        report["starts"].append({"time": t0, "span": sp, "reference_wall_s": ref_wall,
-                                 "reference_steps": ref_steps, "reference_evaluations": ref_evals,
-                                 "rows": rows})
+        report["starts"].append(
+            {
+                "time": t0,
+                "span": sp,
+                "reference_wall_s": ref_wall,
+                "reference_steps": ref_steps,
+                "reference_evaluations": ref_evals,
+                "rows": rows,
+            }
+        )
     report["verdict"] = verdict(report)
     return report
 
@@ -201,35 +248,52 @@ def verdict(report: dict) -> str:
             note = "on the Pareto front"
             if cheaper:
                 c = min(cheaper, key=lambda x: x["wall_s"])
-                note += (f"; {c['stepper']} is {r['wall_s'] / c['wall_s']:.2f}x faster with "
-                         f"{c['error'] / r['error']:.3g}x the error" if r["error"] > 0 else "")
+                note += (
+                    f"; {c['stepper']} is {r['wall_s'] / c['wall_s']:.2f}x faster with "
+                    f"{c['error'] / r['error']:.3g}x the error"
+                    if r["error"] > 0
+                    else ""
+                )
         else:
             better = [x for x in front if x["error"] <= r["error"]]
             c = min(better, key=lambda x: x["wall_s"]) if better else None
-            note = ("NOT on the Pareto front" + (f": {c['stepper']} is {r['wall_s'] / c['wall_s']:.2f}x "
-                    f"faster at no larger error" if c else ""))
+            note = "NOT on the Pareto front" + (
+                f": {c['stepper']} is {r['wall_s'] / c['wall_s']:.2f}x faster at no larger error"
+                if c
+                else ""
+            )
         lines.append(f"- t = {st['time']:g} s: {own} {note}")
     return "\n".join(lines)
 
 
 def markdown(report: dict) -> str:
     from . import machine_line
-    out = [f"# Time steppers from the states of run `{Path(report['run']).name}` "
-           f"({report['scene']}, {report['cells'][0]} x {report['cells'][1]} cells, "
-           f"{report['precision']}, {report['arch']})", "",
-           f"Machine: {machine_line(report['machine'])}. Each stepper at cfl {report['cfl']:g} "
-           f"against {report['reference']['stepper']} at cfl {report['reference']['cfl']:g}; "
-           "error = relative L1 of h and h phi after the span (the larger decides the front); "
-           "wall = minimum over repeats.", ""]
+
+    out = [
+        f"# Time steppers from the states of run `{Path(report['run']).name}` "
+        f"({report['scene']}, {report['cells'][0]} x {report['cells'][1]} cells, "
+        f"{report['precision']}, {report['arch']})",
+        "",
+        f"Machine: {machine_line(report['machine'])}. Each stepper at cfl {report['cfl']:g} "
+        f"against {report['reference']['stepper']} at cfl {report['reference']['cfl']:g}; "
+        "error = relative L1 of h and h phi after the span (the larger decides the front); "
+        "wall = minimum over repeats.",
+        "",
+    ]
     for st in report["starts"]:
-        out += [f"## From t = {st['time']:g} s over {st['span']:.3g} s "
-                f"(reference: {st['reference_steps']} steps, {st['reference_wall_s']:.3g} s)", "",
-                "| stepper | wall s | steps | evaluations | L1(h) | L1(h phi) | Pareto |",
-                "|---|---|---|---|---|---|---|"]
+        out += [
+            f"## From t = {st['time']:g} s over {st['span']:.3g} s "
+            f"(reference: {st['reference_steps']} steps, {st['reference_wall_s']:.3g} s)",
+            "",
+            "| stepper | wall s | steps | evaluations | L1(h) | L1(h phi) | Pareto |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in st["rows"]:
-            out.append(f"| {r['stepper']}{' (run)' if r['stepper'] == report['own_stepper'] else ''} "
-                       f"| {r['wall_s']:.3g} | {r['steps']} | {r['evaluations']} | "
-                       f"{r['error_h']:.3g} | {r['error_hphi']:.3g} | {'yes' if r['pareto'] else ''} |")
+            out.append(
+                f"| {r['stepper']}{' (run)' if r['stepper'] == report['own_stepper'] else ''} "
+                f"| {r['wall_s']:.3g} | {r['steps']} | {r['evaluations']} | "
+                f"{r['error_h']:.3g} | {r['error_hphi']:.3g} | {'yes' if r['pareto'] else ''} |"
+            )
         out.append("")
     out += ["Verdict:", report["verdict"], ""]
     return "\n".join(out)
@@ -237,6 +301,7 @@ def markdown(report: dict) -> str:
 
 def write(report: dict, out_dir) -> list[Path]:
     from ..output import write_json_atomic, write_text_atomic
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "steppers.json", report, indent=2)

@@ -26,6 +26,7 @@ step, predicted from the per-stage and per-step costs and the stage counts, and 
 whole steps, so that one can check that a scene switching an effect off runs faster by about
 what the effect costs.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,9 +40,9 @@ import numpy as np
 
 from . import available_backends, log_stderr, machine_info, machine_line, run_child
 
-PAPER_GRID = (1125, 375)           # 750 cells per metre on 1.5 m x 0.5 m
+PAPER_GRID = (1125, 375)  # 750 cells per metre on 1.5 m x 0.5 m
 QUICK_GRID = (96, 32)
-RESOLUTION = 750.0                 # cells per metre of the throughput grid (dx = dy)
+RESOLUTION = 750.0  # cells per metre of the throughput grid (dx = dy)
 
 # (name, scene overrides, what is switched off). The full physics is the fingers scene's.
 VARIANTS = (
@@ -53,9 +54,13 @@ VARIANTS = (
     ("1d", {"domain.ny": 1}, "1D (ny = 1) with the same number of cells"),
 )
 # Effects and the variant that switches each off
-EFFECTS = (("segregation", "no-segregation"), ("mobility feedback", "no-feedback"),
-           ("viscosity (incl. its RKC stages)", "no-viscosity"), ("friction", "friction-none"),
-           ("2D (vs 1D)", "1d"))
+EFFECTS = (
+    ("segregation", "no-segregation"),
+    ("mobility feedback", "no-feedback"),
+    ("viscosity (incl. its RKC stages)", "no-viscosity"),
+    ("friction", "friction-none"),
+    ("2D (vs 1D)", "1d"),
+)
 
 
 # =================================================================================================
@@ -65,15 +70,24 @@ def variant_scene(name: str, nx: int, ny: int):
     """The uniform-flow scene with the fingers physics on an nx x ny grid at 750 cells/m,
     noisy phi (so that slopes and limiters do real work), with one variant's switch."""
     from ..scene import load_scene
+
     overrides = dict(next(v[1] for v in VARIANTS if v[0] == name))
     if overrides.get("domain.ny") == 1:
-        nx, ny = nx * ny, 1                  # same number of cells in one row
-    base = {"domain.nx": nx, "domain.ny": ny, "domain.Lx": None,
-            "initial.k": 2 * math.pi * 0.002 / (nx / RESOLUTION),   # one wavelength = Lx
-            "initial.mode": "noise", "initial.amplitude": 0.01, "initial.seed": 1,
-            "numerics.reconstruction": "weno", "numerics.stepper": "rkc",
-            # timed steps must never run into the end time (dt would be trimmed to 0)
-            "time.t_end": 1e6, "output.interval": 1e6}
+        nx, ny = nx * ny, 1  # same number of cells in one row
+    base = {
+        "domain.nx": nx,
+        "domain.ny": ny,
+        "domain.Lx": None,
+        "initial.k": 2 * math.pi * 0.002 / (nx / RESOLUTION),  # one wavelength = Lx
+        "initial.mode": "noise",
+        "initial.amplitude": 0.01,
+        "initial.seed": 1,
+        "numerics.reconstruction": "weno",
+        "numerics.stepper": "rkc",
+        # timed steps must never run into the end time (dt would be trimmed to 0)
+        "time.t_end": 1e6,
+        "output.interval": 1e6,
+    }
     if ny > 1:
         base["domain.Ly"] = ny / RESOLUTION
     if overrides.get("effects.friction") == "none":
@@ -118,11 +132,11 @@ def implemented_bytes_per_cell(nc: int, nbytes: int, is_1d: bool, first_order: b
     primitives (read q, write w), slopes (read w, write sx[, sy]), fluxes (read w and the
     slopes, write fx[, fy]) and divergence (read w and the fluxes, write the rate)."""
     dirs = 1 if is_1d else 2
-    passes = 2                                          # primitives
+    passes = 2  # primitives
     if not first_order:
-        passes += 2 * dirs                              # slopes
-    passes += dirs * (3 if not first_order else 2)      # fluxes
-    passes += 2 + dirs                                  # divergence
+        passes += 2 * dirs  # slopes
+    passes += dirs * (3 if not first_order else 2)  # fluxes
+    passes += 2 + dirs  # divergence
     return passes * nc * nbytes
 
 
@@ -135,6 +149,7 @@ def triad_bandwidth(n: int, precision: str, repeats: int, target_s: float = 0.1)
     Bytes counted as STREAM does: 3 n values per Taichi triad. NumPy has no fused triad, so its
     a = s c; a += b moves 5 n values, counted as such."""
     import taichi as ti
+
     dt = np.float64 if precision == "f64" else np.float32
     nbytes = np.dtype(dt).itemsize
     fp = ti.f64 if precision == "f64" else ti.f32
@@ -151,7 +166,7 @@ def triad_bandwidth(n: int, precision: str, repeats: int, target_s: float = 0.1)
     @ti.kernel
     def triad():
         for i in range(n):
-            a[i] = b[i] + 3.0 * c[i]     # the scalar as a constant: same traffic, no argument
+            a[i] = b[i] + 3.0 * c[i]  # the scalar as a constant: same traffic, no argument
 
     fill()
     t_ti = best_time(triad, repeats, target_s, ti.sync)
@@ -162,9 +177,12 @@ def triad_bandwidth(n: int, precision: str, repeats: int, target_s: float = 0.1)
         np.add(an, bn, out=an)
 
     t_np = best_time(np_triad, repeats, target_s)
-    return {"elements": n, "bytes_per_value": nbytes,
-            "taichi_triad_GBps": 3 * n * nbytes / t_ti / 1e9,
-            "numpy_triad_GBps": 5 * n * nbytes / t_np / 1e9}
+    return {
+        "elements": n,
+        "bytes_per_value": nbytes,
+        "taichi_triad_GBps": 3 * n * nbytes / t_ti / 1e9,
+        "numpy_triad_GBps": 5 * n * nbytes / t_np / 1e9,
+    }
 
 
 class _Variant:
@@ -173,6 +191,7 @@ class _Variant:
     def __init__(self, name: str, nx: int, ny: int):
         from .. import backend
         from ..simulation import Simulation
+
         self.name = name
         self.scene = variant_scene(name, nx, ny)
         # the precision measure() initialised, not the scene's (f64): this bench is per precision
@@ -205,8 +224,9 @@ class _Variant:
         self.op.set(0, self.q0)
 
 
-def measure_variants(names, nx: int, ny: int, repeats: int, target_s: float,
-                     numpy_repeats: int, log=None) -> list[dict]:
+def measure_variants(
+    names, nx: int, ny: int, repeats: int, target_s: float, numpy_repeats: int, log=None
+) -> list[dict]:
     """Operator, stage, plan and step times of the variants, measured side by side.
 
     All variants are built first; then each quantity is timed for every variant in turn,
@@ -220,16 +240,20 @@ def measure_variants(names, nx: int, ny: int, repeats: int, target_s: float,
         if log:
             log(f"  building {name} ({nx} x {ny})")
         vs.append(_Variant(name, nx, ny))
-    timed = {"rhs": lambda v: v.rhs, "plan": lambda v: v.plan, "step": lambda v: v.step,
-             "step2": lambda v: (lambda: v.step_fixed(2)),
-             "step6": lambda v: (lambda: v.step_fixed(6))}
+    timed = {
+        "rhs": lambda v: v.rhs,
+        "plan": lambda v: v.plan,
+        "step": lambda v: v.step,
+        "step2": lambda v: lambda: v.step_fixed(2),
+        "step6": lambda v: lambda: v.step_fixed(6),
+    }
     best = {(v.name, k): math.inf for v in vs for k in timed}
     for _ in range(repeats):
         for v in vs:
             for key, fn in timed.items():
                 t = best_time(fn(v), 1, target_s, ti.sync)
                 best[(v.name, key)] = min(best[(v.name, key)], t)
-                v.restore()                  # whole steps changed the state
+                v.restore()  # whole steps changed the state
     rows = []
     for v in vs:
         ref = ReferenceOperator(v.sim.cfg)
@@ -242,30 +266,50 @@ def measure_variants(names, nx: int, ny: int, repeats: int, target_s: float,
         t2, t6 = best[(v.name, "step2")], best[(v.name, "step6")]
         in_stage = max((t6 - t2) / 4.0, 1e-12)
         overhead = max(t2 - 2.0 * in_stage, 0.0)
-        rows.append({
-            "name": v.name, "description": next(x[2] for x in VARIANTS if x[0] == v.name),
-            "grid": [v.scene.domain.nx, v.scene.domain.ny], "cells": v.cells, "nc": lay.nc,
-            "stages_per_step": v.stages, "dt": v.dt,
-            "rhs_s": t_rhs, "cell_updates_per_s": v.cells / t_rhs,
-            "plan_s": best[(v.name, "plan")],
-            "stage_s": in_stage, "step_overhead_s": overhead,
-            "stage_cell_updates_per_s": v.cells / in_stage,
-            "step_s": t_step, "steps_per_s": 1.0 / t_step,
-            "step_predicted_s": overhead + v.stages * in_stage,
-            "step_cell_updates_per_s": v.cells * v.stages / t_step,
-            "numpy_rhs_s": t_np, "numpy_cell_updates_per_s": v.cells / t_np,
-            "speedup_vs_numpy": t_np / t_rhs,
-            "min_bytes_per_cell": min_bytes_per_cell(lay.nc, nbytes),
-            "implemented_bytes_per_cell": implemented_bytes_per_cell(
-                lay.nc, nbytes, lay.is_1d, v.scene.numerics.reconstruction == "first-order"),
-        })
+        rows.append(
+            {
+                "name": v.name,
+                "description": next(x[2] for x in VARIANTS if x[0] == v.name),
+                "grid": [v.scene.domain.nx, v.scene.domain.ny],
+                "cells": v.cells,
+                "nc": lay.nc,
+                "stages_per_step": v.stages,
+                "dt": v.dt,
+                "rhs_s": t_rhs,
+                "cell_updates_per_s": v.cells / t_rhs,
+                "plan_s": best[(v.name, "plan")],
+                "stage_s": in_stage,
+                "step_overhead_s": overhead,
+                "stage_cell_updates_per_s": v.cells / in_stage,
+                "step_s": t_step,
+                "steps_per_s": 1.0 / t_step,
+                "step_predicted_s": overhead + v.stages * in_stage,
+                "step_cell_updates_per_s": v.cells * v.stages / t_step,
+                "numpy_rhs_s": t_np,
+                "numpy_cell_updates_per_s": v.cells / t_np,
+                "speedup_vs_numpy": t_np / t_rhs,
+                "min_bytes_per_cell": min_bytes_per_cell(lay.nc, nbytes),
+                "implemented_bytes_per_cell": implemented_bytes_per_cell(
+                    lay.nc, nbytes, lay.is_1d, v.scene.numerics.reconstruction == "first-order"
+                ),
+            }
+        )
     return rows
 
 
-def measure(nx: int, ny: int, precision: str, backend_name: str = "cpu", threads: int = 0,
-            quick: bool = False, variants=None, log=None) -> dict:
+def measure(
+    nx: int,
+    ny: int,
+    precision: str,
+    backend_name: str = "cpu",
+    threads: int = 0,
+    quick: bool = False,
+    variants=None,
+    log=None,
+) -> dict:
     """Every variant plus the bandwidth for one (precision, backend) in this process."""
     from .. import backend
+
     backend.init(backend_name, precision, threads)
     st = backend.state()
     names = list(variants) if variants else [v[0] for v in VARIANTS]
@@ -283,8 +327,14 @@ def measure(nx: int, ny: int, precision: str, backend_name: str = "cpu", threads
         r["bound_cell_updates_per_s"] = r["cells"] / r["bound_s"]
         r["times_the_bound"] = r["rhs_s"] / r["bound_s"]
         r["implemented_traffic_s"] = r["cells"] * r["implemented_bytes_per_cell"] / (gbps * 1e9)
-    return {"precision": precision, "backend": backend_name, "arch": st.arch,
-            "threads": threads, "bandwidth": dict(bw, used_GBps=gbps), "variants": rows}
+    return {
+        "precision": precision,
+        "backend": backend_name,
+        "arch": st.arch,
+        "threads": threads,
+        "bandwidth": dict(bw, used_GBps=gbps),
+        "variants": rows,
+    }
 
 
 # =================================================================================================
@@ -316,36 +366,53 @@ def effect_costs(result: dict) -> list[dict]:
         pred_off = off["step_overhead_s"] + off["stages_per_step"] * off["stage_s"]
         saving_eval = off["stages_per_step"] * (full["stage_s"] - off["stage_s"])
         saving_stages = (full["stages_per_step"] - off["stages_per_step"]) * full["stage_s"]
-        out.append({
-            "effect": label, "variant": off_name,
-            "rhs_ns_per_cell_full": ns(full, "rhs_s"), "rhs_ns_per_cell_off": ns(off, "rhs_s"),
-            "rhs_cost_ns_per_cell": ns(full, "rhs_s") - ns(off, "rhs_s"),
-            "rhs_cost_fraction": 1.0 - off["rhs_s"] / full["rhs_s"] * full["cells"] / off["cells"],
-            "stage_ns_per_cell_full": ns(full, "stage_s"), "stage_ns_per_cell_off": ns(off, "stage_s"),
-            "stage_cost_ns_per_cell": ns(full, "stage_s") - ns(off, "stage_s"),
-            "stage_cost_fraction": 1.0 - ns(off, "stage_s") / ns(full, "stage_s"),
-            "stages_full": full["stages_per_step"], "stages_off": off["stages_per_step"],
-            "step_saving_from_cheaper_stages_s": saving_eval,
-            "step_saving_from_fewer_stages_s": saving_stages,
-            "step_saving_predicted_s": pred_full - pred_off,
-            "step_saving_measured_s": full["step_s"] - off["step_s"],
-            "step_saving_predicted_fraction": (pred_full - pred_off) / full["step_s"],
-            "step_saving_measured_fraction": (full["step_s"] - off["step_s"]) / full["step_s"],
-        })
+        out.append(
+            {
+                "effect": label,
+                "variant": off_name,
+                "rhs_ns_per_cell_full": ns(full, "rhs_s"),
+                "rhs_ns_per_cell_off": ns(off, "rhs_s"),
+                "rhs_cost_ns_per_cell": ns(full, "rhs_s") - ns(off, "rhs_s"),
+                "rhs_cost_fraction": 1.0
+                - off["rhs_s"] / full["rhs_s"] * full["cells"] / off["cells"],
+                "stage_ns_per_cell_full": ns(full, "stage_s"),
+                "stage_ns_per_cell_off": ns(off, "stage_s"),
+                "stage_cost_ns_per_cell": ns(full, "stage_s") - ns(off, "stage_s"),
+                "stage_cost_fraction": 1.0 - ns(off, "stage_s") / ns(full, "stage_s"),
+                "stages_full": full["stages_per_step"],
+                "stages_off": off["stages_per_step"],
+                "step_saving_from_cheaper_stages_s": saving_eval,
+                "step_saving_from_fewer_stages_s": saving_stages,
+                "step_saving_predicted_s": pred_full - pred_off,
+                "step_saving_measured_s": full["step_s"] - off["step_s"],
+                "step_saving_predicted_fraction": (pred_full - pred_off) / full["step_s"],
+                "step_saving_measured_fraction": (full["step_s"] - off["step_s"]) / full["step_s"],
+            }
+        )
     return out
 
 
 # =================================================================================================
 # The benchmark and its tables
 # =================================================================================================
-def run_benchmark(nx=None, ny=None, quick: bool = False, precisions=("f64", "f32"),
-                  backends=None, threads: int = 0, out_dir=None, variants=None,
-                  in_process: bool | None = None, log=None) -> dict:
+def run_benchmark(
+    nx=None,
+    ny=None,
+    quick: bool = False,
+    precisions=("f64", "f32"),
+    backends=None,
+    threads: int = 0,
+    out_dir=None,
+    variants=None,
+    in_process: bool | None = None,
+    log=None,
+) -> dict:
     """Measure every (precision, backend) and return the report (see the module docstring).
 
     Children are used unless there is one combination and ``in_process`` is not False."""
     from .. import backend as _backend
     from ..errors import InputError
+
     if nx is None or ny is None:
         gx, gy = QUICK_GRID if quick else PAPER_GRID
         nx, ny = nx or gx, ny or gy
@@ -366,42 +433,65 @@ def run_benchmark(nx=None, ny=None, quick: bool = False, precisions=("f64", "f32
             thr = threads or (_backend.state().threads if _backend.is_initialised() else 0)
             results.append(measure(nx, ny, prec, be, thr, quick, variants, log))
         else:
-            results.append(run_child("tiseg.bench.throughput",
-                                     {"nx": nx, "ny": ny, "precision": prec, "backend": be,
-                                      "threads": threads, "quick": quick,
-                                      "variants": list(variants) if variants else None},
-                                     work, f"{prec}-{be}"))
+            results.append(
+                run_child(
+                    "tiseg.bench.throughput",
+                    {
+                        "nx": nx,
+                        "ny": ny,
+                        "precision": prec,
+                        "backend": be,
+                        "threads": threads,
+                        "quick": quick,
+                        "variants": list(variants) if variants else None,
+                    },
+                    work,
+                    f"{prec}-{be}",
+                )
+            )
     for r in results:
         r["effects"] = effect_costs(r)
-    report = {"machine": machine_info(threads), "grid": {"nx": nx, "ny": ny, "cells": nx * ny,
-                                                         "cells_per_metre": RESOLUTION},
-              "quick": quick, "wall_s": time.perf_counter() - t0, "results": results}
+    report = {
+        "machine": machine_info(threads),
+        "grid": {"nx": nx, "ny": ny, "cells": nx * ny, "cells_per_metre": RESOLUTION},
+        "quick": quick,
+        "wall_s": time.perf_counter() - t0,
+        "results": results,
+    }
     if out_dir is not None:
         from ..output import write_json_atomic, write_text_atomic
+
         out = Path(out_dir)
         write_json_atomic(out / "throughput.json", report)
         write_text_atomic(out / "throughput.md", markdown(report))
-        write_json_atomic(out / "effects.json", {"machine": report["machine"],
-                                                  "grid": report["grid"],
-                                                  "effects": {f"{r['precision']}/{r['backend']}":
-                                                              r["effects"] for r in results}})
+        write_json_atomic(
+            out / "effects.json",
+            {
+                "machine": report["machine"],
+                "grid": report["grid"],
+                "effects": {f"{r['precision']}/{r['backend']}": r["effects"] for r in results},
+            },
+        )
         write_text_atomic(out / "effects.md", effects_markdown(report))
     return report
 
 
 def _tmp_work() -> Path:
     import tempfile
+
     return Path(tempfile.mkdtemp(prefix="tiseg-bench-"))
 
 
 def throughput_markdown(report: dict) -> str:
     g = report["grid"]
-    lines = [f"Operator throughput on {g['nx']} x {g['ny']} cells ({machine_line(report['machine'])})",
-             "",
-             "| variant | prec/backend | operator M cell-updates/s | NumPy M/s | x NumPy "
-             "| bound M/s | x bound | stage in a step M/s | steps/s | stages/step "
-             "| step: measured / P + s S |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"Operator throughput on {g['nx']} x {g['ny']} cells ({machine_line(report['machine'])})",
+        "",
+        "| variant | prec/backend | operator M cell-updates/s | NumPy M/s | x NumPy "
+        "| bound M/s | x bound | stage in a step M/s | steps/s | stages/step "
+        "| step: measured / P + s S |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for res in report["results"]:
         for v in res["variants"]:
             lines.append(
@@ -410,7 +500,8 @@ def throughput_markdown(report: dict) -> str:
                 f"{v['speedup_vs_numpy']:.1f} | {v['bound_cell_updates_per_s'] / 1e6:.0f} | "
                 f"{v['times_the_bound']:.0f} | {v['stage_cell_updates_per_s'] / 1e6:.2f} | "
                 f"{v['steps_per_s']:.2f} | {v['stages_per_step']} | "
-                f"{1e3 * v['step_s']:.0f} / {1e3 * v['step_predicted_s']:.0f} ms |")
+                f"{1e3 * v['step_s']:.0f} / {1e3 * v['step_predicted_s']:.0f} ms |"
+            )
     lines.append("")
     for res in report["results"]:
         bw = res["bandwidth"]
@@ -422,17 +513,21 @@ def throughput_markdown(report: dict) -> str:
             f"{bw['used_GBps']:.1f} GB/s; the kernels as written move about "
             f"{full['implemented_bytes_per_cell']} B/cell, i.e. "
             f"{full['implemented_traffic_s'] * 1e3:.2f} ms per evaluation at that bandwidth "
-            f"against {full['rhs_s'] * 1e3:.2f} ms measured.")
+            f"against {full['rhs_s'] * 1e3:.2f} ms measured."
+        )
     return "\n".join(lines)
 
 
 def effects_markdown(report: dict) -> str:
-    lines = [f"Cost of each effect on {report['grid']['nx']} x {report['grid']['ny']} cells "
-             f"({machine_line(report['machine'])})", "",
-             "| effect | prec/backend | operator ns/cell (full → off) | stage in a step ns/cell "
-             "(full → off) | cost per stage | RKC stages (full → off) | step saving predicted "
-             "| step saving measured |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"Cost of each effect on {report['grid']['nx']} x {report['grid']['ny']} cells "
+        f"({machine_line(report['machine'])})",
+        "",
+        "| effect | prec/backend | operator ns/cell (full → off) | stage in a step ns/cell "
+        "(full → off) | cost per stage | RKC stages (full → off) | step saving predicted "
+        "| step saving measured |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for res in report["results"]:
         for e in res["effects"]:
             lines.append(
@@ -441,7 +536,8 @@ def effects_markdown(report: dict) -> str:
                 f"{e['stage_ns_per_cell_full']:.0f} → {e['stage_ns_per_cell_off']:.0f} | "
                 f"{100 * e['stage_cost_fraction']:.0f} % | {e['stages_full']} → {e['stages_off']} | "
                 f"{100 * e['step_saving_predicted_fraction']:.0f} % | "
-                f"{100 * e['step_saving_measured_fraction']:.0f} % |")
+                f"{100 * e['step_saving_measured_fraction']:.0f} % |"
+            )
     return "\n".join(lines)
 
 
@@ -455,8 +551,16 @@ def markdown(report: dict) -> str:
 def _child(task_path: str) -> int:
     task = json.loads(Path(task_path).read_text())
 
-    res = measure(task["nx"], task["ny"], task["precision"], task["backend"],
-                  task.get("threads", 0), task.get("quick", False), task.get("variants"), log_stderr)
+    res = measure(
+        task["nx"],
+        task["ny"],
+        task["precision"],
+        task["backend"],
+        task.get("threads", 0),
+        task.get("quick", False),
+        task.get("variants"),
+        log_stderr,
+    )
     Path(task["result"]).write_text(json.dumps(res))
     return 0
 

@@ -1,4 +1,5 @@
 """Small helpers shared by the sub-commands."""
+
 from __future__ import annotations
 
 import contextlib
@@ -46,6 +47,7 @@ def positive(name: str, value: float) -> float:
 def check_threads(threads: int) -> None:
     """The --threads option of every command that runs kernels."""
     from ..backend import threads_problem
+
     if threads < 0:
         raise InputError(f"--threads={threads}: must be >= 0 (0 = all cores)")
     problem = threads_problem(threads, "--threads")
@@ -61,21 +63,40 @@ def stdout_for_json(as_json: bool):
 
 def add_scene_arguments(p, scene_optional: bool = False) -> None:
     """SCENE, --set, --arch, --precision, --threads: how every command that runs a scene picks it."""
-    p.add_argument("scene", nargs="?" if scene_optional else None, default=None,
-                   help="built-in scene name (e.g. fingers) or path to a TOML file")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                   help="override a scene value, e.g. --set domain.resolution=250 (repeatable)")
-    p.add_argument("--arch", choices=ARCHS, default="cpu",
-                   help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
-                        "(software Vulkan where there is no GPU; default cpu)")
-    p.add_argument("--precision", choices=("f32", "f64"), default=None,
-                   help="floating-point precision (default: the scene's numerics.precision)")
+    p.add_argument(
+        "scene",
+        nargs="?" if scene_optional else None,
+        default=None,
+        help="built-in scene name (e.g. fingers) or path to a TOML file",
+    )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="override a scene value, e.g. --set domain.resolution=250 (repeatable)",
+    )
+    p.add_argument(
+        "--arch",
+        choices=ARCHS,
+        default="cpu",
+        help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
+        "(software Vulkan where there is no GPU; default cpu)",
+    )
+    p.add_argument(
+        "--precision",
+        choices=("f32", "f64"),
+        default=None,
+        help="floating-point precision (default: the scene's numerics.precision)",
+    )
     p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
 
 
 def load_scene_args(args):
     """The scene named by SCENE, --set and --precision."""
     from ..scene import load_scene
+
     overrides = list(args.overrides)
     if args.precision:
         overrides.append(f"numerics.precision={args.precision}")
@@ -92,17 +113,22 @@ def check_output_folder(out: Path, what: str = "--out") -> None:
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
-        raise InputError(f"{what}={str(out)!r}: cannot write there ({exc.strerror or exc})") from None
+        raise InputError(
+            f"{what}={str(out)!r}: cannot write there ({exc.strerror or exc})"
+        ) from None
 
 
 def check_figure_path(path: str, what: str = "--plot") -> Path:
     """A figure file name whose suffix matplotlib can write, in a folder that can be made."""
     from matplotlib.figure import Figure
+
     p = Path(path)
     kinds = Figure().canvas.get_supported_filetypes()
     suffix = p.suffix.lower().lstrip(".")
     if suffix not in kinds:
-        raise InputError(f"{what}={path!r}: give a file name ending in one of "
-                         f".{', .'.join(sorted(kinds))} (e.g. .png or .pdf)")
+        raise InputError(
+            f"{what}={path!r}: give a file name ending in one of "
+            f".{', .'.join(sorted(kinds))} (e.g. .png or .pdf)"
+        )
     check_output_folder(p.parent if str(p.parent) else Path("."), what)
     return p

@@ -1,4 +1,5 @@
 """`tiseg fingers DIR`: finger diagnostics of a saved run (section 6.3, (6.10)-(6.12), figure 16)."""
+
 from __future__ import annotations
 
 import math
@@ -8,64 +9,109 @@ from .common import print_json
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "fingers", help="front positions, finger count and wavelength of a saved run",
+        "fingers",
+        help="front positions, finger count and wavelength of a saved run",
         description="Per output time: front positions x_f+ (6.10), x_f- (6.11), elongation x_l "
-                    "(6.12), number of fingers and mean wavelength Lambda = Ly / count, the "
-                    "spectral wavelength of phi, front speed dx_f+/dt, channel and levee "
-                    "speeds over u0 and the channel phi. Fingers are the fine-rich wet "
-                    "channels between coarse levees in x_f- <= x <= x_f+, joined into 2D "
-                    "objects (periodic in y) and counted once each if they reach --min-span "
-                    "of x_l; or the median count on the cross-slope lines of --lines.")
+        "(6.12), number of fingers and mean wavelength Lambda = Ly / count, the "
+        "spectral wavelength of phi, front speed dx_f+/dt, channel and levee "
+        "speeds over u0 and the channel phi. Fingers are the fine-rich wet "
+        "channels between coarse levees in x_f- <= x <= x_f+, joined into 2D "
+        "objects (periodic in y) and counted once each if they reach --min-span "
+        "of x_l; or the median count on the cross-slope lines of --lines.",
+    )
     p.add_argument("dir", metavar="DIR", help="run folder with fields.nc, or a fields.nc file")
-    p.add_argument("--time", type=float, default=None, metavar="T",
-                   help="only the output time T [s]")
+    p.add_argument(
+        "--time", type=float, default=None, metavar="T", help="only the output time T [s]"
+    )
     p.add_argument("--json", action="store_true", help="print machine-readable JSON")
     g = p.add_argument_group("counting (defaults from the stored scene and the grid)")
-    g.add_argument("--phi-threshold", type=float, default=None, metavar="PHI",
-                   help="channel cells have phi above PHI (default phi0/2)")
-    g.add_argument("--lines", type=float, nargs="+", default=None, metavar="F",
-                   help="count on the lines x_f- + F x_l only and take the median (default: "
-                        "the fine-rich channels as 2D objects)")
-    g.add_argument("--min-span", type=float, default=None, metavar="FRAC",
-                   help="a channel counts as a finger if it reaches this fraction of x_l "
-                        "downslope (default 0.1)")
-    g.add_argument("--min-persistence", type=float, default=None, metavar="FRAC",
-                   help="the persistent line count (finger_count_lines) must hold on this "
-                        "fraction of the columns (default 0.1)")
-    g.add_argument("--min-width", type=float, default=None, metavar="M",
-                   help="ignore channels narrower than M metres (default 2 cells)")
-    g.add_argument("--min-gap", type=float, default=None, metavar="M",
-                   help="merge channels separated by less than M metres (default 2 cells)")
+    g.add_argument(
+        "--phi-threshold",
+        type=float,
+        default=None,
+        metavar="PHI",
+        help="channel cells have phi above PHI (default phi0/2)",
+    )
+    g.add_argument(
+        "--lines",
+        type=float,
+        nargs="+",
+        default=None,
+        metavar="F",
+        help="count on the lines x_f- + F x_l only and take the median (default: "
+        "the fine-rich channels as 2D objects)",
+    )
+    g.add_argument(
+        "--min-span",
+        type=float,
+        default=None,
+        metavar="FRAC",
+        help="a channel counts as a finger if it reaches this fraction of x_l "
+        "downslope (default 0.1)",
+    )
+    g.add_argument(
+        "--min-persistence",
+        type=float,
+        default=None,
+        metavar="FRAC",
+        help="the persistent line count (finger_count_lines) must hold on this "
+        "fraction of the columns (default 0.1)",
+    )
+    g.add_argument(
+        "--min-width",
+        type=float,
+        default=None,
+        metavar="M",
+        help="ignore channels narrower than M metres (default 2 cells)",
+    )
+    g.add_argument(
+        "--min-gap",
+        type=float,
+        default=None,
+        metavar="M",
+        help="merge channels separated by less than M metres (default 2 cells)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from ..analysis.fingers import analyse_run
     from ..errors import require
-    require(args.time is None or (math.isfinite(args.time) and args.time >= 0),
-            f"--time={args.time!r}: give a time in seconds >= 0 (a snapshot of the run)")
+
+    require(
+        args.time is None or (math.isfinite(args.time) and args.time >= 0),
+        f"--time={args.time!r}: give a time in seconds >= 0 (a snapshot of the run)",
+    )
 
     opts = {}
     if args.phi_threshold is not None:
-        require(0 <= args.phi_threshold <= 1,
-                f"--phi-threshold={args.phi_threshold!r} must lie in [0, 1]")
+        require(
+            0 <= args.phi_threshold <= 1,
+            f"--phi-threshold={args.phi_threshold!r} must lie in [0, 1]",
+        )
         opts["phi_threshold"] = args.phi_threshold
     if args.lines is not None:
-        require(all(0 <= f <= 1 for f in args.lines),
-                f"--lines {' '.join(f'{f:g}' for f in args.lines)}: fractions must lie in [0, 1]")
+        require(
+            all(0 <= f <= 1 for f in args.lines),
+            f"--lines {' '.join(f'{f:g}' for f in args.lines)}: fractions must lie in [0, 1]",
+        )
         opts["line_fractions"] = args.lines
     if args.min_span is not None:
         require(0 <= args.min_span <= 1, f"--min-span={args.min_span!r} must lie in [0, 1]")
         opts["min_span"] = args.min_span
     if args.min_persistence is not None:
-        require(0 <= args.min_persistence <= 1,
-                f"--min-persistence={args.min_persistence!r} must lie in [0, 1]")
+        require(
+            0 <= args.min_persistence <= 1,
+            f"--min-persistence={args.min_persistence!r} must lie in [0, 1]",
+        )
         opts["min_persistence"] = args.min_persistence
     for name in ("min_width", "min_gap"):
         value = getattr(args, name)
         if value is not None:
-            require(math.isfinite(value) and value >= 0,
-                    f"--{name.replace('_', '-')}={value!r} must be a length >= 0 [m]")
+            require(
+                math.isfinite(value) and value >= 0,
+                f"--{name.replace('_', '-')}={value!r} must be a length >= 0 [m]",
+            )
             opts[name] = value
     res = analyse_run(args.dir, time=args.time, **opts)
     if args.json:
@@ -74,28 +120,39 @@ def run(args) -> int:
 
     o = res["options"]
     u0 = "-" if res["u0"] is None else f"{res['u0']:.4g} m/s"
-    print(f"{res['file']}: phi0 = {res['phi0']:g}, u0 = {u0}, h_min = {res['h_min']:g} m, "
-          f"Ly = {res['Ly']:g} m")
+    print(
+        f"{res['file']}: phi0 = {res['phi0']:g}, u0 = {u0}, h_min = {res['h_min']:g} m, "
+        f"Ly = {res['Ly']:g} m"
+    )
     if o["line_fractions"] is None:
         lines = f"2D channels reaching >= {o['min_span']:g} x_l in [x_f-, x_f+]"
     else:
         lines = f"median count on x_f- + {'/'.join(f'{f:g}' for f in o['line_fractions'])} x_l"
-    print(f"channels: wet, phi > {o['phi_threshold']:g}, min width {o['min_width']:.3g} m, "
-          f"min gap {o['min_gap']:.3g} m; {lines}")
+    print(
+        f"channels: wet, phi > {o['phi_threshold']:g}, min width {o['min_width']:.3g} m, "
+        f"min gap {o['min_gap']:.3g} m; {lines}"
+    )
     if not res["time"]:
         print("no snapshots")
         return 0
-    cols = [("t [s]", "time", "{:.4g}"), ("x_f+ [m]", "x_front_max", "{:.4f}"),
-            ("x_f- [m]", "x_front_min", "{:.4f}"), ("x_l [m]", "elongation", "{:.4f}"),
-            ("fingers", "finger_count", "{:d}"), ("Lambda [m]", "wavelength", "{:.4f}"),
-            ("Lambda_spec [m]", "wavelength_spectral", "{:.4f}"),
-            ("dx_f+/dt [m/s]", "front_speed", "{:.4f}"),
-            ("|u|_ch/u0", "channel_speed_over_u0", "{:.3f}"),
-            ("phi_ch", "channel_phi", "{:.3f}"),
-            ("|u|_lev/u0", "levee_speed_over_u0", "{:.3f}"),
-            ("max|u|/u0", "max_channel_speed_over_u0", "{:.3f}")]
-    rows = [[(fmt.format(res[key][i]) if res[key][i] is not None else "-")
-             for _, key, fmt in cols] for i in range(len(res["time"]))]
+    cols = [
+        ("t [s]", "time", "{:.4g}"),
+        ("x_f+ [m]", "x_front_max", "{:.4f}"),
+        ("x_f- [m]", "x_front_min", "{:.4f}"),
+        ("x_l [m]", "elongation", "{:.4f}"),
+        ("fingers", "finger_count", "{:d}"),
+        ("Lambda [m]", "wavelength", "{:.4f}"),
+        ("Lambda_spec [m]", "wavelength_spectral", "{:.4f}"),
+        ("dx_f+/dt [m/s]", "front_speed", "{:.4f}"),
+        ("|u|_ch/u0", "channel_speed_over_u0", "{:.3f}"),
+        ("phi_ch", "channel_phi", "{:.3f}"),
+        ("|u|_lev/u0", "levee_speed_over_u0", "{:.3f}"),
+        ("max|u|/u0", "max_channel_speed_over_u0", "{:.3f}"),
+    ]
+    rows = [
+        [(fmt.format(res[key][i]) if res[key][i] is not None else "-") for _, key, fmt in cols]
+        for i in range(len(res["time"]))
+    ]
     widths = [max(len(title), *(len(r[c]) for r in rows)) for c, (title, _, _) in enumerate(cols)]
     print("  ".join(title.rjust(w) for (title, _, _), w in zip(cols, widths)))
     for r in rows:

@@ -6,6 +6,7 @@ wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.t
 Up to version 0.1.0 they lived in ``assets/scenes`` and ``assets/sweeps`` beside the package;
 :func:`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.
 """
+
 from __future__ import annotations
 
 from importlib import resources

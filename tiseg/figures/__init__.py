@@ -13,6 +13,7 @@ def new_figure(nrows=1, ncols=1, size=(6.0, 4.2), layout=None, **subplots_kw):
     """(figure, 2D array of axes) on an Agg canvas of its own (no pyplot state)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
     fig = Figure(figsize=size, layout=layout)
     FigureCanvasAgg(fig)
     return fig, fig.subplots(nrows, ncols, squeeze=False, **subplots_kw)

@@ -7,6 +7,7 @@ dimensionless k^ = k h0 and sigma^ = sigma h0/u0 of the scalings (5.1); axis lab
 Speed: double-precision eigenvalues are used wherever they are accurate; mpmath only where the
 growth rate is below the double round-off (the k^-2/k^-4 tails, ``extended="auto"``).
 """
+
 from __future__ import annotations
 
 import math
@@ -21,11 +22,15 @@ from ..stability import dispersion1d as d1
 from ..stability.base import BaseState, base_state, base_state_from_froude
 from ..steady import froude_per_thickness, phi0_star
 
-PHI0 = 0.8                                    # concentration of figures 9-11
-NU_FIG = 1e-3                                 # viscosity of figures 9-10 [m^(3/2)/s]
-NUS_FIG11 = (5e-4, 1e-3, 2e-3, 1e-2)          # viscous curves of figure 11
-FILES = {"fig08": "fig08_froude.png", "fig09": "fig09_growth_rates.png",
-         "fig10": "fig10_critical.png", "fig11": "fig11_sigma_max.png"}
+PHI0 = 0.8  # concentration of figures 9-11
+NU_FIG = 1e-3  # viscosity of figures 9-10 [m^(3/2)/s]
+NUS_FIG11 = (5e-4, 1e-3, 2e-3, 1e-2)  # viscous curves of figure 11
+FILES = {
+    "fig08": "fig08_froude.png",
+    "fig09": "fig09_growth_rates.png",
+    "fig10": "fig10_critical.png",
+    "fig11": "fig11_sigma_max.png",
+}
 K_LABEL = r"wavenumber $\hat k = k\,h_0$"
 S_LABEL = r"growth rate $\sigma_M$ [units of $u_0/h_0$]"
 
@@ -48,12 +53,19 @@ def fig08_froude(path, m: Material = TABLE1, dpi=90) -> Path:
     F = per[:, None] * (h_mm[None, :] * 1e-3)
     fig, ax = _figure()
     ax = ax[0, 0]
-    cs = ax.contour(h_mm, phi, F, levels=[0.25, 0.5, 1, 1.5, 2, 3, 4, 5, 6, 7], colors="k",
-                    linewidths=0.8)
+    cs = ax.contour(
+        h_mm, phi, F, levels=[0.25, 0.5, 1, 1.5, 2, 3, 4, 5, 6, 7], colors="k", linewidths=0.8
+    )
     ax.clabel(cs, fmt="%g", fontsize=7)
     ax.axhspan(0.0, star, color="0.8", zorder=0)
-    ax.text(2.5, star / 2, rf"$\bar\phi_0 < \bar\phi_0^* = {star:.3f}$: no steady uniform flow",
-            ha="center", va="center", fontsize=8)
+    ax.text(
+        2.5,
+        star / 2,
+        rf"$\bar\phi_0 < \bar\phi_0^* = {star:.3f}$: no steady uniform flow",
+        ha="center",
+        va="center",
+        fontsize=8,
+    )
     # thickness at which F = Fc, i.e. where the inviscid model is ill posed
     pc = phi[(phi > star + 1e-9) & (np.abs(m.dG(phi)) > 1e-9)]
     hc = np.array([1e3 / (abs(float(m.dG(p))) * froude_per_thickness(p, m)) for p in pc])
@@ -79,7 +91,9 @@ def _growth_panel(ax, bs: BaseState, k, title: str, limit=None, limit_label=None
     if limit is not None:
         ax.axhline(limit, color="k", ls="-.", lw=0.9, label=limit_label)
     kM, sM = d1.most_unstable(bs)
-    ax.plot([kM], [sM], "o", color="C0", ms=4, label=rf"$k_M = {kM:.3f}$, $\sigma_{{Max}} = {sM:.4f}$")
+    ax.plot(
+        [kM], [sM], "o", color="C0", ms=4, label=rf"$k_M = {kM:.3f}$, $\sigma_{{Max}} = {sM:.4f}$"
+    )
     kc = d1.cutoff(bs, kM)
     if kc is not None:
         ax.axvline(kc, color="C3", ls=":", lw=1)
@@ -97,12 +111,22 @@ def fig09_growth_rates(path, m: Material = TABLE1, dpi=90) -> Path:
     fig, axes = _figure(1, 2, size=(11.0, 4.3))
     b2 = base_state(0.002, PHI0, NU_FIG, m)
     b3 = base_state(0.003, PHI0, NU_FIG, m)
-    _growth_panel(axes[0, 0], b2, k,
-                  rf"(a) $h_0$ = 2 mm: $F = {b2.F:.2f} < F_c = {b2.Fc:.2f}$, $R = {b2.R:.2f}$",
-                  asy.inviscid_limits(b2)[2], r"inviscid limit (5.30)")
-    _growth_panel(axes[0, 1], b3, k,
-                  rf"(b) $h_0$ = 3 mm: $F = {b3.F:.2f} > F_c = {b3.Fc:.2f}$, $R = {b3.R:.2f}$",
-                  asy.inviscid_limits(b3)[1], r"inviscid limit (5.29)")
+    _growth_panel(
+        axes[0, 0],
+        b2,
+        k,
+        rf"(a) $h_0$ = 2 mm: $F = {b2.F:.2f} < F_c = {b2.Fc:.2f}$, $R = {b2.R:.2f}$",
+        asy.inviscid_limits(b2)[2],
+        r"inviscid limit (5.30)",
+    )
+    _growth_panel(
+        axes[0, 1],
+        b3,
+        k,
+        rf"(b) $h_0$ = 3 mm: $F = {b3.F:.2f} > F_c = {b3.Fc:.2f}$, $R = {b3.R:.2f}$",
+        asy.inviscid_limits(b3)[1],
+        r"inviscid limit (5.29)",
+    )
     fig.suptitle(rf"Fig. 9: growth rates, $\bar\phi_0 = {PHI0}$", fontsize=10)
     return _save(fig, path, dpi)
 
@@ -119,21 +143,31 @@ def fig10_critical(path, m: Material = TABLE1, dpi=90) -> Path:
     si = d1.sigma_M(inv, k, extended="auto")
     sv = d1.sigma_M(bs, k, extended="auto")
     ax.loglog(k, np.where(si > 0, si, np.nan), "k-", lw=1.2, label=r"inviscid ($\nu = 0$)")
-    ax.loglog(k, np.where(sv > 0, sv, np.nan), "C0-", lw=1.2,
-              label=rf"viscous ($\nu = {NU_FIG:g}$ m$^{{3/2}}$/s)")
+    ax.loglog(
+        k,
+        np.where(sv > 0, sv, np.nan),
+        "C0-",
+        lw=1.2,
+        label=rf"viscous ($\nu = {NU_FIG:g}$ m$^{{3/2}}$/s)",
+    )
     c = asy.critical_sqrt_coefficient(inv)
     kk = k[k >= 10]
     ax.loglog(kk, c * np.sqrt(kk), "--", color="C3", lw=1.2, label=rf"(5.31): ${c:.4f}\,k^{{1/2}}$")
     c4 = asy.viscous_k4_coefficient(bs)
     kk = k[k >= 5]
-    ax.loglog(kk, c4 / kk ** 4, "-.", color="C3", lw=1.2, label=rf"(5.35): ${c4:.4f}\,k^{{-4}}$")
+    ax.loglog(kk, c4 / kk**4, "-.", color="C3", lw=1.2, label=rf"(5.35): ${c4:.4f}\,k^{{-4}}$")
     kM, sM = d1.most_unstable(bs)
-    ax.plot([kM], [sM], "o", color="C0", ms=4, label=rf"$k_M = {kM:.3f}$, $\sigma_{{Max}} = {sM:.4f}$")
+    ax.plot(
+        [kM], [sM], "o", color="C0", ms=4, label=rf"$k_M = {kM:.3f}$, $\sigma_{{Max}} = {sM:.4f}$"
+    )
     ax.set_ylim(1e-17, 1e2)
     ax.set_xlabel(K_LABEL)
     ax.set_ylabel(S_LABEL)
-    ax.set_title(rf"Fig. 10: $F = F_c = {Fc:.3f}$ ($h_0$ = {bs.h0 * 1e3:.2f} mm, "
-                 rf"$\bar\phi_0 = {PHI0}$, $R = {bs.R:.2f}$)", fontsize=9)
+    ax.set_title(
+        rf"Fig. 10: $F = F_c = {Fc:.3f}$ ($h_0$ = {bs.h0 * 1e3:.2f} mm, "
+        rf"$\bar\phi_0 = {PHI0}$, $R = {bs.R:.2f}$)",
+        fontsize=9,
+    )
     ax.legend(fontsize=7, loc="lower left")
     return _save(fig, path, dpi)
 
@@ -141,8 +175,9 @@ def fig10_critical(path, m: Material = TABLE1, dpi=90) -> Path:
 # ---- figure 11 ---------------------------------------------------------------------------------
 def sigma_max_curve(Fs, nu, m: Material = TABLE1):
     """sigma_Max(F) at phi0 = 0.8 (inviscid: the supremum, inf at Fc)."""
-    return np.array([d1.most_unstable(base_state_from_froude(float(F), PHI0, nu, m))[1]
-                     for F in Fs])
+    return np.array(
+        [d1.most_unstable(base_state_from_froude(float(F), PHI0, nu, m))[1] for F in Fs]
+    )
 
 
 def cutoff_curve(Fs, nu, m: Material = TABLE1):
@@ -160,15 +195,26 @@ def cutoff_curve(Fs, nu, m: Material = TABLE1):
 def fig11_sigma_max(path, m: Material = TABLE1, dpi=90) -> Path:
     """(a) sigma_Max(F) for nu = 0, 5e-4, 1e-3, 2e-3, 1e-2; (b) the cutoff k_c(F) (F > Fc)."""
     Fc = base_state(0.002, PHI0, 0.0, m).Fc
-    Fs = np.unique(np.concatenate([np.linspace(0.25, 3.5, 53),
-                                   Fc + np.array([-0.05, -0.02, -0.01, -0.004, -0.001,
-                                                  0.001, 0.004, 0.01, 0.02, 0.05])]))
+    Fs = np.unique(
+        np.concatenate(
+            [
+                np.linspace(0.25, 3.5, 53),
+                Fc
+                + np.array([-0.05, -0.02, -0.01, -0.004, -0.001, 0.001, 0.004, 0.01, 0.02, 0.05]),
+            ]
+        )
+    )
     fig, axes = _figure(1, 2, size=(11.0, 4.3))
     ax = axes[0, 0]
     below, above = Fs[Fs < Fc], Fs[Fs > Fc]
     for part in (below, above):
-        ax.semilogy(part, sigma_max_curve(part, 0.0, m), "k-", lw=1.2,
-                    label=r"$\nu = 0$ (sup, $k\to\infty$)" if part is below else None)
+        ax.semilogy(
+            part,
+            sigma_max_curve(part, 0.0, m),
+            "k-",
+            lw=1.2,
+            label=r"$\nu = 0$ (sup, $k\to\infty$)" if part is below else None,
+        )
     for i, nu in enumerate(NUS_FIG11):
         ax.semilogy(Fs, sigma_max_curve(Fs, nu, m), f"C{i}-", lw=1.1, label=rf"$\nu = {nu:g}$")
     ax.axvline(Fc, color="0.4", ls="--", lw=0.8)
@@ -180,8 +226,9 @@ def fig11_sigma_max(path, m: Material = TABLE1, dpi=90) -> Path:
     ax.legend(fontsize=7, title=r"$\nu$ in m$^{3/2}$/s", title_fontsize=7)
 
     ax = axes[0, 1]
-    Fk = np.concatenate([Fc + np.array([0.005, 0.01, 0.02, 0.035]),
-                         np.linspace(Fc + 0.05, 3.5, 24)])
+    Fk = np.concatenate(
+        [Fc + np.array([0.005, 0.01, 0.02, 0.035]), np.linspace(Fc + 0.05, 3.5, 24)]
+    )
     for i, nu in enumerate(NUS_FIG11):
         num, ana = cutoff_curve(Fk, nu, m)
         ax.semilogy(Fk, num, f"C{i}-", lw=1.1, label=rf"$\nu = {nu:g}$ (numerical)")
@@ -202,10 +249,12 @@ def fig11_sigma_max(path, m: Material = TABLE1, dpi=90) -> Path:
 def make_all(out_dir, m: Material = TABLE1, dpi=90) -> list[Path]:
     """Write figures 8-11 as PNGs into out_dir; returns the paths."""
     out = Path(out_dir)
-    return [fig08_froude(out / FILES["fig08"], m, dpi),
-            fig09_growth_rates(out / FILES["fig09"], m, dpi),
-            fig10_critical(out / FILES["fig10"], m, dpi),
-            fig11_sigma_max(out / FILES["fig11"], m, dpi)]
+    return [
+        fig08_froude(out / FILES["fig08"], m, dpi),
+        fig09_growth_rates(out / FILES["fig09"], m, dpi),
+        fig10_critical(out / FILES["fig10"], m, dpi),
+        fig11_sigma_max(out / FILES["fig11"], m, dpi),
+    ]
 
 
 def plot_growth_rate(bs: BaseState, path, k_points=None, dpi=90) -> Path:
@@ -223,10 +272,22 @@ def plot_growth_rate(bs: BaseState, path, k_points=None, dpi=90) -> Path:
     if math.isfinite(sup):
         ax.axhline(sup, color="k", ls="-.", lw=0.8, label=rf"inviscid sup {sup:.4g} (5.28)-(5.30)")
     if not bs.inviscid:
-        ax.semilogx(k, d1.sigma_M(bs, k, extended="auto"), "C0-", lw=1.2,
-                    label=rf"viscous ($\nu = {bs.nu:g}$ m$^{{3/2}}$/s, $R = {bs.R:.3g}$)")
+        ax.semilogx(
+            k,
+            d1.sigma_M(bs, k, extended="auto"),
+            "C0-",
+            lw=1.2,
+            label=rf"viscous ($\nu = {bs.nu:g}$ m$^{{3/2}}$/s, $R = {bs.R:.3g}$)",
+        )
         kM, sM = d1.most_unstable(bs)
-        ax.plot([kM], [sM], "o", color="C0", ms=4, label=rf"$k_M = {kM:.4g}$, $\sigma_{{Max}} = {sM:.4g}$")
+        ax.plot(
+            [kM],
+            [sM],
+            "o",
+            color="C0",
+            ms=4,
+            label=rf"$k_M = {kM:.4g}$, $\sigma_{{Max}} = {sM:.4g}$",
+        )
         kc = d1.cutoff(bs, kM)
         if kc is not None:
             ax.axvline(kc, color="C3", ls=":", lw=1, label=rf"cutoff $k_c = {kc:.4g}$")
@@ -235,11 +296,23 @@ def plot_growth_rate(bs: BaseState, path, k_points=None, dpi=90) -> Path:
     ax.axhline(0.0, color="0.5", lw=0.5)
     ax.set_xlabel(K_LABEL)
     ax.set_ylabel(S_LABEL)
-    ax.set_title(rf"$h_0$ = {bs.h0 * 1e3:.4g} mm, $\bar\phi_0$ = {bs.phi0:g}, $F$ = {bs.F:.4g}, "
-                 rf"$F_c$ = {bs.Fc:.4g}", fontsize=9)
+    ax.set_title(
+        rf"$h_0$ = {bs.h0 * 1e3:.4g} mm, $\bar\phi_0$ = {bs.phi0:g}, $F$ = {bs.F:.4g}, "
+        rf"$F_c$ = {bs.Fc:.4g}",
+        fontsize=9,
+    )
     ax.legend(fontsize=7)
     return _save(fig, path, dpi)
 
 
-__all__ = ["make_all", "fig08_froude", "fig09_growth_rates", "fig10_critical", "fig11_sigma_max",
-           "plot_growth_rate", "sigma_max_curve", "cutoff_curve", "FILES"]
+__all__ = [
+    "make_all",
+    "fig08_froude",
+    "fig09_growth_rates",
+    "fig10_critical",
+    "fig11_sigma_max",
+    "plot_growth_rate",
+    "sigma_max_curve",
+    "cutoff_curve",
+    "FILES",
+]

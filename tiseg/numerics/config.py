@@ -11,6 +11,7 @@ The array layout (:class:`Layout`) is the same for both: cell-centred conserved 
 ``q = (h, hu[, hv][, h*phi])`` with ``G = 2`` ghost cells on each side in x, and in y unless the
 run is 1D (``ny == 1``: one row, no ghosts, no v component, no cross-slope work).
 """
+
 from __future__ import annotations
 
 import math
@@ -20,11 +21,11 @@ import numpy as np
 
 FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
-FLUXES = ("kt", "central-upwind")      # numerics.flux: face flux of the whole system
-PHI_FLUXES = ("central", "upwind")     # numerics.phi_flux: the h phi component of that flux
+FLUXES = ("kt", "central-upwind")  # numerics.flux: face flux of the whole system
+PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of that flux
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
 GHOST = 2
-NOISE_MIN_WAVELENGTH = 0.02   # [m] shortest cross-slope wavelength of the inflow noise
+NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
 
 
 def inflow_noise(y, Ly: float, seed: int) -> np.ndarray:
@@ -52,8 +53,9 @@ def noise_modes(Ly: float) -> int:
     return max(1, int(math.floor(Ly / NOISE_MIN_WAVELENGTH + 1e-9)))
 
 
-def inflow_concentration(y, Ly: float, phi: float, delta: float, modes: int,
-                         noise: float = 0.0, seed: int = 0) -> np.ndarray:
+def inflow_concentration(
+    y, Ly: float, phi: float, delta: float, modes: int, noise: float = 0.0, seed: int = 0
+) -> np.ndarray:
     """Inflow concentration at cross-slope positions y [m]: (6.9) plus the optional noise,
 
     phi(0, y) = phi + delta sin(2 pi modes y / Ly) + noise phi r(y)   (r: :func:`inflow_noise`),
@@ -62,8 +64,8 @@ def inflow_concentration(y, Ly: float, phi: float, delta: float, modes: int,
     definition used by the Taichi operator (as a field filled once), the NumPy reference and
     the scene."""
     y = np.asarray(y, dtype=float)
-    k = 2.0 * math.pi * modes / Ly      # k y in this order, as the kernels once had it: the f64
-    out = phi + delta * np.sin(k * y)   # profile is bitwise the one computed there before
+    k = 2.0 * math.pi * modes / Ly  # k y in this order, as the kernels once had it: the f64
+    out = phi + delta * np.sin(k * y)  # profile is bitwise the one computed there before
     if noise:
         out = out + noise * phi * inflow_noise(y, Ly, seed)
     return np.clip(out, 0.0, 1.0)
@@ -72,6 +74,7 @@ def inflow_concentration(y, Ly: float, phi: float, delta: float, modes: int,
 @dataclass(frozen=True)
 class Layout:
     """Array layout: component indices and index ranges of interior cells."""
+
     nx: int
     ny: int
     segregation: bool
@@ -143,14 +146,14 @@ class OperatorConfig:
     Ly: float
     # physics switches
     viscous: bool = False
-    feedback: bool = False            # friction depends on the local phi
+    feedback: bool = False  # friction depends on the local phi
     friction: str = "pouliquen-mixture"
     # physics numbers
     g: float = 9.81
     zeta: float = math.radians(27.0)
-    alpha: float = 1.0 / 7.0          # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
+    alpha: float = 1.0 / 7.0  # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
     nu: float = 0.0
-    phi_ref: float = 0.8              # concentration used by the friction when feedback is off
+    phi_ref: float = 0.8  # concentration used by the friction when feedback is off
     fric: FrictionParams | None = None
     # numerics
     reconstruction: str = "minmod"
@@ -158,7 +161,7 @@ class OperatorConfig:
     flux: str = "kt"
     phi_flux: str = "central"
     weno_eps: float = 1e-6
-    h_ref: float = 2e-3               # scales making the WENO smoothness indicators dimensionless
+    h_ref: float = 2e-3  # scales making the WENO smoothness indicators dimensionless
     u_ref: float = 0.2
     h_min: float = 1e-4
     h_eps: float = 1e-7
@@ -172,7 +175,7 @@ class OperatorConfig:
     inflow_ramp: float = 10.0
     inflow_delta: float = 0.0
     inflow_modes: int = 1
-    inflow_noise: float = 0.0         # relative amplitude of the random profile (inflow.noise)
+    inflow_noise: float = 0.0  # relative amplitude of the random profile (inflow.noise)
     inflow_seed: int = 0
     inflow_stop: float = math.inf
 
@@ -198,8 +201,15 @@ class OperatorConfig:
 
     def inflow_phi_profile(self, y) -> np.ndarray:
         """Inflow concentration (6.9) + noise at cross-slope positions y [m]."""
-        return inflow_concentration(y, self.Ly, self.inflow_phi, self.inflow_delta,
-                                    self.inflow_modes, self.inflow_noise, self.inflow_seed)
+        return inflow_concentration(
+            y,
+            self.Ly,
+            self.inflow_phi,
+            self.inflow_delta,
+            self.inflow_modes,
+            self.inflow_noise,
+            self.inflow_seed,
+        )
 
     def inflow_state(self, t: float) -> tuple[float, float, float]:
         """(h, u, phi) of the inflow (6.8) at time t; h = 0 once the inflow has stopped."""
@@ -214,27 +224,62 @@ def config_from_scene(scene) -> OperatorConfig:
     m = scene.material
     if scene.segregation and m.transport != "linear":
         from ..errors import InputError
-        raise InputError(f"material.transport={m.transport!r}: the solver implements the quadratic "
-                         "transport function (2.17) used throughout the paper; use 'linear'")
+
+        raise InputError(
+            f"material.transport={m.transport!r}: the solver implements the quadratic "
+            "transport function (2.17) used throughout the paper; use 'linear'"
+        )
     lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
-    fric = FrictionParams(m.small.mu1, m.small.mu2, m.small.beta, m.small.L,
-                          m.large.mu1, m.large.mu2, m.large.beta, m.large.L,
-                          float(scene.effects.coulomb_mu))
+    fric = FrictionParams(
+        m.small.mu1,
+        m.small.mu2,
+        m.small.beta,
+        m.small.L,
+        m.large.mu1,
+        m.large.mu2,
+        m.large.beta,
+        m.large.L,
+        float(scene.effects.coulomb_mu),
+    )
     u_ref = scene.flow.u0 or math.sqrt(m.g * scene.flow.h0 * max(math.cos(m.zeta), 1e-3))
     kw = {}
     inflow = scene.inflow
     if inflow is not None:
-        kw = dict(inflow_h=inflow.h, inflow_u=inflow.u, inflow_phi=inflow.phi,
-                  inflow_ramp=inflow.ramp_rate, inflow_delta=inflow.perturbation,
-                  inflow_modes=inflow.modes, inflow_noise=inflow.noise,
-                  inflow_seed=inflow.seed,
-                  inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time)
+        kw = dict(
+            inflow_h=inflow.h,
+            inflow_u=inflow.u,
+            inflow_phi=inflow.phi,
+            inflow_ramp=inflow.ramp_rate,
+            inflow_delta=inflow.perturbation,
+            inflow_modes=inflow.modes,
+            inflow_noise=inflow.noise,
+            inflow_seed=inflow.seed,
+            inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time,
+        )
     num = scene.numerics
     return OperatorConfig(
-        layout=lay, dx=scene.domain.dx, dy=scene.domain.dy, Ly=scene.domain.Ly,
-        viscous=bool(scene.viscous), feedback=bool(scene.feedback), friction=scene.effects.friction,
-        g=m.g, zeta=m.zeta, alpha=m.alpha, nu=scene.flow.nu if scene.viscous else 0.0,
-        phi_ref=scene.flow.phi0, fric=fric, reconstruction=num.reconstruction, theta=num.theta,
-        flux=num.flux, phi_flux=num.phi_flux,
-        h_ref=scene.flow.h0, u_ref=u_ref, h_min=num.h_min, h_eps=num.h_eps, u_eps=num.u_eps,
-        bc=scene.boundary.as_tuple(), **kw)
+        layout=lay,
+        dx=scene.domain.dx,
+        dy=scene.domain.dy,
+        Ly=scene.domain.Ly,
+        viscous=bool(scene.viscous),
+        feedback=bool(scene.feedback),
+        friction=scene.effects.friction,
+        g=m.g,
+        zeta=m.zeta,
+        alpha=m.alpha,
+        nu=scene.flow.nu if scene.viscous else 0.0,
+        phi_ref=scene.flow.phi0,
+        fric=fric,
+        reconstruction=num.reconstruction,
+        theta=num.theta,
+        flux=num.flux,
+        phi_flux=num.phi_flux,
+        h_ref=scene.flow.h0,
+        u_ref=u_ref,
+        h_min=num.h_min,
+        h_eps=num.h_eps,
+        u_eps=num.u_eps,
+        bc=scene.boundary.as_tuple(),
+        **kw,
+    )

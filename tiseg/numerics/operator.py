@@ -22,20 +22,20 @@ from ..physics.pointwise import Params, Physics
 from .config import OperatorConfig
 
 MAX_TERMS = 6
-NBUDGET = 4      # mass in through x faces, small mass x, mass y, small mass y
+NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 
 
 @dataclass
 class StabilityNumbers:
-    ax: float          # max |u| + c (or segregation speed) in x [m/s]
+    ax: float  # max |u| + c (or segregation speed) in x [m/s]
     ay: float
-    rho_visc: float    # Gershgorin bound of the viscous Jacobian [1/s]
-    rho_fric: float    # friction stiffness [1/s]
-    max_speed: float   # max |u| [m/s]
-    rho_stiff: float   # Gershgorin bound of viscous + friction together: max over cells of the
-                       # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
+    rho_visc: float  # Gershgorin bound of the viscous Jacobian [1/s]
+    rho_fric: float  # friction stiffness [1/s]
+    max_speed: float  # max |u| [m/s]
+    rho_stiff: float  # Gershgorin bound of viscous + friction together: max over cells of the
+    # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
 
 
 @ti.data_oriented
@@ -73,8 +73,9 @@ class TaichiOperator:
             self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
         self.par = ti.field(self.fp, shape=Params.COUNT)
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
-        self.inflow_prof = (ti.field(self.fp, shape=NY)
-                           if self.seg and cfg.bc[0] == "inflow" else None)
+        self.inflow_prof = (
+            ti.field(self.fp, shape=NY) if self.seg and cfg.bc[0] == "inflow" else None
+        )
         self.red = ti.field(self.fp, shape=6)
         # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
@@ -85,7 +86,7 @@ class TaichiOperator:
         self.rows_per_block = max(1, 256 // NY)
         self.total = ti.field(ti.f64, shape=2)
         self.wet = ti.field(ti.i32, shape=2)
-        self._prepared = None     # (slot, t, active range) whose primitives are in w
+        self._prepared = None  # (slot, t, active range) whose primitives are in w
         self.set_active(self.gx, self.gx + self.nx)
         # Boundary budgets per slot: rates of (mass, small-particle mass) entering through the
         # x faces and the y faces. combine() applies the same linear combination to them as to
@@ -101,13 +102,22 @@ class TaichiOperator:
         P = Params
         p = np.zeros(P.COUNT)
         p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
-        p[P.NU], p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.nu, cfg.h_min, cfg.h_eps ** 4, cfg.u_eps
+        p[P.NU], p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.nu, cfg.h_min, cfg.h_eps**4, cfg.u_eps
         p[P.THETA], p[P.WENO_EPS] = cfg.theta, cfg.weno_eps
         p[P.ALPHA1], p[P.PHI_REF], p[P.DX], p[P.DY] = 1.0 - cfg.alpha, cfg.phi_ref, cfg.dx, cfg.dy
         f = cfg.fric
         if f is not None:
-            p[P.MU1S:P.MUC + 1] = [f.mu1_s, f.mu2_s, f.beta_s, f.L_s, f.mu1_l, f.mu2_l, f.beta_l,
-                                  f.L_l, f.coulomb_mu]
+            p[P.MU1S : P.MUC + 1] = [
+                f.mu1_s,
+                f.mu2_s,
+                f.beta_s,
+                f.L_s,
+                f.mu1_l,
+                f.mu2_l,
+                f.beta_l,
+                f.L_l,
+                f.coulomb_mu,
+            ]
         p[P.IN_U] = cfg.inflow_u
         p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
@@ -120,7 +130,7 @@ class TaichiOperator:
             # numbers as the NumPy reference
             prof = np.zeros(self.NY)
             y = (np.arange(self.ny) + 0.5) * cfg.dy
-            prof[self.gy:self.gy + self.ny] = cfg.inflow_phi_profile(y)
+            prof[self.gy : self.gy + self.ny] = cfg.inflow_phi_profile(y)
             self.inflow_prof.from_numpy(prof.astype(self.np_fp))
         self._inflow_key = None
 
@@ -140,8 +150,11 @@ class TaichiOperator:
     def check_alive(self) -> None:
         if backend.state().generation != self.generation:
             from ..errors import TisegError
-            raise TisegError("Taichi was re-initialised (tiseg.init with other settings); "
-                             "this simulation's fields no longer exist: create it again")
+
+            raise TisegError(
+                "Taichi was re-initialised (tiseg.init with other settings); "
+                "this simulation's fields no longer exist: create it again"
+            )
 
     def get(self, slot: int = 0) -> np.ndarray:
         """Slot as a float64 array shaped (nc, NX, NY)."""
@@ -288,8 +301,9 @@ class TaichiOperator:
         for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
         if ti.static(not self.rec_first):
-            for i, j in ti.ndrange((ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)),
-                                   (self.gy, self.gy + self.ny)):
+            for i, j in ti.ndrange(
+                (ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)), (self.gy, self.gy + self.ny)
+            ):
                 self.sx[i, j] = self._slope(self.w[i - 1, j], self.w[i, j], self.w[i + 1, j])
             if ti.static(not self.is_1d):
                 for i, j in ti.ndrange((a, b), (1, self.NY - 1)):
@@ -375,8 +389,10 @@ class TaichiOperator:
                 if ti.static(not self.is_1d):
                     HV = ti.static(self.HV)
                     # paired differences: exactly zero for y-independent data
-                    dudy = ((self.w[i, j + 1][1] - self.w[i, j - 1][1])
-                            + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])) * (0.25 * idy)
+                    dudy = (
+                        (self.w[i, j + 1][1] - self.w[i, j - 1][1])
+                        + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])
+                    ) * (0.25 * idy)
                     F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) * idx + dudy)
             self.fx[i, j] = F
         if ti.static(not self.is_1d):
@@ -395,8 +411,10 @@ class TaichiOperator:
                 if ti.static(self.visc):
                     K = self._face_K(w0[0], w1[0])
                     F[HV] -= K * (w1[HV] - w0[HV]) * idy
-                    dvdx = ((self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
-                            + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])) * (0.25 * idx)
+                    dvdx = (
+                        (self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
+                        + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])
+                    ) * (0.25 * idx)
                     F[1] -= 0.5 * K * ((w1[1] - w0[1]) * idy + dvdx)
                 self.fy[i, j] = F
 
@@ -420,7 +438,7 @@ class TaichiOperator:
     @ti.func
     def _limit(self, v):
         """The stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
-        h = ti.select(v[0] < 0.0, 0.0, v[0])     # unlike max(), lets a NaN through to the guard
+        h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
         v[0] = h
         if h < self.par[Params.H_MIN]:
             v[1] = 0.0
@@ -431,9 +449,24 @@ class TaichiOperator:
         return v
 
     @ti.kernel
-    def _combine(self, d: ti.i32, n: ti.template(), limit: ti.template(),
-                 c0: float, c1: float, c2: float, c3: float, c4: float, c5: float,
-                 s0: ti.i32, s1: ti.i32, s2: ti.i32, s3: ti.i32, s4: ti.i32, s5: ti.i32):
+    def _combine(
+        self,
+        d: ti.i32,
+        n: ti.template(),
+        limit: ti.template(),
+        c0: float,
+        c1: float,
+        c2: float,
+        c3: float,
+        c4: float,
+        c5: float,
+        s0: ti.i32,
+        s1: ti.i32,
+        s2: ti.i32,
+        s3: ti.i32,
+        s4: ti.i32,
+        s5: ti.i32,
+    ):
         """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the active
         x range widened by the 3 cells either side that the next evaluation's stencil reads.
 
@@ -489,14 +522,17 @@ class TaichiOperator:
         for j in range(gy, gy + ny):
             self.bud[d, 0] += (wl * self.fx[gx - 1, j][0] - wr * self.fx[gx + nx - 1, j][0]) * dy
             if ti.static(self.seg):
-                self.bud[d, 1] += (wl * self.fx[gx - 1, j][self.HPHI]
-                                   - wr * self.fx[gx + nx - 1, j][self.HPHI]) * dy
+                self.bud[d, 1] += (
+                    wl * self.fx[gx - 1, j][self.HPHI] - wr * self.fx[gx + nx - 1, j][self.HPHI]
+                ) * dy
         if ti.static(not self.is_1d):
             ti.loop_config(serialize=True)
             for i in range(self.act[0], self.act[1]):
                 self.bud[d, 2] += (self.fy[i, gy - 1][0] - self.fy[i, gy + ny - 1][0]) * dx
                 if ti.static(self.seg):
-                    self.bud[d, 3] += (self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]) * dx
+                    self.bud[d, 3] += (
+                        self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]
+                    ) * dx
 
     # The return type must follow the run's precision. A type built from ``float`` is fixed
     # when this module is imported, i.e. before tiseg.init chooses the precision (Taichi's
@@ -559,19 +595,26 @@ class TaichiOperator:
                                 inv = 1.0 / h
                                 hp = self.w[i + 1, j][0]
                                 hm = self.w[i - 1, j][0]
-                                sxs = (self._face_K(h, hp) * (inv + 1.0 / ti.max(hp, hmin))
-                                       + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin)))
+                                sxs = self._face_K(h, hp) * (
+                                    inv + 1.0 / ti.max(hp, hmin)
+                                ) + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin))
                                 rho = sxs * (idx * idx)
                                 if ti.static(not self.is_1d):
                                     hn = self.w[i, j + 1][0]
                                     hs = self.w[i, j - 1][0]
-                                    sys = (self._face_K(h, hn) * (inv + 1.0 / ti.max(hn, hmin))
-                                           + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin)))
+                                    sys = self._face_K(h, hn) * (
+                                        inv + 1.0 / ti.max(hn, hmin)
+                                    ) + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin))
                                     # the mixed derivatives couple u to 8 values of v with weights
                                     # K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h
                                     cross = 0.125 * (sxs + sys) * (idx * idy)
-                                    rho = ti.max(sxs * (idx * idx) + 0.5 * sys * (idy * idy),
-                                                 0.5 * sxs * (idx * idx) + sys * (idy * idy)) + cross
+                                    rho = (
+                                        ti.max(
+                                            sxs * (idx * idx) + 0.5 * sys * (idy * idy),
+                                            0.5 * sxs * (idx * idx) + sys * (idy * idy),
+                                        )
+                                        + cross
+                                    )
                                 m2 = ti.max(m2, rho)
                         m5 = ti.max(m5, rho + fr)
             ti.atomic_max(self.red[0], m0)
@@ -624,7 +667,7 @@ class TaichiOperator:
                         if self.q[s, i, j][0] >= hmin:
                             first = ti.min(first, i)
                             last = ti.max(last, i)
-            if last >= 0:                       # one atomic per block of rows (see _stability)
+            if last >= 0:  # one atomic per block of rows (see _stability)
                 ti.atomic_min(self.wet[0], first)
                 ti.atomic_max(self.wet[1], last)
         return ti.Vector([self.wet[0], self.wet[1]])
@@ -691,7 +734,7 @@ class TaichiOperator:
         a = max(self.gx, int(a))
         b = max(a, min(self.gx + self.nx, int(b)))
         if getattr(self, "active", None) == (a, b):
-            return                      # each field write from Python is a kernel launch
+            return  # each field write from Python is a kernel launch
         self._prepared = None
         self.act[0] = a
         self.act[1] = b
@@ -706,5 +749,6 @@ class TaichiOperator:
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         self._prepare(slot, t)
         r = [float(v) for v in self._stability()]
-        return StabilityNumbers(ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4],
-                                rho_stiff=r[5])
+        return StabilityNumbers(
+            ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4], rho_stiff=r[5]
+        )

@@ -6,9 +6,23 @@
 * :class:`DiagnosticsWriter` / :func:`read_diagnostics`: CSV, one row per step, flushed per row.
 * :func:`write_text_atomic`: resolved scene TOML and JSON summaries, never half-written.
 """
-from .diagnostics import (DEFAULT_COLUMNS, DiagnosticsWriter, read_diagnostics,
-                          write_json_atomic, write_text_atomic)
+
+from .diagnostics import (
+    DEFAULT_COLUMNS,
+    DiagnosticsWriter,
+    read_diagnostics,
+    write_json_atomic,
+    write_text_atomic,
+)
 from .netcdf import FIELD_ATTRS, FieldsWriter, read_fields
 
-__all__ = ["FieldsWriter", "read_fields", "FIELD_ATTRS", "DiagnosticsWriter", "read_diagnostics",
-           "DEFAULT_COLUMNS", "write_text_atomic", "write_json_atomic"]
+__all__ = [
+    "FieldsWriter",
+    "read_fields",
+    "FIELD_ATTRS",
+    "DiagnosticsWriter",
+    "read_diagnostics",
+    "DEFAULT_COLUMNS",
+    "write_text_atomic",
+    "write_json_atomic",
+]

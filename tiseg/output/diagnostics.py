@@ -19,6 +19,7 @@ look for next to a CSV): per column a title, a description with the unit, the da
 Files written before the column was renamed call it ``wall_time``; :func:`read_diagnostics`
 returns both names for either file, and a resumed old run keeps its old header.
 """
+
 from __future__ import annotations
 
 import csv
@@ -31,8 +32,15 @@ import numpy as np
 
 from .atomic import replacing
 
-DEFAULT_COLUMNS = ("time", "dt", "stages", "mass", "small_mass", "max_speed",
-                   "wall_time_cumulative")
+DEFAULT_COLUMNS = (
+    "time",
+    "dt",
+    "stages",
+    "mass",
+    "small_mass",
+    "max_speed",
+    "wall_time_cumulative",
+)
 # new name -> the name older files use for the same column
 ALIASES = {"wall_time_cumulative": "wall_time"}
 # column -> (unit in 2D, unit in 1D, description)
@@ -43,8 +51,11 @@ UNITS = {
     "mass": ("m3", "m2", "total mass: integral of the thickness h over the chute"),
     "small_mass": ("m3", "m2", "small-particle mass: integral of h phi"),
     "max_speed": ("m/s", "m/s", "largest |u| over wet cells at the start of the step"),
-    "wall_time_cumulative": ("s", "s", "wall time since the run started (resumed runs "
-                                       "continue it), cumulative"),
+    "wall_time_cumulative": (
+        "s",
+        "s",
+        "wall time since the run started (resumed runs continue it), cumulative",
+    ),
 }
 
 
@@ -72,7 +83,7 @@ class DiagnosticsWriter:
     def write(self, **values) -> None:
         if self._fh is None:
             raise ValueError(f"{self.path}: writer is closed")
-        for new_name, old_name in ALIASES.items():      # a resumed file with old names
+        for new_name, old_name in ALIASES.items():  # a resumed file with old names
             if new_name in values and new_name not in self.columns and old_name in self.columns:
                 values[old_name] = values.pop(new_name)
         unknown = [k for k in values if k not in self.columns]
@@ -102,7 +113,7 @@ def _format(v) -> str:
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
-        return repr(float(v))        # shortest string that round-trips exactly
+        return repr(float(v))  # shortest string that round-trips exactly
     return str(v)
 
 
@@ -123,7 +134,7 @@ def read_diagnostics(path) -> dict[str, np.ndarray]:
             out[name] = np.array([float(c) if c != "" else math.nan for c in col], dtype=float)
         except ValueError:
             out[name] = np.array(col, dtype=str)
-    for new_name, old_name in ALIASES.items():         # both names, for old and new files
+    for new_name, old_name in ALIASES.items():  # both names, for old and new files
         if new_name in out and old_name not in out:
             out[old_name] = out[new_name]
         elif old_name in out and new_name not in out:
@@ -145,9 +156,12 @@ def write_units(csv_path, columns: Sequence[str], one_d: bool = False) -> Path:
             col["dc:description"] = f"{text} [{unit}]"
             col["unit"] = unit
         cols.append(col)
-    meta = {"@context": "http://www.w3.org/ns/csvw", "url": csv_path.name,
-            "dc:title": "tiseg per-step diagnostics",
-            "tableSchema": {"columns": cols}}
+    meta = {
+        "@context": "http://www.w3.org/ns/csvw",
+        "url": csv_path.name,
+        "dc:title": "tiseg per-step diagnostics",
+        "tableSchema": {"columns": cols},
+    }
     return write_json_atomic(csv_path.with_name(csv_path.name + "-metadata.json"), meta)
 
 
@@ -187,5 +201,13 @@ def json_clean(obj):
     return obj
 
 
-__all__ = ["DiagnosticsWriter", "read_diagnostics", "write_units", "DEFAULT_COLUMNS", "UNITS", "write_text_atomic",
-           "write_json_atomic", "json_clean"]
+__all__ = [
+    "DiagnosticsWriter",
+    "read_diagnostics",
+    "write_units",
+    "DEFAULT_COLUMNS",
+    "UNITS",
+    "write_text_atomic",
+    "write_json_atomic",
+    "json_clean",
+]

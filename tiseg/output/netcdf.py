@@ -21,6 +21,7 @@ after it (and a record left half-written by the kill) by copying the kept record
 file that replaces the old one atomically, so the file on disk is always either the old or the
 new complete file.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -35,9 +36,11 @@ import numpy as np
 from .atomic import replacing
 
 TIME_UNITS = "seconds since 2000-01-01 00:00:00"
-REFERENCES = ("Baker, J. L., Johnson, C. G. & Gray, J. M. N. T. 2016 Segregation-induced finger "
-              "formation in granular free-surface flows. J. Fluid Mech. 809, 168-212, "
-              "doi:10.1017/jfm.2016.653")
+REFERENCES = (
+    "Baker, J. L., Johnson, C. G. & Gray, J. M. N. T. 2016 Segregation-induced finger "
+    "formation in granular free-surface flows. J. Fluid Mech. 809, 168-212, "
+    "doi:10.1017/jfm.2016.653"
+)
 
 # CF attributes of the primitive fields of (6.1)-(6.3).
 FIELD_ATTRS = {
@@ -62,10 +65,18 @@ class FieldsWriter:
     every bit).
     """
 
-    def __init__(self, path, x, y, attrs: Mapping | None = None,
-                 fields: Sequence[str] = ("h", "u", "v", "phi"), dtype: str = "f8",
-                 atomic: bool = True, h_min: float | None = None,
-                 significant_digits: int | None = None):
+    def __init__(
+        self,
+        path,
+        x,
+        y,
+        attrs: Mapping | None = None,
+        fields: Sequence[str] = ("h", "u", "v", "phi"),
+        dtype: str = "f8",
+        atomic: bool = True,
+        h_min: float | None = None,
+        significant_digits: int | None = None,
+    ):
         self.path = Path(path)
         self.fields = tuple(fields)
         unknown = [f for f in self.fields if f not in FIELD_ATTRS]
@@ -104,11 +115,15 @@ class FieldsWriter:
 
     def _define(self, ds, x, y, attrs: dict) -> None:
         from .. import __version__
+
         now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
         ds.setncattr("Conventions", "CF-1.8")
         ds.setncattr("title", "tiseg simulation of segregation-induced fingering")
-        ds.setncattr("source", f"tiseg {__version__}: depth-averaged segregation-mobility model "
-                               "of Baker, Johnson & Gray (2016), eqs (6.1)-(6.3)")
+        ds.setncattr(
+            "source",
+            f"tiseg {__version__}: depth-averaged segregation-mobility model "
+            "of Baker, Johnson & Gray (2016), eqs (6.1)-(6.3)",
+        )
         ds.setncattr("history", f"{now} created by tiseg {__version__}")
         ds.setncattr("references", f"{REFERENCES}; tiseg {__version__}")
         for key, value in attrs.items():
@@ -120,10 +135,17 @@ class FieldsWriter:
         ds.createDimension("y", y.size)
         ds.createDimension("x", x.size)
         t = ds.createVariable("time", "f8", ("time",))
-        t.setncatts({"standard_name": "time", "long_name": "simulated time", "units": TIME_UNITS,
-                     "calendar": "standard", "axis": "T",
-                     "comment": "seconds since t = 0 of the run; the reference date is a "
-                                "placeholder that CF requires"})
+        t.setncatts(
+            {
+                "standard_name": "time",
+                "long_name": "simulated time",
+                "units": TIME_UNITS,
+                "calendar": "standard",
+                "axis": "T",
+                "comment": "seconds since t = 0 of the run; the reference date is a "
+                "placeholder that CF requires",
+            }
+        )
         # x and y are distances along and across the slope, not a map projection: no axis
         # attribute, which CF checkers read as longitude / latitude
         yv = ds.createVariable("y", "f8", ("y",))
@@ -138,17 +160,27 @@ class FieldsWriter:
             kw = {}
             if self.significant_digits is not None:
                 kw["significant_digits"] = int(self.significant_digits)
-            var = ds.createVariable(name, self.dtype, ("time", "y", "x"), zlib=True, complevel=4,
-                                    shuffle=True, chunksizes=(1, ny, nx),
-                                    fill_value=netCDF4.default_fillvals[self.dtype], **kw)
+            var = ds.createVariable(
+                name,
+                self.dtype,
+                ("time", "y", "x"),
+                zlib=True,
+                complevel=4,
+                shuffle=True,
+                chunksizes=(1, ny, nx),
+                fill_value=netCDF4.default_fillvals[self.dtype],
+                **kw,
+            )
             var.setncatts(FIELD_ATTRS[name])
             if name == "phi" and self.h_min is not None:
-                var.setncattr("comment", f"missing where h < h_min = {self.h_min:g} m (no "
-                                         "material)")
+                var.setncattr(
+                    "comment", f"missing where h < h_min = {self.h_min:g} m (no material)"
+                )
 
     @classmethod
-    def append(cls, path, keep: int, t_max: float | None = None,
-               h_min: float | None = None) -> "FieldsWriter":
+    def append(
+        cls, path, keep: int, t_max: float | None = None, h_min: float | None = None
+    ) -> "FieldsWriter":
         """Reopen the file of an interrupted run to append snapshots after its first ``keep``.
 
         Records beyond ``keep`` (written after the checkpoint the run resumes from, or left
@@ -167,13 +199,21 @@ class FieldsWriter:
                 dtype = ds.variables[fields[0]].dtype.str[1:] if fields else "f8"
                 quant = ds.variables[fields[0]].quantization() if fields else None
         except (OSError, KeyError, IndexError, RuntimeError) as exc:
-            raise FieldsFileError(f"{path}: cannot be read as a tiseg fields file ({exc})") from None
+            raise FieldsFileError(
+                f"{path}: cannot be read as a tiseg fields file ({exc})"
+            ) from None
         kept = times[:keep]
-        if (len(kept) < keep or not np.isfinite(kept).all() or np.any(np.diff(kept) <= 0)
-                or (t_max is not None and keep and kept[-1] > t_max * (1 + 1e-12))):
-            raise FieldsFileError(f"{path}: holds {n} records with times {kept.tolist()[:8]}, "
-                                  f"but the checkpoint expects {keep} complete snapshots"
-                                  + (f" up to t={t_max!r}" if t_max is not None else ""))
+        if (
+            len(kept) < keep
+            or not np.isfinite(kept).all()
+            or np.any(np.diff(kept) <= 0)
+            or (t_max is not None and keep and kept[-1] > t_max * (1 + 1e-12))
+        ):
+            raise FieldsFileError(
+                f"{path}: holds {n} records with times {kept.tolist()[:8]}, "
+                f"but the checkpoint expects {keep} complete snapshots"
+                + (f" up to t={t_max!r}" if t_max is not None else "")
+            )
         digits = int(quant[0]) if quant else None
         if n != keep:
             _truncate_copy(path, keep, fields, dtype, h_min, digits)
@@ -188,10 +228,14 @@ class FieldsWriter:
         self.count = keep
         self._last_t = float(kept[-1]) if keep else -math.inf
         from .. import __version__
+
         now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
         history = str(getattr(ds, "history", ""))
-        ds.setncattr("history", (history + "\n" if history else "")
-                     + f"{now} resumed by tiseg {__version__} after {keep} snapshots")
+        ds.setncattr(
+            "history",
+            (history + "\n" if history else "")
+            + f"{now} resumed by tiseg {__version__} after {keep} snapshots",
+        )
         ds.sync()
         return self
 
@@ -203,12 +247,15 @@ class FieldsWriter:
         missing = [f for f in self.fields if f not in arrays]
         extra = [f for f in arrays if f not in self.fields]
         if missing or extra:
-            raise ValueError(f"write(): expected fields {self.fields}, missing {missing}, "
-                             f"unexpected {extra}")
+            raise ValueError(
+                f"write(): expected fields {self.fields}, missing {missing}, unexpected {extra}"
+            )
         t = float(t)
         if not (math.isfinite(t) and t > self._last_t):
-            raise ValueError(f"write(): time {t!r} must be finite and after the previous "
-                             f"snapshot ({self._last_t!r})")
+            raise ValueError(
+                f"write(): time {t!r} must be finite and after the previous "
+                f"snapshot ({self._last_t!r})"
+            )
         data = {}
         for name in self.fields:
             a = np.asarray(arrays[name])
@@ -248,21 +295,32 @@ class FieldsFileError(Exception):
     """A fields file that cannot be continued (unreadable, or fewer records than expected)."""
 
 
-def _truncate_copy(path: Path, keep: int, fields, dtype: str, h_min: float | None = None,
-                   digits: int | None = None) -> None:
+def _truncate_copy(
+    path: Path, keep: int, fields, dtype: str, h_min: float | None = None, digits: int | None = None
+) -> None:
     """Replace ``path`` by a copy holding only its first ``keep`` records (atomic replace)."""
     with replacing(path) as tmp, netCDF4.Dataset(path, "r") as src:
         attrs = {k: src.getncattr(k) for k in src.ncattrs()}
         x = src.variables["x"][:]
         y = src.variables["y"][:]
-        w = FieldsWriter(tmp, x, y, fields=fields, dtype=dtype, atomic=False, h_min=h_min,
-                         significant_digits=digits)
+        w = FieldsWriter(
+            tmp,
+            x,
+            y,
+            fields=fields,
+            dtype=dtype,
+            atomic=False,
+            h_min=h_min,
+            significant_digits=digits,
+        )
         try:
-            for k, v in attrs.items():      # the original title, history, scene, ...
+            for k, v in attrs.items():  # the original title, history, scene, ...
                 w._ds.setncattr(k, v)
             for i in range(keep):
-                w.write(float(src.variables["time"][i]),
-                        **{f: np.ma.filled(src.variables[f][i], np.nan) for f in fields})
+                w.write(
+                    float(src.variables["time"][i]),
+                    **{f: np.ma.filled(src.variables[f][i], np.nan) for f in fields},
+                )
         finally:
             w.close()
 
@@ -273,14 +331,16 @@ def read_fields(path):
     import xarray as xr
 
     from ..errors import InputError
+
     try:
-        return xr.open_dataset(path, engine="netcdf4", decode_times=False,
-                               decode_timedelta=False)
+        return xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc).split("\n")[0]
-        raise InputError(f"{str(path)!r} cannot be read as a NetCDF fields file ({reason}): "
-                         "it is damaged or truncated (a resumable run repairs it with "
-                         "`tiseg run --resume`)") from None
+        raise InputError(
+            f"{str(path)!r} cannot be read as a NetCDF fields file ({reason}): "
+            "it is damaged or truncated (a resumable run repairs it with "
+            "`tiseg run --resume`)"
+        ) from None
 
 
 def _attr_value(value):

@@ -17,6 +17,7 @@ step that crossed an output time (after its snapshots, so fields.nc and the chec
 after each multiple of ``output.checkpoint_interval`` seconds of simulated time, and after any
 step that ends ``checkpoint_wall`` seconds of wall time after the last checkpoint.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -34,9 +35,18 @@ from .netcdf import FieldsFileError, FieldsWriter
 
 DIAGNOSTICS = "diagnostics.csv"
 # what a run (and a sweep member, and the demo) writes into its folder
-RUN_FILES = ("scene.toml", "fields.nc", DIAGNOSTICS, DIAGNOSTICS + "-metadata.json",
-             _ckpt.CHECKPOINT_NAME, "failure", "fingers.json", "done.json", LOCK_NAME,
-             HOLDER_NAME)
+RUN_FILES = (
+    "scene.toml",
+    "fields.nc",
+    DIAGNOSTICS,
+    DIAGNOSTICS + "-metadata.json",
+    _ckpt.CHECKPOINT_NAME,
+    "failure",
+    "fingers.json",
+    "done.json",
+    LOCK_NAME,
+    HOLDER_NAME,
+)
 
 
 def foreign_files(folder: Path, also=()) -> list[str]:
@@ -46,12 +56,16 @@ def foreign_files(folder: Path, also=()) -> list[str]:
     try:
         entries = sorted(Path(folder).iterdir())
     except OSError as exc:
-        raise InputError(f"cannot read output folder {str(folder)!r}: "
-                         f"{exc.strerror or exc}") from None
+        raise InputError(
+            f"cannot read output folder {str(folder)!r}: {exc.strerror or exc}"
+        ) from None
     for p in entries:
         n = p.name
-        if n in known or (n.startswith("fields.damaged-") and n.endswith(".nc")) or (
-                n.startswith(".") and n.endswith(".tmp")):
+        if (
+            n in known
+            or (n.startswith("fields.damaged-") and n.endswith(".nc"))
+            or (n.startswith(".") and n.endswith(".tmp"))
+        ):
             continue
         out.append(n + ("/" if p.is_dir() else ""))
     return out
@@ -66,22 +80,29 @@ def check_fresh_folder(folder, overwrite: bool = False, also=()) -> None:
     other = foreign_files(folder, also)
     if other:
         shown = ", ".join(other[:5]) + (f" and {len(other) - 5} more" if len(other) > 5 else "")
-        raise InputError(f"output folder {str(folder)!r} holds files that are not a tiseg "
-                         f"run's ({shown}); choose another folder, or pass --overwrite "
-                         "(overwrite=True) to write there anyway")
+        raise InputError(
+            f"output folder {str(folder)!r} holds files that are not a tiseg "
+            f"run's ({shown}); choose another folder, or pass --overwrite "
+            "(overwrite=True) to write there anyway"
+        )
     if (folder / _ckpt.CHECKPOINT_NAME).is_file():
-        raise InputError(f"output folder {str(folder)!r} holds an unfinished run "
-                         f"({_ckpt.CHECKPOINT_NAME}); continue it with `tiseg run --resume "
-                         f"{folder}`, or pass --overwrite to start over there")
+        raise InputError(
+            f"output folder {str(folder)!r} holds an unfinished run "
+            f"({_ckpt.CHECKPOINT_NAME}); continue it with `tiseg run --resume "
+            f"{folder}`, or pass --overwrite to start over there"
+        )
     if (folder / "fields.nc").exists():
-        raise InputError(f"output folder {str(folder)!r} holds an earlier run; choose another "
-                         "folder, or pass --overwrite (overwrite=True) to replace it")
+        raise InputError(
+            f"output folder {str(folder)!r} holds an earlier run; choose another "
+            "folder, or pass --overwrite (overwrite=True) to replace it"
+        )
 
 
 def clear_earlier_run(folder: Path) -> None:
     """A fresh run replaces an earlier one whole: its checkpoint, completion marker, finger
     diagnostics and failure states go (a later --resume must never find them)."""
     import shutil
+
     for name in (_ckpt.CHECKPOINT_NAME, "done.json", "fingers.json"):
         (Path(folder) / name).unlink(missing_ok=True)
     shutil.rmtree(Path(folder) / "failure", ignore_errors=True)
@@ -112,8 +133,9 @@ class RunFolder:
         try:
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot create output folder {str(out)!r}: "
-                             f"{exc.strerror or exc}") from None
+            raise InputError(
+                f"cannot create output folder {str(out)!r}: {exc.strerror or exc}"
+            ) from None
         refuse_symlinks(out, RUN_FILES)
         refuse_symlinks(out / "failure", ("last_good.npz", "offending.npz"))
         self.lock = RunLock(out).acquire()
@@ -129,7 +151,7 @@ class RunFolder:
             self.close()
             raise
         self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
-        self.saved_t = sim.t if resume is not None else None   # the last checkpoint's time
+        self.saved_t = sim.t if resume is not None else None  # the last checkpoint's time
         sim.failure_dir = out / "failure"
         self.counts()
 
@@ -144,13 +166,15 @@ class RunFolder:
             else:
                 self.diag = _ckpt.append_diagnostics(out / DIAGNOSTICS, resume["diag_rows"])
                 try:
-                    self.fields = FieldsWriter.append(out / "fields.nc", resume["snapshots"],
-                                                      sim.t, h_min=sc.numerics.h_min)
+                    self.fields = FieldsWriter.append(
+                        out / "fields.nc", resume["snapshots"], sim.t, h_min=sc.numerics.h_min
+                    )
                 except FieldsFileError as exc:
                     self.fields = self._salvage_fields(exc)
         except OSError as exc:
-            raise InputError(f"cannot write to output folder {str(out)!r}: "
-                             f"{exc.strerror or exc}") from None
+            raise InputError(
+                f"cannot write to output folder {str(out)!r}: {exc.strerror or exc}"
+            ) from None
 
     # ------------------------------------------------------------------ callbacks
     def callbacks(self, times, checkpoint_wall: float | None) -> list[Callback]:
@@ -161,10 +185,13 @@ class RunFolder:
             when.append(TimeInterval(interval))
         if checkpoint_wall is not None:
             when.append(WallTimeInterval(checkpoint_wall))
-        return [Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
-                Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
-                Callback(self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100,
-                         checked=True)]
+        return [
+            Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
+            Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
+            Callback(
+                self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100, checked=True
+            ),
+        ]
 
     def write_fields(self, snap) -> None:
         with self._writing(self.fields.path):
@@ -184,9 +211,15 @@ class RunFolder:
         sim = self.sim
         tot = sim.totals()
         with self._writing(self.diag.path):
-            self.diag.write(time=sim.t, dt=dt, stages=stages, mass=tot["mass"],
-                            small_mass=tot["small_mass"], max_speed=max_speed,
-                            wall_time_cumulative=sim.wall_time())
+            self.diag.write(
+                time=sim.t,
+                dt=dt,
+                stages=stages,
+                mass=tot["mass"],
+                small_mass=tot["small_mass"],
+                max_speed=max_speed,
+                wall_time_cumulative=sim.wall_time(),
+            )
         self.counts()
 
     def save_checkpoint(self, sim) -> None:
@@ -210,25 +243,35 @@ class RunFolder:
         and how to go on; the previous checkpoint is intact (written atomically)."""
         try:
             yield
-        except (OSError, RuntimeError) as exc:     # netCDF4 reports HDF5 failures as these
+        except (OSError, RuntimeError) as exc:  # netCDF4 reports HDF5 failures as these
             reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
             saved = self.saved_t
-            hint = (f"the checkpoint at t={saved:.6g} s is intact: make room and continue with "
-                    f"`tiseg run --resume {self.path}`" if saved is not None else
-                    "no checkpoint was written yet: make room and run again")
-            raise OutputError(f"cannot write {str(path)!r} at t={self.sim.t:.6g} s: {reason}; "
-                              f"{hint}") from None
+            hint = (
+                f"the checkpoint at t={saved:.6g} s is intact: make room and continue with "
+                f"`tiseg run --resume {self.path}`"
+                if saved is not None
+                else "no checkpoint was written yet: make room and run again"
+            )
+            raise OutputError(
+                f"cannot write {str(path)!r} at t={self.sim.t:.6g} s: {reason}; {hint}"
+            ) from None
 
     def resume_info(self) -> dict:
         """What :meth:`Simulation.run` needs to append to these files later (the last
         checkpoint is the current state: a run ends on a step that wrote one)."""
-        return {"dir": self.path.resolve(), "snapshots": self.fields.count,
-                "diag_rows": self.diag.rows, "wall": self.sim.stats.wall}
+        return {
+            "dir": self.path.resolve(),
+            "snapshots": self.fields.count,
+            "diag_rows": self.diag.rows,
+            "wall": self.sim.stats.wall,
+        }
 
     def counts(self) -> None:
         """Tell the simulation how much is written (the checkpoint records it)."""
-        self.sim._io_counts = (self.fields.count if self.fields else 0,
-                               self.diag.rows if self.diag else 0)
+        self.sim._io_counts = (
+            self.fields.count if self.fields else 0,
+            self.diag.rows if self.diag else 0,
+        )
 
     def close(self) -> None:
         self.counts()
@@ -236,7 +279,7 @@ class RunFolder:
             if w is not None:
                 try:
                     w.close()
-                except (OSError, RuntimeError):   # after a failed write: keep its message
+                except (OSError, RuntimeError):  # after a failed write: keep its message
                     pass
         if self.lock is not None:
             self.lock.release()
@@ -246,13 +289,20 @@ class RunFolder:
     def _new_fields_writer(self, path: Path) -> FieldsWriter:
         sim = self.sim
         x, y = sim.scene.domain.cell_centres()
-        return FieldsWriter(path, x, y, attrs={"scene": sim.scene.to_toml(),
-                                               "tiseg_arch": sim.backend.arch,
-                                               "tiseg_precision": sim.backend.precision},
-                            fields=sim.scene.fields, dtype=sim.scene.output.dtype(
-                                sim.backend.precision),
-                            h_min=sim.scene.numerics.h_min,
-                            significant_digits=sim.scene.output.significant_digits)
+        return FieldsWriter(
+            path,
+            x,
+            y,
+            attrs={
+                "scene": sim.scene.to_toml(),
+                "tiseg_arch": sim.backend.arch,
+                "tiseg_precision": sim.backend.precision,
+            },
+            fields=sim.scene.fields,
+            dtype=sim.scene.output.dtype(sim.backend.precision),
+            h_min=sim.scene.numerics.h_min,
+            significant_digits=sim.scene.output.significant_digits,
+        )
 
     def _salvage_fields(self, exc: Exception) -> FieldsWriter:
         """Resume with a fields.nc that cannot be continued: keep it under another name and
@@ -265,8 +315,13 @@ class RunFolder:
         if old.exists():
             old.replace(kept)
         from ..log import logger
-        logger.warning("warning: %s; it was moved to %s and a new fields.nc starts at "
-                       "t=%.9g s", exc, kept.name, self.sim.t)
+
+        logger.warning(
+            "warning: %s; it was moved to %s and a new fields.nc starts at t=%.9g s",
+            exc,
+            kept.name,
+            self.sim.t,
+        )
         return self._new_fields_writer(old)
 
 

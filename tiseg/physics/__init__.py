@@ -2,6 +2,7 @@
 
 Nothing here indexes a field; the loops over cells and faces live in :mod:`tiseg.numerics`.
 """
+
 from .pointwise import Params, Physics
 
 __all__ = ["Physics", "Params"]

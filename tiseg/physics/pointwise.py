@@ -13,6 +13,7 @@ from ..numerics.config import OperatorConfig
 
 class Params:
     """Indices of run-time numbers in the parameter field."""
+
     G_COS, G_SIN, NU, H_MIN, H_EPS4, U_EPS, THETA, WENO_EPS = range(8)
     ALPHA1, PHI_REF, DX, DY = range(8, 12)
     MU1S, MU2S, BETAS, LS, MU1L, MU2L, BETAL, LL, MUC = range(12, 21)
@@ -130,12 +131,40 @@ class Physics:
         elif ti.static(not self.fr_none):
             fr = spd / ti.sqrt(self.par[Params.G_COS] * h)
             if ti.static(self.fr_small):
-                mu = self.pouliquen(h, fr, self.par[Params.MU1S], self.par[Params.MU2S], self.par[Params.BETAS], self.par[Params.LS])
+                mu = self.pouliquen(
+                    h,
+                    fr,
+                    self.par[Params.MU1S],
+                    self.par[Params.MU2S],
+                    self.par[Params.BETAS],
+                    self.par[Params.LS],
+                )
             elif ti.static(self.fr_large):
-                mu = self.pouliquen(h, fr, self.par[Params.MU1L], self.par[Params.MU2L], self.par[Params.BETAL], self.par[Params.LL])
+                mu = self.pouliquen(
+                    h,
+                    fr,
+                    self.par[Params.MU1L],
+                    self.par[Params.MU2L],
+                    self.par[Params.BETAL],
+                    self.par[Params.LL],
+                )
             else:
-                mus = self.pouliquen(h, fr, self.par[Params.MU1S], self.par[Params.MU2S], self.par[Params.BETAS], self.par[Params.LS])
-                mul = self.pouliquen(h, fr, self.par[Params.MU1L], self.par[Params.MU2L], self.par[Params.BETAL], self.par[Params.LL])
+                mus = self.pouliquen(
+                    h,
+                    fr,
+                    self.par[Params.MU1S],
+                    self.par[Params.MU2S],
+                    self.par[Params.BETAS],
+                    self.par[Params.LS],
+                )
+                mul = self.pouliquen(
+                    h,
+                    fr,
+                    self.par[Params.MU1L],
+                    self.par[Params.MU2L],
+                    self.par[Params.BETAL],
+                    self.par[Params.LL],
+                )
                 ph = self.par[Params.PHI_REF]
                 if ti.static(self.feedback):
                     ph = phi
@@ -180,5 +209,9 @@ class Physics:
                 phi = self.par[Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
-                r = self.par[Params.G_COS] * self.mu_b(h, spd, phi) / ti.max(spd, self.par[Params.U_EPS])
+                r = (
+                    self.par[Params.G_COS]
+                    * self.mu_b(h, spd, phi)
+                    / ti.max(spd, self.par[Params.U_EPS])
+                )
         return r

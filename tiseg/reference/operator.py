@@ -29,6 +29,7 @@ The discretisation (identical in :mod:`tiseg.numerics.operator`):
 
 Arrays are shaped (nc, NX, NY) as in :class:`tiseg.numerics.config.Layout`.
 """
+
 from __future__ import annotations
 
 import math
@@ -108,8 +109,8 @@ class ReferenceOperator:
         """w = (h, u[, v][, phi]) with Kurganov-Petrova desingularisation."""
         c, lay = self.cfg, self.lay
         h = np.maximum(q[lay.H], 0.0)
-        h4 = h ** 4
-        denom = np.sqrt(h4 + np.maximum(h4, c.h_eps ** 4))
+        h4 = h**4
+        denom = np.sqrt(h4 + np.maximum(h4, c.h_eps**4))
         w = np.empty_like(q)
         w[0] = h
         for comp in range(1, lay.nc):
@@ -134,7 +135,7 @@ class ReferenceOperator:
             return np.zeros_like(h)
         if c.friction == "coulomb":
             return np.full_like(h, f.coulomb_mu)
-        fr_l = speed / np.sqrt(c.g_cos * h)            # Froude number (6.5); h >= h_min here
+        fr_l = speed / np.sqrt(c.g_cos * h)  # Froude number (6.5); h >= h_min here
 
         def pf(mu1, mu2, beta, L):
             x = L * fr_l
@@ -245,8 +246,8 @@ class ReferenceOperator:
             idx[axis] = slice(a, b)
             return tuple(idx)
 
-        wl = (w + 0.5 * s)[sl(0, n - 1)]     # east/north edge of cell m
-        wr = (w - 0.5 * s)[sl(1, n)]         # west/south edge of cell m+1
+        wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
+        wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
         ql, qr = self.conserved(wl), self.conserved(wr)
         fl, fr = self.flux(wl, direction), self.flux(wr, direction)
         if c.flux == "central-upwind":
@@ -256,8 +257,9 @@ class ReferenceOperator:
             am = np.minimum(np.minimum(lo_l, lo_r), 0.0)
             den = ap - am
             safe = np.where(den > 0, den, 1.0)
-            H = np.where(den > 0, (ap * fl - am * fr) / safe + ap * am / safe * (qr - ql),
-                         0.5 * (fl + fr))
+            H = np.where(
+                den > 0, (ap * fl - am * fr) / safe + ap * am / safe * (qr - ql), 0.5 * (fl + fr)
+            )
         else:
             a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
             H = 0.5 * (fl + fr) - 0.5 * a * (qr - ql)
@@ -287,7 +289,7 @@ class ReferenceOperator:
                 kf = np.where(ssum > 0, 2.0 * Ka * Kb / np.where(ssum > 0, ssum, 1.0), 0.0)
             return np.where(wa & wb, kf, 0.0)
 
-        Kx = harmonic(K[:-1], K[1:], wet[:-1], wet[1:])           # face i+1/2 at index i
+        Kx = harmonic(K[:-1], K[1:], wet[:-1], wet[1:])  # face i+1/2 at index i
         Px[lay.HU, :-1] = Kx * (u[1:] - u[:-1]) / c.dx
         if lay.is_1d:
             return Px, Py
@@ -311,7 +313,7 @@ class ReferenceOperator:
         v = np.zeros_like(u) if lay.is_1d else w[lay.HV]
         speed = np.sqrt(u * u + v * v)
         phi = w[lay.HPHI] if lay.segregation else c.phi_ref
-        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)   # only used where h >= h_min
+        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)  # only used where h >= h_min
         inv = 1.0 / np.maximum(speed, c.u_eps)
         wet = h >= c.h_min
         S = np.zeros_like(w)
@@ -345,7 +347,7 @@ class ReferenceOperator:
     def postprocess(self, q: np.ndarray) -> None:
         """Stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
         c, lay = self.cfg, self.lay
-        h = np.where(q[lay.H] < 0.0, 0.0, q[lay.H])     # NaN passes through to the guard
+        h = np.where(q[lay.H] < 0.0, 0.0, q[lay.H])  # NaN passes through to the guard
         q[lay.H] = h
         dry = h < c.h_min
         q[lay.HU][dry] = 0.0

@@ -10,22 +10,38 @@
 Colours (``tiseg.render.colours``): phi = 1 white fines, phi = 0 brown coarse grains, turquoise
 empty chute (h < h_min); viridis for h, |u|, u, v. x runs left to right, y bottom to top.
 """
-from .colours import (CHUTE_RGB, COARSE_RGB, FIELD_NAMES, FINES_RGB, canonical_field,
-                      viridis_table)
+
+from .colours import CHUTE_RGB, COARSE_RGB, FIELD_NAMES, FINES_RGB, canonical_field, viridis_table
 from .frame import FrameRenderer, add_colourbar, annotate, image_size, render_fields
 
-__all__ = ["render_fields", "FrameRenderer", "annotate", "add_colourbar", "image_size",
-           "MovieWriter", "MovieRecorder", "FrameFolderWriter", "render_run", "plot_panels",
-           "FINES_RGB", "COARSE_RGB", "CHUTE_RGB", "FIELD_NAMES", "canonical_field",
-           "viridis_table"]
+__all__ = [
+    "render_fields",
+    "FrameRenderer",
+    "annotate",
+    "add_colourbar",
+    "image_size",
+    "MovieWriter",
+    "MovieRecorder",
+    "FrameFolderWriter",
+    "render_run",
+    "plot_panels",
+    "FINES_RGB",
+    "COARSE_RGB",
+    "CHUTE_RGB",
+    "FIELD_NAMES",
+    "canonical_field",
+    "viridis_table",
+]
 
 
 def __getattr__(name):
     # movie/panels pull in imageio and matplotlib.pyplot: import them only when asked for
     if name in ("MovieWriter", "MovieRecorder", "FrameFolderWriter", "render_run", "open_writer"):
         from . import movie
+
         return getattr(movie, name)
     if name in ("plot_panels",):
         from . import panels
+
         return getattr(panels, name)
     raise AttributeError(name)

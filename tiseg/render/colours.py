@@ -21,17 +21,18 @@ maps the empty chute is drawn in a neutral grey (``EMPTY_MAP_RGB``) instead of t
 All colours are linear floats in [0, 1] (they are written straight to 8-bit images; no gamma
 correction is applied anywhere, so a GGUI window shows the same 8-bit values as a PNG).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
 
 import numpy as np
 
-FINES_RGB = (245 / 255, 242 / 255, 233 / 255)      # white ballotini (phi = 1)
-COARSE_RGB = (140 / 255, 84 / 255, 44 / 255)       # brown carborundum (phi = 0)
-CHUTE_RGB = (58 / 255, 178 / 255, 178 / 255)       # turquoise chute, h < h_min
+FINES_RGB = (245 / 255, 242 / 255, 233 / 255)  # white ballotini (phi = 1)
+COARSE_RGB = (140 / 255, 84 / 255, 44 / 255)  # brown carborundum (phi = 0)
+CHUTE_RGB = (58 / 255, 178 / 255, 178 / 255)  # turquoise chute, h < h_min
 EMPTY_MAP_RGB = (212 / 255, 212 / 255, 212 / 255)  # empty chute in the viridis maps
-BACKGROUND_RGB = (30 / 255, 30 / 255, 34 / 255)    # margins, caption strip, viewer panel
+BACKGROUND_RGB = (30 / 255, 30 / 255, 34 / 255)  # margins, caption strip, viewer panel
 TEXT_RGB = (235 / 255, 235 / 255, 235 / 255)
 
 # Field codes of the frame kernel (a run-time integer: switching field recompiles nothing).
@@ -64,6 +65,7 @@ def canonical_field(name: str) -> str:
 @lru_cache(maxsize=None)
 def _viridis(n: int) -> np.ndarray:
     from matplotlib import colormaps
+
     table = colormaps["viridis"].resampled(n)(np.linspace(0.0, 1.0, n))[:, :3]
     table = np.ascontiguousarray(table, dtype=np.float32)
     table.setflags(write=False)
@@ -110,6 +112,7 @@ def to_uint8(rgb) -> np.ndarray:
 def matplotlib_cmap(field: str):
     """A matplotlib colour map with the same colours as the frame kernel for ``field``."""
     from matplotlib.colors import LinearSegmentedColormap, ListedColormap
+
     if canonical_field(field) == "phi":
         return LinearSegmentedColormap.from_list("tiseg_phi", [COARSE_RGB, FINES_RGB], N=256)
     return ListedColormap(viridis_table(LUT_SIZE), name="tiseg_viridis")
@@ -150,7 +153,7 @@ def default_range(field: str, scene=None, data=None, h_min: float = 0.0):
         h0 = getattr(scene.flow, "h0", None)
         u0 = getattr(scene.flow, "u0", None)
         if field == "h" and h0:
-            return (0.0, 2.5 * h0)     # fronts and levees reach ~2 h0 in figure 14
+            return (0.0, 2.5 * h0)  # fronts and levees reach ~2 h0 in figure 14
         if field in ("speed", "u") and u0:
             return (0.0, 1.5 * u0)
         if field == "v" and u0:

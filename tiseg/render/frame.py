@@ -44,8 +44,8 @@ from . import colours as C
 P_HMIN, P_VMIN, P_VMAX, P_MODE, P_SHADE, P_RELIEF, P_LX, P_LY, P_DX, P_DY, P_PHI = range(11)
 P_COUNT = 11
 
-DEFAULT_SHADE = 0.35     # S: at most +-35 % brightness from relief
-DEFAULT_RELIEF = 10.0    # R: vertical exaggeration of the slopes of h
+DEFAULT_SHADE = 0.35  # S: at most +-35 % brightness from relief
+DEFAULT_RELIEF = 10.0  # R: vertical exaggeration of the slopes of h
 _BIG = 3.0e38
 
 
@@ -56,19 +56,20 @@ _BIG = 3.0e38
 class _ArraySource:
     """Fields handed over as NumPy arrays, uploaded into one (nx, ny) vector field."""
 
-    has_phi = True      # a missing phi array is refused by render_fields for field="phi"
+    has_phi = True  # a missing phi array is refused by render_fields for field="phi"
 
     def __init__(self, nx: int, ny: int):
         self.nx, self.ny = nx, ny
-        self.f = ti.Vector.field(4, float, shape=(nx, ny))   # (h, phi, u, v) per cell
+        self.f = ti.Vector.field(4, float, shape=(nx, ny))  # (h, phi, u, v) per cell
 
     def upload(self, h, phi=None, u=None, v=None) -> None:
         """Arrays shaped (ny, nx) like the output files; missing ones are zero."""
         a = np.zeros((self.nx, self.ny, 4), dtype=np.float64)
         for k, arr in enumerate((h, phi, u, v)):
             if arr is not None:
-                a[:, :, k] = np.nan_to_num(np.asarray(arr, dtype=np.float64).reshape(
-                    self.ny, self.nx)).T
+                a[:, :, k] = np.nan_to_num(
+                    np.asarray(arr, dtype=np.float64).reshape(self.ny, self.nx)
+                ).T
         dt = np.float64 if backend.state().precision == "f64" else np.float32
         self.f.from_numpy(a.astype(dt))
 
@@ -91,7 +92,7 @@ class _StateSource:
         lay = op.lay
         self.q = op.q
         self.slot = ti.field(ti.i32, shape=())
-        self.slot[None] = 0           # written, not trusted to start at 0 (Vulkan does not)
+        self.slot[None] = 0  # written, not trusted to start at 0 (Vulkan does not)
         self._slot = 0
         self.nx, self.ny = lay.nx, lay.ny
         self.gx, self.gy = lay.gx, lay.gy
@@ -99,7 +100,7 @@ class _StateSource:
         self.has_v, self.has_phi = not lay.is_1d, lay.segregation
 
     def use_slot(self, slot: int) -> None:
-        if slot != self._slot:              # a field write from Python is a kernel launch
+        if slot != self._slot:  # a field write from Python is a kernel launch
             self.slot[None] = int(slot)
             self._slot = int(slot)
 
@@ -112,7 +113,7 @@ class _StateSource:
         q = self.q[self.slot[None], i + self.gx, j + self.gy]
         h = q[0]
         inv = 0.0
-        if h > 0:                      # as Simulation.fields(): hu/h where h > 0, else 0
+        if h > 0:  # as Simulation.fields(): hu/h where h > 0, else 0
             inv = 1.0 / h
         out = ti.Vector([h, 0.0, q[self.HU] * inv, 0.0])
         if ti.static(self.has_phi):
@@ -152,8 +153,18 @@ class _Painter:
             self._images[key] = ti.Vector.field(3, ti.f32, shape=key)
         return self._images[key]
 
-    def set_params(self, *, h_min, field="phi", vrange=(0.0, 1.0), shade=DEFAULT_SHADE,
-                   relief=DEFAULT_RELIEF, dx=1.0, dy=1.0, phi_const=1.0) -> None:
+    def set_params(
+        self,
+        *,
+        h_min,
+        field="phi",
+        vrange=(0.0, 1.0),
+        shade=DEFAULT_SHADE,
+        relief=DEFAULT_RELIEF,
+        dx=1.0,
+        dy=1.0,
+        phi_const=1.0,
+    ) -> None:
         p = np.zeros(P_COUNT, dtype=self._np_fp)
         lo, hi = vrange if vrange is not None else (0.0, 1.0)
         p[P_HMIN], p[P_VMIN], p[P_VMAX] = h_min, lo, hi
@@ -162,7 +173,7 @@ class _Painter:
         # unit vector towards the light in picture axes (x right, y up): the upper left
         p[P_LX], p[P_LY] = -math.sqrt(0.5), math.sqrt(0.5)
         p[P_DX], p[P_DY], p[P_PHI] = dx, dy, phi_const
-        if self._par is None or not np.array_equal(p, self._par):   # upload only changes
+        if self._par is None or not np.array_equal(p, self._par):  # upload only changes
             self.par.from_numpy(p)
             self._par = p
 
@@ -196,10 +207,12 @@ class _Painter:
         gy = 0.0
         if ip > im:
             gx = (self.src.thickness(ip, j) - self.src.thickness(im, j)) / (
-                (ip - im) * self.par[P_DX])
+                (ip - im) * self.par[P_DX]
+            )
         if jp > jm:
             gy = (self.src.thickness(i, jp) - self.src.thickness(i, jm)) / (
-                (jp - jm) * self.par[P_DY])
+                (jp - jm) * self.par[P_DY]
+            )
         d = gx * self.par[P_LX] + gy * self.par[P_LY]
         # tanh in f32: SPIR-V (Vulkan) has no 64-bit tanh, and a colour needs no more
         return 1.0 - self.par[P_SHADE] * ti.tanh(ti.cast(self.par[P_RELIEF] * d, ti.f32))
@@ -216,7 +229,7 @@ class _Painter:
         if s[0] >= self.par[P_HMIN]:
             if mode == 0:
                 phi = s[1]
-                if ti.static(not self.src.has_phi):   # no segregation: a constant mixture
+                if ti.static(not self.src.has_phi):  # no segregation: a constant mixture
                     phi = self.par[P_PHI]
                 phi = ti.min(ti.max(phi, 0.0), 1.0)
                 coarse = ti.Vector([C.COARSE_RGB[0], C.COARSE_RGB[1], C.COARSE_RGB[2]], float)
@@ -267,8 +280,17 @@ class _Painter:
             ti.atomic_max(self.red[1], hi)
 
     @ti.kernel
-    def fill(self, img: ti.template(), x0: ti.i32, y0: ti.i32, w: ti.i32, h: ti.i32,
-             r: ti.f32, g: ti.f32, b: ti.f32):
+    def fill(
+        self,
+        img: ti.template(),
+        x0: ti.i32,
+        y0: ti.i32,
+        w: ti.i32,
+        h: ti.i32,
+        r: ti.f32,
+        g: ti.f32,
+        b: ti.f32,
+    ):
         for p, q in ti.ndrange(w, h):
             img[x0 + p, y0 + q] = ti.Vector([r, g, b])
 
@@ -286,12 +308,13 @@ class _Painter:
             img[x0 + p, y0 + q] = ti.cast(c, ti.f32)
 
 
-def _image_to_numpy(img, w: int | None = None, h: int | None = None, x0: int = 0,
-                    y0: int = 0) -> np.ndarray:
+def _image_to_numpy(
+    img, w: int | None = None, h: int | None = None, x0: int = 0, y0: int = 0
+) -> np.ndarray:
     """An image field (x right, y up) as uint8 (rows, columns, 3) with row 0 at the top."""
     a = img.to_numpy()
     if w is not None:
-        a = a[x0:x0 + w, y0:y0 + h]
+        a = a[x0 : x0 + w, y0 : y0 + h]
     return C.to_uint8(np.transpose(a, (1, 0, 2))[::-1])
 
 
@@ -303,17 +326,17 @@ _painters: dict = {}
 
 def _array_painter(nx: int, ny: int) -> _Painter:
     """A cached painter over (nx, ny) arrays (one compile per grid size and Taichi runtime)."""
-    gen = backend.state().generation          # initialises Taichi (cpu, f64) if nobody has
+    gen = backend.state().generation  # initialises Taichi (cpu, f64) if nobody has
     key = (nx, ny, gen)
     if key not in _painters:
         for k in [k for k in _painters if k[2] != gen]:
-            del _painters[k]                  # fields of an old runtime are gone
+            del _painters[k]  # fields of an old runtime are gone
         _painters[key] = _Painter(_ArraySource(nx, ny))
     return _painters[key]
 
 
-MIN_1D_HEIGHT = 40          # a 1D run (one row of cells) is drawn as a band this tall
-MAX_SIDE = 16384            # pixels: the largest picture side (video encoders stop at 8192)
+MIN_1D_HEIGHT = 40  # a 1D run (one row of cells) is drawn as a band this tall
+MAX_SIDE = 16384  # pixels: the largest picture side (video encoders stop at 8192)
 
 
 def image_size(nx: int, ny: int, scale: float = 1.0, aspect: float = 1.0) -> tuple[int, int]:
@@ -324,19 +347,30 @@ def image_size(nx: int, ny: int, scale: float = 1.0, aspect: float = 1.0) -> tup
         raise ValueError(f"scale={scale!r} must be a positive number")
     w, h = nx * scale, ny * scale * aspect
     if not (w <= MAX_SIDE and h <= MAX_SIDE):
-        raise InputError(f"scale={scale:g} pixels per cell makes a {w:.3g} x {h:.3g} pixel "
-                         f"picture of {nx} x {ny} cells; at most {MAX_SIDE} pixels a side: "
-                         f"use a scale of at most {MAX_SIDE / max(nx, ny * aspect):.3g}")
+        raise InputError(
+            f"scale={scale:g} pixels per cell makes a {w:.3g} x {h:.3g} pixel "
+            f"picture of {nx} x {ny} cells; at most {MAX_SIDE} pixels a side: "
+            f"use a scale of at most {MAX_SIDE / max(nx, ny * aspect):.3g}"
+        )
     h = max(1, int(round(h)))
     if ny == 1:
         h = max(h, MIN_1D_HEIGHT)
     return max(1, int(round(w))), h
 
 
-def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, scale: float = 1,
-                  vrange=None, colourbar: bool | None = None, relief: float = DEFAULT_RELIEF,
-                  aspect: float = 1.0, dx: float | None = None,
-                  dy: float | None = None) -> np.ndarray:
+def render_fields(
+    fields: dict,
+    h_min: float,
+    field: str = "phi",
+    shade=True,
+    scale: float = 1,
+    vrange=None,
+    colourbar: bool | None = None,
+    relief: float = DEFAULT_RELIEF,
+    aspect: float = 1.0,
+    dx: float | None = None,
+    dy: float | None = None,
+) -> np.ndarray:
     """Render a snapshot of (ny, nx) arrays to an RGB image, uint8 (H, W, 3), row 0 at the top.
 
     ``fields``: "h" and, as needed, "phi", "u", "v" (a dict as from ``Simulation.fields()`` or one
@@ -353,8 +387,9 @@ def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, sc
         h = h[None, :]
     ny, nx = h.shape
     if field == "phi" and "phi" not in fields:
-        raise ValueError("field='phi' needs a 'phi' array (this run has no segregation); "
-                         "choose h, speed, u or v")
+        raise ValueError(
+            "field='phi' needs a 'phi' array (this run has no segregation); choose h, speed, u or v"
+        )
     if field in ("u", "v", "speed") and "u" not in fields:
         raise ValueError(f"field={field!r} needs a 'u' array")
     if vrange is None and field != "phi":
@@ -364,8 +399,9 @@ def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, sc
     strength = _shade_strength(shade)
     dx = _spacing(fields.get("x"), dx, PAPER_DX)
     dy = _spacing(fields.get("y"), dy, dx)
-    painter.set_params(h_min=h_min, field=field, vrange=vrange, shade=strength, relief=relief,
-                       dx=dx, dy=dy)
+    painter.set_params(
+        h_min=h_min, field=field, vrange=vrange, shade=strength, relief=relief, dx=dx, dy=dy
+    )
     w, hh = image_size(nx, ny, scale, aspect)
     img = painter.image(w, hh)
     painter.paint(img, 0, 0, w, hh)
@@ -377,7 +413,7 @@ def render_fields(fields: dict, h_min: float, field: str = "phi", shade=True, sc
     return out
 
 
-PAPER_DX = 1.0 / 750.0     # N_x / L_x = 750 per metre (figure 12)
+PAPER_DX = 1.0 / 750.0  # N_x / L_x = 750 per metre (figure 12)
 
 
 def _spacing(coord, given, fallback):
@@ -385,8 +421,12 @@ def _spacing(coord, given, fallback):
     if given is not None:
         return float(given)
     if coord is not None and np.size(coord) > 1:
-        return float(abs(np.asarray(coord, dtype=np.float64).ravel()[1]
-                         - np.asarray(coord, dtype=np.float64).ravel()[0]))
+        return float(
+            abs(
+                np.asarray(coord, dtype=np.float64).ravel()[1]
+                - np.asarray(coord, dtype=np.float64).ravel()[0]
+            )
+        )
     return float(fallback)
 
 
@@ -415,8 +455,16 @@ class FrameRenderer:
     tuple fixes it. ``phi_const``: the concentration drawn when the scene has no segregation.
     """
 
-    def __init__(self, sim, field: str = "phi", shade=True, scale: float = 1.0, vrange=None,
-                 colourbar: bool | None = None, relief: float = DEFAULT_RELIEF):
+    def __init__(
+        self,
+        sim,
+        field: str = "phi",
+        shade=True,
+        scale: float = 1.0,
+        vrange=None,
+        colourbar: bool | None = None,
+        relief: float = DEFAULT_RELIEF,
+    ):
         self.sim = sim
         sc = sim.scene
         self.source = _StateSource(sim.op)
@@ -459,10 +507,17 @@ class FrameRenderer:
             self.vrange = C.default_range(field, scene=self.sim.scene) or (0.0, 0.0)
 
     def _update_params(self) -> None:
-        self.h_min = float(self.sim.scene.numerics.h_min)     # set_parameters may change it
-        self.painter.set_params(h_min=self.h_min, field=self.field, vrange=self.vrange,
-                                shade=self.shade, relief=self.relief, dx=self.dx, dy=self.dy,
-                                phi_const=float(self.sim.scene.flow.phi0))
+        self.h_min = float(self.sim.scene.numerics.h_min)  # set_parameters may change it
+        self.painter.set_params(
+            h_min=self.h_min,
+            field=self.field,
+            vrange=self.vrange,
+            shade=self.shade,
+            relief=self.relief,
+            dx=self.dx,
+            dy=self.dy,
+            phi_const=float(self.sim.scene.flow.phi0),
+        )
 
     def _update_range(self) -> None:
         """Refit (auto) or widen (default) the colour range to the current data."""
@@ -472,7 +527,7 @@ class FrameRenderer:
         self._update_params()
         self.painter.value_range()
         lo, hi = (float(x) for x in self.painter.red.to_numpy())
-        if lo > hi:                       # no flowing cell
+        if lo > hi:  # no flowing cell
             lo = hi = 0.0
         if self.field == "v":
             m = max(abs(lo), abs(hi))
@@ -502,8 +557,9 @@ class FrameRenderer:
         self._update_params()
         self.painter.paint(img, x0, y0, w, h)
 
-    def to_numpy(self, annotate_frame: bool = False, colourbar: bool | None = None,
-                 state=None) -> np.ndarray:
+    def to_numpy(
+        self, annotate_frame: bool = False, colourbar: bool | None = None, state=None
+    ) -> np.ndarray:
         """Render and return uint8 (H, W, 3); optionally with colour bar, time and scale bar.
         ``state``: a :class:`tiseg.callbacks.Snapshot` to draw instead of the current state."""
         self.render(state)
@@ -526,6 +582,7 @@ class FrameRenderer:
 @lru_cache(maxsize=1)
 def _font_path() -> str:
     from matplotlib import font_manager
+
     return font_manager.findfont(font_manager.FontProperties(family="DejaVu Sans"))
 
 
@@ -533,6 +590,7 @@ def _font_path() -> str:
 def _font(size: int):
     """DejaVu Sans (shipped with matplotlib) at ``size`` pixels, through Pillow's FreeType."""
     from PIL import ImageFont
+
     return ImageFont.truetype(_font_path(), size)
 
 
@@ -541,12 +599,14 @@ def text_width(s: str, size: int = 12) -> int:
     return int(round(_font(size).getlength(s)))
 
 
-def draw_text(img: np.ndarray, s: str, x: int, baseline: int, colour=C.TEXT_RGB,
-              size: int = 12) -> int:
+def draw_text(
+    img: np.ndarray, s: str, x: int, baseline: int, colour=C.TEXT_RGB, size: int = 12
+) -> int:
     """Draw s into a uint8 (H, W, 3) image in place, left end at column x, on the given baseline
     row (Pillow's ``ls`` anchor), antialiased; clipped at the borders. Returns the x after the
     text."""
     from PIL import Image, ImageDraw
+
     pil = Image.fromarray(np.ascontiguousarray(img))
     fill = tuple(int(round(float(c) * 255.0)) for c in colour)
     ImageDraw.Draw(pil).text((x, baseline), s, font=_font(size), fill=fill, anchor="ls")
@@ -560,9 +620,9 @@ def nice_length(target: float) -> float:
         return 0.0
     e = math.floor(math.log10(target))
     for m in (5.0, 2.0, 1.0):
-        if m * 10.0 ** e <= target * (1 + 1e-9):
-            return m * 10.0 ** e
-    return 10.0 ** e
+        if m * 10.0**e <= target * (1 + 1e-9):
+            return m * 10.0**e
+    return 10.0**e
 
 
 def format_length(metres: float) -> str:
@@ -573,8 +633,15 @@ def format_length(metres: float) -> str:
     return f"{metres * 1000:g} mm"
 
 
-def annotate(img: np.ndarray, t: float | None, dx: float, label: str | None = None,
-             map_width: int | None = None, strip: int = 20, size: int = 12) -> np.ndarray:
+def annotate(
+    img: np.ndarray,
+    t: float | None,
+    dx: float,
+    label: str | None = None,
+    map_width: int | None = None,
+    strip: int = 20,
+    size: int = 12,
+) -> np.ndarray:
     """A copy of img with a caption strip below: time stamp "t = 1.90 s" (and an optional label)
     on the left, a scale bar on the right.
 
@@ -594,17 +661,17 @@ def annotate(img: np.ndarray, t: float | None, dx: float, label: str | None = No
     if label:
         draw_text(out, label, x, baseline, size=size)
     if dx > 0:
-        length = nice_length(0.2 * mw * dx)     # about a fifth of the map width
+        length = nice_length(0.2 * mw * dx)  # about a fifth of the map width
         npx = int(round(length / dx))
         text = format_length(length)
         tw = text_width(text, size)
         x1 = mw - 6
         x0 = x1 - npx
-        if npx >= 2 and x0 - tw - 6 > x:        # room for bar and label without overlap
+        if npx >= 2 and x0 - tw - 6 > x:  # room for bar and label without overlap
             bar_row = H + strip // 2
-            out[bar_row - 1:bar_row + 2, x0:x1] = C.to_uint8(C.TEXT_RGB)
-            out[bar_row - 4:bar_row + 5, x0:x0 + 1] = C.to_uint8(C.TEXT_RGB)
-            out[bar_row - 4:bar_row + 5, x1 - 1:x1] = C.to_uint8(C.TEXT_RGB)
+            out[bar_row - 1 : bar_row + 2, x0:x1] = C.to_uint8(C.TEXT_RGB)
+            out[bar_row - 4 : bar_row + 5, x0 : x0 + 1] = C.to_uint8(C.TEXT_RGB)
+            out[bar_row - 4 : bar_row + 5, x1 - 1 : x1] = C.to_uint8(C.TEXT_RGB)
             draw_text(out, text, x0 - tw - 6, baseline, size=size)
     return out
 
@@ -614,8 +681,9 @@ def _tick_text(v: float) -> str:
     return "0" if s in ("-0", "0") else s
 
 
-def add_colourbar(img: np.ndarray, field: str, vmin: float, vmax: float, width: int = 70,
-                  size: int = 11) -> np.ndarray:
+def add_colourbar(
+    img: np.ndarray, field: str, vmin: float, vmax: float, width: int = 70, size: int = 11
+) -> np.ndarray:
     """A copy of img with a vertical colour bar for ``field`` at the right: the same colour table
     as the frame kernel, ticks at the ends and the middle in display units (h in mm), the unit on
     top. phi gets the coarse-to-fines ramp."""
@@ -625,11 +693,11 @@ def add_colourbar(img: np.ndarray, field: str, vmin: float, vmax: float, width: 
     out[:, :W] = img
     out[:, W:] = C.to_uint8(C.BACKGROUND_RGB)
     _, factor, unit = C.FIELD_LABELS[field]
-    top = min(size + 6, H // 3) if H >= 3 * size else 0   # room for the unit above the bar
+    top = min(size + 6, H // 3) if H >= 3 * size else 0  # room for the unit above the bar
     bot = max(H - 4, top + 1) if H > 8 else H
     bx0, bx1 = W + 6, W + 18
     n = bot - top
-    t = (np.arange(n)[::-1] + 0.5) / n              # top row = high values
+    t = (np.arange(n)[::-1] + 0.5) / n  # top row = high values
     out[top:bot, bx0:bx1] = C.to_uint8(C.colours_for(field, t))[:, None, :]
     if H >= 2 * size:
         title = unit or ("φ" if field == "phi" else "")
@@ -637,7 +705,7 @@ def add_colourbar(img: np.ndarray, field: str, vmin: float, vmax: float, width: 
         for frac in (0.0, 0.5, 1.0):
             v = (vmin + frac * (vmax - vmin)) * factor
             row = int(round(bot - 1 - frac * (n - 1)))
-            out[row, bx1:bx1 + 3] = C.to_uint8(C.TEXT_RGB)
+            out[row, bx1 : bx1 + 3] = C.to_uint8(C.TEXT_RGB)
             base = min(max(row + size // 3, top + size - 2), H - 2)
             draw_text(out, _tick_text(v), bx1 + 5, base, size=size)
     return out

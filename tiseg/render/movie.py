@@ -10,6 +10,7 @@
 Every writer takes uint8 (H, W, 3) frames; a frame of another size than the first is padded or
 cropped to the first frame's size, because a video has one size.
 """
+
 from __future__ import annotations
 
 import math
@@ -62,8 +63,9 @@ class MovieWriter:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot create the folder of {str(self.path)!r}: "
-                             f"{exc.strerror}") from None
+            raise InputError(
+                f"cannot create the folder of {str(self.path)!r}: {exc.strerror}"
+            ) from None
 
     def append(self, frame: np.ndarray) -> None:
         """Add one uint8 (H, W, 3) frame (row 0 at the top)."""
@@ -83,19 +85,33 @@ class MovieWriter:
 
     def _open(self) -> None:
         import imageio_ffmpeg
+
         h, w = self.shape
         self._gen = imageio_ffmpeg.write_frames(
-            str(self.path), (w, h), fps=self.fps, codec="libx264", pix_fmt_in="rgb24",
-            pix_fmt_out="yuv420p", macro_block_size=1, quality=self.quality,
-            ffmpeg_log_level="error")
-        self._gen.send(None)          # start ffmpeg
+            str(self.path),
+            (w, h),
+            fps=self.fps,
+            codec="libx264",
+            pix_fmt_in="rgb24",
+            pix_fmt_out="yuv420p",
+            macro_block_size=1,
+            quality=self.quality,
+            ffmpeg_log_level="error",
+        )
+        self._gen.send(None)  # start ffmpeg
 
     def close(self) -> None:
         if self.gif:
             if self._frames:
                 import imageio.v3 as iio
-                iio.imwrite(self.path, np.stack(self._frames), extension=".gif",
-                            duration=1000.0 / self.fps, loop=0)
+
+                iio.imwrite(
+                    self.path,
+                    np.stack(self._frames),
+                    extension=".gif",
+                    duration=1000.0 / self.fps,
+                    loop=0,
+                )
             self._frames = []
         elif self._gen is not None:
             self._gen.close()
@@ -119,11 +135,13 @@ class FrameFolderWriter:
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot create frame folder {str(self.folder)!r}: "
-                             f"{exc.strerror}") from None
+            raise InputError(
+                f"cannot create frame folder {str(self.folder)!r}: {exc.strerror}"
+            ) from None
 
     def append(self, frame: np.ndarray) -> None:
         import imageio.v3 as iio
+
         path = self.folder / f"{self.prefix}{self.count:05d}.png"
         iio.imwrite(path, np.asarray(frame, dtype=np.uint8))
         self.paths.append(path)
@@ -154,13 +172,15 @@ class MovieRecorder:
         self.writer = MovieWriter(self.path, fps)
 
     @classmethod
-    def for_simulation(cls, sim, path, field: str = "phi", fps: float = DEFAULT_FPS,
-                       **renderer_kw) -> "MovieRecorder":
+    def for_simulation(
+        cls, sim, path, field: str = "phi", fps: float = DEFAULT_FPS, **renderer_kw
+    ) -> "MovieRecorder":
         """A recorder with its own renderer of ``field`` (phi falls back to h without phi)."""
         from .frame import FrameRenderer
+
         field = C.canonical_field(field)
         if field == "phi" and not sim.layout.segregation:
-            field = "h"                      # no concentration without segregation
+            field = "h"  # no concentration without segregation
         return cls(FrameRenderer(sim, field=field, **renderer_kw), path, fps)
 
     @property
@@ -175,8 +195,10 @@ class MovieRecorder:
         """This recorder as a :class:`tiseg.callbacks.Callback` (a snapshot callback on a
         time schedule unless ``snapshot=False``)."""
         from ..callbacks import Callback
-        return Callback(self, schedule, name=name,
-                        snapshot=schedule.timed if snapshot is None else snapshot)
+
+        return Callback(
+            self, schedule, name=name, snapshot=schedule.timed if snapshot is None else snapshot
+        )
 
     def close(self) -> None:
         self.writer.close()
@@ -199,8 +221,10 @@ def _fields_path(run) -> Path:
     if p.is_dir():
         p = p / "fields.nc"
     if not p.is_file():
-        raise InputError(f"no fields file at {str(p)!r}: give a run folder (with fields.nc, as "
-                         "written by `tiseg run`) or the .nc file itself")
+        raise InputError(
+            f"no fields file at {str(p)!r}: give a run folder (with fields.nc, as "
+            "written by `tiseg run`) or the .nc file itself"
+        )
     return p
 
 
@@ -208,12 +232,13 @@ def run_h_min(ds, run_dir: Path | None = None) -> float:
     """h_min of the run: from scene.toml beside the fields file, else the file's scene
     attribute, else the paper's 1e-4 m."""
     from ..scene import load_scene, scene_from_text
+
     try:
         if run_dir is not None and (run_dir / "scene.toml").is_file():
             return float(load_scene(run_dir / "scene.toml").numerics.h_min)
         if "scene" in ds.attrs:
             return float(scene_from_text(str(ds.attrs["scene"])).numerics.h_min)
-    except Exception:           # an unreadable scene must not stop a movie: use the default
+    except Exception:  # an unreadable scene must not stop a movie: use the default
         pass
     return 1e-4
 
@@ -254,10 +279,20 @@ def global_range(ds, field: str, h_min: float, indices) -> tuple[float, float]:
     return C._nondegenerate(lo, hi, field)
 
 
-def render_run(run_dir, field: str = "phi", movie=None, frames=None, gif=None,
-               fps: float = DEFAULT_FPS, max_frames: int | None = None, shade=True,
-               scale: float | None = None, vrange=None, annotate: bool = True, progress: bool = False
-               ) -> dict:
+def render_run(
+    run_dir,
+    field: str = "phi",
+    movie=None,
+    frames=None,
+    gif=None,
+    fps: float = DEFAULT_FPS,
+    max_frames: int | None = None,
+    shade=True,
+    scale: float | None = None,
+    vrange=None,
+    annotate: bool = True,
+    progress: bool = False,
+) -> dict:
     """Render the snapshots of a run (its folder or fields.nc) to an mp4 (``movie``), a PNG
     folder (``frames``) and/or a GIF (``gif``). One frame per snapshot (at most ``max_frames``,
     evenly spread), each with time stamp and scale bar (``annotate``) and, for the mapped
@@ -291,7 +326,7 @@ def render_run(run_dir, field: str = "phi", movie=None, frames=None, gif=None,
         x, y = ds["x"].values, ds["y"].values
         dx = float(abs(x[1] - x[0])) if x.size > 1 else 1.0
         dy = float(abs(y[1] - y[0])) if y.size > 1 else dx
-        aspect = dy / dx if y.size > 1 else 1.0      # a 1D run is drawn as one row of cells
+        aspect = dy / dx if y.size > 1 else 1.0  # a 1D run is drawn as one row of cells
         if scale is None:
             scale = auto_scale(x.size)
         writers = []
@@ -307,19 +342,30 @@ def render_run(run_dir, field: str = "phi", movie=None, frames=None, gif=None,
             from tqdm import tqdm
 
             from ..log import bar_disable
-            bar = tqdm(total=len(indices), unit="frame", desc=f"render {field}",
-                       disable=bar_disable())
+
+            bar = tqdm(
+                total=len(indices), unit="frame", desc=f"render {field}", disable=bar_disable()
+            )
         size = None
         try:
             for k in indices:
-                img = render_fields(_snapshot(ds, k), h_min, field=field, shade=shade,
-                                    scale=scale, vrange=vrange, colourbar=False, aspect=aspect)
+                img = render_fields(
+                    _snapshot(ds, k),
+                    h_min,
+                    field=field,
+                    shade=shade,
+                    scale=scale,
+                    vrange=vrange,
+                    colourbar=False,
+                    aspect=aspect,
+                )
                 map_width = img.shape[1]
                 if field != "phi":
                     img = add_colourbar(img, field, *vrange)
                 if annotate:
-                    img = annotate_image(img, float(times[k]), dx / (map_width / ds.sizes["x"]),
-                                         map_width=map_width)
+                    img = annotate_image(
+                        img, float(times[k]), dx / (map_width / ds.sizes["x"]), map_width=map_width
+                    )
                 size = img.shape[:2]
                 for w in writers:
                     w.append(img)
@@ -332,5 +378,10 @@ def render_run(run_dir, field: str = "phi", movie=None, frames=None, gif=None,
                 bar.close()
     finally:
         ds.close()
-    return {"frames": len(indices), "size": size, "outputs": outputs, "field": field,
-            "vrange": None if field == "phi" else tuple(vrange)}
+    return {
+        "frames": len(indices),
+        "size": size,
+        "outputs": outputs,
+        "field": field,
+        "vrange": None if field == "phi" else tuple(vrange),
+    }

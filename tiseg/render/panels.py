@@ -4,6 +4,7 @@ The pictures inside the axes are made by the frame kernel (:func:`tiseg.render.r
 so the panels show exactly the colours of the movies and the viewer; matplotlib only adds axes,
 titles and a colour bar built from the same colour table (:func:`colours.matplotlib_cmap`).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,6 +21,7 @@ def _open(ds_or_path):
         return ds_or_path, None, False
     from ..output.netcdf import read_fields
     from .movie import _fields_path
+
     path = _fields_path(ds_or_path)
     return read_fields(path), path.parent, True
 
@@ -37,14 +39,26 @@ def nearest_indices(available, times) -> list[int]:
         k = int(np.argmin(np.abs(available - t)))
         if abs(available[k] - t) > 1e-9 * max(1.0, abs(t)):
             from ..log import note
-            note(f"t = {t:g} s is not a snapshot of the run; showing the nearest, "
-                 f"t = {available[k]:g} s")
+
+            note(
+                f"t = {t:g} s is not a snapshot of the run; showing the nearest, "
+                f"t = {available[k]:g} s"
+            )
         out.append(k)
     return out
 
 
-def plot_panels(ds, times=None, field: str = "phi", path=None, shade=True, vrange=None,
-                scale: float = 1.0, width: float = 7.0, title: str | None = None):
+def plot_panels(
+    ds,
+    times=None,
+    field: str = "phi",
+    path=None,
+    shade=True,
+    vrange=None,
+    scale: float = 1.0,
+    width: float = 7.0,
+    title: str | None = None,
+):
     """A figure with one panel per time (nearest snapshot), stacked like figures 12-14.
 
     ``ds``: a dataset from :func:`tiseg.output.netcdf.read_fields`, a run folder or a fields.nc
@@ -69,8 +83,9 @@ def plot_panels(ds, times=None, field: str = "phi", path=None, shade=True, vrang
             raise InputError(f"field {field!r} is not in this run")
         t_all = ds["time"].values
         if times is None or len(times) == 0:
-            idx = sorted(set(np.linspace(0, len(t_all) - 1, min(5, len(t_all))).round()
-                             .astype(int).tolist()))
+            idx = sorted(
+                set(np.linspace(0, len(t_all) - 1, min(5, len(t_all))).round().astype(int).tolist())
+            )
         else:
             idx = nearest_indices(t_all, times)
         h_min = run_h_min(ds, run_dir)
@@ -86,11 +101,22 @@ def plot_panels(ds, times=None, field: str = "phi", path=None, shade=True, vrang
         fig = Figure(figsize=(width, n * (panel_h + 0.45) + 0.6), layout="constrained")
         axes = fig.subplots(n, 1, squeeze=False)[:, 0]
         for ax, k in zip(axes, idx):
-            img = render_fields(_snapshot(ds, k), h_min, field=field, shade=shade, scale=scale,
-                                vrange=vrange, colourbar=False,
-                                aspect=dy / dx if y.size > 1 else 1.0)
-            ax.imshow(img, extent=(0.0, Lx, 0.0, Ly), interpolation="nearest",
-                      aspect="equal" if y.size > 1 else "auto")
+            img = render_fields(
+                _snapshot(ds, k),
+                h_min,
+                field=field,
+                shade=shade,
+                scale=scale,
+                vrange=vrange,
+                colourbar=False,
+                aspect=dy / dx if y.size > 1 else 1.0,
+            )
+            ax.imshow(
+                img,
+                extent=(0.0, Lx, 0.0, Ly),
+                interpolation="nearest",
+                aspect="equal" if y.size > 1 else "auto",
+            )
             ax.set_title(f"t = {float(t_all[k]):.2f} s", fontsize=10)
             ax.set_ylabel("y [m]")
         axes[-1].set_xlabel("x [m]")
@@ -100,8 +126,12 @@ def plot_panels(ds, times=None, field: str = "phi", path=None, shade=True, vrang
         cb = fig.colorbar(sm, ax=list(axes), shrink=min(1.0, 0.9 / max(n, 1) + 0.3), pad=0.02)
         cb.set_label(label + (f" [{unit}]" if unit else ""))
         empty = C.CHUTE_RGB if field == "phi" else C.EMPTY_MAP_RGB
-        fig.legend(handles=[Patch(color=empty, label=f"empty chute, h < {h_min:g} m")],
-                   loc="outside lower center", frameon=False, fontsize=9)
+        fig.legend(
+            handles=[Patch(color=empty, label=f"empty chute, h < {h_min:g} m")],
+            loc="outside lower center",
+            frameon=False,
+            fontsize=9,
+        )
         if title:
             fig.suptitle(title)
         if path is not None:

@@ -6,8 +6,17 @@
 * :mod:`.dispersion2d` -- the 4x4 problem of appendix B and its quartic (B2)-(B5), corrected;
 * :mod:`.asymptotics` -- the high-wavenumber laws (5.28)-(5.35), (B7), (B8), (B11).
 """
+
 from .base import BaseState, base_state, base_state_from_froude
 from .dispersion1d import cutoff, cutoff_analytic, most_unstable, roots, sigma_M
 
-__all__ = ["BaseState", "base_state", "base_state_from_froude", "roots", "sigma_M",
-           "most_unstable", "cutoff", "cutoff_analytic"]
+__all__ = [
+    "BaseState",
+    "base_state",
+    "base_state_from_froude",
+    "roots",
+    "sigma_M",
+    "most_unstable",
+    "cutoff",
+    "cutoff_analytic",
+]

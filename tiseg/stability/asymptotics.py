@@ -8,13 +8,14 @@ All quantities are dimensionless (scalings (5.1)); ``bs`` is a :class:`~.base.Ba
                        Re sigma^(3) ~ c2 / k^2 (5.34) (= (A27)), and at F = Fc ~ c4 / k^4 (5.35) (= (A31)).
 2D viscous:            downslope k_x >> 1 (B7), (B8); cross-slope k_y >> 1 (B11).
 """
+
 from __future__ import annotations
 
 import math
 
 from .base import BaseState
 
-CRITICAL_TOL = 1e-12   # |F |G0'| - 1| below this counts as F = Fc (round-off of Fc = 1/|G0'|)
+CRITICAL_TOL = 1e-12  # |F |G0'| - 1| below this counts as F = Fc (round-off of Fc = 1/|G0'|)
 
 
 def is_critical(bs: BaseState) -> bool:
@@ -42,9 +43,9 @@ def inviscid_limits(bs: BaseState) -> tuple[float, float, float]:
         b = 0.0 if abs(b) < CRITICAL_TOL else b
     else:
         a, b = F * dg - 1.0, F * dg + 1.0
-    s1 = _ratio(a * (F * mh - mu) + F * g * (1 - F) * mp, 2 * F ** 2 * a)          # (5.28)
-    s2 = _ratio(-b * (F * mh + mu) + F * g * (1 + F) * mp, 2 * F ** 2 * b)         # (5.29)
-    s3 = _ratio(g * (1 - dg) * mp, 0.0 if is_critical(bs) else F ** 2 * dg ** 2 - 1)  # (5.30)
+    s1 = _ratio(a * (F * mh - mu) + F * g * (1 - F) * mp, 2 * F**2 * a)  # (5.28)
+    s2 = _ratio(-b * (F * mh + mu) + F * g * (1 + F) * mp, 2 * F**2 * b)  # (5.29)
+    s3 = _ratio(g * (1 - dg) * mp, 0.0 if is_critical(bs) else F**2 * dg**2 - 1)  # (5.30)
     return s1, s2, s3
 
 
@@ -62,12 +63,12 @@ def critical_sqrt_coefficient(bs: BaseState) -> float:
 
 def viscous_root1(bs: BaseState, k):
     """Re sigma^(1) ~ -k^2/R, (5.32) (= (A19))."""
-    return -(k ** 2) * bs.inv_R
+    return -(k**2) * bs.inv_R
 
 
 def viscous_root2_limit(bs: BaseState) -> float:
     """Re sigma^(2) -> -R/F^2, (5.33) (= (A23))."""
-    return -bs.R / bs.F ** 2
+    return -bs.R / bs.F**2
 
 
 def viscous_k2_coefficient(bs: BaseState) -> float:
@@ -76,12 +77,12 @@ def viscous_k2_coefficient(bs: BaseState) -> float:
     Positive for F < Fc (unstable tail), negative for F > Fc (cutoff), zero at F = Fc.
     """
     F, R, g, dg = bs.F, bs.R, bs.G0, bs.dG0
-    return R ** 2 * g * (1 - dg) * (F ** 2 * dg ** 2 - 1) * bs.mu_phi / (F ** 4 * dg ** 2)
+    return R**2 * g * (1 - dg) * (F**2 * dg**2 - 1) * bs.mu_phi / (F**4 * dg**2)
 
 
 def viscous_k4_coefficient(bs: BaseState) -> float:
     """c4 of Re sigma^(3) ~ c4/k^4 at F = Fc: 2 R^3 G0^2 G0'^2 (1-G0')^2 mu_phi^2, (5.35)/(A31)."""
-    return 2 * bs.R ** 3 * bs.G0 ** 2 * bs.dG0 ** 2 * (1 - bs.dG0) ** 2 * bs.mu_phi ** 2
+    return 2 * bs.R**3 * bs.G0**2 * bs.dG0**2 * (1 - bs.dG0) ** 2 * bs.mu_phi**2
 
 
 # ---- two dimensions (appendix B) ----------------------------------------------------------------
@@ -92,16 +93,21 @@ def downslope_2d(bs: BaseState) -> dict:
     independent of k_y; a4 is the 1D coefficient (5.34). The extra root sigma^(2) is the
     cross-slope velocity mode, damped by the transverse viscosity nu h^{3/2}/2.
     """
-    return {"a1": -bs.inv_R, "a2": -0.5 * bs.inv_R, "a3": viscous_root2_limit(bs),
-            "a4": viscous_k2_coefficient(bs)}
+    return {
+        "a1": -bs.inv_R,
+        "a2": -0.5 * bs.inv_R,
+        "a3": viscous_root2_limit(bs),
+        "a4": viscous_k2_coefficient(bs),
+    }
 
 
 def critical_2d_coefficient(bs: BaseState, ky: float) -> float:
     """c of Re sigma^(4) ~ c/k_x^4 at F = Fc, k_x >> 1 (B8):
     2 R^3 G0^2 G0'^2 (1-G0')^2 mu_phi^2 - R^2 G0 G0'^2 (1-G0') mu_phi k_y^2."""
     R, g, dg, mp = bs.R, bs.G0, bs.dG0, bs.mu_phi
-    return (2 * R ** 3 * g ** 2 * dg ** 2 * (1 - dg) ** 2 * mp ** 2
-            - R ** 2 * g * dg ** 2 * (1 - dg) * mp * ky ** 2)
+    return (
+        2 * R**3 * g**2 * dg**2 * (1 - dg) ** 2 * mp**2 - R**2 * g * dg**2 * (1 - dg) * mp * ky**2
+    )
 
 
 def cross_slope_2d(bs: BaseState, kx: float) -> dict:
@@ -111,10 +117,20 @@ def cross_slope_2d(bs: BaseState, kx: float) -> dict:
     Re sigma^(4) ~ b4 / k_y^2 with b4 = -R^2 G0 (1-G0') mu_phi k_x^2 / (R^2 + F^4 G0'^2 k_x^2).
     """
     R, F, g, dg = bs.R, bs.F, bs.G0, bs.dG0
-    b4 = -R ** 2 * g * (1 - dg) * bs.mu_phi * kx ** 2 / (R ** 2 + F ** 4 * dg ** 2 * kx ** 2)
+    b4 = -(R**2) * g * (1 - dg) * bs.mu_phi * kx**2 / (R**2 + F**4 * dg**2 * kx**2)
     return {"b1": -bs.inv_R, "b2": -0.5 * bs.inv_R, "b3": viscous_root2_limit(bs), "b4": b4}
 
 
-__all__ = ["inviscid_limits", "inviscid_supremum", "critical_sqrt_coefficient", "viscous_root1",
-           "viscous_root2_limit", "viscous_k2_coefficient", "viscous_k4_coefficient",
-           "downslope_2d", "critical_2d_coefficient", "cross_slope_2d", "is_critical"]
+__all__ = [
+    "inviscid_limits",
+    "inviscid_supremum",
+    "critical_sqrt_coefficient",
+    "viscous_root1",
+    "viscous_root2_limit",
+    "viscous_k2_coefficient",
+    "viscous_k4_coefficient",
+    "downslope_2d",
+    "critical_2d_coefficient",
+    "cross_slope_2d",
+    "is_critical",
+]

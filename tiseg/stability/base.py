@@ -14,6 +14,7 @@ only on the handful of numbers collected in :class:`BaseState`:
 Because F is exactly proportional to h0 at fixed phi0, gamma^N and hence mu_h, mu_u, mu_phi depend
 on phi0 only; h0 enters the stability problem only through F and R.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,34 +22,34 @@ from dataclasses import asdict, dataclass
 
 from ..errors import require
 from ..material import TABLE1, Material
-from ..steady import (check_concentration, check_thickness, critical_froude,
-                      froude_per_thickness)
+from ..steady import check_concentration, check_thickness, critical_froude, froude_per_thickness
 
 
 @dataclass(frozen=True)
 class BaseState:
     """Everything the dimensionless dispersion relations (5.21), (B2) need, plus SI context."""
+
     # SI inputs and steady state
-    h0: float            # flow thickness [m]
-    phi0: float          # small-particle concentration
-    nu: float            # viscosity coefficient of (3.2) [m^(3/2)/s]; 0 = inviscid
-    u0: float            # steady velocity [m/s], (4.3)
+    h0: float  # flow thickness [m]
+    phi0: float  # small-particle concentration
+    nu: float  # viscosity coefficient of (3.2) [m^(3/2)/s]; 0 = inviscid
+    u0: float  # steady velocity [m/s], (4.3)
     # dimensionless numbers of section 5
-    F: float             # Froude number (4.9)
-    R: float             # Reynolds number (5.7); inf when nu == 0
-    gamma_S: float       # gamma^S of (5.6)
-    gamma_L: float       # gamma^L of (5.6)
-    mub_S: float         # mu_b^S(1, 1) of (5.6)
-    mub_L: float         # mu_b^L(1, 1)
-    Gamma_S: float       # (5.18)
-    Gamma_L: float       # (5.18)
-    mu_h: float          # (5.15)
-    mu_u: float          # (5.16)
-    mu_phi: float        # (5.17)
-    G0: float            # G(phi0), (5.14a)
-    dG0: float           # G'(phi0), (5.14b)
+    F: float  # Froude number (4.9)
+    R: float  # Reynolds number (5.7); inf when nu == 0
+    gamma_S: float  # gamma^S of (5.6)
+    gamma_L: float  # gamma^L of (5.6)
+    mub_S: float  # mu_b^S(1, 1) of (5.6)
+    mub_L: float  # mu_b^L(1, 1)
+    Gamma_S: float  # (5.18)
+    Gamma_L: float  # (5.18)
+    mu_h: float  # (5.15)
+    mu_u: float  # (5.16)
+    mu_phi: float  # (5.17)
+    G0: float  # G(phi0), (5.14a)
+    dG0: float  # G'(phi0), (5.14b)
     tan_zeta: float
-    Fc: float            # 1/|G'(phi0)|, (5.27); inf where G'(phi0) = 0
+    Fc: float  # 1/|G'(phi0)|, (5.27); inf where G'(phi0) = 0
     material: Material = TABLE1
 
     @property
@@ -81,9 +82,11 @@ class BaseState:
 
 
 def check_viscosity(nu: float) -> None:
-    require(isinstance(nu, (int, float)) and math.isfinite(nu) and nu >= 0.0,
-            f"nu={nu!r}: the viscosity coefficient must be a finite number >= 0 m^(3/2)/s "
-            f"(0 gives the inviscid model)")
+    require(
+        isinstance(nu, (int, float)) and math.isfinite(nu) and nu >= 0.0,
+        f"nu={nu!r}: the viscosity coefficient must be a finite number >= 0 m^(3/2)/s "
+        f"(0 gives the inviscid model)",
+    )
 
 
 def base_state(h0: float, phi0: float, nu: float, material: Material = TABLE1) -> BaseState:
@@ -98,7 +101,7 @@ def base_state(h0: float, phi0: float, nu: float, material: Material = TABLE1) -
     check_viscosity(nu)
     m = material
     m.require_finger_range()
-    per = froude_per_thickness(phi0, m)     # raises below phi0*
+    per = froude_per_thickness(phi0, m)  # raises below phi0*
     F = h0 * per
     u0 = F * math.sqrt(m.g * h0 * m.cos_zeta)
     R = math.inf if nu == 0 else u0 * math.sqrt(h0) / nu
@@ -112,20 +115,38 @@ def base_state(h0: float, phi0: float, nu: float, material: Material = TABLE1) -
     GamS = gS * (s.mu2 - s.mu1) / (1.0 + gS) ** 2
     GamL = gL * (l.mu2 - l.mu1) / (1.0 + gL) ** 2
     mix = phi0 * GamS + (1.0 - phi0) * GamL
-    return BaseState(h0=float(h0), phi0=float(phi0), nu=float(nu), u0=u0, F=F, R=R,
-                     gamma_S=gS, gamma_L=gL, mub_S=mubS, mub_L=mubL, Gamma_S=GamS, Gamma_L=GamL,
-                     mu_h=-1.5 * mix,          # (5.15): d/dh of h^{3/2} gives -3/2
-                     mu_u=mix,                 # (5.16)
-                     mu_phi=mubS - mubL,       # (5.17)
-                     G0=float(m.G(phi0)), dG0=float(m.dG(phi0)), tan_zeta=m.tan_zeta,
-                     Fc=critical_froude(phi0, m), material=m)
+    return BaseState(
+        h0=float(h0),
+        phi0=float(phi0),
+        nu=float(nu),
+        u0=u0,
+        F=F,
+        R=R,
+        gamma_S=gS,
+        gamma_L=gL,
+        mub_S=mubS,
+        mub_L=mubL,
+        Gamma_S=GamS,
+        Gamma_L=GamL,
+        mu_h=-1.5 * mix,  # (5.15): d/dh of h^{3/2} gives -3/2
+        mu_u=mix,  # (5.16)
+        mu_phi=mubS - mubL,  # (5.17)
+        G0=float(m.G(phi0)),
+        dG0=float(m.dG(phi0)),
+        tan_zeta=m.tan_zeta,
+        Fc=critical_froude(phi0, m),
+        material=m,
+    )
 
 
-def base_state_from_froude(F: float, phi0: float, nu: float,
-                           material: Material = TABLE1) -> BaseState:
+def base_state_from_froude(
+    F: float, phi0: float, nu: float, material: Material = TABLE1
+) -> BaseState:
     """Base state with a prescribed Froude number: h0 = F / (F/h0), F being linear in h0 (4.9)."""
-    require(isinstance(F, (int, float)) and math.isfinite(F) and F > 0,
-            f"F={F!r}: the Froude number must be a positive number")
+    require(
+        isinstance(F, (int, float)) and math.isfinite(F) and F > 0,
+        f"F={F!r}: the Froude number must be a positive number",
+    )
     check_concentration(phi0)
     material.require_finger_range()
     return base_state(F / froude_per_thickness(phi0, material), phi0, nu, material)

@@ -10,6 +10,7 @@ it even fakes a cutoff near k ~ 1e3-1e4 for F <= Fc (NUMERICS finding 2). ``exte
 therefore solves the cubic (A1) with the coefficients (A2)-(A7) in mpmath at ~40 digits, and
 ``extended="auto"`` does so only where double precision cannot be trusted (:func:`needs_extended`).
 """
+
 from __future__ import annotations
 
 import math
@@ -21,9 +22,9 @@ from scipy.optimize import brentq, minimize_scalar
 from .asymptotics import CRITICAL_TOL, inviscid_supremum
 from .base import BaseState
 
-DPS = 40                 # mpmath working digits for extended precision
-AUTO_EXTENDED_K = 1e3    # "auto" always uses mpmath above this |k|
-AUTO_RTOL = 1e8          # ... and where |sigma_M| < AUTO_RTOL * eps * ||A|| (relative error > ~1e-8)
+DPS = 40  # mpmath working digits for extended precision
+AUTO_EXTENDED_K = 1e3  # "auto" always uses mpmath above this |k|
+AUTO_RTOL = 1e8  # ... and where |sigma_M| < AUTO_RTOL * eps * ||A|| (relative error > ~1e-8)
 
 
 def needs_extended(bs: BaseState, kabs, growth) -> np.ndarray:
@@ -34,7 +35,7 @@ def needs_extended(bs: BaseState, kabs, growth) -> np.ndarray:
     mpmath is used instead. Cheap enough that figures stay in double almost everywhere.
     """
     kabs = np.asarray(kabs, dtype=float)
-    scale = np.finfo(float).eps * (1.0 + kabs + kabs ** 2 * bs.inv_R)
+    scale = np.finfo(float).eps * (1.0 + kabs + kabs**2 * bs.inv_R)
     return (kabs > AUTO_EXTENDED_K) | (np.abs(growth) < AUTO_RTOL * scale)
 
 
@@ -42,13 +43,13 @@ def needs_extended(bs: BaseState, kabs, growth) -> np.ndarray:
 def matrix(bs: BaseState, k) -> np.ndarray:
     """A(k) of (5.21), shape k.shape + (3, 3), complex. Unknowns W = (H, U, Phi)."""
     k = np.asarray(k, dtype=float)
-    F2 = bs.F ** 2
+    F2 = bs.F**2
     ik = 1j * k
     A = np.zeros(k.shape + (3, 3), dtype=complex)
     A[..., 0, 0] = -ik
     A[..., 0, 1] = -ik
     A[..., 1, 0] = -(bs.mu_h + ik) / F2
-    A[..., 1, 1] = -bs.mu_u / F2 - ik - k ** 2 * bs.inv_R
+    A[..., 1, 1] = -bs.mu_u / F2 - ik - k**2 * bs.inv_R
     A[..., 1, 2] = -bs.mu_phi / F2
     A[..., 2, 0] = ik * bs.G0
     A[..., 2, 1] = ik * bs.G0
@@ -64,8 +65,16 @@ def base_parameters(bs: BaseState, extended: bool = False) -> dict:
     perturbs f_{0,3} etc. by O(eps), which moves Re sigma^(3) by O(eps R) -- larger than the true
     k^-4 tail at F = Fc (e.g. 1.5e-14 against 2e-16 at k = 1e4).
     """
-    vals = {"F": bs.F, "r": bs.inv_R, "G0": bs.G0, "dG0": bs.dG0, "mu_h": bs.mu_h,
-            "mu_u": bs.mu_u, "mu_phi": bs.mu_phi, "tan_zeta": bs.tan_zeta}
+    vals = {
+        "F": bs.F,
+        "r": bs.inv_R,
+        "G0": bs.G0,
+        "dG0": bs.dG0,
+        "mu_h": bs.mu_h,
+        "mu_u": bs.mu_u,
+        "mu_phi": bs.mu_phi,
+        "tan_zeta": bs.tan_zeta,
+    }
     if extended:
         return {n: mpmath.mpf(v) for n, v in vals.items()}
     return vals
@@ -80,15 +89,15 @@ def expansion_coefficients(bs: BaseState, extended: bool = False) -> dict:
     F2, r, g, dg = p["F"] ** 2, p["r"], p["G0"], p["dG0"]
     mh, mu, mp = p["mu_h"], p["mu_u"], p["mu_phi"]
     return {
-        "f02": -(1 - dg) * (mu - mh) / F2,                          # (A5a)
-        "f03": (1 - dg) * (1 - F2) / F2,                            # (A5b)
-        "f04": -(1 - dg) * r,                                       # (A5c)
-        "f11": ((2 - dg) * mu - mh + g * mp) / F2,                  # (A6a)
-        "f12": 1 / F2 - 3 + 2 * dg,                                 # (A6b)
-        "f13": (2 - dg) * r,                                        # (A6c)
-        "f20": mu / F2,                                             # (A7a)
-        "f21": 3 - dg,                                              # (A7b)
-        "f22": r,                                                   # (A7c)
+        "f02": -(1 - dg) * (mu - mh) / F2,  # (A5a)
+        "f03": (1 - dg) * (1 - F2) / F2,  # (A5b)
+        "f04": -(1 - dg) * r,  # (A5c)
+        "f11": ((2 - dg) * mu - mh + g * mp) / F2,  # (A6a)
+        "f12": 1 / F2 - 3 + 2 * dg,  # (A6b)
+        "f13": (2 - dg) * r,  # (A6c)
+        "f20": mu / F2,  # (A7a)
+        "f21": 3 - dg,  # (A7b)
+        "f22": r,  # (A7c)
     }
 
 
@@ -96,9 +105,9 @@ def char_poly_coefficients(bs: BaseState, k):
     """(f0, f1, f2) of f(sigma) = f0 + f1 sigma + f2 sigma^2 + sigma^3 = det(sigma I - A), (A1)-(A4)."""
     c = expansion_coefficients(bs)
     k = np.asarray(k, dtype=float)
-    f0 = c["f02"] * k ** 2 + 1j * c["f03"] * k ** 3 + c["f04"] * k ** 4      # (A2)
-    f1 = 1j * c["f11"] * k + c["f12"] * k ** 2 + 1j * c["f13"] * k ** 3      # (A3)
-    f2 = c["f20"] + 1j * c["f21"] * k + c["f22"] * k ** 2                    # (A4)
+    f0 = c["f02"] * k**2 + 1j * c["f03"] * k**3 + c["f04"] * k**4  # (A2)
+    f1 = 1j * c["f11"] * k + c["f12"] * k**2 + 1j * c["f13"] * k**3  # (A3)
+    f2 = c["f20"] + 1j * c["f21"] * k + c["f22"] * k**2  # (A4)
     return f0, f1, f2
 
 
@@ -115,9 +124,9 @@ def _roots_mp_one(bs: BaseState, k: float, guess=None) -> list:
         K = mpmath.mpf(k)
         I = mpmath.mpc(0, 1)
         f = expansion_coefficients(bs, extended=True)
-        f0 = f["f02"] * K ** 2 + I * f["f03"] * K ** 3 + f["f04"] * K ** 4
-        f1 = I * f["f11"] * K + f["f12"] * K ** 2 + I * f["f13"] * K ** 3
-        f2 = f["f20"] + I * f["f21"] * K + f["f22"] * K ** 2
+        f0 = f["f02"] * K**2 + I * f["f03"] * K**3 + f["f04"] * K**4
+        f1 = I * f["f11"] * K + f["f12"] * K**2 + I * f["f13"] * K**3
+        f2 = f["f20"] + I * f["f21"] * K + f["f22"] * K**2
         coeffs = [mpmath.mpf(1), f2, f1, f0]
         init = None if guess is None else [mpmath.mpc(complex(z)) for z in guess]
         try:
@@ -139,8 +148,11 @@ def roots(bs: BaseState, k, extended=False) -> np.ndarray:
     if extended:
         flat_k = k.reshape(-1)
         flat_s = s.reshape(-1, 3)
-        redo = (needs_extended(bs, np.abs(flat_k), flat_s[:, 0].real) if extended == "auto"
-                else np.ones(flat_k.shape, dtype=bool))
+        redo = (
+            needs_extended(bs, np.abs(flat_k), flat_s[:, 0].real)
+            if extended == "auto"
+            else np.ones(flat_k.shape, dtype=bool)
+        )
         for i in np.nonzero(redo)[0]:
             kk = flat_k[i]
             # the double roots are excellent starting guesses for the mpmath iteration
@@ -172,8 +184,12 @@ def _refine_max(bs: BaseState, k: np.ndarray, s: np.ndarray, i: int):
     """Bounded maximisation in log k around grid point i."""
     lo = math.log(k[max(i - 1, 0)])
     hi = math.log(k[min(i + 1, len(k) - 1)])
-    res = minimize_scalar(lambda t: -float(sigma_M(bs, math.exp(t))), bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-10})
+    res = minimize_scalar(
+        lambda t: -float(sigma_M(bs, math.exp(t))),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-10},
+    )
     kM, sM = math.exp(res.x), -float(res.fun)
     if sM < s[i]:  # keep the grid value if the optimiser did worse (flat or kinked maxima)
         kM, sM = float(k[i]), float(s[i])
@@ -203,7 +219,7 @@ def most_unstable(bs: BaseState):
     hi = 1e3
     k, s = _scan_grid(bs, 1e-3, hi)
     i = int(np.argmax(s))
-    while i == len(k) - 1 and hi < 1e8:   # maximum still at the edge: look further out
+    while i == len(k) - 1 and hi < 1e8:  # maximum still at the edge: look further out
         hi *= 100
         k, s = _scan_grid(bs, 1e-3, hi, 361)
         i = int(np.argmax(s))
@@ -226,9 +242,11 @@ def cutoff_analytic(bs: BaseState):
     F, R, dg, g = bs.F, bs.R, bs.dG0, bs.G0
     mh, mu, mp = bs.mu_h, bs.mu_u, bs.mu_phi
     out = []
-    for d, num in ((F * dg - 1.0, (F * dg - 1.0) * (F * mh - mu) + F * g * (1 - F) * mp),   # (A41)
-                   (F * dg + 1.0, -(F * dg + 1.0) * (F * mh + mu) + F * g * (1 + F) * mp)):  # (A42)
-        if abs(d) < CRITICAL_TOL:   # F = Fc: k_c -> inf, i.e. no cutoff
+    for d, num in (
+        (F * dg - 1.0, (F * dg - 1.0) * (F * mh - mu) + F * g * (1 - F) * mp),  # (A41)
+        (F * dg + 1.0, -(F * dg + 1.0) * (F * mh + mu) + F * g * (1 + F) * mp),
+    ):  # (A42)
+        if abs(d) < CRITICAL_TOL:  # F = Fc: k_c -> inf, i.e. no cutoff
             out.append(None)
             continue
         arg = R * num / d
@@ -245,7 +263,7 @@ def cutoff(bs: BaseState, k_M: float | None = None):
     decays, which (5.34), (5.35) show happens only for F > Fc; for F <= Fc and for nu = 0 there is
     none. The result agrees with (A41)/(A42) (tested), which serve as a cross-check.
     """
-    if bs.inviscid or bs.criticality() <= CRITICAL_TOL:   # F <= Fc (within round-off of Fc)
+    if bs.inviscid or bs.criticality() <= CRITICAL_TOL:  # F <= Fc (within round-off of Fc)
         return None
     if k_M is None:
         k_M, _ = most_unstable(bs)
@@ -271,6 +289,19 @@ def cutoff(bs: BaseState, k_M: float | None = None):
     return brentq(f, a, b, xtol=1e-13, rtol=1e-12, maxiter=200)
 
 
-__all__ = ["matrix", "expansion_coefficients", "char_poly_coefficients", "roots", "roots_mp",
-           "sigma_M", "base_parameters", "most_unstable", "cutoff", "cutoff_analytic",
-           "inviscid_supremum", "AUTO_EXTENDED_K", "DPS", "needs_extended"]
+__all__ = [
+    "matrix",
+    "expansion_coefficients",
+    "char_poly_coefficients",
+    "roots",
+    "roots_mp",
+    "sigma_M",
+    "base_parameters",
+    "most_unstable",
+    "cutoff",
+    "cutoff_analytic",
+    "inviscid_supremum",
+    "AUTO_EXTENDED_K",
+    "DPS",
+    "needs_extended",
+]

@@ -24,6 +24,7 @@ printed coefficients of (B5) disagree with the determinant of this matrix (NUMER
 
 None of them affects the paper's conclusions (the asymptotics (B7)-(B11) hold, see the tests).
 """
+
 from __future__ import annotations
 
 import mpmath
@@ -36,18 +37,18 @@ from .dispersion1d import DPS, base_parameters, needs_extended
 def matrix(bs: BaseState, kx, ky) -> np.ndarray:
     """The 4x4 matrix above, broadcast over kx, ky; shape broadcast(kx, ky).shape + (4, 4)."""
     kx, ky = np.broadcast_arrays(np.asarray(kx, dtype=float), np.asarray(ky, dtype=float))
-    F2, r = bs.F ** 2, bs.inv_R
+    F2, r = bs.F**2, bs.inv_R
     A = np.zeros(kx.shape + (4, 4), dtype=complex)
     A[..., 0, 0] = -1j * kx
     A[..., 0, 1] = -1j * kx
     A[..., 0, 2] = -1j * ky
     A[..., 1, 0] = -(bs.mu_h + 1j * kx) / F2
-    A[..., 1, 1] = -bs.mu_u / F2 - 1j * kx - (kx ** 2 + 0.5 * ky ** 2) * r
+    A[..., 1, 1] = -bs.mu_u / F2 - 1j * kx - (kx**2 + 0.5 * ky**2) * r
     A[..., 1, 2] = -0.5 * kx * ky * r
     A[..., 1, 3] = -bs.mu_phi / F2
     A[..., 2, 0] = -1j * ky / F2
     A[..., 2, 1] = -0.5 * kx * ky * r
-    A[..., 2, 2] = -bs.tan_zeta / F2 - 1j * kx - (0.5 * kx ** 2 + ky ** 2) * r
+    A[..., 2, 2] = -bs.tan_zeta / F2 - 1j * kx - (0.5 * kx**2 + ky**2) * r
     A[..., 3, 0] = 1j * kx * bs.G0
     A[..., 3, 1] = 1j * kx * bs.G0
     A[..., 3, 2] = 1j * ky * bs.G0
@@ -71,40 +72,42 @@ def expansion_coefficients(bs: BaseState, extended: bool = False) -> dict:
         "f014": a * r / (2 * F2),
         "f020": t / F4 * a * (mh - mu),
         "f022": a / (2 * F2) * (r * (mh - 2 * mu - t) - 2),
-        "f024": -a * r ** 2 / 2,
+        "f024": -a * r**2 / 2,
         "f030": a / F4 * ((mh - mu) * F2 + (1 - F2) * t),
         "f032": a * r / (2 * F2) * (2 - 3 * F2),
         "f040": a / (2 * F2) * (2 * (F2 - 1) + r * (-2 * t + mh - mu)),
-        "f042": -a * r ** 2,
+        "f042": -a * r**2,
         "f050": a * r / (2 * F2) * (1 - 3 * F2),
-        "f060": -a * r ** 2 / 2,
+        "f060": -a * r**2 / 2,
         # (B5b)
         "f102": mu / F4,
         "f104": r / (2 * F2),
         "f110": t / F4 * (-mh + (2 - dg) * mu + g * mp),
         # corrected: (2 - G0')(tan + 2R + 2 mu_u) / (2F^2 R), the paper prints -2 mu_u
         "f112": ((2 - dg) * (r * t + 2 + 2 * r * mu) - r * mh + r * g * mp) / (2 * F2),
-        "f114": (2 - dg) * r ** 2 / 2,
-        "f120": ((2 - dg) * F2 * mh + (2 * dg - 3) * F2 * mu - g * F2 * mp
-                 + t * (1 + (2 * dg - 3) * F2)) / F4,
+        "f114": (2 - dg) * r**2 / 2,
+        "f120": (
+            (2 - dg) * F2 * mh + (2 * dg - 3) * F2 * mu - g * F2 * mp + t * (1 + (2 * dg - 3) * F2)
+        )
+        / F4,
         # corrected: (3 - 2 G0'), the paper prints (3 - G0')
         "f122": r / (2 * F2) * (2 - 3 * (3 - 2 * dg) * F2),
         # corrected: 2 F^2 R (3 G0' - 4), the paper prints (3 G0' - 2)
-        "f130": ((2 - dg) * (2 + r * (2 * t + mu)) - r * mh + r * g * mp
-                 + 2 * F2 * (3 * dg - 4)) / (2 * F2),
-        "f132": (2 - dg) * r ** 2,
+        "f130": ((2 - dg) * (2 + r * (2 * t + mu)) - r * mh + r * g * mp + 2 * F2 * (3 * dg - 4))
+        / (2 * F2),
+        "f132": (2 - dg) * r**2,
         "f140": r / (2 * F2) * (1 + 3 * F2 * (2 * dg - 3)),
-        "f150": (2 - dg) * r ** 2 / 2,
+        "f150": (2 - dg) * r**2 / 2,
         # (B5c)
         "f200": t / F4 * mu,
         "f202": (r * t + 2 + 2 * r * mu) / (2 * F2),
-        "f204": r ** 2 / 2,
+        "f204": r**2 / 2,
         "f210": ((3 - dg) * (mu + t) - mh + g * mp) / F2,
         "f212": 3 * (3 - dg) * r / 2,
         "f220": (r * mu + 2 * r * t + 2 * (1 + 3 * F2 * (dg - 2))) / (2 * F2),
-        "f222": r ** 2,
+        "f222": r**2,
         "f230": 3 * (3 - dg) * r / 2,
-        "f240": r ** 2 / 2,
+        "f240": r**2 / 2,
         # (B5d)
         "f300": (t + mu) / F2,
         "f302": 3 * r / 2,
@@ -123,7 +126,7 @@ def char_poly_coefficients(bs: BaseState, kx, ky, extended: bool = False, c: dic
     I = mpmath.mpc(0, 1) if extended else 1j
     if not extended:
         kx, ky = np.asarray(kx, dtype=float), np.asarray(ky, dtype=float)
-    y2 = ky ** 2
+    y2 = ky**2
     y4 = y2 * y2
     # (B4a-f): the k_y dependence of each f_{i,j}
     f01 = c["f012"] * y2 + c["f014"] * y4
@@ -140,12 +143,17 @@ def char_poly_coefficients(bs: BaseState, kx, ky, extended: bool = False, c: dic
     f30 = c["f300"] + c["f302"] * y2
     # (B3): powers of k_x
     x = kx
-    f0 = (I * f01 * x + f02 * x ** 2 + I * f03 * x ** 3 + f04 * x ** 4 + I * c["f050"] * x ** 5
-          + c["f060"] * x ** 6)
-    f1 = (f10 + I * f11 * x + f12 * x ** 2 + I * f13 * x ** 3 + c["f140"] * x ** 4
-          + I * c["f150"] * x ** 5)
-    f2 = f20 + I * f21 * x + f22 * x ** 2 + I * c["f230"] * x ** 3 + c["f240"] * x ** 4
-    f3 = f30 + I * c["f310"] * x + c["f320"] * x ** 2
+    f0 = (
+        I * f01 * x
+        + f02 * x**2
+        + I * f03 * x**3
+        + f04 * x**4
+        + I * c["f050"] * x**5
+        + c["f060"] * x**6
+    )
+    f1 = f10 + I * f11 * x + f12 * x**2 + I * f13 * x**3 + c["f140"] * x**4 + I * c["f150"] * x**5
+    f2 = f20 + I * f21 * x + f22 * x**2 + I * c["f230"] * x**3 + c["f240"] * x**4
+    f3 = f30 + I * c["f310"] * x + c["f320"] * x**2
     return f0, f1, f2, f3
 
 
@@ -156,11 +164,13 @@ def _roots_mp_one(bs: BaseState, kx: float, ky: float, guess=None, c=None) -> li
         f0, f1, f2, f3 = char_poly_coefficients(bs, mpmath.mpf(kx), mpmath.mpf(ky), True, c)
         init = None if guess is None else [mpmath.mpc(complex(z)) for z in guess]
         try:
-            return mpmath.polyroots([mpmath.mpf(1), f3, f2, f1, f0], maxsteps=100,
-                                    extraprec=2 * DPS, roots_init=init)
+            return mpmath.polyroots(
+                [mpmath.mpf(1), f3, f2, f1, f0], maxsteps=100, extraprec=2 * DPS, roots_init=init
+            )
         except mpmath.libmp.NoConvergence:
-            return mpmath.polyroots([mpmath.mpf(1), f3, f2, f1, f0], maxsteps=500,
-                                    extraprec=4 * DPS)
+            return mpmath.polyroots(
+                [mpmath.mpf(1), f3, f2, f1, f0], maxsteps=500, extraprec=4 * DPS
+            )
 
 
 def roots(bs: BaseState, kx, ky, extended=False) -> np.ndarray:
@@ -179,8 +189,11 @@ def roots(bs: BaseState, kx, ky, extended=False) -> np.ndarray:
             c = expansion_coefficients(bs, extended=True)
         fx, fy = kx.reshape(-1), ky.reshape(-1)
         fs = s.reshape(-1, 4)
-        redo = (needs_extended(bs, np.hypot(fx, fy), fs[:, 0].real) if extended == "auto"
-                else np.ones(fx.shape, dtype=bool))
+        redo = (
+            needs_extended(bs, np.hypot(fx, fy), fs[:, 0].real)
+            if extended == "auto"
+            else np.ones(fx.shape, dtype=bool)
+        )
         for i in np.nonzero(redo)[0]:
             fs[i] = [complex(z) for z in _roots_mp_one(bs, fx[i], fy[i], fs[i], c)]
         s = fs.reshape(kx.shape + (4,))
@@ -200,15 +213,21 @@ def cross_slope_roots(bs: BaseState, ky):
     that nu = 0 works: sigma^(+/-) = (-(F^2 k_y^2 / R + tan) +/- sqrt(...)) / (2 F^2).
     """
     ky = np.asarray(ky, dtype=float)
-    F2, r, t = bs.F ** 2, bs.inv_R, bs.tan_zeta
-    b = F2 * ky ** 2 * r + t
-    disc = np.sqrt((b ** 2 - 4 * F2 * ky ** 2).astype(complex))
+    F2, r, t = bs.F**2, bs.inv_R, bs.tan_zeta
+    b = F2 * ky**2 * r + t
+    disc = np.sqrt((b**2 - 4 * F2 * ky**2).astype(complex))
     out = np.zeros(ky.shape + (4,), dtype=complex)
-    out[..., 1] = -(bs.mu_u / F2 + 0.5 * ky ** 2 * r)
+    out[..., 1] = -(bs.mu_u / F2 + 0.5 * ky**2 * r)
     out[..., 2] = (-b + disc) / (2 * F2)
     out[..., 3] = (-b - disc) / (2 * F2)
     return out
 
 
-__all__ = ["matrix", "expansion_coefficients", "char_poly_coefficients", "roots", "sigma_M",
-           "cross_slope_roots"]
+__all__ = [
+    "matrix",
+    "expansion_coefficients",
+    "char_poly_coefficients",
+    "roots",
+    "sigma_M",
+    "cross_slope_roots",
+]

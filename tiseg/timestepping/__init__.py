@@ -11,6 +11,7 @@ and chooses its step from two numbers the caller measures on the current state: 
 step ``dt_cfl`` and the spectral radius ``rho`` of the operator's Jacobian on the negative real
 axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
 """
+
 from .base import STEPPERS, Stepper, make_stepper, stepper_for
 from .rkc import RKC
 from .ssprk import SSPRK2, SSPRK3, Euler

@@ -1,4 +1,5 @@
 """Stepper interface and registry."""
+
 from __future__ import annotations
 
 from ..errors import InputError
@@ -13,12 +14,14 @@ def register(cls):
 
 class Stepper:
     """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs."""
+
     name = "base"
     slots = 1
     order = 1
 
-    def plan(self, dt_cfl: float, rho: float, dt_max: float,
-             stages: int | None = None) -> tuple[float, int]:
+    def plan(
+        self, dt_cfl: float, rho: float, dt_max: float, stages: int | None = None
+    ) -> tuple[float, int]:
         """(dt, stages) for the next step given the convective limit, the spectral radius and
         an upper bound (the time left to the end of the run). ``stages``: a fixed stage count
         instead of the one the stiffness asks for (benchmarks and the estimate's calibration;
@@ -38,6 +41,7 @@ def stepper_for(numerics, name: str | None = None) -> Stepper:
 
 def make_stepper(name: str, **kwargs) -> Stepper:
     if name not in STEPPERS:
-        raise InputError(f"numerics.stepper={name!r} is not known; choose one of "
-                         f"{', '.join(sorted(STEPPERS))}")
+        raise InputError(
+            f"numerics.stepper={name!r} is not known; choose one of {', '.join(sorted(STEPPERS))}"
+        )
     return STEPPERS[name](**kwargs)

@@ -8,6 +8,7 @@ s = 1 + floor(sqrt(1 + 1.54 dt rho)), which keeps dt rho <= beta(s) with a ~2 % 
 
 Only two previous stages are kept (Y_{j-1}, Y_{j-2}) besides Y0, F0 and F(Y_{j-1}): 5 slots.
 """
+
 from __future__ import annotations
 
 import math
@@ -83,7 +84,7 @@ class RKC(Stepper):
         mu_t1, coeffs, c = rkc_coefficients(s)
         Y0, F0, A, B, FJ = 0, 1, 2, 3, 4
         op.rhs(Y0, F0, t)
-        op.combine(A, [(1.0, Y0), (mu_t1 * dt, F0)], limit=True)        # Y1
+        op.combine(A, [(1.0, Y0), (mu_t1 * dt, F0)], limit=True)  # Y1
         prev2, prev1 = Y0, A
         for j in range(2, s + 1):
             mu, nu, mu_t, gamma_t = coeffs[j - 2]
@@ -91,6 +92,15 @@ class RKC(Stepper):
             # Y_j overwrites Y_{j-2} (element-wise update), except that Y0 must survive until
             # the last stage, which writes the new solution into slot 0 itself.
             dst = Y0 if j == s else (B if prev2 == Y0 else prev2)
-            op.combine(dst, [(1.0 - mu - nu, Y0), (mu, prev1), (nu, prev2), (mu_t * dt, FJ),
-                             (gamma_t * dt, F0)], limit=True)
+            op.combine(
+                dst,
+                [
+                    (1.0 - mu - nu, Y0),
+                    (mu, prev1),
+                    (nu, prev2),
+                    (mu_t * dt, FJ),
+                    (gamma_t * dt, F0),
+                ],
+                limit=True,
+            )
             prev2, prev1 = prev1, dst

@@ -4,6 +4,7 @@ They are convex combinations of Euler steps, so they keep the positivity of the 
 (Kurganov & Petrova 2007) under the CFL limit. Their real stability interval [-beta, 0] must also
 contain the operator's spectrum: dt <= safety * beta / rho.
 """
+
 from __future__ import annotations
 
 from ..errors import InputError
@@ -11,13 +12,12 @@ from .base import Stepper, register
 
 
 class _ExplicitRK(Stepper):
-    beta = 2.0        # real stability interval
+    beta = 2.0  # real stability interval
     safety = 0.9
 
     def plan(self, dt_cfl, rho, dt_max, stages=None):
         if stages is not None and stages != self.stages:
-            raise InputError(f"stages={stages!r}: {self.name} always takes {self.stages} "
-                             "stage(s)")
+            raise InputError(f"stages={stages!r}: {self.name} always takes {self.stages} stage(s)")
         dt = dt_cfl
         if rho > 0:
             dt = min(dt, self.safety * self.beta / rho)

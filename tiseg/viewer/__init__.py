@@ -5,6 +5,7 @@ controls for running, the field shown, recording and run-time parameters. Needs 
 display for a visible window); without them it says so in one line and exits with status 2.
 See :mod:`tiseg.viewer.app`.
 """
+
 from .app import DisplayUnavailable, Viewer, display_problem, vulkan_problem
 
 __all__ = ["Viewer", "DisplayUnavailable", "display_problem", "vulkan_problem"]

@@ -1,4 +1,5 @@
 """``python -m tiseg.viewer SCENE [--set k=v] [--arch cpu] [--frames N] ...``"""
+
 import sys
 
 from .app import main

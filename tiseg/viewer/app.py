@@ -23,6 +23,7 @@ either is missing the viewer says so in one line, suggests the off-screen path a
 ``Viewer(scene, show_window=False)`` runs without a display (Vulkan still needed) for tests and
 benchmarks: :meth:`Viewer.run_frames` and :meth:`Viewer.capture`.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -38,12 +39,18 @@ import numpy as np
 
 from tiseg.errors import TisegError
 
-OFFSCREEN_HINT = ("use the off-screen path instead: `tiseg run SCENE --movie out.mp4` or "
-                  "`tiseg render RUN_DIR --movie out.mp4`")
+OFFSCREEN_HINT = (
+    "use the off-screen path instead: `tiseg run SCENE --movie out.mp4` or "
+    "`tiseg render RUN_DIR --movie out.mp4`"
+)
 FIELDS = (("phi", "phi"), ("h", "h"), ("speed", "|u|"), ("u", "u"), ("v", "v"))
 # the older OperatorConfig names of set_params -> (scene key, value as the scene takes it)
-CFG_KEYS = {"nu": ("flow.nu", float), "zeta": ("material.zeta_deg", math.degrees),
-            "inflow_h": ("inflow.h", float), "inflow_phi": ("inflow.phi", float)}
+CFG_KEYS = {
+    "nu": ("flow.nu", float),
+    "zeta": ("material.zeta_deg", math.degrees),
+    "inflow_h": ("inflow.h", float),
+    "inflow_phi": ("inflow.phi", float),
+}
 
 
 class DisplayUnavailable(TisegError):
@@ -58,8 +65,12 @@ def _icd_manifests() -> list[str]:
     env = os.environ.get("VK_DRIVER_FILES") or os.environ.get("VK_ICD_FILENAMES")
     if env:
         return [p for p in env.split(os.pathsep) if os.path.exists(p)]
-    dirs = [os.environ.get("XDG_CONFIG_HOME", os.path.expanduser("~/.config")), "/etc/xdg",
-            "/etc", os.environ.get("XDG_DATA_HOME", os.path.expanduser("~/.local/share"))]
+    dirs = [
+        os.environ.get("XDG_CONFIG_HOME", os.path.expanduser("~/.config")),
+        "/etc/xdg",
+        "/etc",
+        os.environ.get("XDG_DATA_HOME", os.path.expanduser("~/.local/share")),
+    ]
     dirs += (os.environ.get("XDG_DATA_DIRS") or "/usr/local/share:/usr/share").split(":")
     found = []
     for d in dirs:
@@ -68,11 +79,16 @@ def _icd_manifests() -> list[str]:
 
 
 class _VkInstanceCreateInfo(ctypes.Structure):
-    _fields_ = [("sType", ctypes.c_int), ("pNext", ctypes.c_void_p), ("flags", ctypes.c_uint32),
-                ("pApplicationInfo", ctypes.c_void_p), ("enabledLayerCount", ctypes.c_uint32),
-                ("ppEnabledLayerNames", ctypes.c_void_p),
-                ("enabledExtensionCount", ctypes.c_uint32),
-                ("ppEnabledExtensionNames", ctypes.c_void_p)]
+    _fields_ = [
+        ("sType", ctypes.c_int),
+        ("pNext", ctypes.c_void_p),
+        ("flags", ctypes.c_uint32),
+        ("pApplicationInfo", ctypes.c_void_p),
+        ("enabledLayerCount", ctypes.c_uint32),
+        ("ppEnabledLayerNames", ctypes.c_void_p),
+        ("enabledExtensionCount", ctypes.c_uint32),
+        ("ppEnabledExtensionNames", ctypes.c_void_p),
+    ]
 
 
 def vulkan_problem() -> str | None:
@@ -91,13 +107,19 @@ def vulkan_problem() -> str | None:
         except OSError:
             continue
     if lib is None:
-        return ("no Vulkan loader (libvulkan.so.1) is installed; on Debian/Ubuntu: "
-                "apt-get install libvulkan1 mesa-vulkan-drivers")
+        return (
+            "no Vulkan loader (libvulkan.so.1) is installed; on Debian/Ubuntu: "
+            "apt-get install libvulkan1 mesa-vulkan-drivers"
+        )
     if sys.platform.startswith("linux") and not _icd_manifests():
-        return ("no Vulkan driver (ICD) is installed; on Debian/Ubuntu: "
-                "apt-get install mesa-vulkan-drivers")
+        return (
+            "no Vulkan driver (ICD) is installed; on Debian/Ubuntu: "
+            "apt-get install mesa-vulkan-drivers"
+        )
     try:
-        info = _VkInstanceCreateInfo(1, None, 0, None, 0, None, 0, None)  # sType INSTANCE_CREATE_INFO
+        info = _VkInstanceCreateInfo(
+            1, None, 0, None, 0, None, 0, None
+        )  # sType INSTANCE_CREATE_INFO
         inst = ctypes.c_void_p()
         lib.vkCreateInstance.restype = ctypes.c_int
         res = lib.vkCreateInstance(ctypes.byref(info), None, ctypes.byref(inst))
@@ -118,9 +140,10 @@ def _taichi_vulkan_problem() -> str | None:
     """Taichi's own probe (it tries Vulkan at run time and answers False instead of crashing)."""
     try:
         from taichi._lib import core as _ti_core
+
         if not _ti_core.with_vulkan():
             return "Taichi cannot use Vulkan here (GGUI needs it)"
-    except Exception:                    # an old/odd Taichi without the probe: let GGUI try
+    except Exception:  # an old/odd Taichi without the probe: let GGUI try
         pass
     return None
 
@@ -166,14 +189,27 @@ class Viewer:
     ``save_dir``: where screenshots and recordings go.
     """
 
-    BAR_W = 64          # colour bar strip at the right of the map
-    PANEL_H = 230       # control panels below the map
-    MIN_W = 760         # the three panels need this much width
+    BAR_W = 64  # colour bar strip at the right of the map
+    PANEL_H = 230  # control panels below the map
+    MIN_W = 760  # the three panels need this much width
 
-    def __init__(self, scene=None, overrides=None, show_window: bool = True, field=None,
-                 scale: float | None = None, steps_per_frame: int = 1, shade: bool = True,
-                 arch: str | None = None, precision: str | None = None, threads: int = 0,
-                 save_dir=".", sim=None, stop_at_end: bool = True, fps_limit: int = 1000):
+    def __init__(
+        self,
+        scene=None,
+        overrides=None,
+        show_window: bool = True,
+        field=None,
+        scale: float | None = None,
+        steps_per_frame: int = 1,
+        shade: bool = True,
+        arch: str | None = None,
+        precision: str | None = None,
+        threads: int = 0,
+        save_dir=".",
+        sim=None,
+        stop_at_end: bool = True,
+        fps_limit: int = 1000,
+    ):
         problem = display_problem(show_window)
         if problem:
             raise DisplayUnavailable(f"cannot open the viewer: {problem}; {OFFSCREEN_HINT}")
@@ -188,6 +224,7 @@ class Viewer:
             if scene is None:
                 raise TisegError("Viewer needs a scene or a simulation")
             from tiseg.scene import load_scene
+
             sc = load_scene(scene, overrides)
             if precision:
                 sc = sc.with_overrides({"numerics.precision": precision})
@@ -210,11 +247,16 @@ class Viewer:
         self.map_h = self.renderer.height
         self.width = max(self.map_w + self.BAR_W, self.MIN_W)
         self.height = self.map_h + self.PANEL_H
-        self.map_x0, self.map_y0 = 0, self.PANEL_H      # image y runs upwards: panel at bottom
+        self.map_x0, self.map_y0 = 0, self.PANEL_H  # image y runs upwards: panel at bottom
         self.canvas_image = ti.Vector.field(3, ti.f32, shape=(self.width, self.height))
         title = f"tiseg viewer - {self.scene.name} ({nx} x {ny} cells)"
-        self.window = ti.ui.Window(title, (self.width, self.height), vsync=False,
-                                   show_window=show_window, fps_limit=fps_limit)
+        self.window = ti.ui.Window(
+            title,
+            (self.width, self.height),
+            vsync=False,
+            show_window=show_window,
+            fps_limit=fps_limit,
+        )
         self.canvas = self.window.get_canvas()
         self.gui = self.window.get_gui()
         self.steps_per_frame = int(steps_per_frame)
@@ -222,8 +264,8 @@ class Viewer:
         self.message = ""
         self.record_path: Path | None = None
         self.frames = 0
-        self.scene0 = sim.scene                  # what "scene values" restores
-        self._clock: list[tuple[float, int, float]] = []   # (wall, steps, t) for the readouts
+        self.scene0 = sim.scene  # what "scene values" restores
+        self._clock: list[tuple[float, int, float]] = []  # (wall, steps, t) for the readouts
         self._captured = None
         self._clear_background()
 
@@ -231,11 +273,12 @@ class Viewer:
     def step(self, n: int = 1) -> int:
         """Advance n time steps (fewer if the scene's end is reached and stop_at_end is on)."""
         from tiseg.simulation import SimulationError
+
         done = 0
         for _ in range(n):
             before_end = self.sim.t < self.scene.t_end - 1e-12
             try:
-                self.sim.step()      # lands on t_end, then runs on
+                self.sim.step()  # lands on t_end, then runs on
             except SimulationError as exc:
                 self.paused = True
                 self.message = f"stopped: {exc}"
@@ -260,8 +303,10 @@ class Viewer:
         changes = dict(changes or {})
         for name, value in cfg_names.items():
             if name not in CFG_KEYS:
-                raise TisegError(f"set_params: unknown parameter {name!r}; use scene keys "
-                                 f"or one of {', '.join(CFG_KEYS)}")
+                raise TisegError(
+                    f"set_params: unknown parameter {name!r}; use scene keys "
+                    f"or one of {', '.join(CFG_KEYS)}"
+                )
             key, to_scene = CFG_KEYS[name]
             changes[key] = to_scene(value)
         self.sim.set_parameters(changes)
@@ -272,8 +317,10 @@ class Viewer:
     # ------------------------------------------------------------------ drawing
     def _clear_background(self) -> None:
         from tiseg.render import colours as C
-        self.renderer.painter.fill(self.canvas_image, 0, 0, self.width, self.height,
-                                   *C.BACKGROUND_RGB)
+
+        self.renderer.painter.fill(
+            self.canvas_image, 0, 0, self.width, self.height, *C.BACKGROUND_RGB
+        )
 
     def draw(self) -> None:
         """Paint the map and its colour bar into the window image and hand it to the canvas."""
@@ -294,7 +341,7 @@ class Viewer:
         self.draw()
         self._tick()
         if self.show_window:
-            self.window.show()        # never without a window: GGUI crashes on that
+            self.window.show()  # never without a window: GGUI crashes on that
         self.frames += 1
 
     @property
@@ -325,6 +372,7 @@ class Viewer:
         GGUI draws a frame when its buffer is read and then starts an empty one, so the picture
         is read once per frame and kept for further calls in the same frame."""
         from tiseg.render import colours as C
+
         if self._captured is None or self._captured[0] != self.frames:
             a = self.window.get_image_buffer_as_numpy()[:, :, :3]
             self._captured = (self.frames, C.to_uint8(np.transpose(a, (1, 0, 2))[::-1]))
@@ -334,13 +382,18 @@ class Viewer:
         """The map part of :meth:`capture` (without colour bar and controls)."""
         img = self.capture()
         top = self.height - (self.map_y0 + self.map_h)
-        return img[top:top + self.map_h, self.map_x0:self.map_x0 + self.map_w]
+        return img[top : top + self.map_h, self.map_x0 : self.map_x0 + self.map_w]
 
     def screenshot(self, path=None) -> Path:
         """Save the current picture (with time stamp, scale bar, colour bar) as PNG."""
         import imageio.v3 as iio
-        path = Path(path) if path else self.save_dir / (
-            f"tiseg-{self.scene.name}-{self.renderer.field}-t{self.sim.t:07.3f}.png")
+
+        path = (
+            Path(path)
+            if path
+            else self.save_dir
+            / (f"tiseg-{self.scene.name}-{self.renderer.field}-t{self.sim.t:07.3f}.png")
+        )
         path.parent.mkdir(parents=True, exist_ok=True)
         iio.imwrite(path, self.renderer.to_numpy(annotate_frame=True, colourbar=True))
         self.message = f"saved {path}"
@@ -350,12 +403,17 @@ class Viewer:
         """Record a frame every ``steps_per_frame`` steps (a callback of the simulation)."""
         from tiseg.render.movie import MovieRecorder
         from tiseg.schedules import IterationInterval
+
         self.stop_recording()
-        path = Path(path) if path else self.save_dir / (
-            f"tiseg-{self.scene.name}-{time.strftime('%Y%m%d-%H%M%S')}.mp4")
+        path = (
+            Path(path)
+            if path
+            else self.save_dir / (f"tiseg-{self.scene.name}-{time.strftime('%Y%m%d-%H%M%S')}.mp4")
+        )
         rec = MovieRecorder(self.renderer, path, fps)
-        self.sim.add_callback(rec.callback(IterationInterval(self.steps_per_frame),
-                                           name="viewer:recording"))
+        self.sim.add_callback(
+            rec.callback(IterationInterval(self.steps_per_frame), name="viewer:recording")
+        )
         self.record_path = path
         self.message = f"recording to {path}"
         return path
@@ -372,6 +430,7 @@ class Viewer:
         cb = self.sim.callbacks.get("viewer:recording")
         if cb is not None and cb.schedule.n != self.steps_per_frame:
             from tiseg.schedules import IterationInterval
+
             cb.schedule = IterationInterval(self.steps_per_frame)
 
     def close(self) -> None:
@@ -386,7 +445,7 @@ class Viewer:
         now = time.perf_counter()
         self._clock.append((now, self.sim.stats.steps, self.sim.t))
         while len(self._clock) > 2 and now - self._clock[0][0] > 2.0:
-            self._clock.pop(0)       # rates over the last ~2 s of wall time
+            self._clock.pop(0)  # rates over the last ~2 s of wall time
 
     def rates(self) -> dict:
         """Frames, steps and simulated seconds per wall second over the last ~2 s."""
@@ -394,8 +453,11 @@ class Viewer:
             return {"fps": 0.0, "steps_per_s": 0.0, "realtime": 0.0}
         (w0, s0, t0), (w1, s1, t1) = self._clock[0], self._clock[-1]
         dw = max(w1 - w0, 1e-9)
-        return {"fps": (len(self._clock) - 1) / dw, "steps_per_s": (s1 - s0) / dw,
-                "realtime": (t1 - t0) / dw}
+        return {
+            "fps": (len(self._clock) - 1) / dw,
+            "steps_per_s": (s1 - s0) / dw,
+            "realtime": (t1 - t0) / dw,
+        }
 
     # ------------------------------------------------------------------ input
     def _events(self) -> None:
@@ -414,7 +476,7 @@ class Viewer:
     def _controls(self) -> None:
         g = self.gui
         W, H = float(self.width), float(self.height)
-        top = (self.height - self.PANEL_H + 4) / H      # GUI y runs downwards, in fractions
+        top = (self.height - self.PANEL_H + 4) / H  # GUI y runs downwards, in fractions
         ph = (self.PANEL_H - 8) / H
         x0 = 4 / W
         cw = (W - 16) / 3 / W
@@ -436,8 +498,10 @@ class Viewer:
                     self.stop_recording()
             r = self.rates()
             w.text(f"t = {self.sim.t:.3f} s   steps {self.sim.stats.steps}")
-            w.text(f"{r['steps_per_s']:.1f} steps/s  {r['fps']:.1f} fps  "
-                   f"x{r['realtime']:.3g} real time")
+            w.text(
+                f"{r['steps_per_s']:.1f} steps/s  {r['fps']:.1f} fps  "
+                f"x{r['realtime']:.3g} real time"
+            )
             if self.message:
                 w.text(self.message[:60])
         with g.sub_window("View", x0 + cw + 4 / W, top, cw, ph) as w:
@@ -449,12 +513,14 @@ class Viewer:
                     continue
                 if w.button(f"show {label}"):
                     self.set_field(name)
-            self.renderer.shade = 0.35 if w.checkbox("relief shading", self.renderer.shade > 0) \
-                else 0.0
+            self.renderer.shade = (
+                0.35 if w.checkbox("relief shading", self.renderer.shade > 0) else 0.0
+            )
             self.set_steps_per_frame(w.slider_int("steps/frame", self.steps_per_frame, 1, 100))
             lo, hi = self.renderer.vrange
             if self.renderer.field != "phi":
                 from tiseg.render.colours import FIELD_LABELS
+
                 _, f, unit = FIELD_LABELS[self.renderer.field]
                 w.text(f"range {lo * f:.3g} .. {hi * f:.3g} {unit}")
         with g.sub_window("Parameters", x0 + 2 * (cw + 4 / W), top, cw, ph) as w:
@@ -488,7 +554,7 @@ class Viewer:
         if changes:
             try:
                 self.set_params(changes)
-            except TisegError as exc:          # e.g. a perturbation that leaves [0, 1]
+            except TisegError as exc:  # e.g. a perturbation that leaves [0, 1]
                 self.message = str(exc)
 
 
@@ -498,23 +564,33 @@ class Viewer:
 def add_arguments(p) -> None:
     """Options of the viewer (the scene options come from `tiseg run`)."""
     from tiseg.commands.common import add_scene_arguments
+
     add_scene_arguments(p)
     p.add_argument("--field", default=None, help="phi (default), h, speed (|u|), u or v")
     p.add_argument("--scale", type=float, default=None, help="pixels per cell (default: fit)")
     p.add_argument("--steps-per-frame", type=int, default=1, help="time steps per frame (1)")
     p.add_argument("--no-shade", action="store_true", help="no relief shading")
-    p.add_argument("--frames", type=int, default=None, metavar="N",
-                   help="close after N frames (for scripted checks)")
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        metavar="N",
+        help="close after N frames (for scripted checks)",
+    )
     p.add_argument("--record", default=None, metavar="OUT.mp4", help="record from the start")
     p.add_argument("--save-dir", default=".", help="folder for screenshots and recordings")
-    p.add_argument("--offscreen", action="store_true",
-                   help="no window (needs Vulkan, not a display); with --frames, for timing")
+    p.add_argument(
+        "--offscreen",
+        action="store_true",
+        help="no window (needs Vulkan, not a display); with --frames, for timing",
+    )
 
 
 def run_from_args(args) -> int:
     """Open the viewer as the arguments say; raises DisplayUnavailable/TisegError for the caller
     to report in one line."""
     from tiseg.errors import InputError
+
     if args.frames is not None and args.frames < 0:
         raise InputError(f"--frames={args.frames}: must be >= 0")
     if args.steps_per_frame < 1:
@@ -527,21 +603,33 @@ def run_from_args(args) -> int:
     field = args.field
     if field is not None:
         from tiseg.render.colours import canonical_field
+
         try:
             field = canonical_field(field)
         except ValueError as exc:
             raise InputError(str(exc)) from None
-    v = Viewer(args.scene, overrides=list(args.overrides), show_window=show, field=field,
-               scale=args.scale, steps_per_frame=args.steps_per_frame, shade=not args.no_shade,
-               arch=args.arch, precision=args.precision, threads=args.threads,
-               save_dir=args.save_dir)
+    v = Viewer(
+        args.scene,
+        overrides=list(args.overrides),
+        show_window=show,
+        field=field,
+        scale=args.scale,
+        steps_per_frame=args.steps_per_frame,
+        shade=not args.no_shade,
+        arch=args.arch,
+        precision=args.precision,
+        threads=args.threads,
+        save_dir=args.save_dir,
+    )
     if args.record:
         v.start_recording(args.record)
     wall = time.perf_counter()
     v.run(max_frames=args.frames)
     wall = time.perf_counter() - wall
-    print(f"viewer: {v.frames} frames, t = {v.sim.t:.4g} s, {v.sim.stats.steps} steps in "
-          f"{wall:.2f} s ({v.frames / max(wall, 1e-9):.1f} fps)")
+    print(
+        f"viewer: {v.frames} frames, t = {v.sim.t:.4g} s, {v.sim.stats.steps} steps in "
+        f"{wall:.2f} s ({v.frames / max(wall, 1e-9):.1f} fps)"
+    )
     if v.message.startswith("saved"):
         print(v.message)
     return 0
@@ -549,8 +637,10 @@ def run_from_args(args) -> int:
 
 def main(argv=None) -> int:
     import argparse
-    p = argparse.ArgumentParser(prog="python -m tiseg.viewer",
-                                description="Live GGUI view of a tiseg simulation.")
+
+    p = argparse.ArgumentParser(
+        prog="python -m tiseg.viewer", description="Live GGUI view of a tiseg simulation."
+    )
     add_arguments(p)
     args = p.parse_args(argv)
     try:
