@@ -44,6 +44,8 @@ def _row(problem, res, rec, stepper, error, wall, prec="f64", status="ok"):
         "problem": problem,
         "resolution": res,
         "reconstruction": rec,
+        "flux": "kt",
+        "phi_flux": "upwind",
         "stepper": stepper,
         "precision": prec,
         "backend": "cpu",

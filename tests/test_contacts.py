@@ -58,7 +58,7 @@ def test_central_phi_flux_smears_the_contact(ti_cpu):
     """The same case with the scheme's own h phi flux: the KT dissipation (1/2) a (q_r - q_l)
     mixes phi across the contacts though no mass crosses them (what phi_flux = "upwind"
     removes). At 250 cells/m the channel centre loses several per cent in 1 s."""
-    sc = channel()
+    sc = channel(**{"numerics.phi_flux": "central"})
     sim = Simulation(sc)
     sim.advance(sc.t_end)
     phi = sim.fields()["phi"]

@@ -269,8 +269,8 @@ class NumericsConfig:
     theta: float = 1.5  # generalised minmod parameter, in [1, 2]
     flux: str = "kt"  # "kt" (Kurganov-Tadmor 2000, as in section 6.2) or
     # "central-upwind" (Kurganov, Noelle & Petrova 2001)
-    phi_flux: str = "central"  # h phi flux: the flux scheme's own ("central"), or the mass
-    # flux times the upwind phi - G(phi) ("upwind")
+    phi_flux: str = "upwind"  # h phi flux: the mass flux times the upwind phi - G(phi)
+    # ("upwind", keeps contacts sharp), or the flux scheme's own ("central", the paper's)
     stepper: str = "rkc"  # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
     cfl: float = 0.25  # Courant number of the hyperbolic part, in (0, 1]
     precision: str = "f64"  # floating-point precision of the kernels
@@ -1163,7 +1163,7 @@ def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
         ),
         theta=t.number("theta", 1.5, lo=1.0, hi=2.0),
         flux=t.choice("flux", FLUXES, "kt"),
-        phi_flux=t.choice("phi_flux", PHI_FLUXES, "central"),
+        phi_flux=t.choice("phi_flux", PHI_FLUXES, "upwind"),
         stepper=t.choice("stepper", STEPPERS, "rkc"),
         cfl=t.number("cfl", 0.25, positive=True, hi=1.0),
         precision=t.choice("precision", PRECISIONS, "f64"),

@@ -62,7 +62,7 @@ def field_comments(cls) -> dict[str, str]:
             out[last] = m.group(2).strip()
             continue
         m = _MORE.match(line)
-        if m and last is not None and line.index("#") > 20:
+        if m and last is not None:  # a comment line right after a field continues its comment
             out[last] += " " + m.group(1).strip()
             continue
         last = None

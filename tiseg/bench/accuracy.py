@@ -72,7 +72,7 @@ PHI_FLUXES = ("central", "upwind")
 DEFAULT_COMBO = {
     "reconstruction": "weno",
     "flux": "kt",
-    "phi_flux": "central",
+    "phi_flux": "upwind",
     "stepper": "rkc",
     "precision": "f64",
     "backend": "cpu",
@@ -83,9 +83,11 @@ DEFAULT_SCHEME = {
     "reconstruction": "weno",
     "theta": 1.5,
     "flux": "kt",
-    "phi_flux": "central",
+    "phi_flux": "upwind",
     "cfl": 0.25,
 }
+# what rows from before the flux options (no theta / flux / phi_flux columns) were run with
+LEGACY_SCHEME = {"theta": 1.5, "flux": "kt", "phi_flux": "central"}
 COLUMNS = (
     "problem",
     "resolution",
@@ -535,7 +537,7 @@ def plan_points(
     steppers: Sequence[str] | None = None,
     cfls: Sequence[float] = (0.25,),
     fluxes: Sequence[str] = ("kt",),
-    phi_fluxes: Sequence[str] = ("central",),
+    phi_fluxes: Sequence[str] = ("upwind",),
     thetas: Sequence[float] = (1.5,),
 ) -> list[dict]:
     """Every (problem, resolution, reconstruction [x theta for minmod], flux, phi_flux, stepper,
@@ -597,11 +599,11 @@ def scheme_label(row: dict) -> str:
     """Short name of a point's spatial scheme: the reconstruction (with theta for minmod), then
     '+cu' for the central-upwind flux and '+up' for the upwind h phi flux."""
     rec = row["reconstruction"]
-    th = float(row.get("theta", DEFAULT_SCHEME["theta"]))
+    th = float(row.get("theta", LEGACY_SCHEME["theta"]))
     name = f"minmod{th:g}" if rec == "minmod" else rec
     if row.get("flux", "kt") == "central-upwind":
         name += "+cu"
-    if row.get("phi_flux", "central") == "upwind":
+    if row.get("phi_flux", LEGACY_SCHEME["phi_flux"]) == "upwind":
         name += "+up"
     return name
 
@@ -756,8 +758,8 @@ def pareto_front(errors: Sequence[float], walls: Sequence[float]) -> list[int]:
 
 
 def _is_default(row: dict) -> bool:
-    # rows from before the flux options have no flux / phi_flux: the defaults then
-    return all(row.get(k, DEFAULT_SCHEME.get(k)) == v for k, v in DEFAULT_COMBO.items())
+    # rows from before the flux options have no flux / phi_flux: they ran the legacy scheme
+    return all(row.get(k, LEGACY_SCHEME.get(k)) == v for k, v in DEFAULT_COMBO.items())
 
 
 def _work(row: dict) -> int:
@@ -933,9 +935,9 @@ def read_csv(path) -> list[dict]:
             for k in ("error", "wall_s", "cfl", "value"):
                 r[k] = float(r[k]) if r[k] not in ("", None) else math.nan
             # files written before the flux options had none of these columns
-            r["theta"] = float(r.get("theta") or DEFAULT_SCHEME["theta"])
-            r["flux"] = r.get("flux") or DEFAULT_SCHEME["flux"]
-            r["phi_flux"] = r.get("phi_flux") or DEFAULT_SCHEME["phi_flux"]
+            r["theta"] = float(r.get("theta") or LEGACY_SCHEME["theta"])
+            r["flux"] = r.get("flux") or LEGACY_SCHEME["flux"]
+            r["phi_flux"] = r.get("phi_flux") or LEGACY_SCHEME["phi_flux"]
             for k in ("resolution", "steps", "rhs_evals", "cells"):
                 r[k] = int(r[k])
             r["pareto"] = r["pareto"] == "True"
@@ -1117,7 +1119,7 @@ def run_study(
     in_process: bool | None = None,
     log=None,
     fluxes=("kt",),
-    phi_fluxes=("central",),
+    phi_fluxes=("upwind",),
     thetas=(1.5,),
 ) -> dict:
     """Run the study, write accuracy.csv, one PNG per problem and summary.json/.md.

@@ -73,9 +73,9 @@ def register(sub) -> None:
     a.add_argument(
         "--phi-fluxes",
         nargs="+",
-        default=["central"],
+        default=["upwind"],
         choices=("central", "upwind"),
-        help="numerics.phi_flux values (default central)",
+        help="numerics.phi_flux values (default upwind, the scenes' default)",
     )
     a.add_argument(
         "--steppers", nargs="+", default=None, choices=("rkc", "ssprk3", "ssprk2", "euler")

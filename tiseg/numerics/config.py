@@ -159,7 +159,7 @@ class OperatorConfig:
     reconstruction: str = "minmod"
     theta: float = 1.5
     flux: str = "kt"
-    phi_flux: str = "central"
+    phi_flux: str = "upwind"
     weno_eps: float = 1e-6
     h_ref: float = 2e-3  # scales making the WENO smoothness indicators dimensionless
     u_ref: float = 0.2
