@@ -114,13 +114,28 @@ def plot(rows: list[dict], path: Path) -> None:
         work = [int(r["rhs_evals"]) * int(r["cells"]) for r in pts]
         style = "-" if label.endswith("+up") else "--"
         axes[0].plot(work, [float(r["u_error"]) for r in pts], style, marker="o", label=label)
-        axes[1].plot(work, [max(1 - float(r["phi_centre"]), 1e-16) for r in pts], style,
-                     marker="o", label=label)
+        axes[1].plot(
+            work,
+            [max(1 - float(r["phi_centre"]), 1e-16) for r in pts],
+            style,
+            marker="o",
+            label=label,
+        )
         for r, w in zip(pts, work):
-            axes[0].annotate(str(r["resolution"]), (w, float(r["u_error"])), fontsize=6,
-                             xytext=(2, 2), textcoords="offset points")
-    for ax, ylab in zip(axes, ("relative L1 error of u(y) vs the steady solution",
-                               "1 - phi at the channel centre (exact: 0)")):
+            axes[0].annotate(
+                str(r["resolution"]),
+                (w, float(r["u_error"])),
+                fontsize=6,
+                xytext=(2, 2),
+                textcoords="offset points",
+            )
+    for ax, ylab in zip(
+        axes,
+        (
+            "relative L1 error of u(y) vs the steady solution",
+            "1 - phi at the channel centre (exact: 0)",
+        ),
+    ):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("work: operator evaluations x cells (labels: cells/m)")

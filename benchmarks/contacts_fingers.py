@@ -4,8 +4,8 @@ wavelength and the elongation at the lowest cost (issue 12, the work-precision d
     python benchmarks/contacts_fingers.py SWEEP_DIR [SWEEP_DIR ...] --out benchmarks/contacts
 
 Each SWEEP_DIR is the folder of a ``tiseg sweep`` of the fingers scene (e.g. ``grid-study``);
-every run in it is grouped by its numerics (read from its own ``scene.toml``: reconstruction,
-theta, flux, phi_flux) and its resolution. Per group: mean ± sd over the seeds of the finger
+every finished run in it (a folder with ``done.json``) is grouped by its numerics (read from its
+own ``scene.toml``: reconstruction, theta, flux, phi_flux) and its resolution. Per group: mean ± sd over the seeds of the finger
 wavelength Λ and of the elongation x_l at t = 2.5, 5 and 7.5 s, and the mean work (operator
 evaluations x cells) and wall time per run. The reference of each option is its own 750
 cells/m ensemble; a point "reaches" it when |mean - mean_750| <= sd_750 for Λ and for x_l at
@@ -17,7 +17,6 @@ exactly and sd = 0). Writes
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 import tomllib
@@ -45,16 +44,32 @@ def label(num: dict) -> str:
 
 
 def collect(folders) -> dict:
-    """{(label, resolution): [row dict, ...]} over the finished runs of the sweeps."""
+    """{(label, resolution): [row dict, ...]} over the finished runs (folders with done.json)
+    of the sweeps, read from each run's own done.json and scene.toml (a sweep that was stopped
+    early has no complete sweep.csv)."""
+    import json
+
     groups = defaultdict(list)
     for folder in folders:
-        with open(Path(folder) / "sweep.csv", newline="") as fh:
-            for row in csv.DictReader(fh):
-                if row.get("status") not in ("done", "reused") or not row.get("wavelength"):
-                    continue
-                scene = tomllib.loads((Path(folder) / row["run"] / "scene.toml").read_text())
-                key = (label(scene.get("numerics", {})), int(float(row["domain.resolution"])))
-                groups[key].append(row)
+        for done in sorted(Path(folder).glob("*/done.json")):
+            d = json.loads(done.read_text())
+            scene = tomllib.loads((done.parent / "scene.toml").read_text())
+            m = d["metrics"]
+            times = [float(t) for t in m["time"]]
+            row = {
+                "finger_count": m["finger_count"][-1],
+                "wavelength": m["wavelength"][-1],
+                "rhs_evaluations": d["rhs_evaluations"],
+                "cells": d["cells"],
+                "wall_s": d["wall_s"],
+            }
+            for t in TIMES:
+                k = min(range(len(times)), key=lambda i: abs(times[i] - float(t)))
+                row[f"elongation@{t}"] = (
+                    m["elongation"][k] if abs(times[k] - float(t)) < 1e-6 else None
+                )
+            res = round(1.0 / float(d["dx"]))
+            groups[(label(scene.get("numerics", {})), res)].append(row)
     return groups
 
 
