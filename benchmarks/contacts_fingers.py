@@ -104,9 +104,21 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("sweeps", nargs="+", help="sweep folders (each with sweep.csv)")
     ap.add_argument("--out", default="benchmarks/contacts")
+    ap.add_argument(
+        "--reference",
+        default=None,
+        metavar="SCHEME",
+        help="the 750 cells/m ensemble that options without one of their own are "
+        "measured against (e.g. weno+up)",
+    )
     a = ap.parse_args(argv)
     rows = summarise(collect(a.sweeps))
     refs = {d["scheme"]: d for d in rows if d["resolution"] == REF_RES}
+    borrowed = set()
+    if a.reference in refs:
+        for lab in {d["scheme"] for d in rows} - set(refs):
+            refs[lab] = refs[a.reference]
+            borrowed.add(lab)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -132,7 +144,7 @@ def main(argv=None) -> int:
     for d in rows:
         ref = refs.get(d["scheme"])
         ok = ""
-        if ref is not None and d is not ref:
+        if ref is not None and d is not ref and d["resolution"] != REF_RES:
             # half the step of Λ = Ly / N between N and N + 1 fingers at the reference count
             n_ref = max(ref["count"][0], 1.0)
             width = ref["wavelength"][0] * n_ref
@@ -142,6 +154,8 @@ def main(argv=None) -> int:
                 if (reaches(d, ref, "wavelength", lam_floor) and reaches(d, ref, "x_l@7.5", 0.0))
                 else "no"
             )
+            if d["scheme"] in borrowed:
+                ok += f" (vs {a.reference})"
         md.append(
             f"| {d['scheme']} | {d['resolution']} | {d['n']} | {pm(d['count'], '.1f')} | "
             f"{pm(d['wavelength'], '.2f', 100)} | {pm(d['x_l@2.5'], '.3f')} | "
@@ -171,7 +185,8 @@ def main(argv=None) -> int:
             x = [d["work"] for d in pts]
             y = [abs(d[key][0] - ref[key][0]) * scale for d in pts]
             e = [d[key][1] * scale for d in pts]
-            ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=lab)
+            name = f"{lab} (vs {a.reference} at 750)" if lab in borrowed else lab
+            ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=name)
             for d, xv, yv in zip(pts, x, y):
                 ax.annotate(
                     str(d["resolution"]),
