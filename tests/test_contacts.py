@@ -11,9 +11,15 @@ from tiseg.steady_channel import channel_profile
 
 
 def channel(res=250, t_end=1.0, **over):
-    return load_scene(
-        "channel", {"domain.resolution": res, "time.t_end": t_end, "output.interval": t_end, **over}
-    )
+    """The channel scene at ``res`` cells/m, 4 cells downslope (the flow is x-independent)."""
+    over = {
+        "domain.resolution": res,
+        "domain.Lx": 4.0 / res,
+        "time.t_end": t_end,
+        "output.interval": t_end,
+        **over,
+    }
+    return load_scene("channel", over)
 
 
 def masks(sc):
@@ -70,10 +76,10 @@ def test_central_phi_flux_smears_the_contact(ti_cpu):
 
 def test_channel_speed_converges_to_the_cross_slope_solution(ti_cpu):
     """u(y) at t = 3 s (steady to 1e-3) against the cell averages of the boundary-value
-    problem's solution: the relative L1 error falls with the grid at about second order
-    (measured 5.7 % at 250 cells/m, 1.2 % at 500)."""
+    problem's solution: the relative L1 error falls with the grid at second order or better
+    (measured 5.7 % at 250 cells/m, 2.3 % at 375: a factor 2.5 for 1.5x the cells)."""
     errs = []
-    for res in (250, 500):
+    for res in (250, 375):
         sc = channel(res, 3.0, **{"numerics.phi_flux": "upwind"})
         prof = channel_profile(sc)
         sim = Simulation(sc)
@@ -82,8 +88,8 @@ def test_channel_speed_converges_to_the_cross_slope_solution(ti_cpu):
         y = (np.arange(sc.domain.ny) + 0.5) * sc.dy
         exact = prof.cell_averages(y, sc.dy)
         errs.append(np.abs(u - exact).mean() / np.abs(exact).mean())
-    assert errs[1] < 0.02, errs
-    assert errs[0] / errs[1] > 3.0, errs
+    assert errs[1] < 0.03, errs
+    assert errs[0] / errs[1] > 1.5**2 * 0.9, errs  # order 2 would give 2.25
 
 
 def test_channel_profile_balances_friction_and_viscosity():
