@@ -41,7 +41,7 @@ from .material import Material, Species
 from .numerics.config import FLUXES, PHI_FLUXES, inflow_concentration, noise_modes
 from .steady import steady_state
 
-from .data import SCENE_DIR, builtin_names, legacy_path
+from .data import SCENE_DIR, builtin_file, builtin_names
 
 # ---- allowed choices ----------------------------------------------------------------------------
 FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
@@ -664,30 +664,13 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
 # Building and validation
 # =================================================================================================
 def _resolve_scene_path(name_or_path) -> Path:
-    if isinstance(name_or_path, Path):
-        text = str(name_or_path)
-        is_name = False
-    elif isinstance(name_or_path, str):
-        text = name_or_path
-        is_name = "/" not in text and "\\" not in text and not text.endswith(".toml")
-    else:
+    if not isinstance(name_or_path, (str, Path)):
         raise InputError(f"scene {name_or_path!r}: expected a built-in scene name or a path")
+    found = builtin_file(name_or_path, SCENE_DIR, "scene")
+    if found is not None:
+        return found
+    text = str(name_or_path)
     builtins = list_builtin_scenes()
-    if is_name:
-        if text in builtins:
-            return SCENE_DIR / f"{text}.toml"
-        close = difflib.get_close_matches(text, builtins, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(
-            f"unknown built-in scene {text!r}{hint}; built-in scenes: "
-            f"{', '.join(builtins) or '(none)'}; or give a path to a .toml file"
-        )
-    old = legacy_path(text)
-    if old is not None:
-        from .log import note
-
-        note(f"{text} moved into the package: using the built-in scene {old.stem!r}")
-        return old
     path = Path(text).expanduser()
     if path.is_dir():
         raise InputError(

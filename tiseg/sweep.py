@@ -195,31 +195,9 @@ def list_builtin_sweeps() -> list[str]:
 def resolve_sweep_path(path) -> Path:
     """A sweep file's path: ``path`` itself, or the built-in sweep of that name (no '/' and no
     '.toml'), or the built-in an old ``assets/sweeps/<name>.toml`` path meant."""
-    from .data import SWEEP_DIR, legacy_path
+    from .data import SWEEP_DIR, builtin_file
 
-    text = str(path)
-    if (
-        isinstance(path, str)
-        and "/" not in text
-        and "\\" not in text
-        and not text.endswith(".toml")
-    ):
-        names = list_builtin_sweeps()
-        if text in names:
-            return SWEEP_DIR / f"{text}.toml"
-        close = difflib.get_close_matches(text, names, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(
-            f"unknown built-in sweep {text!r}{hint}; built-in sweeps: "
-            f"{', '.join(names) or '(none)'}; or give a path to a .toml file"
-        )
-    old = legacy_path(text)
-    if old is not None:
-        from .log import note
-
-        note(f"{text} moved into the package: using the built-in sweep {old.stem!r}")
-        return old
-    return Path(text).expanduser()
+    return builtin_file(path, SWEEP_DIR, "sweep") or Path(str(path)).expanduser()
 
 
 def load_sweep(

@@ -67,8 +67,6 @@ from . import available_backends, log_stderr, machine_info, machine_line, run_ch
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 STEPPERS = ("rkc", "ssprk3", "euler")
 PRECISIONS = ("f32", "f64")
-FLUXES = ("kt", "central-upwind")
-PHI_FLUXES = ("central", "upwind")
 DEFAULT_COMBO = {
     "reconstruction": "weno",
     "flux": "kt",
@@ -767,6 +765,15 @@ def _work(row: dict) -> int:
     return int(row["rhs_evals"]) * int(row["cells"])
 
 
+FRONT_KEYS = ("resolution", "reconstruction", "stepper", "precision", "backend", "error", "wall_s")
+WORK_KEYS = ("resolution", "reconstruction", "stepper", "precision", "error", "rhs_evals")
+
+
+def _described(row: dict, keys) -> dict:
+    """A point as the assessment names it: its scheme label and the given columns."""
+    return {"scheme": scheme_label(row), **{k: row[k] for k in keys}}
+
+
 def assess_defaults(rows: Sequence[dict]) -> dict:
     """Per problem: for each default point (weno + rkc + f64 + cpu, cfl 0.25), is it on the
     Pareto front, and if not, how much faster the front reaches the same error.
@@ -792,37 +799,10 @@ def assess_defaults(rows: Sequence[dict]) -> dict:
                     "wall_s": r["wall_s"],
                     "on_front": bool(r.get("pareto")),
                     "overhead": r["wall_s"] / best["wall_s"] if best["wall_s"] > 0 else 1.0,
-                    "instead": {
-                        "scheme": scheme_label(best),
-                        **{
-                            k: best[k]
-                            for k in (
-                                "resolution",
-                                "reconstruction",
-                                "stepper",
-                                "precision",
-                                "backend",
-                                "error",
-                                "wall_s",
-                            )
-                        },
-                    },
+                    "instead": _described(best, FRONT_KEYS),
                     "work": _work(r),
                     "work_overhead": _work(r) / max(_work(least), 1),
-                    "work_instead": {
-                        "scheme": scheme_label(least),
-                        **{
-                            k: least[k]
-                            for k in (
-                                "resolution",
-                                "reconstruction",
-                                "stepper",
-                                "precision",
-                                "error",
-                                "rhs_evals",
-                            )
-                        },
-                    },
+                    "work_instead": _described(least, WORK_KEYS),
                 }
             )
         ov = [i["overhead"] for i in items]
@@ -834,24 +814,7 @@ def assess_defaults(rows: Sequence[dict]) -> dict:
             "count": len(items),
             "median_overhead": float(np.median(ov)) if ov else float("nan"),
             "max_overhead": float(max(ov)) if ov else float("nan"),
-            "front": [
-                {
-                    "scheme": scheme_label(f),
-                    **{
-                        k: f[k]
-                        for k in (
-                            "resolution",
-                            "reconstruction",
-                            "stepper",
-                            "precision",
-                            "backend",
-                            "error",
-                            "wall_s",
-                        )
-                    },
-                }
-                for f in sorted(front, key=lambda f: f["wall_s"])
-            ],
+            "front": [_described(f, FRONT_KEYS) for f in sorted(front, key=lambda f: f["wall_s"])],
         }
     return out
 

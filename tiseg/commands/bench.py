@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..backend import ARCHS
+from ..numerics.config import FLUXES, PHI_FLUXES
 from .common import check_threads, print_json, stdout_for_json
 
 
@@ -67,14 +68,14 @@ def register(sub) -> None:
         "--fluxes",
         nargs="+",
         default=["kt"],
-        choices=("kt", "central-upwind"),
+        choices=FLUXES,
         help="numerics.flux values (default kt)",
     )
     a.add_argument(
         "--phi-fluxes",
         nargs="+",
         default=["upwind"],
-        choices=("central", "upwind"),
+        choices=PHI_FLUXES,
         help="numerics.phi_flux values (default upwind, the scenes' default)",
     )
     a.add_argument(

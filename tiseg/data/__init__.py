@@ -23,6 +23,40 @@ def builtin_names(folder: Path) -> list[str]:
     return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
 
 
+def builtin_file(path, folder: Path, kind: str) -> Path | None:
+    """The built-in file ``path`` names, or None when it is a plain path to use as it is.
+
+    A str without '/', '\\' and '.toml' is a name: the ``kind`` ("scene", "sweep") of that
+    name in ``folder``, or an InputError naming the closest one. An old ``assets/...`` path
+    that no longer exists maps onto its built-in (:func:`legacy_path`), with a note."""
+    import difflib
+
+    from ..errors import InputError
+
+    text = str(path)
+    if (
+        isinstance(path, str)
+        and "/" not in text
+        and "\\" not in text
+        and not text.endswith(".toml")
+    ):
+        names = builtin_names(folder)
+        if text in names:
+            return folder / f"{text}.toml"
+        close = difflib.get_close_matches(text, names, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(
+            f"unknown built-in {kind} {text!r}{hint}; built-in {kind}s: "
+            f"{', '.join(names) or '(none)'}; or give a path to a .toml file"
+        )
+    old = legacy_path(text)
+    if old is not None:
+        from ..log import note
+
+        note(f"{text} moved into the package: using the built-in {kind} {old.stem!r}")
+    return old
+
+
 def legacy_path(text: str) -> Path | None:
     """The built-in file an old ``assets/scenes/<name>.toml`` or ``assets/sweeps/<name>.toml``
     path meant, when no such file exists any more; else None."""
