@@ -37,6 +37,8 @@ CASES = [
     ("euler", {}, 1, 1),
     ("ssprk2", {}, 2, 2),
     ("ssprk3", {}, 3, 3),
+    ("ssprk4_2", {}, 2, 4),
+    ("ssprk10_4", {}, 4, 10),
     ("rkc", {}, 2, 2),
     ("rkc", {}, 2, 5),
     ("rkc", {}, 2, 12),
@@ -111,3 +113,48 @@ def test_rkc_stability_interval_grows_like_s_squared():
     for s in (5, 10, 20):
         assert _rkc_amplification(s, -0.60 * s * s) <= 1.0
         assert _rkc_amplification(s, -0.70 * s * s) > 1.0
+
+
+SSP = [("euler", 1.0), ("ssprk2", 1.0), ("ssprk3", 1.0), ("ssprk4_2", 3.0), ("ssprk10_4", 6.0)]
+
+
+@pytest.mark.parametrize("name,ssp", SSP)
+def test_ssp_coefficient_keeps_upwind_advection_monotone(name, ssp):
+    """First-order upwind advection of a step: forward Euler is monotone (no new extrema, no
+    negative values) for c = dt a / dx <= 1, so an SSP method with coefficient C is for
+    c <= C. Each stepper at exactly its C stays within [0, 1]; 15 % beyond it overshoots."""
+    n = 60
+    up = lambda u: -(u - np.roll(u, 1))  # a / dx = 1
+    u0 = np.where(np.arange(n) < n // 2, 1.0, 0.0)
+    stepper = make_stepper(name)
+    assert stepper.ssp == ssp
+    for factor, monotone in ((1.0, True), (1.15, False)):
+        op = ArrayOperator(up, n=n)
+        u = _integrate(stepper, op, u0, 10 * ssp * factor, 10, stepper.stages)
+        inside = u.min() >= -1e-13 and u.max() <= 1 + 1e-13
+        assert inside == monotone, (factor, u.min(), u.max())
+
+
+@pytest.mark.parametrize("name,ssp", SSP)
+def test_ssp_plan_takes_its_coefficient_times_the_euler_step(name, ssp):
+    s = make_stepper(name)
+    dt, stages = s.plan(1e-3, 0.0, np.inf)
+    assert dt == pytest.approx(ssp * 1e-3) and stages == s.stages
+    # and the spectral radius still bounds it: dt <= 0.9 beta / rho
+    dt, _ = s.plan(1e-3, 1e5, np.inf)
+    assert dt == pytest.approx(min(ssp * 1e-3, 0.9 * s.beta / 1e5))
+
+
+@pytest.mark.parametrize("name", [n for n, _ in SSP])
+def test_explicit_rk_real_stability_interval_is_beta(name):
+    """|R(z)| <= 1 on [-beta, 0] and > 1 at 1.03 beta: the interval the plan relies on."""
+    s = make_stepper(name)
+
+    def amp(z):
+        op = ArrayOperator(lambda y: z * y, dtype=complex)
+        op.s[0] = np.array([1.0 + 0j])
+        s.step(op, 0.0, 1.0, s.stages)
+        return abs(op.s[0][0])
+
+    assert max(amp(z) for z in -np.linspace(0, s.beta, 400)) <= 1.0 + 1e-9
+    assert amp(-1.03 * s.beta) > 1.0

@@ -8,7 +8,9 @@ ingredients:
    stiffness), the slowest wet speed u_slow(t) (friction stiffness) and the wet x range (the
    active region the operator computes) as functions of time. The step and stage count then
    follow from exactly the rules the run uses (:meth:`Simulation.plan` and the stepper's
-   ``plan``): dt = cfl / max(a_x/dx, a_y/dy) and, for RKC, s from dt * rho with
+   ``plan``, :func:`tiseg.simulation.step_limits`): dt = cfl / max(a_x/dx, a_y/dy), or
+   cfl / (a_x/dx + a_y/dy) with ``numerics.step_rule = "sum"``, times an SSP stepper's SSP
+   coefficient, and, for RKC, s from dt * rho with
    rho = max(rho_visc, rho_fric) + 2 (a_x/dx + a_y/dy), rho_visc the Gershgorin bound of the
    viscous term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow (the run bounds
    the two terms together cell by cell, and they peak in different cells: viscosity in thick

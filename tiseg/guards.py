@@ -111,12 +111,14 @@ class StateGuard:
     @ti.kernel
     def _scan(self):
         gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
+        ti.loop_config(serialize=True)
         for r in range(4):
             self.res[r, 0] = 0
             self.res[r, 1] = _NO_CELL
         h_tol = self.par[0]
         phi_tol = self.par[1]
         hmin = self.par[2]
+        ti.loop_config(serialize=self.op.serial)  # as the operator's loops (operator.py)
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
             v = self.op.q[0, i, j]
             idx = (i - gx) * ny + (j - gy)
@@ -143,8 +145,10 @@ class StateGuard:
 
     @ti.kernel
     def _keep(self):
-        for i, j in self.good:
+        ti.loop_config(serialize=self.op.serial)
+        for i, j in ti.ndrange(self.op.NX, self.op.NY):
             self.good[i, j] = self.op.q[0, i, j]
+        ti.loop_config(serialize=True)
         for b in range(NBUDGET):
             self.good_bud[b] = self.op.bud[0, b]
 

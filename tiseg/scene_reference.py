@@ -43,6 +43,7 @@ CHOICES = {
     "numerics.flux": S.FLUXES,
     "numerics.phi_flux": S.PHI_FLUXES,
     "numerics.stepper": S.STEPPERS,
+    "numerics.step_rule": tuple(S.STEP_RULES),
     "numerics.precision": S.PRECISIONS,
     "output.precision": S.OUTPUT_PRECISIONS,
 }

@@ -78,14 +78,23 @@ COMPILED = {
 def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, float]:
     """(dt_cfl, rho): the rules every step is planned with, shared with tiseg.estimate.
 
-    dt_cfl is the KT positivity limit dt <= C min(dx / a_x, dy / a_y) (Kurganov & Petrova
-    2007; C = cfl = 1/4 in 2D), infinite when nothing moves; rho is the spectral radius the
-    steppers plan with: the viscous + friction stiffness plus the KT dissipation
-    2 (a_x/dx + a_y/dy) (NUMERICS finding 6)."""
-    inv = ax / scene.dx + (ay / scene.dy if not scene.is_1d else 0.0)
-    rate = max(ax / scene.dx, (ay / scene.dy if not scene.is_1d else 0.0))
+    dt_cfl is the forward-Euler step of the KT positivity proof (Kurganov & Petrova 2007,
+    section 3) at the Courant number C = numerics.cfl, infinite when nothing moves:
+
+    * step_rule "max": dt = C min(dx / a_x, dy / a_y), positive for C <= 1/4 in 2D (1/2 in 1D);
+    * step_rule "sum": dt = C / (a_x/dx + a_y/dy), positive for C <= 1/2. The proof writes the
+      cell average as a convex mix of its four edge values; weighting the x and y pairs by
+      their shares of a_x/dx + a_y/dy instead of 1/2 each gives this bound, which equals the
+      1D one where a single direction carries the waves and is never below the max rule's.
+
+    SSP steppers multiply it by their SSP coefficient. rho is the spectral radius the steppers
+    plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy)
+    (NUMERICS finding 6)."""
+    rx = ax / scene.dx
+    ry = ay / scene.dy if not scene.is_1d else 0.0
+    rate = rx + ry if scene.numerics.step_rule == "sum" else max(rx, ry)
     dt_cfl = scene.numerics.cfl / rate if rate > 0 else math.inf
-    return dt_cfl, rho_stiff + 2.0 * inv
+    return dt_cfl, rho_stiff + 2.0 * (rx + ry)
 
 
 @dataclass

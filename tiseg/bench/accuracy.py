@@ -63,6 +63,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import available_backends, log_stderr, machine_info, machine_line, run_child
+from ..exact_dambreak import cell_averages, ritter
 
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 STEPPERS = ("rkc", "ssprk3", "euler")
@@ -252,17 +253,9 @@ def _ritter_run(sim, on_step):
     return sim.fields()["h"][0]
 
 
-def ritter_exact(x, t, hl=RITTER_HL, x0=RITTER_X0, g=9.81):
-    """h of the Ritter solution (flat bed, dry right state)."""
-    c0 = math.sqrt(g * hl)
-    xi = (np.asarray(x, dtype=float) - x0) / t
-    return np.where(xi <= -c0, hl, np.where(xi <= 2 * c0, (2 * c0 - xi) ** 2 / (9 * g), 0.0))
-
-
 def _ritter_score(h, scene):
     x, _ = scene.domain.cell_centres()
-    sub = (np.arange(16) + 0.5) / 16 - 0.5  # exact cell averages by 16 sub-samples
-    exact = ritter_exact(x[:, None] + sub[None, :] * scene.dx, RITTER_T).mean(axis=1)
+    exact = cell_averages(lambda p: ritter(p, RITTER_T, RITTER_HL, RITTER_X0)[0], x, scene.dx)
     return float("nan"), float(np.sum(np.abs(h - exact)) / np.sum(exact))
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..backend import ARCHS
 from ..numerics.config import FLUXES, PHI_FLUXES
+from ..scene import STEPPERS as STEPPER_CHOICES
 from .common import check_threads, print_json, stdout_for_json
 
 
@@ -78,9 +79,7 @@ def register(sub) -> None:
         choices=PHI_FLUXES,
         help="numerics.phi_flux values (default upwind, the scenes' default)",
     )
-    a.add_argument(
-        "--steppers", nargs="+", default=None, choices=("rkc", "ssprk3", "ssprk2", "euler")
-    )
+    a.add_argument("--steppers", nargs="+", default=None, choices=STEPPER_CHOICES)
     a.add_argument("--cfl", nargs="+", type=float, default=[0.25], help="Courant numbers (0.25)")
     a.add_argument("--json", action="store_true", help="print the summary as JSON")
     a.set_defaults(func=run_accuracy)
@@ -141,7 +140,7 @@ def register(sub) -> None:
         "--steppers",
         nargs="+",
         default=None,
-        choices=("rkc", "ssprk3", "ssprk2", "euler"),
+        choices=STEPPER_CHOICES,
         help="default: all four",
     )
     s.add_argument("--repeats", type=int, default=2, help="timed repeats, the minimum is kept (2)")

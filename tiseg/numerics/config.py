@@ -23,6 +23,8 @@ FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "cou
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 FLUXES = ("kt", "central-upwind")  # numerics.flux: face flux of the whole system
 PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of that flux
+# numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
+STEP_RULES = {"max": 0.25, "sum": 0.5}
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
 GHOST = 2
 NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise

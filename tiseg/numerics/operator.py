@@ -38,9 +38,27 @@ class StabilityNumbers:
     # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
 
 
+# Below this many cells (ghosts included) a CPU run does every loop on one thread. Each
+# parallel loop costs a fixed ~80 us on the 2-core machines here (the thread pool's hand-off,
+# measured with a one-line kernel; a serialised loop costs ~1 us), and an evaluation has about
+# ten of them: on small grids that, not arithmetic, set the pace. benchmarks/README.md has the
+# crossover measurement that sets the number.
+SERIAL_CELLS = 20_000
+
+
+def serial_by_default(state, cells: int) -> bool:
+    """Serial loops on a CPU with one thread, or on a grid too small to gain from threads."""
+    if state.arch != "cpu":
+        return False
+    threads = state.threads or backend.available_cores()
+    return threads == 1 or cells <= SERIAL_CELLS
+
+
 @ti.data_oriented
 class TaichiOperator:
-    def __init__(self, cfg: OperatorConfig, nslots: int = 6):
+    def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
+        """``serial``: run every loop on the calling thread (None: decide by
+        :func:`serial_by_default`); compile-time, the results are the same bits either way."""
         st = backend.state()
         self.generation = st.generation
         self.cfg = cfg
@@ -63,6 +81,7 @@ class TaichiOperator:
         self.phi_upwind = cfg.phi_flux == "upwind"
         self.bc = tuple(cfg.bc)
         self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
+        self.serial = serial_by_default(st, NX * NY) if serial is None else bool(serial)
         # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects)
         self.q = ti.Vector.field(nc, self.fp, shape=(nslots, NX, NY))
         self.w = ti.Vector.field(nc, self.fp, shape=(NX, NY))
@@ -179,6 +198,7 @@ class TaichiOperator:
         """Ghost cells of slot s from the boundary conditions (two top-level loops)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         lo, hi = ti.static(self.bcc[0], self.bcc[1])
+        ti.loop_config(serialize=self.serial)
         for k, j in ti.ndrange(gx, (0, self.NY)):
             il, ih = gx - 1 - k, nx + gx + k
             if ti.static(lo == PERIODIC):
@@ -207,6 +227,7 @@ class TaichiOperator:
                 self.q[s, ih, j] = self._mirror(self.q[s, nx + gx - 1 - k, j], 1)
         if ti.static(not self.is_1d):
             blo, bhi = ti.static(self.bcc[2], self.bcc[3])
+            ti.loop_config(serialize=self.serial)
             for i, k in ti.ndrange((0, self.NX), gy):
                 jl, jh = gy - 1 - k, ny + gy + k
                 if ti.static(blo == PERIODIC):
@@ -298,14 +319,17 @@ class TaichiOperator:
     @ti.func
     def _primitives_and_slopes(self, s):
         a, b = self.act[0], self.act[1]
+        ti.loop_config(serialize=self.serial)
         for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
         if ti.static(not self.rec_first):
+            ti.loop_config(serialize=self.serial)
             for i, j in ti.ndrange(
                 (ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)), (self.gy, self.gy + self.ny)
             ):
                 self.sx[i, j] = self._slope(self.w[i - 1, j], self.w[i, j], self.w[i + 1, j])
             if ti.static(not self.is_1d):
+                ti.loop_config(serialize=self.serial)
                 for i, j in ti.ndrange((a, b), (1, self.NY - 1)):
                     self.sy[i, j] = self._slope(self.w[i, j - 1], self.w[i, j], self.w[i, j + 1])
 
@@ -372,6 +396,7 @@ class TaichiOperator:
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
         a, b = self.act[0], self.act[1]
+        ti.loop_config(serialize=self.serial)
         for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
             w0 = self.w[i, j]
             w1 = self.w[i + 1, j]
@@ -397,6 +422,7 @@ class TaichiOperator:
             self.fx[i, j] = F
         if ti.static(not self.is_1d):
             HV = ti.static(self.HV)
+            ti.loop_config(serialize=self.serial)
             for i, j in ti.ndrange((a, b), (gy - 1, gy + ny)):
                 w0 = self.w[i, j]
                 w1 = self.w[i, j + 1]
@@ -426,6 +452,7 @@ class TaichiOperator:
         a, b = self.act[0], self.act[1]
         # rates on the active range and zero on the 3 cells either side that _combine also
         # reads; further out nothing reads them while this range holds (see _combine)
+        ti.loop_config(serialize=self.serial)
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
             r = ti.Vector.zero(self.fp, self.nc)
             if a <= i < b:
@@ -484,6 +511,7 @@ class TaichiOperator:
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
         lo = ti.max(self.act[0] - 3, gx)
         hi = ti.min(self.act[1] + 3, gx + nx)
+        ti.loop_config(serialize=self.serial)
         for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
             acc = cs[0] * self.q[ss[0], i, j]
             for k in ti.static(range(1, n)):
@@ -491,6 +519,7 @@ class TaichiOperator:
             if ti.static(limit):
                 acc = self._limit(acc)
             self.q[d, i, j] = acc
+        ti.loop_config(serialize=True)  # a handful of iterations
         for b in range(NBUDGET):
             acc = cs[0] * self.bud[ss[0], b]
             for k in ti.static(range(1, n)):
@@ -501,8 +530,10 @@ class TaichiOperator:
     def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float):
         """slot d := (1 - theta) slot a + theta slot b on every cell, ghosts included, and the
         same for the budgets (no active range: a copy must be whole)."""
+        ti.loop_config(serialize=self.serial)
         for i, j in ti.ndrange(self.NX, self.NY):
             self.q[d, i, j] = (1.0 - theta) * self.q[a, i, j] + theta * self.q[b, i, j]
+        ti.loop_config(serialize=True)  # a handful of iterations
         for k in range(NBUDGET):
             self.bud[d, k] = (1.0 - theta) * self.bud[a, k] + theta * self.bud[b, k]
 
@@ -561,6 +592,7 @@ class TaichiOperator:
         fast channels, so the sum of the two maxima (red[2] + red[3]) overestimates it by up
         to 2x, and the RKC stage count with it."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        ti.loop_config(serialize=True)  # a handful of iterations
         for k in range(6):
             self.red[k] = 0.0
         hmin = self.par[Params.H_MIN]
@@ -570,6 +602,7 @@ class TaichiOperator:
         lo = ti.max(self.act[0] - 1, gx - 1)
         hi = ti.min(self.act[1] + 1, gx + nx + 1)
         B = ti.static(self.rows_per_block)
+        ti.loop_config(serialize=self.serial)
         for blk in range((hi - lo + B - 1) // B):
             m0 = 0.0
             m1 = 0.0
@@ -632,6 +665,7 @@ class TaichiOperator:
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         self.total[0] = 0.0
         self.total[1] = 0.0
+        ti.loop_config(serialize=self.serial)
         for i in range(gx, gx + nx):
             a = ti.cast(0.0, ti.f64)
             b = ti.cast(0.0, ti.f64)
@@ -657,6 +691,7 @@ class TaichiOperator:
         self.wet[1] = -1
         hmin = self.par[Params.H_MIN]
         B = ti.static(self.rows_per_block)
+        ti.loop_config(serialize=self.serial)
         for blk in range((self.NX + B - 1) // B):
             first = self.NX
             last = -1

@@ -14,6 +14,17 @@ axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
 
 from .base import STEPPERS, Stepper, make_stepper, stepper_for
 from .rkc import RKC
-from .ssprk import SSPRK2, SSPRK3, Euler
+from .ssprk import SSPRK2, SSPRK3, SSPRK42, SSPRK104, Euler
 
-__all__ = ["Stepper", "STEPPERS", "make_stepper", "stepper_for", "RKC", "SSPRK2", "SSPRK3", "Euler"]
+__all__ = [
+    "Stepper",
+    "STEPPERS",
+    "make_stepper",
+    "stepper_for",
+    "RKC",
+    "SSPRK2",
+    "SSPRK3",
+    "SSPRK42",
+    "SSPRK104",
+    "Euler",
+]

@@ -1,8 +1,11 @@
 """Strong-stability-preserving Runge-Kutta steppers (Shu & Osher 1988) and forward Euler.
 
 They are convex combinations of Euler steps, so they keep the positivity of the KT scheme
-(Kurganov & Petrova 2007) under the CFL limit. Their real stability interval [-beta, 0] must also
-contain the operator's spectrum: dt <= safety * beta / rho.
+(Kurganov & Petrova 2007) for steps up to ``ssp`` times the forward-Euler limit ``dt_cfl``
+(their SSP coefficient C). Per evaluation they advance C / stages of it: 1/2 for SSPRK2, 1/3 for
+SSPRK3, 3/4 for SSPRK(4,2) and 3/5 for SSPRK(10,4) (Ketcheson 2008, SIAM J. Sci. Comput. 30,
+2113). Their real stability interval [-beta, 0] must also contain the operator's spectrum:
+dt <= safety * beta / rho.
 """
 
 from __future__ import annotations
@@ -14,11 +17,12 @@ from .base import Stepper, register
 class _ExplicitRK(Stepper):
     beta = 2.0  # real stability interval
     safety = 0.9
+    ssp = 1.0  # SSP coefficient: positive for dt <= ssp * dt_cfl
 
     def plan(self, dt_cfl, rho, dt_max, stages=None):
         if stages is not None and stages != self.stages:
             raise InputError(f"stages={stages!r}: {self.name} always takes {self.stages} stage(s)")
-        dt = dt_cfl
+        dt = self.ssp * dt_cfl
         if rho > 0:
             dt = min(dt, self.safety * self.beta / rho)
         return min(dt, dt_max), self.stages
@@ -65,3 +69,59 @@ class SSPRK3(_ExplicitRK):
         op.combine(2, [(0.75, 0), (0.25, 2), (0.25 * dt, 1)], limit=True)
         op.rhs(2, 1, t + 0.5 * dt)
         op.combine(0, [(1.0 / 3.0, 0), (2.0 / 3.0, 2), (2.0 / 3.0 * dt, 1)], limit=True)
+
+
+@register
+class SSPRK42(_ExplicitRK):
+    """SSPRK(4,2): three Euler steps of dt/3, then the average with the start (Ketcheson 2008,
+    the s = 4 member of his SSPRK(s,2)). C = 3 at 4 evaluations; R(z) = 3/4 (1 + z/3)^4 + 1/4
+    stays within the unit disc on [-6, 0]."""
+
+    name = "ssprk4_2"
+    slots = 3
+    order = 2
+    stages = 4
+    beta = 6.0
+    ssp = 3.0
+
+    def step(self, op, t, dt, stages):
+        h = dt / 3.0
+        op.rhs(0, 1, t)
+        op.combine(2, [(1.0, 0), (h, 1)], limit=True)
+        for k in (1, 2):
+            op.rhs(2, 1, t + k * h)
+            op.combine(2, [(1.0, 2), (h, 1)], limit=True)
+        op.rhs(2, 1, t + dt)
+        op.combine(0, [(0.25, 0), (0.75, 2), (0.25 * dt, 1)], limit=True)
+
+
+@register
+class SSPRK104(_ExplicitRK):
+    """Ketcheson's (2008) low-storage SSPRK(10,4): fourth order, C = 6 at 10 evaluations, two
+    registers. Five Euler steps of dt/6; the convex mix q1 := 3/5 u + 2/5 q1 (written, as in
+    the paper, through q2 = u/25 + 9 q1/25 and q1 = 15 q2 - 5 q1); four more Euler steps; and
+    u := q2 + 3/5 q1 + dt/10 F(q1). The real stability interval is [-13.9, 0]."""
+
+    name = "ssprk10_4"
+    slots = 4
+    order = 4
+    stages = 10
+    beta = 13.9
+    ssp = 6.0
+
+    def step(self, op, t, dt, stages):
+        h = dt / 6.0
+        Q1, F, Q2 = 2, 1, 3
+        op.rhs(0, F, t)
+        op.combine(Q1, [(1.0, 0), (h, F)], limit=True)
+        for k in range(1, 5):
+            op.rhs(Q1, F, t + k * h)
+            op.combine(Q1, [(1.0, Q1), (h, F)], limit=True)
+        # q2 is a scaled partial sum, not a state: no limiter on it
+        op.combine(Q2, [(1.0 / 25.0, 0), (9.0 / 25.0, Q1)], limit=False)
+        op.combine(Q1, [(15.0, Q2), (-5.0, Q1)], limit=True)  # = 3/5 u + 2/5 q1, at t + dt/3
+        for k in range(4):
+            op.rhs(Q1, F, t + dt / 3.0 + k * h)
+            op.combine(Q1, [(1.0, Q1), (h, F)], limit=True)
+        op.rhs(Q1, F, t + dt)
+        op.combine(0, [(1.0, Q2), (0.6, Q1), (0.1 * dt, F)], limit=True)

@@ -1,0 +1,122 @@
+"""Larger stable steps (issue 14): the sum form of the KT positivity bound (numerics.step_rule)
+and the SSP steppers with a larger SSP coefficient (SSPRK(4,2), SSPRK(10,4)), checked against
+the exact dam-break solutions on dry and wet beds in 2D, for positivity, conservation and
+accuracy. The stepper-order and stability-interval tests are in test_steppers.py."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tiseg.exact_dambreak import cell_averages, ritter, stoker, stoker_star
+from tiseg.scene import load_scene
+from tiseg.simulation import Simulation, step_limits
+
+SSP_STEPPERS = ("ssprk2", "ssprk3", "ssprk4_2", "ssprk10_4")
+
+
+def dam_break_2d(nx, h_right, stepper, rule, **extra):
+    """The dam break of benchmarks/dambreak_pyclaw.py, scaled down: 2 m x 0.25 m, nx x nx/8
+    cells, dam at 1 m, h_l = 1 m, walls across the slope."""
+    over = {
+        "domain.Lx": 2.0,
+        "domain.Ly": 0.25,
+        "domain.nx": nx,
+        "domain.ny": nx // 8,
+        "boundary.x_lo": "wall",
+        "boundary.x_hi": "wall",
+        "boundary.y_lo": "wall",
+        "boundary.y_hi": "wall",
+        "flow.h0": 1.0,
+        "initial.x0": 1.0,
+        "initial.h_left": 1.0,
+        "initial.h_right": h_right,
+        "numerics.h_min": 1e-6,
+        "numerics.h_eps": 1e-9,
+        "numerics.stepper": stepper,
+        "numerics.step_rule": rule,
+        "time.t_end": 0.1,
+        "output.interval": 0.1,
+        **extra,
+    }
+    return load_scene("dam-break", over)
+
+
+def test_sum_rule_defaults_and_bounds(ti_cpu):
+    """cfl defaults to each rule's positivity bound (1/4 max, 1/2 sum); the sum rule's step
+    lies between the max rule's and twice it, and equals the 1D step where ay = 0."""
+    s_max = dam_break_2d(64, 0.1, "ssprk3", "max")
+    s_sum = dam_break_2d(64, 0.1, "ssprk3", "sum")
+    assert s_max.numerics.cfl == 0.25 and s_sum.numerics.cfl == 0.5
+    for ax, ay in ((3.0, 3.0), (3.0, 0.5), (3.0, 0.0), (0.2, 4.0)):
+        dmax, rho_a = step_limits(ax, ay, 0.0, s_max)
+        dsum, rho_b = step_limits(ax, ay, 0.0, s_sum)
+        assert rho_a == rho_b  # the stiffness does not depend on the rule
+        assert dmax <= dsum * (1 + 1e-12) <= 2 * dmax * (1 + 1e-12)
+        assert dsum == pytest.approx(0.5 / (ax / s_sum.dx + ay / s_sum.dy))
+    assert step_limits(3.0, 0.0, 0.0, s_sum)[0] == pytest.approx(
+        2 * step_limits(3.0, 0.0, 0, s_max)[0]
+    )
+
+
+@pytest.mark.parametrize("stepper", SSP_STEPPERS)
+def test_dry_bed_dam_break_stays_positive_and_conservative(ti_cpu, stepper):
+    """Ritter dam break in a closed 2D box at the sum rule's bound times the SSP coefficient:
+    h >= 0 after every step and mass conserved to round-off, so the stage limiter never had to
+    clip a negative h (a clip would add mass); the front lands where Ritter's is."""
+    sc = dam_break_2d(96, 0.0, stepper, "sum")
+    sim = Simulation(sc)
+    m0 = sim.totals()["mass"]
+    hmin = math.inf
+    while sim.t < 0.1 - 1e-12:
+        sim.step(0.1)
+        hmin = min(hmin, float(sim.conserved()[0].min()))
+    assert hmin >= 0.0
+    assert abs(sim.totals()["mass"] - m0) / m0 < 1e-13
+    h = sim.fields()["h"]
+    assert np.abs(h - h[:1]).max() < 1e-12  # y-independent data stays y-independent
+    x, _ = sc.domain.cell_centres()
+    exact = cell_averages(lambda p: ritter(p, 0.1, 1.0, 1.0)[0], x, sc.dx)
+    assert np.mean(np.abs(h[0] - exact)) < 0.012
+    # the 10 % contour of h_l within two cells of Ritter's, x0 + (2 c_l - sqrt(0.9 g h_l)) t
+    c10 = 1.0 + (2 * math.sqrt(9.81) - math.sqrt(0.9 * 9.81)) * 0.1
+    assert abs(x[h[0] >= 0.1].max() - c10) <= 2 * sc.dx
+
+
+@pytest.mark.parametrize("stepper", ["ssprk4_2", "ssprk10_4", "rkc"])
+def test_wet_bed_dam_break_converges_to_stoker_with_longer_steps(ti_cpu, stepper):
+    """Stoker dam break: with the sum rule the error converges at first order or better (a
+    bore) and stays within 10 % of SSP-RK3's at the max rule, in fewer evaluations per unit
+    time for the SSP steppers."""
+    errs = []
+    for nx in (64, 128):
+        out = {}
+        for st, rule in ((stepper, "sum"), ("ssprk3", "max")):
+            sc = dam_break_2d(nx, 0.1, st, rule, **{"numerics.reconstruction": "minmod"})
+            sim = Simulation(sc)
+            sim.advance(0.1)
+            x, _ = sc.domain.cell_centres()
+            exact = cell_averages(lambda p: stoker(p, 0.1, 1.0, 0.1, 1.0)[0], x, sc.dx)
+            out[rule] = (np.mean(np.abs(sim.fields()["h"][0] - exact)), sim.stats.stages)
+        errs.append(out["sum"][0])
+        assert out["sum"][0] < 1.1 * out["max"][0], out
+        if stepper != "rkc":
+            assert out["sum"][1] < 0.8 * out["max"][1], out
+    assert errs[1] < 0.6 * errs[0], errs
+
+
+def test_stoker_star_state_obeys_the_jump_conditions():
+    """The exact solution's own checks: mass and momentum Rankine-Hugoniot across the bore and
+    the fan's Riemann invariant u + 2c constant (independent of how h* was solved for)."""
+    g, hl, hr = 9.81, 1.0, 0.1
+    hs, us, s = stoker_star(hl, hr, g)
+    assert s * (hs - hr) == pytest.approx(hs * us, rel=1e-12)
+    mom_l, mom_r = hs * us * us + 0.5 * g * hs * hs, 0.5 * g * hr * hr
+    assert s * (hs * us) == pytest.approx(mom_l - mom_r, rel=1e-12)
+    assert us + 2 * math.sqrt(g * hs) == pytest.approx(2 * math.sqrt(g * hl), rel=1e-12)
+    x = np.linspace(-1, 1, 2001)
+    h, u = stoker(x, 0.1, hl, hr)
+    assert h.max() == hl and h.min() == hr and np.all(np.diff(h) <= 1e-15)
+    # the fan meets the star state continuously
+    tail = np.abs(x / 0.1 - (us - math.sqrt(g * hs))).argmin()
+    assert abs(h[tail] - hs) < 2e-2 and abs(u[tail] - us) < 5e-2
