@@ -41,16 +41,17 @@ CASES = {"stoker": HR, "ritter": 0.0}
 
 # label -> tiseg [numerics] overrides; "+sum" is step_rule = "sum" at its cfl 0.5
 COMBOS = {
+    # the fingers scene's numerics before issue 14, and with the sum rule
     "weno+rkc": {"reconstruction": "weno", "stepper": "rkc", "step_rule": "max", "cfl": 0.25},
     "weno+rkc+sum": {"reconstruction": "weno", "stepper": "rkc", "step_rule": "sum", "cfl": 0.5},
+    # the dam-break scene's numerics before issue 14
     "minmod+ssprk3": {"reconstruction": "minmod", "stepper": "ssprk3", "cfl": 0.25},
     "minmod+ssprk2": {"reconstruction": "minmod", "stepper": "ssprk2", "cfl": 0.25},
-    "minmod+ssprk2+sum": {"reconstruction": "minmod", "stepper": "ssprk2", "step_rule": "sum"},
-    "minmod+ssprk4_2+sum": {"reconstruction": "minmod", "stepper": "ssprk4_2", "step_rule": "sum"},
-    "minmod+ssprk10_4+sum": {
+    "minmod+ssprk4_2+sum": {
         "reconstruction": "minmod",
-        "stepper": "ssprk10_4",
+        "stepper": "ssprk4_2",
         "step_rule": "sum",
+        "cfl": 0.5,
     },
     "minmod2+cu+ssprk4_2+sum": {
         "reconstruction": "minmod",
@@ -58,15 +59,54 @@ COMBOS = {
         "flux": "central-upwind",
         "stepper": "ssprk4_2",
         "step_rule": "sum",
+        "cfl": 0.5,
     },
-    "weno+cu+ssprk4_2+sum": {
-        "reconstruction": "weno",
+    "minmod2+cu+ssprk10_4+sum": {
+        "reconstruction": "minmod",
+        "theta": 2.0,
+        "flux": "central-upwind",
+        "stepper": "ssprk10_4",
+        "step_rule": "sum",
+        "cfl": 0.5,
+    },
+    "minmod2+cu+ssprk10_2+sum": {
+        "reconstruction": "minmod",
+        "theta": 2.0,
+        "flux": "central-upwind",
+        "stepper": "ssprk10_2",
+        "step_rule": "sum",
+        "cfl": 0.5,
+    },
+    "minmod2+cu+ssprk10_2+sum+f32": {
+        "reconstruction": "minmod",
+        "theta": 2.0,
+        "flux": "central-upwind",
+        "stepper": "ssprk10_2",
+        "step_rule": "sum",
+        "cfl": 0.5,
+        "precision": "f32",
+    },
+    "minmod2+cu+ssprk4_2+sum+f32": {
+        "reconstruction": "minmod",
+        "theta": 2.0,
         "flux": "central-upwind",
         "stepper": "ssprk4_2",
         "step_rule": "sum",
+        "cfl": 0.5,
+        "precision": "f32",
     },
 }
-DEFAULT_COMBOS = ("weno+rkc", "minmod+ssprk3", "minmod+ssprk2", "minmod+ssprk4_2+sum")
+DEFAULT_COMBOS = (
+    "weno+rkc",
+    "weno+rkc+sum",
+    "minmod+ssprk3",
+    "minmod+ssprk4_2+sum",
+    "minmod2+cu+ssprk4_2+sum",
+    "minmod2+cu+ssprk10_4+sum",
+    "minmod2+cu+ssprk10_2+sum",
+    "minmod2+cu+ssprk4_2+sum+f32",
+    "minmod2+cu+ssprk10_2+sum+f32",
+)
 COLUMNS = (
     "case",
     "code",
@@ -101,7 +141,7 @@ def tiseg_ladder(case: str, combo: str, threads: int, nxs: list[int]) -> list[di
     from tiseg.scene import load_scene
     from tiseg.simulation import Simulation
 
-    backend.init("cpu", "f64", threads)
+    backend.init("cpu", COMBOS[combo].get("precision", "f64"), threads)
     rows = []
     for k, nx in enumerate(nxs):
         over = {
@@ -208,9 +248,11 @@ def _worker_main(argv: list[str]) -> None:
     print("ROWS " + json.dumps(rows))
 
 
-def run_ladder(spec: dict) -> list[dict]:
+def run_ladder(spec: dict, cwd: Path) -> list[dict]:
+    """One ladder in a fresh process, run in ``cwd`` (PyClaw writes its pyclaw.log there)."""
+    me = str(Path(__file__).resolve())
     p = subprocess.run(
-        [sys.executable, __file__, "--worker", json.dumps(spec)], capture_output=True, text=True
+        [sys.executable, me, "--worker", json.dumps(spec)], capture_output=True, text=True, cwd=cwd
     )
     for line in p.stdout.splitlines():
         if line.startswith("ROWS "):
@@ -243,14 +285,23 @@ def _same(a: dict, b: dict) -> bool:
     return all(a[k] == b[k] for k in ("case", "code", "combo", "threads"))
 
 
-def _interp_loglog(xs, ys, x):
-    """y at x on the piecewise log-log line through (xs, ys), xs decreasing or increasing."""
+def _interp_loglog(xs, ys, x) -> tuple[float, bool]:
+    """(y at x on the piecewise log-log line through (xs, ys), extrapolated?): beyond the
+    points the line through the last two is continued (marked, and at most one ladder step
+    of a factor 2 in nx, i.e. about 8x in wall time, else NaN)."""
     lx, ly = np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float))
     order = np.argsort(lx)
     lx, ly = lx[order], ly[order]
-    if not lx[0] <= math.log(x) <= lx[-1]:
-        return math.nan
-    return float(np.exp(np.interp(math.log(x), lx, ly)))
+    lt = math.log(x)
+    if lx[0] <= lt <= lx[-1]:
+        return float(np.exp(np.interp(lt, lx, ly))), False
+    i, j = (0, 1) if lt < lx[0] else (-2, -1)
+    reach = lx[j] - lx[i]
+    if len(lx) < 2 or abs(lt - lx[j if lt > lx[-1] else i]) > reach:
+        return math.nan, True
+    slope = (ly[j] - ly[i]) / (lx[j] - lx[i])
+    base = j if lt > lx[-1] else i
+    return float(np.exp(ly[base] + slope * (lt - lx[base]))), True
 
 
 def summary(rows: list[dict], case: str, ref_nx: int) -> list[str]:
@@ -290,9 +341,12 @@ def summary(rows: list[dict], case: str, ref_nx: int) -> list[str]:
         rs.sort(key=lambda r: int(r["nx"]))
         errs = [float(r["error"]) for r in rs]
         walls = [float(r["wall_s"]) for r in rs]
-        w_at = _interp_loglog(errs, walls, e_ref)
-        e_at = _interp_loglog(walls, errs, w_ref)
-        lines.append(f"| {combo} | {th} | {w_at / w_ref:.2f} | {e_at / e_ref:.2f} |")
+        w_at, w_ex = _interp_loglog(errs, walls, e_ref)
+        e_at, e_ex = _interp_loglog(walls, errs, w_ref)
+        lines.append(
+            f"| {combo} | {th} | {'~' * w_ex}{w_at / w_ref:.2f} | {'~' * e_ex}{e_at / e_ref:.2f} |"
+        )
+    lines += ["", "~: extrapolated along the last two points of the ladder (log-log)."]
     return lines
 
 
@@ -358,11 +412,16 @@ def main(argv=None) -> int:
                 w.writeheader()
             for rep in range(args.repeats):  # the codes alternate within each repeat
                 for spec in specs:
-                    done = [r for r in rows if _same(r, {**spec, "case": args.case})]
-                    if sum(int(r["repeat"]) == rep for r in done) >= len(args.nx):
+                    done = {
+                        int(r["nx"])
+                        for r in rows
+                        if _same(r, {**spec, "case": args.case}) and int(r["repeat"]) == rep
+                    }
+                    todo = [n for n in args.nx if n not in done]
+                    if not todo:
                         continue  # resumed: this repeat of this ladder is on record
-                    spec = {**spec, "case": args.case, "nx": args.nx}
-                    got = run_ladder(spec)
+                    spec = {**spec, "case": args.case, "nx": todo}
+                    got = run_ladder(spec, args.out)
                     for r in got:
                         row = {**{k: spec[k] for k in ("case", "code", "combo", "threads")}}
                         row.update(r, repeat=rep)

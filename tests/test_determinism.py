@@ -139,7 +139,7 @@ def test_serial_and_parallel_loops_give_the_same_bits(ti_cpu, rec):
     out = {}
     for serial in (True, False):
         op = TaichiOperator(cfg, nslots=5, serial=serial)
-        assert op.serial is serial
+        assert op.force_serial is serial and op.serial_loops() is serial
         op.set(0, q)
         op.set_active(op.gx + 3, op.gx + 30)
         op.rhs(0, 1, 0.05)

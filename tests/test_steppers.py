@@ -38,6 +38,7 @@ CASES = [
     ("ssprk2", {}, 2, 2),
     ("ssprk3", {}, 3, 3),
     ("ssprk4_2", {}, 2, 4),
+    ("ssprk10_2", {}, 2, 10),
     ("ssprk10_4", {}, 4, 10),
     ("rkc", {}, 2, 2),
     ("rkc", {}, 2, 5),
@@ -115,7 +116,14 @@ def test_rkc_stability_interval_grows_like_s_squared():
         assert _rkc_amplification(s, -0.70 * s * s) > 1.0
 
 
-SSP = [("euler", 1.0), ("ssprk2", 1.0), ("ssprk3", 1.0), ("ssprk4_2", 3.0), ("ssprk10_4", 6.0)]
+SSP = [
+    ("euler", 1.0),
+    ("ssprk2", 1.0),
+    ("ssprk3", 1.0),
+    ("ssprk4_2", 3.0),
+    ("ssprk10_2", 9.0),
+    ("ssprk10_4", 6.0),
+]
 
 
 @pytest.mark.parametrize("name,ssp", SSP)

@@ -109,7 +109,7 @@ class StateGuard:
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
-    def _scan(self):
+    def _scan(self, serial: ti.template()):
         gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
         ti.loop_config(serialize=True)
         for r in range(4):
@@ -118,7 +118,7 @@ class StateGuard:
         h_tol = self.par[0]
         phi_tol = self.par[1]
         hmin = self.par[2]
-        ti.loop_config(serialize=self.op.serial)  # as the operator's loops (operator.py)
+        ti.loop_config(serialize=serial)  # as the operator's loops (operator.py)
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
             v = self.op.q[0, i, j]
             idx = (i - gx) * ny + (j - gy)
@@ -144,8 +144,8 @@ class StateGuard:
                 ti.atomic_min(self.res[rule, 1], idx)
 
     @ti.kernel
-    def _keep(self):
-        ti.loop_config(serialize=self.op.serial)
+    def _keep(self, serial: ti.template()):
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(self.op.NX, self.op.NY):
             self.good[i, j] = self.op.q[0, i, j]
         ti.loop_config(serialize=True)
@@ -156,7 +156,7 @@ class StateGuard:
     def scan(self, t: float, step: int) -> Violation | None:
         """Check slot 0; the first broken rule (in the order of RULES) or None."""
         self.op.check_alive()
-        self._scan()
+        self._scan(self.op.serial_loops(whole=True))
         res = self.res.to_numpy()
         for rule in range(4):
             count, idx = int(res[rule, 0]), int(res[rule, 1])
@@ -181,7 +181,7 @@ class StateGuard:
 
     def keep(self, meta: dict) -> None:
         """Copy slot 0 and its budget into the last-good buffer (on the device)."""
-        self._keep()
+        self._keep(self.op.serial_loops(whole=True))
         self.good_meta = dict(meta)
 
     def last_good(self) -> tuple[np.ndarray, np.ndarray, dict] | None:

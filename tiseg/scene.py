@@ -722,7 +722,7 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     boundary = _read_boundary(top.table("boundary"), domain)
     inflow = _read_inflow(top.table("inflow"), top.has("inflow"), boundary, domain, flow)
     initial = _read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects)
-    numerics = _read_numerics(top.table("numerics"), flow)
+    numerics = _read_numerics(top.table("numerics"), flow, domain.ny == 1)
     output = _read_output(top.table("output"), time.t_end)
     return Scene(
         name=name,
@@ -1145,7 +1145,7 @@ def _read_initial(
     return InitialConfig(kind=kind, x0=x0, x1=x1, y0=y0, y1=y1, h=h, phi=phi)
 
 
-def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
+def _read_numerics(t: "_Table", flow: FlowConfig, is_1d: bool = False) -> NumericsConfig:
     rule = t.choice("step_rule", tuple(STEP_RULES), "max")
     n = NumericsConfig(
         reconstruction=t.choice(
@@ -1163,6 +1163,16 @@ def _read_numerics(t: "_Table", flow: FlowConfig) -> NumericsConfig:
         u_eps=t.number("u_eps", 1e-3, positive=True),
         max_stages=t.integer("max_stages", 200, lo=2),
     )
+    # the max rule's bound is the sum rule's in 1D, where a_y plays no part
+    bound = STEP_RULES["sum"] if is_1d else STEP_RULES[rule]
+    if n.cfl > bound * (1 + 1e-12):
+        from .log import note
+
+        note(
+            f"numerics.cfl={n.cfl:g} is above the positivity bound {bound:g} of step_rule "
+            f"{rule!r}{' in 1D' if is_1d else ''}: h may turn negative at dry fronts, where the "
+            "stage limiter clips it and mass is then not conserved exactly"
+        )
     _require(
         n.h_eps < n.h_min,
         "numerics.h_eps",

@@ -38,27 +38,21 @@ class StabilityNumbers:
     # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
 
 
-# Below this many cells (ghosts included) a CPU run does every loop on one thread. Each
-# parallel loop costs a fixed ~80 us on the 2-core machines here (the thread pool's hand-off,
-# measured with a one-line kernel; a serialised loop costs ~1 us), and an evaluation has about
-# ten of them: on small grids that, not arithmetic, set the pace. benchmarks/README.md has the
-# crossover measurement that sets the number.
-SERIAL_CELLS = 20_000
-
-
-def serial_by_default(state, cells: int) -> bool:
-    """Serial loops on a CPU with one thread, or on a grid too small to gain from threads."""
-    if state.arch != "cpu":
-        return False
-    threads = state.threads or backend.available_cores()
-    return threads == 1 or cells <= SERIAL_CELLS
+# Below this many cells a CPU launch runs its loops on the calling thread. Each parallel loop
+# costs a fixed ~80 us on the 2-core machines here (the thread pool's hand-off, measured with a
+# one-line kernel; a serialised loop costs ~1 us), and an evaluation has about ten of them: on
+# small grids that, not arithmetic, set the pace. Each kernel is compiled for both modes (a
+# template argument) and the choice is made per launch from the cells it covers (the active x
+# range), so a fingers run goes serial while its front is short and parallel once it is long.
+# The crossover measured on 2 threads (benchmarks/README.md section 7): 50-75k cells.
+SERIAL_CELLS = 60_000
 
 
 @ti.data_oriented
 class TaichiOperator:
     def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
-        """``serial``: run every loop on the calling thread (None: decide by
-        :func:`serial_by_default`); compile-time, the results are the same bits either way."""
+        """``serial``: run every loop on the calling thread (True), never (False), or decide
+        per launch (None, :meth:`serial_loops`); the results are the same bits either way."""
         st = backend.state()
         self.generation = st.generation
         self.cfg = cfg
@@ -81,7 +75,10 @@ class TaichiOperator:
         self.phi_upwind = cfg.phi_flux == "upwind"
         self.bc = tuple(cfg.bc)
         self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
-        self.serial = serial_by_default(st, NX * NY) if serial is None else bool(serial)
+        # serial loops: forced (True/False), or chosen per launch by serial_loops()
+        self.force_serial = None if serial is None else bool(serial)
+        self._threads = st.threads or backend.available_cores()
+        self._on_cpu = st.arch == "cpu"
         # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects)
         self.q = ti.Vector.field(nc, self.fp, shape=(nslots, NX, NY))
         self.w = ti.Vector.field(nc, self.fp, shape=(NX, NY))
@@ -198,7 +195,7 @@ class TaichiOperator:
         """Ghost cells of slot s from the boundary conditions (two top-level loops)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         lo, hi = ti.static(self.bcc[0], self.bcc[1])
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=True)  # 2 columns of cells: never worth a hand-off
         for k, j in ti.ndrange(gx, (0, self.NY)):
             il, ih = gx - 1 - k, nx + gx + k
             if ti.static(lo == PERIODIC):
@@ -227,7 +224,7 @@ class TaichiOperator:
                 self.q[s, ih, j] = self._mirror(self.q[s, nx + gx - 1 - k, j], 1)
         if ti.static(not self.is_1d):
             blo, bhi = ti.static(self.bcc[2], self.bcc[3])
-            ti.loop_config(serialize=self.serial)
+            ti.loop_config(serialize=True)  # 2 rows of cells
             for i, k in ti.ndrange((0, self.NX), gy):
                 jl, jh = gy - 1 - k, ny + gy + k
                 if ti.static(blo == PERIODIC):
@@ -309,27 +306,27 @@ class TaichiOperator:
         return s
 
     @ti.kernel
-    def _ghosts_primitives_slopes(self, s: ti.i32):
+    def _ghosts_primitives_slopes(self, s: ti.i32, serial: ti.template()):
         """Everything an evaluation needs from slot s before the fluxes, in one launch (each
         launch costs tens of microseconds of Python and thread start-up: on small grids
         that, not arithmetic, sets the pace). Top-level loops run in order."""
         self._ghosts(s)
-        self._primitives_and_slopes(s)
+        self._primitives_and_slopes(s, serial)
 
     @ti.func
-    def _primitives_and_slopes(self, s):
+    def _primitives_and_slopes(self, s, serial: ti.template()):
         a, b = self.act[0], self.act[1]
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
         if ti.static(not self.rec_first):
-            ti.loop_config(serialize=self.serial)
+            ti.loop_config(serialize=serial)
             for i, j in ti.ndrange(
                 (ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)), (self.gy, self.gy + self.ny)
             ):
                 self.sx[i, j] = self._slope(self.w[i - 1, j], self.w[i, j], self.w[i + 1, j])
             if ti.static(not self.is_1d):
-                ti.loop_config(serialize=self.serial)
+                ti.loop_config(serialize=serial)
                 for i, j in ti.ndrange((a, b), (1, self.NY - 1)):
                     self.sy[i, j] = self._slope(self.w[i, j - 1], self.w[i, j], self.w[i, j + 1])
 
@@ -382,21 +379,21 @@ class TaichiOperator:
         return k
 
     @ti.kernel
-    def _rates(self, d: ti.i32):
+    def _rates(self, d: ti.i32, serial: ti.template()):
         """slot d := L from the prepared primitives and slopes: face fluxes, their divergence
         plus sources, and the boundary budget rates, in one launch."""
-        self._face_fluxes()
-        self._divergence(d)
+        self._face_fluxes(serial)
+        self._divergence(d, serial)
         self._boundary_rates(d)
 
     @ti.func
-    def _face_fluxes(self):
+    def _face_fluxes(self, serial: ti.template()):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         hmin = self.par[Params.H_MIN]
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
         a, b = self.act[0], self.act[1]
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
             w0 = self.w[i, j]
             w1 = self.w[i + 1, j]
@@ -422,7 +419,7 @@ class TaichiOperator:
             self.fx[i, j] = F
         if ti.static(not self.is_1d):
             HV = ti.static(self.HV)
-            ti.loop_config(serialize=self.serial)
+            ti.loop_config(serialize=serial)
             for i, j in ti.ndrange((a, b), (gy - 1, gy + ny)):
                 w0 = self.w[i, j]
                 w1 = self.w[i, j + 1]
@@ -445,14 +442,14 @@ class TaichiOperator:
                 self.fy[i, j] = F
 
     @ti.func
-    def _divergence(self, d):
+    def _divergence(self, d, serial: ti.template()):
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
         a, b = self.act[0], self.act[1]
         # rates on the active range and zero on the 3 cells either side that _combine also
         # reads; further out nothing reads them while this range holds (see _combine)
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
             r = ti.Vector.zero(self.fp, self.nc)
             if a <= i < b:
@@ -493,6 +490,7 @@ class TaichiOperator:
         s3: ti.i32,
         s4: ti.i32,
         s5: ti.i32,
+        serial: ti.template(),
     ):
         """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the active
         x range widened by the 3 cells either side that the next evaluation's stencil reads.
@@ -511,7 +509,7 @@ class TaichiOperator:
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
         lo = ti.max(self.act[0] - 3, gx)
         hi = ti.min(self.act[1] + 3, gx + nx)
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
             acc = cs[0] * self.q[ss[0], i, j]
             for k in ti.static(range(1, n)):
@@ -527,10 +525,10 @@ class TaichiOperator:
             self.bud[d, b] = acc
 
     @ti.kernel
-    def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float):
+    def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
         """slot d := (1 - theta) slot a + theta slot b on every cell, ghosts included, and the
         same for the budgets (no active range: a copy must be whole)."""
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(self.NX, self.NY):
             self.q[d, i, j] = (1.0 - theta) * self.q[a, i, j] + theta * self.q[b, i, j]
         ti.loop_config(serialize=True)  # a handful of iterations
@@ -570,15 +568,15 @@ class TaichiOperator:
     # default is f32), which rounded every f64 run's step limits to f32. One kernel per
     # precision, chosen in __init__; only the chosen one is ever compiled (Metal has no f64).
     @ti.kernel
-    def _stability_f64(self) -> ti.types.vector(6, ti.f64):
-        return self._stability_body()
+    def _stability_f64(self, serial: ti.template()) -> ti.types.vector(6, ti.f64):
+        return self._stability_body(serial)
 
     @ti.kernel
-    def _stability_f32(self) -> ti.types.vector(6, ti.f32):
-        return self._stability_body()
+    def _stability_f32(self, serial: ti.template()) -> ti.types.vector(6, ti.f32):
+        return self._stability_body(serial)
 
     @ti.func
-    def _stability_body(self):
+    def _stability_body(self, serial: ti.template()):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
         from the primitives of the current state. Blocks of rows run in parallel and reduce
         locally, so there is one atomic per block (maxima are order independent:
@@ -602,7 +600,7 @@ class TaichiOperator:
         lo = ti.max(self.act[0] - 1, gx - 1)
         hi = ti.min(self.act[1] + 1, gx + nx + 1)
         B = ti.static(self.rows_per_block)
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for blk in range((hi - lo + B - 1) // B):
             m0 = 0.0
             m1 = 0.0
@@ -659,13 +657,13 @@ class TaichiOperator:
         return ti.Vector([self.red[k] for k in ti.static(range(6))])
 
     @ti.kernel
-    def _totals(self, s: ti.i32) -> ti.types.vector(2, ti.f64):
+    def _totals(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
         """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
         summed serially, then the rows serially): the same bits for any thread count."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         self.total[0] = 0.0
         self.total[1] = 0.0
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for i in range(gx, gx + nx):
             a = ti.cast(0.0, ti.f64)
             b = ti.cast(0.0, ti.f64)
@@ -683,7 +681,7 @@ class TaichiOperator:
         return ti.Vector([self.total[0], self.total[1]])
 
     @ti.kernel
-    def _wet_extent(self, s: ti.i32) -> ti.types.vector(2, ti.i32):
+    def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.i32):
         """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
         cell with h >= h_min, returned (one launch, no field read-back)."""
         self._ghosts(s)
@@ -691,7 +689,7 @@ class TaichiOperator:
         self.wet[1] = -1
         hmin = self.par[Params.H_MIN]
         B = ti.static(self.rows_per_block)
-        ti.loop_config(serialize=self.serial)
+        ti.loop_config(serialize=serial)
         for blk in range((self.NX + B - 1) // B):
             first = self.NX
             last = -1
@@ -718,7 +716,7 @@ class TaichiOperator:
         if self._prepared == key:
             return
         self._set_time(t)
-        self._ghosts_primitives_slopes(slot)
+        self._ghosts_primitives_slopes(slot, self.serial_loops())
         self._prepared = key
 
     def rhs(self, src: int, dst: int, t: float) -> None:
@@ -726,7 +724,7 @@ class TaichiOperator:
         self._prepare(src, t)
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
-        self._rates(dst)
+        self._rates(dst, self.serial_loops())
 
     def combine(self, dst: int, terms, limit: bool = False) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
@@ -741,14 +739,14 @@ class TaichiOperator:
         ss = [int(s) for _, s in terms] + [0] * (MAX_TERMS - n)
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
-        self._combine(dst, n, bool(limit), *cs, *ss)
+        self._combine(dst, n, bool(limit), *cs, *ss, self.serial_loops())
 
     def blend(self, dst: int, a: int, b: int, theta: float) -> None:
         """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
         theta = 0 a copy of slot a. For snapshots between two step states (tiseg.callbacks)."""
         if self._prepared is not None and self._prepared[0] == dst:
             self._prepared = None
-        self._blend(dst, a, b, float(theta))
+        self._blend(dst, a, b, float(theta), self.serial_loops(whole=True))
 
     def budget(self, slot: int = 0) -> np.ndarray:
         """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
@@ -761,7 +759,7 @@ class TaichiOperator:
 
     def sums(self, slot: int = 0) -> tuple[float, float]:
         """(sum of h, sum of h phi) over interior cells, deterministic, in f64."""
-        t = self._totals(slot)
+        t = self._totals(slot, self.serial_loops(whole=True))
         return float(t[0]), float(t[1])
 
     def set_active(self, a: int, b: int) -> None:
@@ -775,15 +773,30 @@ class TaichiOperator:
         self.act[1] = b
         self.active = (a, b)
 
+    def serial_loops(self, whole: bool = False) -> bool:
+        """Whether the next launch runs its loops on one thread: on a CPU with one thread, or
+        when the cells it covers (the active x range and the 3-cell halo of the stencil, or the
+        whole grid for ``whole``) are at most SERIAL_CELLS; never on a GPU. Both modes give
+        the same bits (tests/test_determinism.py)."""
+        if self.force_serial is not None:
+            return self.force_serial
+        if not self._on_cpu:
+            return False
+        if self._threads == 1:
+            return True
+        a, b = self.active
+        cols = self.NX if whole else min(b - a + 6, self.NX)
+        return cols * self.NY <= SERIAL_CELLS
+
     def wet_extent(self, slot: int, t: float) -> tuple[int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts; (NX, -1) if none."""
         self._set_time(t)
-        w = self._wet_extent(slot)
+        w = self._wet_extent(slot, self.serial_loops(whole=True))
         return int(w[0]), int(w[1])
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         self._prepare(slot, t)
-        r = [float(v) for v in self._stability()]
+        r = [float(v) for v in self._stability(self.serial_loops())]
         return StabilityNumbers(
             ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4], rho_stiff=r[5]
         )

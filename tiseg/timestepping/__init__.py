@@ -14,7 +14,7 @@ axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
 
 from .base import STEPPERS, Stepper, make_stepper, stepper_for
 from .rkc import RKC
-from .ssprk import SSPRK2, SSPRK3, SSPRK42, SSPRK104, Euler
+from .ssprk import SSPRK2, SSPRK3, SSPRK42, SSPRK102, SSPRK104, Euler
 
 __all__ = [
     "Stepper",
@@ -25,6 +25,7 @@ __all__ = [
     "SSPRK2",
     "SSPRK3",
     "SSPRK42",
+    "SSPRK102",
     "SSPRK104",
     "Euler",
 ]

@@ -3,9 +3,9 @@
 They are convex combinations of Euler steps, so they keep the positivity of the KT scheme
 (Kurganov & Petrova 2007) for steps up to ``ssp`` times the forward-Euler limit ``dt_cfl``
 (their SSP coefficient C). Per evaluation they advance C / stages of it: 1/2 for SSPRK2, 1/3 for
-SSPRK3, 3/4 for SSPRK(4,2) and 3/5 for SSPRK(10,4) (Ketcheson 2008, SIAM J. Sci. Comput. 30,
-2113). Their real stability interval [-beta, 0] must also contain the operator's spectrum:
-dt <= safety * beta / rho.
+SSPRK3, 3/4 for SSPRK(4,2), 9/10 for SSPRK(10,2) and 3/5 for SSPRK(10,4) (Ketcheson 2008, SIAM
+J. Sci. Comput. 30, 2113). Their real stability interval [-beta, 0] must also contain the
+operator's spectrum: dt <= safety * beta / rho.
 """
 
 from __future__ import annotations
@@ -71,28 +71,44 @@ class SSPRK3(_ExplicitRK):
         op.combine(0, [(1.0 / 3.0, 0), (2.0 / 3.0, 2), (2.0 / 3.0 * dt, 1)], limit=True)
 
 
-@register
-class SSPRK42(_ExplicitRK):
-    """SSPRK(4,2): three Euler steps of dt/3, then the average with the start (Ketcheson 2008,
-    the s = 4 member of his SSPRK(s,2)). C = 3 at 4 evaluations; R(z) = 3/4 (1 + z/3)^4 + 1/4
-    stays within the unit disc on [-6, 0]."""
+class _SSPRKs2(_ExplicitRK):
+    """Ketcheson's (2008) SSPRK(s,2): s - 1 Euler steps of dt/(s - 1), then the average of the
+    start with one more Euler step, u := u/s + (s - 1)/s (Y + dt/(s - 1) F(Y)). C = s - 1 at s
+    evaluations; R(z) = (s - 1)/s (1 + z/(s - 1))^s + 1/s stays within the unit disc on
+    [-2 (s - 1), 0] for even s. Three state slots whatever s."""
 
-    name = "ssprk4_2"
     slots = 3
     order = 2
+
+    def step(self, op, t, dt, stages):
+        m = self.stages - 1
+        h = dt / m
+        op.rhs(0, 1, t)
+        op.combine(2, [(1.0, 0), (h, 1)], limit=True)
+        for k in range(1, m):
+            op.rhs(2, 1, t + k * h)
+            op.combine(2, [(1.0, 2), (h, 1)], limit=True)
+        op.rhs(2, 1, t + dt)
+        s = self.stages
+        op.combine(0, [(1.0 / s, 0), (m / s, 2), (dt / s, 1)], limit=True)
+
+
+@register
+class SSPRK42(_SSPRKs2):
+    name = "ssprk4_2"
     stages = 4
     beta = 6.0
     ssp = 3.0
 
-    def step(self, op, t, dt, stages):
-        h = dt / 3.0
-        op.rhs(0, 1, t)
-        op.combine(2, [(1.0, 0), (h, 1)], limit=True)
-        for k in (1, 2):
-            op.rhs(2, 1, t + k * h)
-            op.combine(2, [(1.0, 2), (h, 1)], limit=True)
-        op.rhs(2, 1, t + dt)
-        op.combine(0, [(0.25, 0), (0.75, 2), (0.25 * dt, 1)], limit=True)
+
+@register
+class SSPRK102(_SSPRKs2):
+    """C = 9 at 10 evaluations: 0.9 Euler steps per evaluation, the most of these steppers."""
+
+    name = "ssprk10_2"
+    stages = 10
+    beta = 18.0
+    ssp = 9.0
 
 
 @register
