@@ -33,7 +33,7 @@ def label(num: dict) -> str:
     """The option's name as in tiseg bench accuracy (scheme_label)."""
     from tiseg.bench.accuracy import scheme_label
 
-    return scheme_label(
+    base = scheme_label(
         {
             "reconstruction": num.get("reconstruction", "weno"),
             "theta": num.get("theta", 1.5),
@@ -41,6 +41,8 @@ def label(num: dict) -> str:
             "phi_flux": num.get("phi_flux", "central"),
         }
     )
+    # runs from before issue 14 have no step_rule: theirs was "max"
+    return base + ("+sum" if num.get("step_rule", "max") == "sum" else "")
 
 
 def collect(folders) -> dict:

@@ -128,3 +128,22 @@ def test_stoker_star_state_obeys_the_jump_conditions():
     # the fan meets the star state continuously
     tail = np.abs(x / 0.1 - (us - math.sqrt(g * hs))).argmin()
     assert abs(h[tail] - hs) < 2e-2 and abs(u[tail] - us) < 5e-2
+
+
+def test_a_cfl_above_the_rules_bound_is_noted(caplog):
+    """cfl above the rule's positivity bound (1/4 max in 2D, 1/2 sum, 1/2 max in 1D) runs, but
+    says so; at the bound it is silent."""
+    cases = [
+        ("fingers", "max", 0.3, True),
+        ("fingers", "max", 0.25, False),
+        ("fingers", "sum", 0.5, False),
+        ("fingers", "sum", 0.6, True),
+        ("dam-break", "max", 0.5, False),  # 1D: the max rule's bound is 1/2
+        ("dam-break", "max", 0.55, True),
+    ]
+    for scene, rule, cfl, noted in cases:
+        caplog.clear()
+        with caplog.at_level("WARNING"):
+            load_scene(scene, {"numerics.step_rule": rule, "numerics.cfl": cfl})
+        said = any("positivity bound" in r.getMessage() for r in caplog.records)
+        assert said == noted, (scene, rule, cfl)
