@@ -15,14 +15,15 @@ from t0 to t1 is the linear interpolation of the two step states,
 
     q(t) = (1 - theta) q(t0) + theta q(t1),   theta = (t - t0) / (t1 - t0),
 
-made on the device in a spare slot of the operator. Accuracy: where the solution is smooth in time the error is at most theta (1 - theta) dt^2 / 2
-max|q_tt| <= dt^2 / 8 max|q_tt|, second order in dt like the steppers themselves; a front moving
-at speed a is drawn as the average of two fronts a dt apart: a quarter of a cell with RKC at cfl
-= 1/4, below the scheme's own resolution, half a cell at the sum rule's 1/2, but up to 3 cells
-with SSPRK(10,4), whose steps are 6 Euler steps long (a fine movie wants a short-stepping
-stepper). Being a convex combination it keeps h >= 0 and 0 <= phi <= 1, and the boundary budget
-is interpolated the same way, so the mass balance of a snapshot holds to round-off. A time that
-coincides with the step's end (t_end, always) is the step state itself, bit for bit.
+made on the device in a spare slot of the operator. Accuracy: where the solution is smooth in
+time the error is at most theta (1 - theta) dt^2 / 2 max|q_tt| <= dt^2 / 8 max|q_tt|, second
+order in dt like the steppers themselves; a front moving at speed a is drawn as the average of
+two fronts a dt apart: a quarter of a cell with RKC at cfl = 1/4, below the scheme's own
+resolution, half a cell at the sum rule's 1/2, but up to 4.5 cells with SSPRK(10,2), whose steps
+are 9 Euler steps long (a fine movie wants a short-stepping stepper). Being a convex combination
+it keeps h >= 0 and 0 <= phi <= 1, and the boundary budget is interpolated the same way, so the
+mass balance of a snapshot holds to round-off. A time that coincides with the step's end (t_end,
+always) is the step state itself, bit for bit.
 """
 
 from __future__ import annotations

@@ -75,10 +75,12 @@ class TaichiOperator:
         self.phi_upwind = cfg.phi_flux == "upwind"
         self.bc = tuple(cfg.bc)
         self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
-        # serial loops: forced (True/False), or chosen per launch by serial_loops()
+        # serial loops: forced (True/False), or chosen from the cells a launch covers; the
+        # choice for the active range is made when the range is set (set_active)
         self.force_serial = None if serial is None else bool(serial)
         self._threads = st.threads or backend.available_cores()
         self._on_cpu = st.arch == "cpu"
+        self._serial_whole = self._serial_for(NX * NY)
         # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects)
         self.q = ti.Vector.field(nc, self.fp, shape=(nslots, NX, NY))
         self.w = ti.Vector.field(nc, self.fp, shape=(NX, NY))
@@ -772,21 +774,23 @@ class TaichiOperator:
         self.act[0] = a
         self.act[1] = b
         self.active = (a, b)
+        # the cells a launch on this range covers: the range and the 3-cell halo of the stencil
+        self._serial_active = self._serial_for(min(b - a + 6, self.NX) * self.NY)
 
-    def serial_loops(self, whole: bool = False) -> bool:
-        """Whether the next launch runs its loops on one thread: on a CPU with one thread, or
-        when the cells it covers (the active x range and the 3-cell halo of the stencil, or the
-        whole grid for ``whole``) are at most SERIAL_CELLS; never on a GPU. Both modes give
-        the same bits (tests/test_determinism.py)."""
+    def _serial_for(self, cells: int) -> bool:
+        """Loops over ``cells`` cells on one thread? On a CPU with one thread, or at most
+        SERIAL_CELLS cells; never on a GPU; ``force_serial`` overrides."""
         if self.force_serial is not None:
             return self.force_serial
         if not self._on_cpu:
             return False
-        if self._threads == 1:
-            return True
-        a, b = self.active
-        cols = self.NX if whole else min(b - a + 6, self.NX)
-        return cols * self.NY <= SERIAL_CELLS
+        return self._threads == 1 or cells <= SERIAL_CELLS
+
+    def serial_loops(self, whole: bool = False) -> bool:
+        """Whether the next launch runs its loops on one thread: a launch on the active range,
+        or on the whole grid (``whole``). Both modes give the same bits
+        (tests/test_determinism.py)."""
+        return self._serial_whole if whole else self._serial_active
 
     def wet_extent(self, slot: int, t: float) -> tuple[int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts; (NX, -1) if none."""
