@@ -62,6 +62,8 @@ COMBOS = {
     "minmod2+cu+ssprk4_2+sum": _combo(stepper="ssprk4_2", **SHARP),
     "minmod2+cu+ssprk10_4+sum": _combo(stepper="ssprk10_4", **SHARP),
     "minmod2+cu+ssprk10_2+sum": _combo(stepper="ssprk10_2", **SHARP),
+    "minmod2+cu+ssprk9_3+sum": _combo(stepper="ssprk9_3", **SHARP),
+    "minmod2+cu+ssprk16_3+sum": _combo(stepper="ssprk16_3", **SHARP),
     "minmod2+cu+ssprk4_2+sum+f32": _combo(stepper="ssprk4_2", **SHARP, precision="f32"),
     "minmod2+cu+ssprk10_2+sum+f32": _combo(stepper="ssprk10_2", **SHARP, precision="f32"),
 }

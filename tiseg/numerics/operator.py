@@ -322,15 +322,19 @@ class TaichiOperator:
         for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
         if ti.static(not self.rec_first):
+            # x slopes on the interior rows of [a - 2, b + 2), y slopes on [a, b) and the
+            # ghost rows next to the interior: one pass over w for both (memory, not
+            # arithmetic, sets the pace of these loops on large grids)
+            gy, ny = ti.static(self.gy, self.ny)
+            jlo, jhi = ti.static((1, self.NY - 1) if not self.is_1d else (0, 1))
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange(
-                (ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)), (self.gy, self.gy + self.ny)
-            ):
-                self.sx[i, j] = self._slope(self.w[i - 1, j], self.w[i, j], self.w[i + 1, j])
-            if ti.static(not self.is_1d):
-                ti.loop_config(serialize=serial)
-                for i, j in ti.ndrange((a, b), (1, self.NY - 1)):
-                    self.sy[i, j] = self._slope(self.w[i, j - 1], self.w[i, j], self.w[i, j + 1])
+            for i, j in ti.ndrange((ti.max(a - 2, 1), ti.min(b + 2, self.NX - 1)), (jlo, jhi)):
+                w0 = self.w[i, j]
+                if gy <= j < gy + ny:
+                    self.sx[i, j] = self._slope(self.w[i - 1, j], w0, self.w[i + 1, j])
+                if ti.static(not self.is_1d):
+                    if a <= i < b:
+                        self.sy[i, j] = self._slope(self.w[i, j - 1], w0, self.w[i, j + 1])
 
     @ti.func
     def _face_flux(self, wl, wr, d: ti.template()):
@@ -389,59 +393,79 @@ class TaichiOperator:
         self._boundary_rates(d)
 
     @ti.func
-    def _face_fluxes(self, serial: ti.template()):
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+    def _x_face(self, i, j):
+        """Flux through the face between cells (i, j) and (i + 1, j): convective plus viscous."""
         hmin = self.par[Params.H_MIN]
         idx = self.par[Params.INV_DX]
-        idy = self.par[Params.INV_DY]
+        w0 = self.w[i, j]
+        w1 = self.w[i + 1, j]
+        F = ti.Vector.zero(self.fp, self.nc)
+        if ti.max(w0[0], w1[0]) >= hmin:
+            wl = w0
+            wr = w1
+            if ti.static(not self.rec_first):
+                wl = w0 + 0.5 * self.sx[i, j]
+                wr = w1 - 0.5 * self.sx[i + 1, j]
+            F = self._face_flux(wl, wr, 0)
+        if ti.static(self.visc):
+            K = self._face_K(w0[0], w1[0])
+            F[1] -= K * (w1[1] - w0[1]) * idx
+            if ti.static(not self.is_1d):
+                HV = ti.static(self.HV)
+                idy = self.par[Params.INV_DY]
+                # paired differences: exactly zero for y-independent data
+                dudy = (
+                    (self.w[i, j + 1][1] - self.w[i, j - 1][1])
+                    + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])
+                ) * (0.25 * idy)
+                F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) * idx + dudy)
+        return F
+
+    @ti.func
+    def _y_face(self, i, j):
+        """Flux through the face between cells (i, j) and (i, j + 1) (2D only)."""
+        hmin = self.par[Params.H_MIN]
+        HV = ti.static(self.HV)
+        w0 = self.w[i, j]
+        w1 = self.w[i, j + 1]
+        F = ti.Vector.zero(self.fp, self.nc)
+        if ti.max(w0[0], w1[0]) >= hmin:
+            wl = w0
+            wr = w1
+            if ti.static(not self.rec_first):
+                wl = w0 + 0.5 * self.sy[i, j]
+                wr = w1 - 0.5 * self.sy[i, j + 1]
+            F = self._face_flux(wl, wr, 1)
+        if ti.static(self.visc):
+            idx = self.par[Params.INV_DX]
+            idy = self.par[Params.INV_DY]
+            K = self._face_K(w0[0], w1[0])
+            F[HV] -= K * (w1[HV] - w0[HV]) * idy
+            dvdx = (
+                (self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
+                + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])
+            ) * (0.25 * idx)
+            F[1] -= 0.5 * K * ((w1[1] - w0[1]) * idy + dvdx)
+        return F
+
+    @ti.func
+    def _face_fluxes(self, serial: ti.template()):
+        """x faces (i, i + 1) for i in [a - 1, b) on the interior rows; y faces (j, j + 1) for
+        j in [gy - 1, gy + ny) on the columns [a, b). In 2D one pass does both, so each cell's
+        primitives and slopes are read once per evaluation."""
+        gy, ny = ti.static(self.gy, self.ny)
         a, b = self.act[0], self.act[1]
-        ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
-            w0 = self.w[i, j]
-            w1 = self.w[i + 1, j]
-            F = ti.Vector.zero(self.fp, self.nc)
-            if ti.max(w0[0], w1[0]) >= hmin:
-                wl = w0
-                wr = w1
-                if ti.static(not self.rec_first):
-                    wl = w0 + 0.5 * self.sx[i, j]
-                    wr = w1 - 0.5 * self.sx[i + 1, j]
-                F = self._face_flux(wl, wr, 0)
-            if ti.static(self.visc):
-                K = self._face_K(w0[0], w1[0])
-                F[1] -= K * (w1[1] - w0[1]) * idx
-                if ti.static(not self.is_1d):
-                    HV = ti.static(self.HV)
-                    # paired differences: exactly zero for y-independent data
-                    dudy = (
-                        (self.w[i, j + 1][1] - self.w[i, j - 1][1])
-                        + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])
-                    ) * (0.25 * idy)
-                    F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) * idx + dudy)
-            self.fx[i, j] = F
-        if ti.static(not self.is_1d):
-            HV = ti.static(self.HV)
+        if ti.static(self.is_1d):
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a, b), (gy - 1, gy + ny)):
-                w0 = self.w[i, j]
-                w1 = self.w[i, j + 1]
-                F = ti.Vector.zero(self.fp, self.nc)
-                if ti.max(w0[0], w1[0]) >= hmin:
-                    wl = w0
-                    wr = w1
-                    if ti.static(not self.rec_first):
-                        wl = w0 + 0.5 * self.sy[i, j]
-                        wr = w1 - 0.5 * self.sy[i, j + 1]
-                    F = self._face_flux(wl, wr, 1)
-                if ti.static(self.visc):
-                    K = self._face_K(w0[0], w1[0])
-                    F[HV] -= K * (w1[HV] - w0[HV]) * idy
-                    dvdx = (
-                        (self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
-                        + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])
-                    ) * (0.25 * idx)
-                    F[1] -= 0.5 * K * ((w1[1] - w0[1]) * idy + dvdx)
-                self.fy[i, j] = F
+            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
+                self.fx[i, j] = self._x_face(i, j)
+        else:
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
+                if j >= gy:
+                    self.fx[i, j] = self._x_face(i, j)
+                if i >= a:
+                    self.fy[i, j] = self._y_face(i, j)
 
     @ti.func
     def _divergence(self, d, serial: ti.template()):

@@ -3,8 +3,8 @@
 They are convex combinations of Euler steps, so they keep the positivity of the KT scheme
 (Kurganov & Petrova 2007) for steps up to ``ssp`` times the forward-Euler limit ``dt_cfl``
 (their SSP coefficient C). Per evaluation they advance C / stages of it: 1/2 for SSPRK2, 1/3 for
-SSPRK3, 3/4 for SSPRK(4,2), 9/10 for SSPRK(10,2) and 3/5 for SSPRK(10,4) (Ketcheson 2008, SIAM
-J. Sci. Comput. 30, 2113). Their real stability interval [-beta, 0] must also contain the
+SSPRK3, 3/4 for SSPRK(4,2), 9/10 for SSPRK(10,2), 3/5 for SSPRK(10,4), 2/3 for SSPRK(9,3) and 3/4
+for SSPRK(16,3) (Ketcheson 2008, SIAM J. Sci. Comput. 30, 2113). Their real stability interval [-beta, 0] must also contain the
 operator's spectrum: dt <= safety * beta / rho.
 """
 
@@ -141,3 +141,64 @@ class SSPRK104(_ExplicitRK):
             op.combine(Q1, [(1.0, Q1), (h, F)], limit=True)
         op.rhs(Q1, F, t + dt)
         op.combine(0, [(1.0, Q2), (0.6, Q1), (0.1 * dt, F)], limit=True)
+
+
+class _SSPRKn2_3(_ExplicitRK):
+    """Ketcheson's (2008) third-order SSPRK(n^2, 3): n^2 Euler steps of dt/r, r = n^2 - n,
+    one of them replaced by a convex mix with the state saved after (n - 1)(n - 2)/2 steps:
+
+        q1 := u; (n-1)(n-2)/2 Euler steps; q2 := q1;
+        Euler steps up to step n(n+1)/2 - 1; q1 := (n q2 + (n-1) (q1 + dt/r F(q1))) / (2n - 1);
+        n(n-1)/2 more Euler steps; u := q1.
+
+    C = r at n^2 evaluations: third order at SSPRK(4,2)'s 3/4 Euler steps per evaluation for
+    n = 4, so its time error is that of a third-order method at a second-order method's price.
+    n = 2 is the classical SSPRK(4,3). The mixed state lies at t + dt/2."""
+
+    slots = 4
+    order = 3
+    n = 3
+
+    def step(self, op, t, dt, stages):
+        n = self.n
+        h = dt / (n * n - n)
+        Q1, F, Q2 = 2, 1, 3
+        k_save = (n - 1) * (n - 2) // 2
+        k_mix = n * (n + 1) // 2 - 1  # Euler steps before the mixing stage
+        cur, k = 0, 0  # the slot holding the latest stage, and its time in units of h
+
+        def euler(dst):
+            nonlocal cur, k
+            op.rhs(cur, F, t + k * h)
+            op.combine(dst, [(1.0, cur), (h, F)], limit=True)
+            cur, k = dst, k + 1
+
+        for _ in range(k_save):
+            euler(Q1)
+        op.combine(Q2, [(1.0, cur)])  # a copy of a limited state: no limiter needed
+        while k < k_mix:
+            euler(Q1)
+        a, b = n / (2 * n - 1), (n - 1) / (2 * n - 1)
+        op.rhs(cur, F, t + k * h)
+        op.combine(Q1, [(a, Q2), (b, cur), (b * h, F)], limit=True)
+        cur, k = Q1, (n * k_save + (n - 1) * (k_mix + 1)) / (2 * n - 1)
+        for m in range(n * (n - 1) // 2):
+            euler(0 if m == n * (n - 1) // 2 - 1 else Q1)
+
+
+@register
+class SSPRK93(_SSPRKn2_3):
+    name = "ssprk9_3"
+    stages = 9
+    n = 3
+    ssp = 6.0
+    beta = 13.2  # |R(-13.28)| = 1
+
+
+@register
+class SSPRK163(_SSPRKn2_3):
+    name = "ssprk16_3"
+    stages = 16
+    n = 4
+    ssp = 12.0
+    beta = 25.4  # |R(-25.42)| = 1
