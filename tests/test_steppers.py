@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from tiseg.timestepping import make_stepper
+from tiseg.timestepping.base import RATE
 from tiseg.timestepping.rkc import rkc_coefficients, stages_for
 
 
@@ -23,6 +24,11 @@ class ArrayOperator:
 
     def combine(self, dst, terms, limit=False):
         self.s[dst] = sum(c * self.s[k] for c, k in terms)  # no limiter for a linear ODE
+
+    def stage(self, dst, terms, src, t, limit=True):
+        self.evals += 1
+        r = self.apply(self.s[src]) + (self.forcing(t) if self.forcing else 0.0)
+        self.s[dst] = sum(c * (r if k == RATE else self.s[k]) for c, k in terms)
 
 
 def _integrate(stepper, op, y0, t_end, n, stages):

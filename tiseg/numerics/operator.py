@@ -105,11 +105,15 @@ class TaichiOperator:
         self.total = ti.field(ti.f64, shape=2)
         self.wet = ti.field(ti.i32, shape=2)
         self._prepared = None  # (slot, t, active range) whose primitives are in w
+        # (slot, active range) whose interior primitives a limited combine left in w (ghost
+        # cells and slopes still to do)
+        self._interior = None
         self.set_active(self.gx, self.gx + self.nx)
         # Boundary budgets per slot: rates of (mass, small-particle mass) entering through the
         # x faces and the y faces. combine() applies the same linear combination to them as to
         # the states, so slot 0 accumulates exactly the time integral the scheme uses.
-        self.bud = ti.field(self.fp, shape=(nslots, NBUDGET))
+        # (row nslots: the boundary rates of a fused stage, whose rate has no slot)
+        self.bud = ti.field(self.fp, shape=(nslots + 1, NBUDGET))
         self.phys = Physics(cfg, self.par)
         self.set_params(cfg)
         self.t = 0.0
@@ -140,7 +144,7 @@ class TaichiOperator:
         p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
         self.cfg = cfg
-        self._prepared = None
+        self._prepared = self._interior = None
         self.par.from_numpy(p.astype(self.np_fp))
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no
@@ -180,7 +184,7 @@ class TaichiOperator:
         return np.moveaxis(a, -1, 0).astype(np.float64)
 
     def set(self, slot: int, arr: np.ndarray) -> None:
-        self._prepared = None
+        self._prepared = self._interior = None
         full = self.q.to_numpy()
         full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
         self.q.from_numpy(full)
@@ -313,14 +317,49 @@ class TaichiOperator:
         launch costs tens of microseconds of Python and thread start-up: on small grids
         that, not arithmetic, sets the pace). Top-level loops run in order."""
         self._ghosts(s)
-        self._primitives_and_slopes(s, serial)
+        self._primitives(s, serial)
+        self._slopes(serial)
+
+    @ti.kernel
+    def _ghosts_edges_slopes(self, s: ti.i32, serial: ti.template()):
+        """The same when a limited combine already left the primitives of slot s's interior
+        cells in w: ghost cells, their primitives, the slopes."""
+        self._ghosts(s)
+        self._edge_primitives(s, serial)
+        self._slopes(serial)
 
     @ti.func
-    def _primitives_and_slopes(self, s, serial: ti.template()):
+    def _primitives(self, s, serial: ti.template()):
         a, b = self.act[0], self.act[1]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, 0), ti.min(b + 3, self.NX)), (0, self.NY)):
             self.w[i, j] = self._primitive(self.q[s, i, j])
+
+    @ti.func
+    def _edge_primitives(self, s, serial: ti.template()):
+        """Primitives of the ghost cells among those _primitives covers (the x range
+        [a - 3, b + 3), every row); the interior ones are those _combine_cells wrote."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ti.loop_config(serialize=True)  # 2 x 2 columns
+        for k, j in ti.ndrange(gx, self.NY):
+            il = gx - 1 - k
+            ih = gx + nx + k
+            if il >= a - 3:
+                self.w[il, j] = self._primitive(self.q[s, il, j])
+            if ih < b + 3:
+                self.w[ih, j] = self._primitive(self.q[s, ih, j])
+        if ti.static(not self.is_1d):
+            ti.loop_config(serialize=serial)
+            for i, k in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), gy):
+                jl = gy - 1 - k
+                jh = gy + ny + k
+                self.w[i, jl] = self._primitive(self.q[s, i, jl])
+                self.w[i, jh] = self._primitive(self.q[s, i, jh])
+
+    @ti.func
+    def _slopes(self, serial: ti.template()):
+        a, b = self.act[0], self.act[1]
         if ti.static(not self.rec_first):
             # x slopes on the interior rows of [a - 2, b + 2), y slopes on [a, b) and the
             # ghost rows next to the interior: one pass over w for both (memory, not
@@ -468,22 +507,29 @@ class TaichiOperator:
                     self.fy[i, j] = self._y_face(i, j)
 
     @ti.func
-    def _divergence(self, d, serial: ti.template()):
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+    def _cell_rate(self, i, j):
+        """L at cell (i, j) from the face fluxes and the source: (6.1)-(6.6) in flux form;
+        zero outside the active x range."""
         idx = self.par[Params.INV_DX]
         idy = self.par[Params.INV_DY]
+        a, b = self.act[0], self.act[1]
+        r = ti.Vector.zero(self.fp, self.nc)
+        if a <= i < b:
+            r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
+            if ti.static(not self.is_1d):
+                r -= (self.fy[i, j] - self.fy[i, j - 1]) * idy
+            r += self.phys.source(self.w[i, j])
+        return r
+
+    @ti.func
+    def _divergence(self, d, serial: ti.template()):
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         # rates on the active range and zero on the 3 cells either side that _combine also
         # reads; further out nothing reads them while this range holds (see _combine)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
-            r = ti.Vector.zero(self.fp, self.nc)
-            if a <= i < b:
-                r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
-                if ti.static(not self.is_1d):
-                    r -= (self.fy[i, j] - self.fy[i, j - 1]) * idy
-                r += self.phys.source(self.w[i, j])
-            self.q[d, i, j] = r
+            self.q[d, i, j] = self._cell_rate(i, j)
 
     @ti.func
     def _limit(self, v):
@@ -518,36 +564,92 @@ class TaichiOperator:
         s5: ti.i32,
         serial: ti.template(),
     ):
-        """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the active
-        x range widened by the 3 cells either side that the next evaluation's stencil reads.
-
-        Why that is enough: the active range is fixed for the whole step (set_active runs
-        between steps), every rate slot is zero on the widened range outside the active one
-        (_divergence), and the first stage combines from slot 0, which is valid everywhere. So
-        within a step every slot is valid on the widened range, and nothing beyond it is read. Cells further out are dry films
-        that the step does not change; skipping them saves two passes over the dry chute per
-        stage.
+        """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the
+        active x range widened by the 3 cells either side that the next evaluation's stencil
+        reads (see _combine_cells).
 
         The coefficients come as kernel arguments: writing them into a field from Python
         costs a launch each, which dominated small grids."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         cs = ti.Vector([c0, c1, c2, c3, c4, c5])
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
+        self._combine_cells(d, n, -1, limit, cs, ss, serial)
+
+    @ti.kernel
+    def _stage(
+        self,
+        d: ti.i32,
+        n: ti.template(),
+        rate: ti.template(),
+        limit: ti.template(),
+        c0: float,
+        c1: float,
+        c2: float,
+        c3: float,
+        c4: float,
+        c5: float,
+        s0: ti.i32,
+        s1: ti.i32,
+        s2: ti.i32,
+        s3: ti.i32,
+        s4: ti.i32,
+        s5: ti.i32,
+        serial: ti.template(),
+    ):
+        """_rates and _combine in one launch, for a combination whose term ``rate`` is L of
+        the prepared state: that rate is used where it is computed and never stored (two
+        passes over the grid fewer), and its boundary rates go to the spare budget row."""
+        cs = ti.Vector([c0, c1, c2, c3, c4, c5])
+        ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
+        self._face_fluxes(serial)
+        self._boundary_rates(self.nslots)
+        self._combine_cells(d, n, rate, limit, cs, ss, serial)
+
+    @ti.func
+    def _combine_cells(self, d, n: ti.template(), rate: ti.template(), limit: ti.template(),
+                       cs, ss, serial: ti.template()):
+        """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
+        L at the cell (_cell_rate); then the stage limiter if ``limit``, which also leaves the
+        result's primitives in w (the next evaluation is of slot d). The sum runs in the order
+        of the terms, so a fused stage gives the bits of _rates followed by _combine.
+
+        Cells: the active x range widened by the 3 cells either side that the next
+        evaluation's stencil reads. Why that is enough: the active range is fixed for the
+        whole step (set_active runs between steps), every rate is zero on the widened range
+        outside the active one (_cell_rate), and the first stage combines from slot 0, which
+        is valid everywhere. So within a step every slot is valid on the widened range, and
+        nothing beyond it is read. Cells further out are dry films that the step does not
+        change; skipping them saves two passes over the dry chute per stage.
+
+        A cell's rate reads the face fluxes and its own primitives only, so d may be the slot
+        the rate is of, or any of the sources: the update is element-wise."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         lo = ti.max(self.act[0] - 3, gx)
         hi = ti.min(self.act[1] + 3, gx + nx)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
-            acc = cs[0] * self.q[ss[0], i, j]
-            for k in ti.static(range(1, n)):
-                acc += cs[k] * self.q[ss[k], i, j]
+            r = ti.Vector.zero(self.fp, self.nc)
+            if ti.static(rate >= 0):
+                r = self._cell_rate(i, j)
+            acc = ti.Vector.zero(self.fp, self.nc)
+            for k in ti.static(range(n)):
+                term = r if ti.static(k == rate) else self.q[ss[k], i, j]
+                if ti.static(k == 0):
+                    acc = cs[0] * term
+                else:
+                    acc += cs[k] * term
             if ti.static(limit):
                 acc = self._limit(acc)
+                self.w[i, j] = self._primitive(acc)
             self.q[d, i, j] = acc
         ti.loop_config(serialize=True)  # a handful of iterations
         for b in range(NBUDGET):
-            acc = cs[0] * self.bud[ss[0], b]
-            for k in ti.static(range(1, n)):
-                acc += cs[k] * self.bud[ss[k], b]
+            acc = 0.0 * cs[0]
+            for k in ti.static(range(n)):
+                bk = self.bud[self.nslots, b] if ti.static(k == rate) else self.bud[ss[k], b]
+                if ti.static(k == 0):
+                    acc = cs[0] * bk
+                else:
+                    acc += cs[k] * bk
             self.bud[d, b] = acc
 
     @ti.kernel
@@ -736,21 +838,44 @@ class TaichiOperator:
         """Ghost cells, primitives and slopes of ``slot`` at time t, unless still current.
 
         A step measures its stability numbers on slot 0 and then evaluates L(slot 0) at the same
-        time: the second preparation is skipped (about a third of an evaluation). Any write to
-        the slot, a parameter change or a new active range makes the cache stale."""
+        time: the second preparation is skipped (about a third of an evaluation). A limited
+        combine leaves its result's interior primitives in w, so preparing that slot next
+        computes only the ghost cells' ones. Any write to the slot, a parameter change or a
+        new active range makes these caches stale."""
         key = (slot, t, self.active)
         if self._prepared == key:
             return
         self._set_time(t)
-        self._ghosts_primitives_slopes(slot, self.serial_loops())
+        if self._interior == (slot, self.active):
+            self._ghosts_edges_slopes(slot, self.serial_loops())
+        else:
+            self._ghosts_primitives_slopes(slot, self.serial_loops())
         self._prepared = key
+
+    def _written(self, dst: int, primitives: bool = False) -> None:
+        """Slot dst changed; with ``primitives`` its interior primitives are now in w."""
+        if primitives:
+            self._prepared = None
+            self._interior = (dst, self.active)
+            return
+        if self._prepared is not None and self._prepared[0] == dst:
+            self._prepared = None
+        if self._interior is not None and self._interior[0] == dst:
+            self._interior = None
 
     def rhs(self, src: int, dst: int, t: float) -> None:
         """slot dst := L(slot src, t) on interior cells (fills src's ghost cells)."""
         self._prepare(src, t)
-        if self._prepared is not None and self._prepared[0] == dst:
-            self._prepared = None
+        self._written(dst)
         self._rates(dst, self.serial_loops())
+
+    @staticmethod
+    def _terms(terms):
+        n = len(terms)
+        assert 1 <= n <= MAX_TERMS
+        cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
+        ss = [max(int(s), 0) for _, s in terms] + [0] * (MAX_TERMS - n)
+        return n, cs, ss
 
     def combine(self, dst: int, terms, limit: bool = False) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
@@ -759,19 +884,25 @@ class TaichiOperator:
 
         dst may be one of the sources: the update is element-wise.
         """
-        n = len(terms)
-        assert 1 <= n <= MAX_TERMS
-        cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
-        ss = [int(s) for _, s in terms] + [0] * (MAX_TERMS - n)
-        if self._prepared is not None and self._prepared[0] == dst:
-            self._prepared = None
+        n, cs, ss = self._terms(terms)
         self._combine(dst, n, bool(limit), *cs, *ss, self.serial_loops())
+        self._written(dst, primitives=bool(limit))
+
+    def stage(self, dst: int, terms, src: int, t: float, limit: bool = True) -> None:
+        """slot dst := sum(c * term) where a term's slot is a slot, or RATE (negative) for
+        L(slot src, t): :meth:`rhs` into a spare slot and then :meth:`combine`, with the same
+        bits, in one launch and without storing the rate. Exactly one term is the rate."""
+        rate = [k for k, (_, s) in enumerate(terms) if s < 0]
+        assert len(rate) == 1, terms
+        self._prepare(src, t)
+        n, cs, ss = self._terms(terms)
+        self._stage(dst, n, rate[0], bool(limit), *cs, *ss, self.serial_loops())
+        self._written(dst, primitives=bool(limit))
 
     def blend(self, dst: int, a: int, b: int, theta: float) -> None:
         """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
         theta = 0 a copy of slot a. For snapshots between two step states (tiseg.callbacks)."""
-        if self._prepared is not None and self._prepared[0] == dst:
-            self._prepared = None
+        self._written(dst)
         self._blend(dst, a, b, float(theta), self.serial_loops(whole=True))
 
     def budget(self, slot: int = 0) -> np.ndarray:
@@ -794,7 +925,7 @@ class TaichiOperator:
         b = max(a, min(self.gx + self.nx, int(b)))
         if getattr(self, "active", None) == (a, b):
             return  # each field write from Python is a kernel launch
-        self._prepared = None
+        self._prepared = self._interior = None
         self.act[0] = a
         self.act[1] = b
         self.active = (a, b)

@@ -6,6 +6,11 @@ from ..errors import InputError
 
 STEPPERS: dict[str, type] = {}
 
+# The slot of the rate in a stage's terms: op.stage(dst, [(c, slot), ..., (c, RATE)], src, t)
+# is op.rhs(src, F, t) then op.combine(dst, [..., (c, F)]) for a spare slot F, fused (the rate is
+# used where it is computed and never stored). Steppers use it where a rate is needed once.
+RATE = -1
+
 
 def register(cls):
     STEPPERS[cls.name] = cls
@@ -13,7 +18,10 @@ def register(cls):
 
 
 class Stepper:
-    """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs."""
+    """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs.
+
+    A step sees the operator through ``rhs(src, dst, t)``, ``combine(dst, terms, limit)`` and
+    ``stage(dst, terms, src, t, limit)`` (a combination with one RATE term, see above)."""
 
     name = "base"
     slots = 1

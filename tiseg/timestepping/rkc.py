@@ -6,7 +6,8 @@ beta(s) ~ 0.653 s^2, so the viscous stiffness costs O(sqrt(rho dt)) evaluations 
 step ~ 1/rho. The step itself is set by the convective CFL; the stage count by
 s = 1 + floor(sqrt(1 + 1.54 dt rho)), which keeps dt rho <= beta(s) with a ~2 % margin.
 
-Only two previous stages are kept (Y_{j-1}, Y_{j-2}) besides Y0, F0 and F(Y_{j-1}): 5 slots.
+Only two previous stages are kept (Y_{j-1}, Y_{j-2}) besides Y0 and F0: 4 slots (F(Y_{j-1})
+is used by one stage only and never stored: op.stage).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import math
 from functools import lru_cache
 
 from ..errors import InputError
-from .base import Stepper, register
+from .base import RATE, Stepper, register
 
 DAMPING = 2.0 / 13.0
 
@@ -60,7 +61,7 @@ def stages_for(dt_rho: float) -> int:
 @register
 class RKC(Stepper):
     name = "rkc"
-    slots = 5
+    slots = 4
     order = 2
 
     def __init__(self, max_stages: int = 200):
@@ -82,25 +83,26 @@ class RKC(Stepper):
     def step(self, op, t, dt, stages):
         s = stages
         mu_t1, coeffs, c = rkc_coefficients(s)
-        Y0, F0, A, B, FJ = 0, 1, 2, 3, 4
+        Y0, F0, A, B = 0, 1, 2, 3
         op.rhs(Y0, F0, t)
         op.combine(A, [(1.0, Y0), (mu_t1 * dt, F0)], limit=True)  # Y1
         prev2, prev1 = Y0, A
         for j in range(2, s + 1):
             mu, nu, mu_t, gamma_t = coeffs[j - 2]
-            op.rhs(prev1, FJ, t + c[j - 1] * dt)
             # Y_j overwrites Y_{j-2} (element-wise update), except that Y0 must survive until
-            # the last stage, which writes the new solution into slot 0 itself.
+            # the last stage, which writes the new solution into slot 0 itself. F(Y_{j-1}) is
+            # needed by this stage alone: fused into it, never stored.
             dst = Y0 if j == s else (B if prev2 == Y0 else prev2)
-            op.combine(
+            op.stage(
                 dst,
                 [
                     (1.0 - mu - nu, Y0),
                     (mu, prev1),
                     (nu, prev2),
-                    (mu_t * dt, FJ),
+                    (mu_t * dt, RATE),
                     (gamma_t * dt, F0),
                 ],
-                limit=True,
+                prev1,
+                t + c[j - 1] * dt,
             )
             prev2, prev1 = prev1, dst

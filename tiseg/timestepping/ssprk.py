@@ -11,7 +11,7 @@ operator's spectrum: dt <= safety * beta / rho.
 from __future__ import annotations
 
 from ..errors import InputError
-from .base import Stepper, register
+from .base import RATE, Stepper, register
 
 
 class _ExplicitRK(Stepper):
@@ -36,8 +36,7 @@ class Euler(_ExplicitRK):
     stages = 1
 
     def step(self, op, t, dt, stages):
-        op.rhs(0, 1, t)
-        op.combine(0, [(1.0, 0), (dt, 1)], limit=True)
+        op.stage(0, [(1.0, 0), (dt, RATE)], 0, t)
 
 
 @register
@@ -48,10 +47,8 @@ class SSPRK2(_ExplicitRK):
     stages = 2
 
     def step(self, op, t, dt, stages):
-        op.rhs(0, 1, t)
-        op.combine(2, [(1.0, 0), (dt, 1)], limit=True)
-        op.rhs(2, 1, t + dt)
-        op.combine(0, [(0.5, 0), (0.5, 2), (0.5 * dt, 1)], limit=True)
+        op.stage(2, [(1.0, 0), (dt, RATE)], 0, t)
+        op.stage(0, [(0.5, 0), (0.5, 2), (0.5 * dt, RATE)], 2, t + dt)
 
 
 @register
@@ -63,12 +60,9 @@ class SSPRK3(_ExplicitRK):
     beta = 2.51
 
     def step(self, op, t, dt, stages):
-        op.rhs(0, 1, t)
-        op.combine(2, [(1.0, 0), (dt, 1)], limit=True)
-        op.rhs(2, 1, t + dt)
-        op.combine(2, [(0.75, 0), (0.25, 2), (0.25 * dt, 1)], limit=True)
-        op.rhs(2, 1, t + 0.5 * dt)
-        op.combine(0, [(1.0 / 3.0, 0), (2.0 / 3.0, 2), (2.0 / 3.0 * dt, 1)], limit=True)
+        op.stage(2, [(1.0, 0), (dt, RATE)], 0, t)
+        op.stage(2, [(0.75, 0), (0.25, 2), (0.25 * dt, RATE)], 2, t + dt)
+        op.stage(0, [(1.0 / 3.0, 0), (2.0 / 3.0, 2), (2.0 / 3.0 * dt, RATE)], 2, t + 0.5 * dt)
 
 
 class _SSPRKs2(_ExplicitRK):
@@ -83,14 +77,11 @@ class _SSPRKs2(_ExplicitRK):
     def step(self, op, t, dt, stages):
         m = self.stages - 1
         h = dt / m
-        op.rhs(0, 1, t)
-        op.combine(2, [(1.0, 0), (h, 1)], limit=True)
+        op.stage(2, [(1.0, 0), (h, RATE)], 0, t)
         for k in range(1, m):
-            op.rhs(2, 1, t + k * h)
-            op.combine(2, [(1.0, 2), (h, 1)], limit=True)
-        op.rhs(2, 1, t + dt)
+            op.stage(2, [(1.0, 2), (h, RATE)], 2, t + k * h)
         s = self.stages
-        op.combine(0, [(1.0 / s, 0), (m / s, 2), (dt / s, 1)], limit=True)
+        op.stage(0, [(1.0 / s, 0), (m / s, 2), (dt / s, RATE)], 2, t + dt)
 
 
 @register
@@ -127,20 +118,16 @@ class SSPRK104(_ExplicitRK):
 
     def step(self, op, t, dt, stages):
         h = dt / 6.0
-        Q1, F, Q2 = 2, 1, 3
-        op.rhs(0, F, t)
-        op.combine(Q1, [(1.0, 0), (h, F)], limit=True)
+        Q1, Q2 = 2, 3
+        op.stage(Q1, [(1.0, 0), (h, RATE)], 0, t)
         for k in range(1, 5):
-            op.rhs(Q1, F, t + k * h)
-            op.combine(Q1, [(1.0, Q1), (h, F)], limit=True)
+            op.stage(Q1, [(1.0, Q1), (h, RATE)], Q1, t + k * h)
         # q2 is a scaled partial sum, not a state: no limiter on it
         op.combine(Q2, [(1.0 / 25.0, 0), (9.0 / 25.0, Q1)], limit=False)
         op.combine(Q1, [(15.0, Q2), (-5.0, Q1)], limit=True)  # = 3/5 u + 2/5 q1, at t + dt/3
         for k in range(4):
-            op.rhs(Q1, F, t + dt / 3.0 + k * h)
-            op.combine(Q1, [(1.0, Q1), (h, F)], limit=True)
-        op.rhs(Q1, F, t + dt)
-        op.combine(0, [(1.0, Q2), (0.6, Q1), (0.1 * dt, F)], limit=True)
+            op.stage(Q1, [(1.0, Q1), (h, RATE)], Q1, t + dt / 3.0 + k * h)
+        op.stage(0, [(1.0, Q2), (0.6, Q1), (0.1 * dt, RATE)], Q1, t + dt)
 
 
 class _SSPRKn2_3(_ExplicitRK):
@@ -162,15 +149,14 @@ class _SSPRKn2_3(_ExplicitRK):
     def step(self, op, t, dt, stages):
         n = self.n
         h = dt / (n * n - n)
-        Q1, F, Q2 = 2, 1, 3
+        Q1, Q2 = 2, 3
         k_save = (n - 1) * (n - 2) // 2
         k_mix = n * (n + 1) // 2 - 1  # Euler steps before the mixing stage
         cur, k = 0, 0  # the slot holding the latest stage, and its time in units of h
 
         def euler(dst):
             nonlocal cur, k
-            op.rhs(cur, F, t + k * h)
-            op.combine(dst, [(1.0, cur), (h, F)], limit=True)
+            op.stage(dst, [(1.0, cur), (h, RATE)], cur, t + k * h)
             cur, k = dst, k + 1
 
         for _ in range(k_save):
@@ -179,8 +165,7 @@ class _SSPRKn2_3(_ExplicitRK):
         while k < k_mix:
             euler(Q1)
         a, b = n / (2 * n - 1), (n - 1) / (2 * n - 1)
-        op.rhs(cur, F, t + k * h)
-        op.combine(Q1, [(a, Q2), (b, cur), (b * h, F)], limit=True)
+        op.stage(Q1, [(a, Q2), (b, cur), (b * h, RATE)], cur, t + k * h)
         cur, k = Q1, (n * k_save + (n - 1) * (k_mix + 1)) / (2 * n - 1)
         for m in range(n * (n - 1) // 2):
             euler(0 if m == n * (n - 1) // 2 - 1 else Q1)
