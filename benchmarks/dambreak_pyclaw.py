@@ -1,7 +1,7 @@
 """tiseg against PyClaw on a 2D dam break: error against the exact solution and wall time, over a
 resolution ladder, with the two codes alternating (issue 14).
 
-    python benchmarks/dambreak_pyclaw.py --out benchmarks/dambreak [--nx 128 256 512 1024]
+    python benchmarks/dambreak_pyclaw.py --out benchmarks/dambreak [--nx 128 256 512 768 1024]
         [--combos weno+rkc minmod+ssprk4_2+sum ...] [--threads 1 2] [--repeats 3] [--no-pyclaw]
 
 Problem (Stoker): x in [0, 2] m, y in [0, 0.25] m, nx x nx/8 cells, dam at x = 1 m, h_l = 1 m,
@@ -75,8 +75,9 @@ DEFAULT_COMBOS = (
     "minmod2+cu+ssprk4_2+sum",
     "minmod2+cu+ssprk10_4+sum",
     "minmod2+cu+ssprk10_2+sum",
+    "minmod2+cu+ssprk9_3+sum",
+    "minmod2+cu+ssprk16_3+sum",
     "minmod2+cu+ssprk4_2+sum+f32",
-    "minmod2+cu+ssprk10_2+sum+f32",
 )
 COLUMNS = (
     "case",
@@ -362,7 +363,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("benchmarks/dambreak"))
     p.add_argument("--case", choices=tuple(CASES), default="stoker")
-    p.add_argument("--nx", type=int, nargs="+", default=[128, 256, 512, 1024])
+    p.add_argument("--nx", type=int, nargs="+", default=[128, 256, 512, 768, 1024])
     p.add_argument("--combos", nargs="+", choices=tuple(COMBOS), default=list(DEFAULT_COMBOS))
     p.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     p.add_argument("--repeats", type=int, default=3)

@@ -605,8 +605,16 @@ class TaichiOperator:
         self._combine_cells(d, n, rate, limit, cs, ss, serial)
 
     @ti.func
-    def _combine_cells(self, d, n: ti.template(), rate: ti.template(), limit: ti.template(),
-                       cs, ss, serial: ti.template()):
+    def _combine_cells(
+        self,
+        d,
+        n: ti.template(),
+        rate: ti.template(),
+        limit: ti.template(),
+        cs,
+        ss,
+        serial: ti.template(),
+    ):
         """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
         L at the cell (_cell_rate); then the stage limiter if ``limit``, which also leaves the
         result's primitives in w (the next evaluation is of slot d). The sum runs in the order
