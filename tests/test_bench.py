@@ -347,12 +347,15 @@ def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
     (start,) = rep["starts"]
     assert start["time"] == 1.5 and start["span"] > 0
     rows = {r["stepper"]: r for r in start["rows"]}
-    assert set(rows) == {"rkc", "ssprk3", "ssprk2", "euler"}
+    assert set(rows) == {"rkc", "ssprk3", "ssprk2", "ssprk4_2", "ssprk10_4", "euler"}
     for r in rows.values():
         assert r["status"] == "ok" and r["steps"] > 0 and r["wall_s"] > 0
         assert 0 < r["error"] < 0.05, r
     assert rows["euler"]["error"] > 3 * max(rows["rkc"]["error"], rows["ssprk3"]["error"]), rows
     assert rows["ssprk3"]["evaluations"] == 3 * rows["ssprk3"]["steps"]
+    assert rows["ssprk4_2"]["evaluations"] == 4 * rows["ssprk4_2"]["steps"]
+    # the fourth-order method's time error is below the first-order one's
+    assert rows["ssprk10_4"]["error"] < rows["euler"]["error"], rows
     assert any(r["pareto"] for r in rows.values())
     assert rep["own_stepper"] == "rkc" and "t = 1.5 s: rkc" in rep["verdict"]
     assert (run / "bench-steppers" / "steppers.md").read_text().count("| rkc (run) |") == 1

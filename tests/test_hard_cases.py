@@ -9,7 +9,6 @@ step. The measured numbers quoted in the docstrings are f64 on the CPU.
 
 Measured worst violations over the whole file: h < 0 never (min h = 0 exactly at dry cells),
 phi outside [0, 1] never (0 <= h phi <= h exactly), mass balance <= 5e-15 relative.
-One case is an expected failure that documents a solver limitation (see its xfail reason).
 """
 
 from __future__ import annotations
@@ -132,7 +131,9 @@ def test_critical_froude_noise_viscous_bounded_inviscid_grows(ti_cpu):
 
 
 # ============================================================================== dry fronts
-def _coulomb_dam_break(n: int, stepper: str, t_end: float = 0.2):
+def _coulomb_dam_break(
+    n: int, stepper: str, t_end: float = 0.2, friction_scheme: str = "regularised"
+):
     """NUMERICS T4: reservoir h0 for x < x0 released at rest on a 27 deg slope with Coulomb
     friction tan(20 deg), no viscosity, no segregation; exact solution (Mangeney et al. 2000)."""
     zeta, delta, h0, x0 = 27.0, 20.0, 0.002, 0.2
@@ -156,6 +157,7 @@ def _coulomb_dam_break(n: int, stepper: str, t_end: float = 0.2):
                 "stepper": stepper,
                 "h_min": 1e-7,
                 "h_eps": 1e-9,
+                "friction_scheme": friction_scheme,
             },
             "time": {"t_end": t_end},
         },
@@ -208,21 +210,20 @@ def test_coulomb_dam_break_on_slope_matches_exact_solution(ti_cpu):
         assert abs(r["front"] - r["front_exact"]) < 0.15 * r["travel"], r
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "solver bug (RKC + regularised friction): material starting from rest stays below u_eps "
-        "for many steps because RKC damps the stiff friction mode (rate g cos(zeta) mu / u_eps = "
-        "3.2e3 1/s) only by about eps/3 = 5 % per step; the T4 reservoir then slides at 0.2328 "
-        "instead of m t = 0.2545 m/s at N = 400 (L1 error 1.7e-2 against 7.0e-3 at N = 200)"
-    ),
-)
 def test_coulomb_dam_break_with_rkc_starts_sliding_on_time(ti_cpu):
-    """The same T4 run with the default stepper (RKC): the uniform reservoir must accelerate at
-    m = g cos(zeta) (tan(zeta) - tan(delta)) from the start."""
-    sim, r = _coulomb_dam_break(400, "rkc")
+    """The same T4 run with RKC and the projected friction (numerics.friction_scheme): the
+    uniform reservoir accelerates at m = g cos(zeta) (tan(zeta) - tan(delta)) from the start,
+    u = m t within 1 %, with SSP-RK3's accuracy. (With the regularised friction RKC keeps
+    material that starts from rest below u_eps for many steps: it damps the stiff friction
+    mode, rate g cos(zeta) mu / u_eps = 3.2e3 1/s, by only about eps/3 = 5 % per step, and the
+    reservoir slid at 0.2328 instead of 0.2545 m/s, L1 error 1.7e-2.)"""
+    sim, r = _coulomb_dam_break(400, "rkc", friction_scheme="projected")
     assert_sane(sim)
+    assert mass_error(sim)[0] < 1e-13
+    print(f"\nT4 (rkc, projected friction): {r}")
     assert abs(r["u_res"] - r["u_exact"]) < 1e-2 * r["u_exact"], r
+    assert r["L1"] < 5e-3, r
+    assert abs(r["front"] - r["front_exact"]) < 0.15 * r["travel"], r
 
 
 def _fingers(resolution=40, t_end=1.0, **over):

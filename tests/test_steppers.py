@@ -22,10 +22,10 @@ class ArrayOperator:
         r = self.apply(self.s[src])
         self.s[dst] = r + (self.forcing(t) if self.forcing else 0.0)
 
-    def combine(self, dst, terms, limit=False):
+    def combine(self, dst, terms, limit=False, tau=0.0, rates=()):
         self.s[dst] = sum(c * self.s[k] for c, k in terms)  # no limiter for a linear ODE
 
-    def stage(self, dst, terms, src, t, limit=True):
+    def stage(self, dst, terms, src, t, limit=True, tau=None, rates=()):
         self.evals += 1
         r = self.apply(self.s[src]) + (self.forcing(t) if self.forcing else 0.0)
         self.s[dst] = sum(c * (r if k == RATE else self.s[k]) for c, k in terms)

@@ -256,7 +256,9 @@ def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, flo
                 s / dx**2 + 0.5 * s / dy**2, 0.5 * s / dx**2 + s / dy**2
             ) + 0.125 * 2 * s / (dx * dy)
     rho_f = 0.0
-    if scene.effects.friction != "none" and model.kind != "empty":
+    # a projected friction is no part of the explicit stages (Physics.project_friction)
+    fric_source = scene.numerics.friction_scheme == "regularised"
+    if scene.effects.friction != "none" and model.kind != "empty" and fric_source:
         u = max(model.u_slow(t), scene.numerics.u_eps)
         rho_f = gc * math.tan(m.zeta) / u
     return ax, ay, rho_v, rho_f

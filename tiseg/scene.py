@@ -38,7 +38,14 @@ import tomli_w
 from .errors import InputError
 from .paths import check_name, safe_name
 from .material import Material, Species
-from .numerics.config import FLUXES, PHI_FLUXES, STEP_RULES, inflow_concentration, noise_modes
+from .numerics.config import (
+    FLUXES,
+    FRICTION_SCHEMES,
+    PHI_FLUXES,
+    STEP_RULES,
+    inflow_concentration,
+    noise_modes,
+)
 from .steady import steady_state
 from .timestepping import STEPPERS as _STEPPER_REGISTRY
 
@@ -85,6 +92,7 @@ SECTION_KEYS = {
         "h_min",
         "h_eps",
         "u_eps",
+        "friction_scheme",
         "max_stages",
     ),
     "time": ("t_end",),
@@ -281,7 +289,11 @@ class NumericsConfig:
     precision: str = "f64"  # floating-point precision of the kernels
     h_min: float = 1e-4  # fluxes vanish where h < h_min (section 6.2) [m]
     h_eps: float = 1e-7  # desingularisation thickness for u = hu / h [m], < h_min
-    u_eps: float = 1e-3  # regularises the friction direction u / |u| [m/s]
+    u_eps: float = 1e-3  # regularises the friction direction u / |u| [m/s] ("regularised")
+    friction_scheme: str = "regularised"  # basal friction as an explicit source with
+    # u / max(|u|, u_eps) ("regularised", section 6.2), or "projected": after each stage a
+    # cell's momentum shrinks by the friction impulse and stops exactly where the impulse can
+    # cancel it (Mangeney et al. 2007), so material comes to rest and stays there
     max_stages: int = 200  # upper bound on the number of RKC stages
 
 
@@ -641,6 +653,7 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
         "h_min": n.h_min,
         "h_eps": n.h_eps,
         "u_eps": n.u_eps,
+        "friction_scheme": n.friction_scheme,
         "max_stages": n.max_stages,
     }
     d["time"] = {"t_end": scene.time.t_end}
@@ -1161,6 +1174,7 @@ def _read_numerics(t: "_Table", flow: FlowConfig, is_1d: bool = False) -> Numeri
         h_min=t.number("h_min", 1e-4, positive=True),
         h_eps=t.number("h_eps", 1e-7, positive=True),
         u_eps=t.number("u_eps", 1e-3, positive=True),
+        friction_scheme=t.choice("friction_scheme", FRICTION_SCHEMES, "regularised"),
         max_stages=t.integer("max_stages", 200, lo=2),
     )
     # the max rule's bound is the sum rule's in 1D, where a_y plays no part

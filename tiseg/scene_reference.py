@@ -44,6 +44,7 @@ CHOICES = {
     "numerics.phi_flux": S.PHI_FLUXES,
     "numerics.stepper": S.STEPPERS,
     "numerics.step_rule": tuple(S.STEP_RULES),
+    "numerics.friction_scheme": S.FRICTION_SCHEMES,
     "numerics.precision": S.PRECISIONS,
     "output.precision": S.OUTPUT_PRECISIONS,
 }

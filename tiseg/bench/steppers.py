@@ -1,8 +1,9 @@
 """Which time stepper for this run? Time-stepping error and cost from a run's own saved states.
 
 ``tiseg bench steppers RUN_DIR`` restarts from snapshots of a finished (or running) run, on its
-own grid, physics and precision, and advances each stepper (rkc, ssprk3, ssprk2, euler) over the
-same short span at the run's Courant number. The reference is SSP-RK3 at a five times smaller
+own grid, physics and precision, and advances each stepper (by default rkc, ssprk3, ssprk2,
+ssprk4_2, ssprk10_4 and euler; any registered one with ``--steppers``) over the same short span
+at the run's Courant number. The reference is SSP-RK3 at a five times smaller
 Courant number. Every run shares the grid and the spatial discretisation, so the differences
 are the time-stepping errors alone, measured where they matter: at the run's resolution, in its
 own late, stiff states (thin levees, slow margins), which no small reference problem reproduces.
@@ -29,7 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 
-STEPPERS = ("rkc", "ssprk3", "ssprk2", "euler")
+STEPPERS = ("rkc", "ssprk3", "ssprk2", "ssprk4_2", "ssprk10_4", "euler")
 REFERENCE_STEPPER = "ssprk3"
 REFERENCE_CFL_FACTOR = 0.2
 

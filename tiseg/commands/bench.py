@@ -141,7 +141,7 @@ def register(sub) -> None:
         nargs="+",
         default=None,
         choices=STEPPER_CHOICES,
-        help="default: all four",
+        help="default: rkc, ssprk3, ssprk2, ssprk4_2, ssprk10_4, euler",
     )
     s.add_argument("--repeats", type=int, default=2, help="timed repeats, the minimum is kept (2)")
     s.add_argument("--arch", choices=ARCHS, default="cpu")

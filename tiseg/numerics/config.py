@@ -23,6 +23,9 @@ FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "cou
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 FLUXES = ("kt", "central-upwind")  # numerics.flux: face flux of the whole system
 PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of that flux
+# numerics.friction_scheme: basal friction as an explicit source regularised by u_eps, or as a
+# projection after each stage that stops cells exactly (tiseg.physics.pointwise)
+FRICTION_SCHEMES = ("regularised", "projected")
 # numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
 STEP_RULES = {"max": 0.25, "sum": 0.5}
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
@@ -168,6 +171,7 @@ class OperatorConfig:
     h_min: float = 1e-4
     h_eps: float = 1e-7
     u_eps: float = 1e-3
+    friction_scheme: str = "regularised"
     # boundaries: x_lo, x_hi, y_lo, y_hi
     bc: tuple = ("outflow", "outflow", "periodic", "periodic")
     # inflow (6.8)-(6.9)
@@ -186,6 +190,7 @@ class OperatorConfig:
         assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
         assert self.flux in FLUXES, self.flux
         assert self.phi_flux in PHI_FLUXES, self.phi_flux
+        assert self.friction_scheme in FRICTION_SCHEMES, self.friction_scheme
         for b in self.bc:
             assert b in BOUNDARIES, b
 
@@ -282,6 +287,7 @@ def config_from_scene(scene) -> OperatorConfig:
         h_min=num.h_min,
         h_eps=num.h_eps,
         u_eps=num.u_eps,
+        friction_scheme=num.friction_scheme,
         bc=scene.boundary.as_tuple(),
         **kw,
     )

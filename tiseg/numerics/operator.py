@@ -145,6 +145,8 @@ class TaichiOperator:
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
         self.cfg = cfg
         self._prepared = self._interior = None
+        if hasattr(self, "active"):  # a new h_min may make films outside the range wet
+            self.set_active(self.gx, self.gx + self.nx)
         self.par.from_numpy(p.astype(self.np_fp))
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no
@@ -185,6 +187,7 @@ class TaichiOperator:
 
     def set(self, slot: int, arr: np.ndarray) -> None:
         self._prepared = self._interior = None
+        self.set_active(self.gx, self.gx + self.nx)  # wet cells may now lie anywhere
         full = self.q.to_numpy()
         full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
         self.q.from_numpy(full)
@@ -432,6 +435,23 @@ class TaichiOperator:
         self._boundary_rates(d)
 
     @ti.func
+    def _rest_face(self, F, w0, w1):
+        """With the projected friction scheme, no mass (and no h phi) crosses a face between
+        two cells at rest: the central schemes' dissipation a/2 (h_r - h_l) would otherwise
+        let a deposit's surface relax for ever. The momentum flux stays (the pressure), and
+        the friction projection decides whether the cells start to move."""
+        out = F
+        if ti.static(self.phys.fr_projected):
+            rest = w0[1] == 0.0 and w1[1] == 0.0
+            if ti.static(not self.is_1d):
+                rest = rest and w0[self.HV] == 0.0 and w1[self.HV] == 0.0
+            if rest:
+                out[0] = 0.0
+                if ti.static(self.seg):
+                    out[self.HPHI] = 0.0
+        return out
+
+    @ti.func
     def _x_face(self, i, j):
         """Flux through the face between cells (i, j) and (i + 1, j): convective plus viscous."""
         hmin = self.par[Params.H_MIN]
@@ -446,6 +466,7 @@ class TaichiOperator:
                 wl = w0 + 0.5 * self.sx[i, j]
                 wr = w1 - 0.5 * self.sx[i + 1, j]
             F = self._face_flux(wl, wr, 0)
+            F = self._rest_face(F, w0, w1)
         if ti.static(self.visc):
             K = self._face_K(w0[0], w1[0])
             F[1] -= K * (w1[1] - w0[1]) * idx
@@ -475,6 +496,7 @@ class TaichiOperator:
                 wl = w0 + 0.5 * self.sy[i, j]
                 wr = w1 - 0.5 * self.sy[i, j + 1]
             F = self._face_flux(wl, wr, 1)
+            F = self._rest_face(F, w0, w1)
         if ti.static(self.visc):
             idx = self.par[Params.INV_DX]
             idy = self.par[Params.INV_DY]
@@ -562,6 +584,8 @@ class TaichiOperator:
         s3: ti.i32,
         s4: ti.i32,
         s5: ti.i32,
+        tau: float,
+        rmask: ti.template(),
         serial: ti.template(),
     ):
         """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the
@@ -572,7 +596,7 @@ class TaichiOperator:
         costs a launch each, which dominated small grids."""
         cs = ti.Vector([c0, c1, c2, c3, c4, c5])
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
-        self._combine_cells(d, n, -1, limit, cs, ss, serial)
+        self._combine_cells(d, n, -1, limit, cs, ss, tau, rmask, serial)
 
     @ti.kernel
     def _stage(
@@ -593,6 +617,8 @@ class TaichiOperator:
         s3: ti.i32,
         s4: ti.i32,
         s5: ti.i32,
+        tau: float,
+        rmask: ti.template(),
         serial: ti.template(),
     ):
         """_rates and _combine in one launch, for a combination whose term ``rate`` is L of
@@ -602,7 +628,7 @@ class TaichiOperator:
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
         self._face_fluxes(serial)
         self._boundary_rates(self.nslots)
-        self._combine_cells(d, n, rate, limit, cs, ss, serial)
+        self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, serial)
 
     @ti.func
     def _combine_cells(
@@ -613,6 +639,8 @@ class TaichiOperator:
         limit: ti.template(),
         cs,
         ss,
+        tau,
+        rmask: ti.template(),
         serial: ti.template(),
     ):
         """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
@@ -629,7 +657,11 @@ class TaichiOperator:
         change; skipping them saves two passes over the dry chute per stage.
 
         A cell's rate reads the face fluxes and its own primitives only, so d may be the slot
-        the rate is of, or any of the sources: the update is element-wise."""
+        the rate is of, or any of the sources: the update is element-wise.
+
+        With the projected friction scheme the limiter is followed by the friction projection
+        over ``tau``, the stage's share of the step (Physics.project_friction), and by
+        _keep_rest; bit k of ``rmask`` marks term k as a stored rate rather than a state."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         lo = ti.max(self.act[0] - 3, gx)
         hi = ti.min(self.act[1] + 3, gx + nx)
@@ -647,6 +679,9 @@ class TaichiOperator:
                     acc += cs[k] * term
             if ti.static(limit):
                 acc = self._limit(acc)
+                if ti.static(self.phys.fr_projected):
+                    acc = self.phys.project_friction(acc, tau)
+                    acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
                 self.w[i, j] = self._primitive(acc)
             self.q[d, i, j] = acc
         ti.loop_config(serialize=True)  # a handful of iterations
@@ -659,6 +694,54 @@ class TaichiOperator:
                 else:
                     acc += cs[k] * bk
             self.bud[d, b] = acc
+
+    @staticmethod
+    def _first_state(n: int, rate: int, rmask: int) -> int:
+        return next(k for k in range(n) if k != rate and not (rmask >> k) & 1)
+
+    @ti.func
+    def _keep_rest(
+        self, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
+    ):
+        """A cell at rest after the projection whose state terms all hold the same h and h phi
+        and whose rates of h and h phi are all zero (no mass crossed its faces: _x_face) keeps
+        that h and h phi bitwise: the stage weights of the states sum to 1, but their rounded
+        sum need not give the same bits, and a deposit must not creep by round-off."""
+        f = ti.static(self._first_state(n, rate, rmask))
+        ref = self.q[ss[f], i, j]
+        keep = 1
+        for k in ti.static(range(n)):
+            if ti.static(k == rate):
+                if r[0] != 0.0:
+                    keep = 0
+                if ti.static(self.seg):
+                    if r[self.HPHI] != 0.0:
+                        keep = 0
+            elif ti.static((rmask >> k) & 1):
+                v = self.q[ss[k], i, j]
+                if v[0] != 0.0:
+                    keep = 0
+                if ti.static(self.seg):
+                    if v[self.HPHI] != 0.0:
+                        keep = 0
+            elif ti.static(k != f):
+                v = self.q[ss[k], i, j]
+                if v[0] != ref[0]:
+                    keep = 0
+                if ti.static(self.seg):
+                    if v[self.HPHI] != ref[self.HPHI]:
+                        keep = 0
+        if acc[1] != 0.0:
+            keep = 0
+        if ti.static(not self.is_1d):
+            if acc[self.HV] != 0.0:
+                keep = 0
+        out = acc
+        if keep == 1:
+            out[0] = ref[0]
+            if ti.static(self.seg):
+                out[self.HPHI] = ref[self.HPHI]
+        return out
 
     @ti.kernel
     def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
@@ -819,19 +902,27 @@ class TaichiOperator:
     @ti.kernel
     def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.i32):
         """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
-        cell with h >= h_min, returned (one launch, no field read-back)."""
+        cell with h >= h_min, returned (one launch, no field read-back).
+
+        Only the x range [a - 3, b + 3) that steps write is scanned: every cell outside it is
+        a dry film (the active range is the wet extent plus a margin, and a step writes
+        nothing further out), and whatever could put wet cells there (set, set_params) makes
+        the active range whole again. A fingers run's early steps then scan the front, not
+        the empty chute."""
         self._ghosts(s)
         self.wet[0] = self.NX
         self.wet[1] = -1
         hmin = self.par[Params.H_MIN]
+        lo = ti.max(self.act[0] - 3, 0)
+        hi = ti.min(self.act[1] + 3, self.NX)
         B = ti.static(self.rows_per_block)
         ti.loop_config(serialize=serial)
-        for blk in range((self.NX + B - 1) // B):
+        for blk in range((hi - lo + B - 1) // B):
             first = self.NX
             last = -1
             for r in range(B):
-                i = blk * B + r
-                if i < self.NX:
+                i = lo + blk * B + r
+                if i < hi:
                     for j in range(self.gy, self.gy + self.ny):
                         if self.q[s, i, j][0] >= hmin:
                             first = ti.min(first, i)
@@ -885,27 +976,41 @@ class TaichiOperator:
         ss = [max(int(s), 0) for _, s in terms] + [0] * (MAX_TERMS - n)
         return n, cs, ss
 
-    def combine(self, dst: int, terms, limit: bool = False) -> None:
+    def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
         can touch (the active range and its stencil halo; all cells without an active range);
-        ``limit=True`` applies the stage limiter (:meth:`_limit`) in the same pass.
+        ``limit=True`` applies the stage limiter (:meth:`_limit`) in the same pass, and with
+        the projected friction scheme the friction projection over ``tau`` seconds (the
+        stage's share of the step). ``rates``: the slots among the terms that hold rates, not
+        states (for the exact rest of _keep_rest).
 
         dst may be one of the sources: the update is element-wise.
         """
         n, cs, ss = self._terms(terms)
-        self._combine(dst, n, bool(limit), *cs, *ss, self.serial_loops())
+        rmask = self._rate_mask(terms, rates)
+        self._combine(dst, n, bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops())
         self._written(dst, primitives=bool(limit))
 
-    def stage(self, dst: int, terms, src: int, t: float, limit: bool = True) -> None:
+    def stage(
+        self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
+    ) -> None:
         """slot dst := sum(c * term) where a term's slot is a slot, or RATE (negative) for
         L(slot src, t): :meth:`rhs` into a spare slot and then :meth:`combine`, with the same
-        bits, in one launch and without storing the rate. Exactly one term is the rate."""
+        bits, in one launch and without storing the rate. Exactly one term is the rate.
+        ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
+        stage is a convex combination of states and one Euler step of that length."""
         rate = [k for k, (_, s) in enumerate(terms) if s < 0]
         assert len(rate) == 1, terms
+        tau = terms[rate[0]][0] if tau is None else tau
         self._prepare(src, t)
         n, cs, ss = self._terms(terms)
-        self._stage(dst, n, rate[0], bool(limit), *cs, *ss, self.serial_loops())
+        rmask = self._rate_mask(terms, rates)
+        self._stage(dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops())
         self._written(dst, primitives=bool(limit))
+
+    @staticmethod
+    def _rate_mask(terms, rates) -> int:
+        return sum(1 << k for k, (_, s) in enumerate(terms) if s >= 0 and s in rates)
 
     def blend(self, dst: int, a: int, b: int, theta: float) -> None:
         """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
@@ -958,7 +1063,7 @@ class TaichiOperator:
     def wet_extent(self, slot: int, t: float) -> tuple[int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts; (NX, -1) if none."""
         self._set_time(t)
-        w = self._wet_extent(slot, self.serial_loops(whole=True))
+        w = self._wet_extent(slot, self.serial_loops())
         return int(w[0]), int(w[1])
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:

@@ -40,6 +40,9 @@ class Physics:
         self.fr_small = cfg.friction == "pouliquen-small"
         self.fr_large = cfg.friction == "pouliquen-large"
         self.feedback = cfg.feedback and lay.segregation
+        # friction as a projection after each stage (project_friction) instead of a source
+        self.fr_projected = cfg.friction_scheme == "projected" and not self.fr_none
+        self.fr_source = not self.fr_none and not self.fr_projected
 
     @ti.func
     def vel(self, w, d: ti.template()):
@@ -181,12 +184,13 @@ class Physics:
     @ti.func
     def source(self, w):
         """g h S of (6.4): gravity along the slope and basal friction opposing the motion, with
-        u/|u| regularised as u / max(|u|, u_eps); zero in films thinner than h_min."""
+        u/|u| regularised as u / max(|u|, u_eps); zero in films thinner than h_min. With the
+        projected friction scheme the friction is left to project_friction."""
         h = w[0]
         s = ti.Vector.zero(float, self.nc)
         if h >= self.par[Params.H_MIN]:
             s[1] = h * self.par[Params.G_SIN]
-            if ti.static(not self.fr_none):
+            if ti.static(self.fr_source):
                 spd = self.speed_mag(w)
                 phi = self.par[Params.PHI_REF]
                 if ti.static(self.seg):
@@ -200,9 +204,10 @@ class Physics:
 
     @ti.func
     def friction_rate(self, w):
-        """Stiffness of the friction term, g cos(zeta) mu_b / max(|u|, u_eps) [1/s]."""
+        """Stiffness of the friction term, g cos(zeta) mu_b / max(|u|, u_eps) [1/s]; zero when
+        the friction is projected (it is then no part of the explicit stages)."""
         r = 0.0 * w[0]
-        if ti.static(not self.fr_none):
+        if ti.static(self.fr_source):
             h = w[0]
             if h >= self.par[Params.H_MIN]:
                 spd = self.speed_mag(w)
@@ -214,4 +219,31 @@ class Physics:
                     * self.mu_b(h, spd, phi)
                     / ti.max(spd, self.par[Params.U_EPS])
                 )
+        return r
+
+    @ti.func
+    def project_friction(self, q, tau):
+        """Basal friction over the time tau as a projection of the conserved state q (friction
+        scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
+        et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h, mu_b
+        the scene's law at the cell's speed |hu| / h. Where |h u| <= I the friction can cancel
+        the momentum and the cell stops exactly (u = 0); otherwise the momentum shrinks by I
+        along its own direction. This needs no regularisation of u / |u| and is no stiff term
+        for the stepper; it never reverses the flow and leaves h and h phi alone."""
+        r = q
+        h = q[0]
+        if h >= self.par[Params.H_MIN] and tau > 0:
+            m = ti.abs(q[1])
+            if ti.static(not self.is_1d):
+                m = ti.sqrt(q[1] * q[1] + q[self.HV] * q[self.HV])
+            phi = self.par[Params.PHI_REF]
+            if ti.static(self.seg):
+                phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
+            imp = tau * self.par[Params.G_COS] * self.mu_b(h, m / h, phi) * h
+            f = 0.0 * h
+            if m > imp:
+                f = 1.0 - imp / m
+            r[1] = f * q[1]
+            if ti.static(not self.is_1d):
+                r[self.HV] = f * q[self.HV]
         return r

@@ -51,6 +51,8 @@ class ReferenceOperator:
         if y_centres is None:
             y_centres = (np.arange(lay.ny) + 0.5) * cfg.dy
         self.y = np.asarray(y_centres, dtype=float)
+        # friction as a projection after each stage (project_friction), not in the source
+        self.projected = cfg.friction_scheme == "projected" and cfg.friction != "none"
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
@@ -267,6 +269,13 @@ class ReferenceOperator:
         if lay.segregation and c.phi_flux == "upwind":
             p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
             H[lay.HPHI] = H[lay.H] * (p - self.G(p))
+        if self.projected:  # no mass or h phi crosses a face between two cells at rest
+            rest = (w[lay.HU][sl(0, n - 1)[1:]] == 0) & (w[lay.HU][sl(1, n)[1:]] == 0)
+            if not lay.is_1d:
+                rest &= (w[lay.HV][sl(0, n - 1)[1:]] == 0) & (w[lay.HV][sl(1, n)[1:]] == 0)
+            H[lay.H] = np.where(rest, 0.0, H[lay.H])
+            if lay.segregation:
+                H[lay.HPHI] = np.where(rest, 0.0, H[lay.HPHI])
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
@@ -317,10 +326,30 @@ class ReferenceOperator:
         inv = 1.0 / np.maximum(speed, c.u_eps)
         wet = h >= c.h_min
         S = np.zeros_like(w)
+        if self.projected:  # the friction is project_friction's
+            mu = np.zeros_like(mu)
         S[lay.HU] = np.where(wet, h * (c.g_sin - c.g_cos * mu * u * inv), 0.0)
         if not lay.is_1d:
             S[lay.HV] = np.where(wet, -h * c.g_cos * mu * v * inv, 0.0)
         return S
+
+    def project_friction(self, q: np.ndarray, tau: float) -> None:
+        """The projected friction over tau, in place (Physics.project_friction): momentum
+        shrinks by tau g cos(zeta) mu_b h along itself, or stops where that cancels it."""
+        c, lay = self.cfg, self.lay
+        if not self.projected or tau <= 0:
+            return
+        h = q[lay.H]
+        wet = h >= c.h_min
+        hs = np.where(wet, h, 1.0)
+        m = np.abs(q[lay.HU]) if lay.is_1d else np.hypot(q[lay.HU], q[lay.HV])
+        phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
+        imp = tau * c.g_cos * self.mu_b(hs, m / hs, phi) * hs
+        f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
+        f = np.where(wet, f, 1.0)
+        q[lay.HU] *= f
+        if not lay.is_1d:
+            q[lay.HV] *= f
 
     def rhs(self, q: np.ndarray, t: float) -> np.ndarray:
         """dq/dt on interior cells (ghost entries of the result are zero); fills q's ghosts."""

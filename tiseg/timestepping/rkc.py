@@ -85,7 +85,9 @@ class RKC(Stepper):
         mu_t1, coeffs, c = rkc_coefficients(s)
         Y0, F0, A, B = 0, 1, 2, 3
         op.rhs(Y0, F0, t)
-        op.combine(A, [(1.0, Y0), (mu_t1 * dt, F0)], limit=True)  # Y1
+        # Y1; tau: the stage's own time advance, over which the friction is projected (a
+        # projected friction scheme), c_j - (mu c_{j-1} + nu c_{j-2}) = (mu_t + gamma_t) dt
+        op.combine(A, [(1.0, Y0), (mu_t1 * dt, F0)], limit=True, tau=mu_t1 * dt, rates=(F0,))
         prev2, prev1 = Y0, A
         for j in range(2, s + 1):
             mu, nu, mu_t, gamma_t = coeffs[j - 2]
@@ -104,5 +106,7 @@ class RKC(Stepper):
                 ],
                 prev1,
                 t + c[j - 1] * dt,
+                tau=(mu_t + gamma_t) * dt,
+                rates=(F0,),
             )
             prev2, prev1 = prev1, dst

@@ -1,0 +1,185 @@
+"""Friction as a projection (numerics.friction_scheme = "projected", issue 15 part 2).
+
+The friction leaves the explicit stages and acts after each stage's limiter: momentum shrinks
+by the friction impulse tau g cos(zeta) mu_b h along itself, and a cell stops exactly where
+that impulse can cancel it. Checked here against exact answers: a layer sliding on a slope
+gentler than its friction stops at t = u0 / (g cos(zeta) (mu - tan(zeta))) and then stays at
+rest bit for bit; a released block stops in finite time and stays at rest; and the Taichi
+projection and rates equal their NumPy twins. The Coulomb dam break with RKC, which the
+regularised friction fails, is in tests/test_hard_cases.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from solver_helpers import make_config, random_state
+from tiseg.reference import ReferenceOperator
+from tiseg.scene import scene_from_dict
+from tiseg.simulation import Simulation
+
+G = 9.81
+OPEN = {"x_lo": "outflow", "x_hi": "outflow", "y_lo": "periodic", "y_hi": "periodic"}
+PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
+
+
+def _coulomb_scene(zeta, mu, initial, boundary, stepper="rkc", nx=100, ny=1, Lx=0.2, **num):
+    return scene_from_dict(
+        {
+            "material": {"zeta_deg": zeta},
+            "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.0},
+            "effects": {
+                "segregation": False,
+                "viscosity": False,
+                "mobility_feedback": False,
+                "friction": "coulomb",
+                "coulomb_mu": mu,
+            },
+            "domain": {"Lx": Lx, "Ly": 0.02, "nx": nx, "ny": ny},
+            "boundary": dict(boundary),
+            "initial": initial,
+            "numerics": {
+                "reconstruction": "minmod",
+                "stepper": stepper,
+                "friction_scheme": "projected",
+                "h_min": 1e-7,
+                "h_eps": 1e-9,
+                **num,
+            },
+            "time": {"t_end": 1.0},
+        },
+        name="coulomb-projected",
+    )
+
+
+# ------------------------------------------------------------------- twins of the NumPy reference
+@pytest.mark.parametrize(
+    "effects",
+    [
+        dict(segregation=True, friction="pouliquen-mixture", feedback=True),
+        dict(segregation=False, friction="coulomb"),
+        dict(segregation=True, friction="pouliquen-small", feedback=False),
+    ],
+)
+def test_projection_and_rates_equal_the_numpy_twin(ti_cpu, effects):
+    """A limited combination with tau equals the reference limiter + project_friction; the rates
+    (no friction in the source, no mass across faces between cells at rest) equal the
+    reference's. Half the cells are at rest, some so slow that they stop, so both branches of
+    the projection and the rest faces are exercised."""
+    from tiseg.numerics.operator import TaichiOperator
+
+    rng = np.random.default_rng(7)
+    seg = effects.pop("segregation")
+    cfg = make_config(
+        12,
+        8,
+        segregation=seg,
+        reconstruction="minmod",
+        bc=("periodic",) * 4,
+        friction_scheme="projected",
+        **effects,
+    )
+    lay = cfg.layout
+    q = random_state(lay, rng, wet_dry=True)
+    rest = rng.random((lay.NX, lay.NY)) < 0.5
+    slow = rng.random((lay.NX, lay.NY)) < 0.2
+    for c in (lay.HU, lay.HV):
+        q[c] = np.where(rest, 0.0, np.where(slow, 1e-4 * q[lay.H], q[c]))
+    op = TaichiOperator(cfg, nslots=3)
+    ref = ReferenceOperator(cfg)
+    op.set(0, q)
+    op.rhs(0, 1, 0.0)
+    r_ti, r_np = op.get(1), ref.rhs(q.copy(), 0.0)
+    ix, iy = lay.interior()
+    scale = np.abs(r_np)[:, ix, iy].max(axis=(1, 2))
+    assert np.all(np.abs(r_ti - r_np)[:, ix, iy].max(axis=(1, 2)) <= 1e-12 * scale)
+    # the h rate vanishes wherever a cell and its four neighbours are at rest
+    still = rest[1:-1, 1:-1] & rest[:-2, 1:-1] & rest[2:, 1:-1] & rest[1:-1, :-2] & rest[1:-1, 2:]
+    assert still.any() and np.all(r_ti[lay.H, 1:-1, 1:-1][still] == 0.0)
+    # one Euler stage with the projection, over a tau long enough that the slow cells stop
+    # whatever their neighbours push into them
+    dt, tau = 2e-3, 5e-2
+    op.combine(2, [(1.0, 0), (dt, 1)], limit=True, tau=tau, rates=(1,))
+    a = op.get(2)
+    b = q + dt * r_ti
+    ref.postprocess(b)
+    ref.project_friction(b, tau)
+    for c in range(lay.nc):
+        assert np.allclose(a[c][ix, iy], b[c][ix, iy], rtol=1e-12, atol=1e-18), c
+    stopped = (a[lay.HU][ix, iy] == 0) & (a[lay.H][ix, iy] >= cfg.h_min)
+    moving = (a[lay.HU][ix, iy] != 0) & (a[lay.H][ix, iy] >= cfg.h_min)
+    assert stopped.sum() >= 3 and moving.sum() >= 3
+
+
+# ------------------------------------------------------------------------- exact answers, 1D
+@pytest.mark.parametrize("stepper", ["rkc", "ssprk3", "ssprk4_2", "euler"])
+def test_sliding_layer_stops_at_the_exact_time_and_stays_at_rest(ti_cpu, stepper):
+    """A uniform layer sliding at u0 on a periodic slope with tan(zeta) < mu decelerates at
+    g cos(zeta) (mu - tan(zeta)) and stops at t_stop = u0 / that; from then on every step
+    leaves the state bit for bit unchanged."""
+    zeta, mu, u0 = 20.0, 0.5, 0.3
+    sc = _coulomb_scene(
+        zeta,
+        mu,
+        {"kind": "release", "x0": 0.0, "x1": 0.1, "h": 0.002},
+        PERIODIC,
+        stepper,
+        nx=16,
+        Lx=0.1,
+    )
+    sim = Simulation(sc, check_every=1)
+    q = sim.op.get(0)
+    q[0] = 0.002  # uniform, ghost cells included: no edge whose pressure could move it
+    q[1] = u0 * q[0]
+    sim.op.set(0, q)
+    dec = G * math.cos(math.radians(zeta)) * (mu - math.tan(math.radians(zeta)))
+    t_stop = u0 / dec
+    for t in (0.25 * t_stop, 0.5 * t_stop, 0.9 * t_stop):
+        sim.advance(t)
+        u = sim.fields()["u"]
+        assert np.allclose(u, u0 - dec * t, rtol=1e-10), (t, u.mean(), u0 - dec * t)
+    sim.advance(1.05 * t_stop)
+    assert np.all(sim.fields()["u"] == 0.0)
+    before = sim.conserved()  # interior cells
+    steps = sim.stats.steps
+    sim.advance(1.05 * t_stop + 0.2)
+    assert sim.stats.steps > steps + 3
+    assert np.array_equal(sim.conserved(), before)
+
+
+@pytest.mark.parametrize("stepper", ["rkc", "ssprk4_2"])
+def test_released_block_comes_to_rest_and_stays_there(ti_cpu, stepper):
+    """A block released at rest on a 20 deg slope with mu = tan 30 deg spreads at its steep ends
+    (the pressure beats the friction there), stops in finite time with every cell at u = 0,
+    and then stays exactly at rest; mass is conserved throughout and h >= 0."""
+    sc = _coulomb_scene(
+        20.0,
+        math.tan(math.radians(30.0)),
+        {"kind": "release", "x0": 0.08, "x1": 0.12, "h": 0.004},
+        OPEN,
+        stepper,
+        nx=200,
+    )
+    sim = Simulation(sc, check_every=1)
+    m0 = sim.totals()["mass"]
+    t, stopped_at = 0.0, None
+    while t < 1.0 and stopped_at is None:
+        t += 0.02
+        sim.advance(t)
+        if np.all(sim.fields()["u"] == 0.0):
+            stopped_at = t
+    assert stopped_at is not None and stopped_at < 0.5, "the block never came to rest"
+    h = sim.fields()["h"]
+    x, _ = sc.domain.cell_centres()
+    wet = h[0] >= 1e-2 * 0.004
+    assert 0.04 < x[wet].max() - x[wet].min() < 0.2  # it spread, and not for ever
+    assert h.min() >= 0.0
+    assert abs(sim.totals()["mass"] - m0) <= 1e-13 * m0
+    before = sim.conserved()
+    steps = sim.stats.steps
+    sim.advance(stopped_at + 0.3)
+    assert sim.stats.steps > steps + 3
+    assert np.array_equal(sim.conserved(), before)
