@@ -9,7 +9,7 @@ each backend and precision (each in its own child process),
 * **steps per second** of ``Simulation.step`` (stability numbers, dt and stage count, and the
   stepper's stages: operator, linear combination and limiter each), and from steps at a fixed
   2 and 6 RKC stages the cost of one stage inside a step and of the per-step work (a stage in
-  a step is slower than the operator alone: all five state slots are in use and less of the
+  a step is slower than the operator alone: all of RKC's state slots are in use and less of the
   data is in cache);
 * the same **with each effect switched off in turn** (segregation, mobility feedback,
   viscosity, friction "none", and 1D instead of 2D with the same number of cells);
@@ -216,7 +216,7 @@ class _Variant:
 
     def step_fixed(self, stages: int):
         """A whole RKC step at a fixed stage count: two of these give the cost of one stage
-        inside a step (operator, combination, limiter, with all five state slots in use,
+        inside a step (operator, combination, limiter, with all of RKC's state slots in use,
         which is slower than the operator alone in a warm cache) and of the per-step work."""
         self.sim.step(stages=stages)
 
