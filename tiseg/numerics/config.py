@@ -195,6 +195,11 @@ class OperatorConfig:
             assert b in BOUNDARIES, b
 
     @property
+    def friction_projected(self) -> bool:
+        """Friction as a projection after each stage: the projected scheme, and a law."""
+        return self.friction_scheme == "projected" and self.friction != "none"
+
+    @property
     def g_cos(self) -> float:
         return self.g * math.cos(self.zeta)
 

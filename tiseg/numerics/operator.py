@@ -145,8 +145,9 @@ class TaichiOperator:
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
         self.cfg = cfg
         self._prepared = self._interior = None
-        if hasattr(self, "active"):  # a new h_min may make films outside the range wet
-            self.set_active(self.gx, self.gx + self.nx)
+        # a new h_min may make films outside the active range wet (the range is set before
+        # the first call, in __init__)
+        self.set_active(self.gx, self.gx + self.nx)
         self.par.from_numpy(p.astype(self.np_fp))
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no
@@ -571,38 +572,6 @@ class TaichiOperator:
         self,
         d: ti.i32,
         n: ti.template(),
-        limit: ti.template(),
-        c0: float,
-        c1: float,
-        c2: float,
-        c3: float,
-        c4: float,
-        c5: float,
-        s0: ti.i32,
-        s1: ti.i32,
-        s2: ti.i32,
-        s3: ti.i32,
-        s4: ti.i32,
-        s5: ti.i32,
-        tau: float,
-        rmask: ti.template(),
-        serial: ti.template(),
-    ):
-        """slot d := sum of c_k * slot s_k (k < n), then the stage limiter if ``limit``, on the
-        active x range widened by the 3 cells either side that the next evaluation's stencil
-        reads (see _combine_cells).
-
-        The coefficients come as kernel arguments: writing them into a field from Python
-        costs a launch each, which dominated small grids."""
-        cs = ti.Vector([c0, c1, c2, c3, c4, c5])
-        ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
-        self._combine_cells(d, n, -1, limit, cs, ss, tau, rmask, serial)
-
-    @ti.kernel
-    def _stage(
-        self,
-        d: ti.i32,
-        n: ti.template(),
         rate: ti.template(),
         limit: ti.template(),
         c0: float,
@@ -621,13 +590,20 @@ class TaichiOperator:
         rmask: ti.template(),
         serial: ti.template(),
     ):
-        """_rates and _combine in one launch, for a combination whose term ``rate`` is L of
-        the prepared state: that rate is used where it is computed and never stored (two
-        passes over the grid fewer), and its boundary rates go to the spare budget row."""
+        """slot d := sum of c_k * term k (k < n), then the stage limiter if ``limit``, on the
+        active x range widened by the 3 cells either side that the next evaluation's stencil
+        reads (see _combine_cells). Term k is slot s_k, except term ``rate`` (if >= 0): L of
+        the prepared state, computed in this launch (face fluxes first, their boundary rates
+        into the spare budget row) and used where it is computed, never stored: a fused stage
+        makes two passes over the grid fewer than _rates followed by a combination.
+
+        The coefficients come as kernel arguments: writing them into a field from Python
+        costs a launch each, which dominated small grids."""
         cs = ti.Vector([c0, c1, c2, c3, c4, c5])
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
-        self._face_fluxes(serial)
-        self._boundary_rates(self.nslots)
+        if ti.static(rate >= 0):
+            self._face_fluxes(serial)
+            self._boundary_rates(self.nslots)
         self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, serial)
 
     @ti.func
@@ -988,7 +964,7 @@ class TaichiOperator:
         """
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
-        self._combine(dst, n, bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops())
+        self._combine(dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops())
         self._written(dst, primitives=bool(limit))
 
     def stage(
@@ -1005,7 +981,9 @@ class TaichiOperator:
         self._prepare(src, t)
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
-        self._stage(dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops())
+        self._combine(
+            dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops()
+        )
         self._written(dst, primitives=bool(limit))
 
     @staticmethod

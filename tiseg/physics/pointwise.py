@@ -41,7 +41,7 @@ class Physics:
         self.fr_large = cfg.friction == "pouliquen-large"
         self.feedback = cfg.feedback and lay.segregation
         # friction as a projection after each stage (project_friction) instead of a source
-        self.fr_projected = cfg.friction_scheme == "projected" and not self.fr_none
+        self.fr_projected = cfg.friction_projected
         self.fr_source = not self.fr_none and not self.fr_projected
 
     @ti.func

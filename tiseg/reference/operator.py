@@ -52,7 +52,7 @@ class ReferenceOperator:
             y_centres = (np.arange(lay.ny) + 0.5) * cfg.dy
         self.y = np.asarray(y_centres, dtype=float)
         # friction as a projection after each stage (project_friction), not in the source
-        self.projected = cfg.friction_scheme == "projected" and cfg.friction != "none"
+        self.projected = cfg.friction_projected
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
