@@ -79,6 +79,42 @@ t_end = 0.5
 """
 
 PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
+OPEN = {"x_lo": "outflow", "x_hi": "outflow", "y_lo": "periodic", "y_hi": "periodic"}
+
+
+def coulomb_scene(
+    zeta, mu, initial, boundary, stepper, nx, Lx, t_end, friction_scheme="regularised"
+):
+    """A 1D monodisperse layer (h0 = 2 mm) with Coulomb friction mu on a slope zeta [deg]: no
+    viscosity, no segregation, minmod slopes, and a tiny h_min (the O(h_min) stall of a front
+    tip is not what these cases test)."""
+    from tiseg.scene import scene_from_dict
+
+    return scene_from_dict(
+        {
+            "material": {"zeta_deg": zeta},
+            "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.0},
+            "effects": {
+                "segregation": False,
+                "viscosity": False,
+                "mobility_feedback": False,
+                "friction": "coulomb",
+                "coulomb_mu": mu,
+            },
+            "domain": {"Lx": Lx, "nx": nx, "ny": 1},
+            "boundary": dict(boundary),
+            "initial": initial,
+            "numerics": {
+                "reconstruction": "minmod",
+                "stepper": stepper,
+                "h_min": 1e-7,
+                "h_eps": 1e-9,
+                "friction_scheme": friction_scheme,
+            },
+            "time": {"t_end": t_end},
+        },
+        name="coulomb",
+    )
 
 
 def exit_code(argv) -> int:

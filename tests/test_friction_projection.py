@@ -16,43 +16,11 @@ import math
 import numpy as np
 import pytest
 
-from solver_helpers import make_config, random_state
+from solver_helpers import OPEN, PERIODIC, coulomb_scene, make_config, random_state
 from tiseg.reference import ReferenceOperator
-from tiseg.scene import scene_from_dict
 from tiseg.simulation import Simulation
 
 G = 9.81
-OPEN = {"x_lo": "outflow", "x_hi": "outflow", "y_lo": "periodic", "y_hi": "periodic"}
-PERIODIC = {"x_lo": "periodic", "x_hi": "periodic", "y_lo": "periodic", "y_hi": "periodic"}
-
-
-def _coulomb_scene(zeta, mu, initial, boundary, stepper="rkc", nx=100, ny=1, Lx=0.2, **num):
-    return scene_from_dict(
-        {
-            "material": {"zeta_deg": zeta},
-            "flow": {"h0": 0.002, "phi0": 0.8, "nu": 0.0},
-            "effects": {
-                "segregation": False,
-                "viscosity": False,
-                "mobility_feedback": False,
-                "friction": "coulomb",
-                "coulomb_mu": mu,
-            },
-            "domain": {"Lx": Lx, "Ly": 0.02, "nx": nx, "ny": ny},
-            "boundary": dict(boundary),
-            "initial": initial,
-            "numerics": {
-                "reconstruction": "minmod",
-                "stepper": stepper,
-                "friction_scheme": "projected",
-                "h_min": 1e-7,
-                "h_eps": 1e-9,
-                **num,
-            },
-            "time": {"t_end": 1.0},
-        },
-        name="coulomb-projected",
-    )
 
 
 # ------------------------------------------------------------------- twins of the NumPy reference
@@ -121,7 +89,7 @@ def test_sliding_layer_stops_at_the_exact_time_and_stays_at_rest(ti_cpu, stepper
     g cos(zeta) (mu - tan(zeta)) and stops at t_stop = u0 / that; from then on every step
     leaves the state bit for bit unchanged."""
     zeta, mu, u0 = 20.0, 0.5, 0.3
-    sc = _coulomb_scene(
+    sc = coulomb_scene(
         zeta,
         mu,
         {"kind": "release", "x0": 0.0, "x1": 0.1, "h": 0.002},
@@ -129,6 +97,8 @@ def test_sliding_layer_stops_at_the_exact_time_and_stays_at_rest(ti_cpu, stepper
         stepper,
         nx=16,
         Lx=0.1,
+        t_end=1.0,
+        friction_scheme="projected",
     )
     sim = Simulation(sc, check_every=1)
     q = sim.op.get(0)
@@ -155,13 +125,16 @@ def test_released_block_comes_to_rest_and_stays_there(ti_cpu, stepper):
     """A block released at rest on a 20 deg slope with mu = tan 30 deg spreads at its steep ends
     (the pressure beats the friction there), stops in finite time with every cell at u = 0,
     and then stays exactly at rest; mass is conserved throughout and h >= 0."""
-    sc = _coulomb_scene(
+    sc = coulomb_scene(
         20.0,
         math.tan(math.radians(30.0)),
         {"kind": "release", "x0": 0.08, "x1": 0.12, "h": 0.004},
         OPEN,
         stepper,
         nx=200,
+        Lx=0.2,
+        t_end=1.0,
+        friction_scheme="projected",
     )
     sim = Simulation(sc, check_every=1)
     m0 = sim.totals()["mass"]

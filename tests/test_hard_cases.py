@@ -25,9 +25,8 @@ from tiseg.scene import load_scene, scene_from_dict
 from tiseg.simulation import Simulation, SimulationError
 from tiseg.steady import steady_state
 
-from solver_helpers import PERIODIC
+from solver_helpers import OPEN, PERIODIC, coulomb_scene
 
-OPEN = {"x_lo": "outflow", "x_hi": "outflow", "y_lo": "periodic", "y_hi": "periodic"}
 G = 9.81
 
 
@@ -137,31 +136,16 @@ def _coulomb_dam_break(
     """NUMERICS T4: reservoir h0 for x < x0 released at rest on a 27 deg slope with Coulomb
     friction tan(20 deg), no viscosity, no segregation; exact solution (Mangeney et al. 2000)."""
     zeta, delta, h0, x0 = 27.0, 20.0, 0.002, 0.2
-    sc = scene_from_dict(
-        {
-            "material": {"zeta_deg": zeta},
-            "flow": {"h0": h0, "phi0": 0.8, "nu": 0.0},
-            "effects": {
-                "segregation": False,
-                "viscosity": False,
-                "mobility_feedback": False,
-                "friction": "coulomb",
-                "coulomb_mu": math.tan(math.radians(delta)),
-            },
-            "domain": {"Lx": 0.35, "nx": n, "ny": 1},
-            "boundary": dict(OPEN),
-            "initial": {"kind": "dam-break", "x0": x0, "h_left": h0, "h_right": 0.0},
-            # a tiny h_min: the O(h_min) stall of the front tip is not what is tested here
-            "numerics": {
-                "reconstruction": "minmod",
-                "stepper": stepper,
-                "h_min": 1e-7,
-                "h_eps": 1e-9,
-                "friction_scheme": friction_scheme,
-            },
-            "time": {"t_end": t_end},
-        },
-        name="coulomb-dam-break",
+    sc = coulomb_scene(
+        zeta,
+        math.tan(math.radians(delta)),
+        {"kind": "dam-break", "x0": x0, "h_left": h0, "h_right": 0.0},
+        OPEN,
+        stepper,
+        nx=n,
+        Lx=0.35,
+        t_end=t_end,
+        friction_scheme=friction_scheme,
     )
     sim = Simulation(sc, check_every=1)
     sim.advance(t_end)
