@@ -18,10 +18,8 @@ def register(cls):
 
 
 class Stepper:
-    """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs.
-
-    A step sees the operator through ``rhs(src, dst, t)``, ``combine(dst, terms, limit)`` and
-    ``stage(dst, terms, src, t, limit)`` (a combination with one RATE term, see above)."""
+    """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs; a
+    step sees the operator through the interface of the package docstring."""
 
     name = "base"
     slots = 1

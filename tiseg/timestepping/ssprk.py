@@ -3,9 +3,9 @@
 They are convex combinations of Euler steps, so they keep the positivity of the KT scheme
 (Kurganov & Petrova 2007) for steps up to ``ssp`` times the forward-Euler limit ``dt_cfl``
 (their SSP coefficient C). Per evaluation they advance C / stages of it: 1/2 for SSPRK2, 1/3 for
-SSPRK3, 3/4 for SSPRK(4,2), 9/10 for SSPRK(10,2), 3/5 for SSPRK(10,4), 2/3 for SSPRK(9,3) and 3/4
-for SSPRK(16,3) (Ketcheson 2008, SIAM J. Sci. Comput. 30, 2113). Their real stability interval [-beta, 0] must also contain the
-operator's spectrum: dt <= safety * beta / rho.
+SSPRK3, 3/4 for SSPRK(4,2), 9/10 for SSPRK(10,2), 3/5 for SSPRK(10,4), 2/3 for SSPRK(9,3) and
+3/4 for SSPRK(16,3) (Ketcheson 2008, SIAM J. Sci. Comput. 30, 2113). Their real stability
+interval [-beta, 0] must also contain the operator's spectrum: dt <= safety * beta / rho.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ class _ExplicitRK(Stepper):
 @register
 class Euler(_ExplicitRK):
     name = "euler"
-    slots = 2
+    slots = 1
     order = 1
     stages = 1
 
