@@ -17,6 +17,10 @@ def table1_friction(m=TABLE1, coulomb_mu=0.36):
         m.large.beta,
         m.large.L,
         coulomb_mu,
+        m.small.mu3,
+        m.large.mu3,
+        m.beta_star,
+        m.kappa,
     )
 
 

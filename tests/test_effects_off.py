@@ -32,17 +32,14 @@ def _state(cfg, seed=0):
 
 
 VISCOUS = [Params.NU]
-FRICTION = [
-    Params.MU1S,
-    Params.MU2S,
-    Params.BETAS,
-    Params.LS,
-    Params.MU1L,
-    Params.MU2L,
-    Params.BETAL,
-    Params.LL,
-    Params.MUC,
-]
+POISONS = (math.nan, math.inf)  # a number that reaches a result makes it non-finite
+
+
+def _friction_slots(cfg):
+    """Indices of the friction law's own numbers in the parameter field."""
+    from tiseg.physics.friction import FRICTION_LAWS
+
+    return list(range(Params.COUNT, Params.COUNT + len(FRICTION_LAWS[cfg.friction].slots)))
 
 
 def test_viscosity_off_has_no_viscous_code(ti_cpu):
@@ -56,12 +53,56 @@ def test_viscosity_off_has_no_viscous_code(ti_cpu):
 
 
 def test_friction_none_has_no_friction_code(ti_cpu):
+    """Without friction the parameter field has no friction numbers at all; with a law, each
+    of its numbers reaches the result (poisoned with NaN, one at a time)."""
     off = make_config(8, 6, friction="none", bc=("periodic",) * 4)
-    r, _ = _rhs(off, _state(off), poison=FRICTION)
-    assert np.isfinite(r).all()
-    on = make_config(8, 6, friction="pouliquen-mixture", bc=("periodic",) * 4)
-    r_on, _ = _rhs(on, _state(on), poison=FRICTION)
-    assert not np.isfinite(r_on).all()
+    r, op = _rhs(off, _state(off))
+    assert np.isfinite(r).all() and op.par.shape == (Params.COUNT,)
+    for law in ("pouliquen-mixture", "pouliquen-extended", "coulomb", "pouliquen-small"):
+        on = make_config(8, 6, friction=law, bc=("periodic",) * 4)
+        q = _state(on)
+        lay = on.layout
+        q[lay.HU, :, ::2] *= 1e-3  # slow cells too: the extended law's intermediate regime
+        _, op = _rhs(on, q)
+        ix, iy = lay.interior()
+        for k in _friction_slots(on):
+            # NaN, or inf where a NaN would only fail a comparison (beta*: max(Fr, NaN) = Fr)
+            reach = []
+            keep = op.par[k]
+            for v in POISONS:
+                op.par[k] = v
+                op.set(0, q)
+                op.rhs(0, 1, 0.05)
+                reach.append(not np.isfinite(op.get(1)[:, ix, iy]).all())
+            op.par[k] = keep
+            assert any(reach), (law, k)
+
+
+def test_one_friction_law_compiles_no_other(ti_cpu):
+    """A scene's law reads only its own slots: the extended law's numbers (start angles, beta*,
+    kappa) are not in a mixture run's parameter field, and the mixture's rhs is the same
+    whatever numbers sit in the slots after its own."""
+    mix = make_config(8, 6, friction="pouliquen-mixture", bc=("periodic",) * 4)
+    ext = make_config(8, 6, friction="pouliquen-extended", bc=("periodic",) * 4)
+    assert len(_friction_slots(mix)) == 8 and len(_friction_slots(ext)) == 12
+    q = _state(mix)
+    r_mix, op = _rhs(mix, q)
+    assert op.par.shape == (Params.COUNT + 8,)
+    # the extended law in its dynamic regime (every Froude number above beta*) is (3.4), (3.7)
+    r_ext, _ = _rhs(ext, q)
+    w_fr = _froude(mix, q)
+    if (w_fr >= ext.fric.beta_star).all():
+        assert np.allclose(r_ext, r_mix, rtol=1e-13, atol=1e-15)
+    else:
+        assert not np.array_equal(r_ext, r_mix)
+
+
+def _froude(cfg, q):
+    lay = cfg.layout
+    ix, iy = lay.interior()
+    h = q[lay.H][ix, iy]
+    spd = np.hypot(q[lay.HU][ix, iy], q[lay.HV][ix, iy]) / h
+    return spd / np.sqrt(cfg.g_cos * h)
 
 
 def test_feedback_off_friction_ignores_phi(ti_cpu):

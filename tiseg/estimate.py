@@ -63,6 +63,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .numerics.config import config_from_scene
+from .physics.friction import FRICTION_LAWS
+
 # Flow-model constants (see the module docstring for where they come from).
 HEAD_THICKNESS = 2.5  # coarse-rich head thickness / h0 before fingering
 CHANNEL_SPEED = 2.0  # channel speed / u0 once fingers have formed (paper, section 6.2)
@@ -200,11 +203,8 @@ def flow_model(scene) -> FlowModel:
         c = math.sqrt(gc * h)
         # front speed: 2 c at the tip of a dry-bed rarefaction, less where h < h_min is cut off
         tip = max(c, 2.0 * c - 2.0 * math.sqrt(gc * scene.numerics.h_min))
-        mu = 0.0
-        if scene.effects.friction == "coulomb":
-            mu = scene.effects.coulomb_mu
-        elif scene.effects.friction != "none":
-            mu = min(m.small.mu1, m.large.mu1)  # the least friction a law can give
+        # the least friction the law can give
+        mu = FRICTION_LAWS[scene.effects.friction].least_mu(config_from_scene(scene).fric)
         acc = max(0.0, m.g * (math.sin(m.zeta) - mu * math.cos(m.zeta)))
 
         def ax(t):

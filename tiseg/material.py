@@ -21,6 +21,9 @@ import numpy as np
 from .errors import InputError, require
 
 GRAVITY = 9.81
+DEFAULT_START_GAP_DEG = 1.0  # zeta3 - zeta1 when a species gives no zeta3_deg
+DEFAULT_BETA_STAR = 0.136  # Pouliquen & Forterre (2002), as in Edwards & Gray (2015)
+DEFAULT_KAPPA = 1e-3  # Pouliquen & Forterre (2002)
 
 
 @dataclass(frozen=True)
@@ -31,6 +34,18 @@ class Species:
     zeta2_deg: float  # maximum angle of steady flow, mu2 = tan(zeta2)
     beta: float  # dimensionless constant of (3.7)
     L: float  # length scale of (3.7) [m]
+    zeta3_deg: float | None = None  # start angle of a thick layer at rest, mu3 = tan(zeta3),
+    # for effects.friction = "pouliquen-extended"; default zeta1_deg + 1 (a choice: Table 1
+    # has no start angle, so measure zeta_start(h) and set it)
+
+    @property
+    def zeta3(self) -> float:
+        """The start angle [degrees]: zeta3_deg, or zeta1_deg + DEFAULT_START_GAP_DEG."""
+        return self.zeta1_deg + DEFAULT_START_GAP_DEG if self.zeta3_deg is None else self.zeta3_deg
+
+    @property
+    def mu3(self) -> float:
+        return math.tan(math.radians(self.zeta3))
 
     @property
     def mu1(self) -> float:
@@ -39,6 +54,13 @@ class Species:
     @property
     def mu2(self) -> float:
         return math.tan(math.radians(self.zeta2_deg))
+
+    def as_dict(self) -> dict:
+        """Its keys as a scene writes them (zeta3_deg only when given)."""
+        d = dict(zeta1_deg=self.zeta1_deg, zeta2_deg=self.zeta2_deg, beta=self.beta, L=self.L)
+        if self.zeta3_deg is not None:
+            d["zeta3_deg"] = self.zeta3_deg
+        return d
 
     @property
     def M(self) -> float:
@@ -57,6 +79,11 @@ class Material:
     transport: str = "linear"  # "linear" (2.17) or "bagnold" (2.18)
     g: float = GRAVITY  # gravitational acceleration [m/s^2]
     chi: float = 1.0  # shape factor; the model assumes chi = 1 (section 3)
+    beta_star: float = DEFAULT_BETA_STAR  # Froude number below which the extended law
+    # ("pouliquen-extended") leaves the dynamic regime (3.7) for the intermediate one;
+    # 0.136 of Pouliquen & Forterre (2002), as in Edwards & Gray (2015)
+    kappa: float = DEFAULT_KAPPA  # exponent of the extended law's intermediate regime
+    # (Fr / beta*)^kappa, 1e-3 as in Pouliquen & Forterre (2002)
 
     def __post_init__(self):
         require(
@@ -70,6 +97,14 @@ class Material:
         )
         require(self.g > 0, f"material.g={self.g!r} must be positive")
         require(self.chi == 1.0, "material.chi: only chi = 1 is supported by the model (section 3)")
+        require(
+            self.beta_star > 0 and math.isfinite(self.beta_star),
+            f"material.beta_star={self.beta_star!r} must be a positive Froude number",
+        )
+        require(
+            0.0 < self.kappa <= 1.0,
+            f"material.kappa={self.kappa!r} must lie in (0, 1] (Pouliquen & Forterre: 1e-3)",
+        )
         for name, sp in (("small", self.small), ("large", self.large)):
             require(
                 0.0 <= sp.zeta1_deg < sp.zeta2_deg < 90.0,
@@ -79,6 +114,12 @@ class Material:
             require(
                 sp.beta > 0 and sp.L > 0,
                 f"material.{name}: beta and L must be positive, got {sp.beta}, {sp.L}",
+            )
+            require(
+                sp.zeta1_deg <= sp.zeta3 < 90.0,
+                f"material.{name}.zeta3_deg={sp.zeta3:g}: the start angle must lie in "
+                f"[zeta1_deg={sp.zeta1_deg:g}, 90) degrees (a layer at rest holds at least "
+                "as steep a slope as a flow does)",
             )
 
     @property
@@ -152,11 +193,7 @@ class Material:
         out = {}
         for f in fields(self):
             v = getattr(self, f.name)
-            out[f.name] = (
-                dict(zeta1_deg=v.zeta1_deg, zeta2_deg=v.zeta2_deg, beta=v.beta, L=v.L)
-                if isinstance(v, Species)
-                else v
-            )
+            out[f.name] = v.as_dict() if isinstance(v, Species) else v
         return out
 
 

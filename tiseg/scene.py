@@ -38,8 +38,10 @@ import tomli_w
 from .errors import InputError
 from .paths import check_name, safe_name
 from .material import Material, Species
+from .physics.friction import FRICTION_LAWS as _LAWS
 from .numerics.config import (
     FLUXES,
+    FRICTION_LAWS as _FRICTION_LAWS,
     FRICTION_SCHEMES,
     PHI_FLUXES,
     STEP_RULES,
@@ -52,7 +54,7 @@ from .timestepping import STEPPERS as _STEPPER_REGISTRY
 from .data import SCENE_DIR, builtin_file, builtin_names
 
 # ---- allowed choices ----------------------------------------------------------------------------
-FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
+FRICTION_LAWS = _FRICTION_LAWS  # effects.friction: the registry of tiseg.physics.friction
 TRANSPORTS = ("linear", "bagnold")
 RECONSTRUCTIONS = ("weno", "minmod", "first-order")
 OUTPUT_PRECISIONS = ("f8", "f4")
@@ -73,7 +75,17 @@ INITIAL_KEYS = {
 }
 
 SECTION_KEYS = {
-    "material": ("zeta_deg", "alpha", "transport", "g", "chi", "small", "large"),
+    "material": (
+        "zeta_deg",
+        "alpha",
+        "transport",
+        "g",
+        "chi",
+        "beta_star",
+        "kappa",
+        "small",
+        "large",
+    ),
     "flow": ("h0", "phi0", "nu", "u0"),
     "effects": ("segregation", "mobility_feedback", "viscosity", "friction", "coulomb_mu"),
     "domain": ("Lx", "Ly", "resolution", "nx", "ny"),
@@ -99,7 +111,7 @@ SECTION_KEYS = {
     "output": ("interval", "times", "checkpoint_interval", "precision", "significant_digits"),
 }
 TOP_LEVEL_KEYS = ("name", "description") + tuple(SECTION_KEYS)
-SPECIES_KEYS = ("zeta1_deg", "zeta2_deg", "beta", "L")
+SPECIES_KEYS = ("zeta1_deg", "zeta2_deg", "beta", "L", "zeta3_deg")
 
 DEFAULT_COULOMB_MU = math.tan(math.radians(20.0))
 MIN_CELLS = 4  # a periodic axis needs at least 2 x GHOST(=2) interior cells
@@ -119,7 +131,8 @@ class FlowConfig:
     """Reference steady uniform flow of section 4.
 
     ``u0`` and ``F`` are derived from (4.3), (4.9) when ``effects.friction`` is
-    "pouliquen-mixture" and a steady uniform flow exists; for the other friction laws ``u0`` may
+    "pouliquen-mixture" (or "pouliquen-extended", in its dynamic regime F >= beta*) and a
+    steady uniform flow exists; for the other friction laws ``u0`` may
     be given (``flow.u0``) and ``F`` follows from it, otherwise both are None. A scene without a
     steady flow (e.g. a release on a slope below zeta1^S or above zeta2^L, where material must
     stop or accelerate) is valid as long as nothing needs u0; ``no_steady`` then says why there
@@ -356,7 +369,7 @@ class Scene:
         return (
             self.effects.segregation
             and self.effects.mobility_feedback
-            and self.effects.friction == "pouliquen-mixture"
+            and _LAWS[self.effects.friction].weighted
         )
 
     @property
@@ -574,14 +587,9 @@ def scene_to_dict(scene: Scene, derived: bool = False) -> dict:
     material = {k: v for k, v in m.as_dict().items() if k not in ("small", "large")}
     for sp_name in ("small", "large"):
         sp: Species = getattr(m, sp_name)
-        material[sp_name] = {
-            "zeta1_deg": sp.zeta1_deg,
-            "zeta2_deg": sp.zeta2_deg,
-            "beta": sp.beta,
-            "L": sp.L,
-        }
+        material[sp_name] = sp.as_dict()
     flow = {"h0": scene.flow.h0, "phi0": scene.flow.phi0, "nu": scene.flow.nu}
-    if scene.effects.friction != "pouliquen-mixture" and scene.flow.u0 is not None:
+    if not _LAWS[scene.effects.friction].steady and scene.flow.u0 is not None:
         flow["u0"] = scene.flow.u0  # user-given; with the mixture law it is derived
     e = scene.effects
     dom = scene.domain
@@ -762,6 +770,8 @@ def _read_material(t: "_Table") -> Material:
         "transport": t.choice("transport", TRANSPORTS, base.transport),
         "g": t.number("g", base.g, positive=True),
         "chi": t.number("chi", base.chi),
+        "beta_star": t.number("beta_star", base.beta_star, positive=True),
+        "kappa": t.number("kappa", base.kappa, positive=True),
     }
     for sp_name in ("small", "large"):
         st = t.table(sp_name, SPECIES_KEYS)
@@ -771,6 +781,7 @@ def _read_material(t: "_Table") -> Material:
             zeta2_deg=st.number("zeta2_deg", sp0.zeta2_deg),
             beta=st.number("beta", sp0.beta, positive=True),
             L=st.number("L", sp0.L, positive=True),
+            zeta3_deg=st.number("zeta3_deg", None),
         )
     return Material(**kw)  # checks the remaining ranges, naming material.<key>
 
@@ -798,11 +809,11 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
         f"must be at most {MAX_NU:g} m^(3/2)/s (the paper "
         "uses 0.01); a larger viscosity leaves no time step that can advance",
     )
-    derived = effects.friction == "pouliquen-mixture"
-    if derived:
+    law = effects.friction
+    if _LAWS[law].steady:
         if t.has("u0"):
             raise InputError(
-                f"flow.u0={_show(t.get('u0'))}: with effects.friction='pouliquen-mixture' u0 is "
+                f"flow.u0={_show(t.get('u0'))}: with effects.friction={law!r} u0 is "
                 "derived from the steady uniform flow (4.3), (4.9) of h0 and phi0; remove flow.u0 "
                 "(it may only be given for the other friction laws)"
             )
@@ -811,7 +822,7 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
         except InputError as exc:
             why = (
                 f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; effects.friction="
-                "'pouliquen-mixture' defines u0 only from a steady uniform flow (raise "
+                f"{law!r} defines u0 only from a steady uniform flow (raise "
                 "flow.phi0 or change material.zeta_deg)"
             )
             return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
@@ -819,6 +830,14 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
             why = (
                 f"flow.h0={h0!r}, flow.phi0={phi0!r}: no steady uniform flow for this "
                 f"material ({exc})"
+            )
+            return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
+        if _LAWS[law].hysteresis and st.F < material.beta_star:
+            # (4.3) is the steady flow of the dynamic regime only
+            why = (
+                f"flow.h0={h0!r}, flow.phi0={phi0!r}: the steady flow (4.3) has F = {st.F:.3g} "
+                f"< material.beta_star = {material.beta_star:g}, outside the dynamic regime of "
+                f"effects.friction={law!r}, which defines u0 only there (thicken flow.h0)"
             )
             return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         return FlowConfig(h0=h0, phi0=phi0, nu=nu, u0=st.u0, F=st.F)
@@ -988,8 +1007,8 @@ def _read_inflow(
                 f"{flow.no_steady}; the inflow velocity defaults to that u0, so give inflow.u"
             )
         raise InputError(
-            "inflow.u is required: without the 'pouliquen-mixture' friction there is "
-            "no derived steady velocity (give inflow.u or flow.u0)"
+            "inflow.u is required: without a 'pouliquen-mixture' or 'pouliquen-extended' "
+            "friction there is no derived steady velocity (give inflow.u or flow.u0)"
         )
     u = t.number("u", flow.u0, positive=True)
     phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)

@@ -19,7 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-FRICTION_LAWS = ("pouliquen-mixture", "pouliquen-small", "pouliquen-large", "coulomb", "none")
+from ..physics.friction import FRICTION_LAWS as _LAWS
+
+FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registered laws (tiseg.physics.friction)
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 FLUXES = ("kt", "central-upwind")  # numerics.flux: face flux of the whole system
 PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of that flux
@@ -141,6 +143,11 @@ class FrictionParams:
     beta_l: float
     L_l: float
     coulomb_mu: float
+    # the extended law ("pouliquen-extended"): tan(zeta3) of each species, beta* and kappa
+    mu3_s: float | None = None
+    mu3_l: float | None = None
+    beta_star: float | None = None
+    kappa: float | None = None
 
 
 @dataclass(frozen=True)
@@ -252,6 +259,10 @@ def config_from_scene(scene) -> OperatorConfig:
         m.large.beta,
         m.large.L,
         float(scene.effects.coulomb_mu),
+        m.small.mu3,
+        m.large.mu3,
+        m.beta_star,
+        m.kappa,
     )
     u_ref = scene.flow.u0 or math.sqrt(m.g * scene.flow.h0 * max(math.cos(m.zeta), 1e-3))
     kw = {}

@@ -18,7 +18,8 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..physics.pointwise import Params, Physics
+from ..physics.friction import FRICTION_LAWS
+from ..physics.pointwise import Params, Physics, param_count
 from .config import OperatorConfig
 
 MAX_TERMS = 6
@@ -89,7 +90,7 @@ class TaichiOperator:
         if not self.is_1d:
             self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
             self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
-        self.par = ti.field(self.fp, shape=Params.COUNT)
+        self.par = ti.field(self.fp, shape=param_count(cfg))
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
         self.inflow_prof = (
             ti.field(self.fp, shape=NY) if self.seg and cfg.bc[0] == "inflow" else None
@@ -122,24 +123,14 @@ class TaichiOperator:
     def set_params(self, cfg: OperatorConfig) -> None:
         """Copy run-time numbers into the parameter field (no recompilation)."""
         P = Params
-        p = np.zeros(P.COUNT)
+        p = np.zeros(param_count(cfg))
         p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
         p[P.NU], p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.nu, cfg.h_min, cfg.h_eps**4, cfg.u_eps
         p[P.THETA], p[P.WENO_EPS] = cfg.theta, cfg.weno_eps
         p[P.ALPHA1], p[P.PHI_REF], p[P.DX], p[P.DY] = 1.0 - cfg.alpha, cfg.phi_ref, cfg.dx, cfg.dy
-        f = cfg.fric
-        if f is not None:
-            p[P.MU1S : P.MUC + 1] = [
-                f.mu1_s,
-                f.mu2_s,
-                f.beta_s,
-                f.L_s,
-                f.mu1_l,
-                f.mu2_l,
-                f.beta_l,
-                f.L_l,
-                f.coulomb_mu,
-            ]
+        law = FRICTION_LAWS[cfg.friction]
+        if cfg.fric is not None and law.slots:  # the friction law's numbers, from COUNT on
+            p[P.COUNT :] = law.values(cfg.fric)
         p[P.IN_U] = cfg.inflow_u
         p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref

@@ -8,38 +8,37 @@ they can change without recompiling.
 
 import taichi as ti
 
-from ..numerics.config import OperatorConfig
+from .friction import FRICTION_LAWS
+from .params import Params
+
+__all__ = ["Physics", "Params", "param_count"]
 
 
-class Params:
-    """Indices of run-time numbers in the parameter field."""
-
-    G_COS, G_SIN, NU, H_MIN, H_EPS4, U_EPS, THETA, WENO_EPS = range(8)
-    ALPHA1, PHI_REF, DX, DY = range(8, 12)
-    MU1S, MU2S, BETAS, LS, MU1L, MU2L, BETAL, LL, MUC = range(12, 21)
-    IN_H, IN_U, IN_ON = range(21, 24)
-    # reciprocals, so that the kernels multiply instead of divide (a division costs several
-    # multiplications on a CPU, and the inner loops are bound by arithmetic, not memory); the
-    # WENO smoothness indicators are scaled by 1/h_ref and 1/u_ref
-    INV_DX, INV_DY, INV_H_REF, INV_U_REF = range(24, 28)
-    COUNT = 28
+def param_count(cfg) -> int:
+    """Slots of the parameter field: the common ones and the friction law's."""
+    return Params.COUNT + len(FRICTION_LAWS[cfg.friction].slots)
 
 
 @ti.data_oriented
 class Physics:
-    def __init__(self, cfg: OperatorConfig, par):
+    def __init__(self, cfg, par):
+        """cfg: the OperatorConfig; par: the operator's parameter field, of
+        :func:`param_count` slots (the friction law's from Params.COUNT on)."""
         lay = cfg.layout
         self.par = par
         self.nc = lay.nc
         self.is_1d = lay.is_1d
         self.seg = lay.segregation
         self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
-        # compile-time switches as bools (ti.static does not take strings)
+        # the friction law as a component: its Taichi functions read its slots from COUNT on
+        self.law = FRICTION_LAWS[cfg.friction]
         self.fr_none = cfg.friction == "none"
-        self.fr_coulomb = cfg.friction == "coulomb"
-        self.fr_small = cfg.friction == "pouliquen-small"
-        self.fr_large = cfg.friction == "pouliquen-large"
-        self.feedback = cfg.feedback and lay.segregation
+        self.hysteresis = self.law.hysteresis
+        # SPIR-V (Vulkan) has no 64-bit pow: the extended law's power is then taken in f32
+        f32_pow = par.dtype == ti.f64 and ti.lang.impl.current_cfg().arch == ti.vulkan
+        self._mu, self._mu_start = self.law.taichi(ti, par, Params.COUNT, f32_pow)
+        # compile-time switches as bools (ti.static does not take strings)
+        self.feedback = cfg.feedback and lay.segregation and self.law.weighted
         # friction as a projection after each stage (project_friction) instead of a source
         self.fr_projected = cfg.friction_projected
         self.fr_source = not self.fr_none and not self.fr_projected
@@ -120,59 +119,23 @@ class Physics:
         return phi - self.G(phi)
 
     @ti.func
-    def pouliquen(self, h, fr, mu1, mu2, beta, L):
-        """(3.7) in division-free form: mu1 + (mu2 - mu1) L Fr / (beta h + L Fr)."""
-        x = L * fr
-        return mu1 + (mu2 - mu1) * x / (beta * h + x)
+    def mu_b(self, h, spd, phi):
+        """Basal friction coefficient of the scene's law at thickness h and speed spd
+        (tiseg.physics.friction); phi weights a mixture (3.4) with mobility feedback, else
+        flow.phi0 does."""
+        ph = self.par[Params.PHI_REF]
+        if ti.static(self.feedback):
+            ph = phi
+        return self._mu(h, spd, ph)
 
     @ti.func
-    def mu_b(self, h, spd, phi):
-        """Basal friction of the scene's law; (3.4) for the concentration-weighted mixture."""
-        mu = 0.0 * h
-        if ti.static(self.fr_coulomb):
-            mu = self.par[Params.MUC] + 0.0 * h
-        elif ti.static(not self.fr_none):
-            fr = spd / ti.sqrt(self.par[Params.G_COS] * h)
-            if ti.static(self.fr_small):
-                mu = self.pouliquen(
-                    h,
-                    fr,
-                    self.par[Params.MU1S],
-                    self.par[Params.MU2S],
-                    self.par[Params.BETAS],
-                    self.par[Params.LS],
-                )
-            elif ti.static(self.fr_large):
-                mu = self.pouliquen(
-                    h,
-                    fr,
-                    self.par[Params.MU1L],
-                    self.par[Params.MU2L],
-                    self.par[Params.BETAL],
-                    self.par[Params.LL],
-                )
-            else:
-                mus = self.pouliquen(
-                    h,
-                    fr,
-                    self.par[Params.MU1S],
-                    self.par[Params.MU2S],
-                    self.par[Params.BETAS],
-                    self.par[Params.LS],
-                )
-                mul = self.pouliquen(
-                    h,
-                    fr,
-                    self.par[Params.MU1L],
-                    self.par[Params.MU2L],
-                    self.par[Params.BETAL],
-                    self.par[Params.LL],
-                )
-                ph = self.par[Params.PHI_REF]
-                if ti.static(self.feedback):
-                    ph = phi
-                mu = ph * mus + (1.0 - ph) * mul
-        return mu
+    def mu_start(self, h, phi):
+        """The largest coefficient at rest: mu_S(h) of a law with hysteresis, else mu_b at
+        zero speed."""
+        ph = self.par[Params.PHI_REF]
+        if ti.static(self.feedback):
+            ph = phi
+        return self._mu_start(h, ph)
 
     @ti.func
     def speed_mag(self, w):
@@ -229,7 +192,9 @@ class Physics:
         the scene's law at the cell's speed |hu| / h. Where |h u| <= I the friction can cancel
         the momentum and the cell stops exactly (u = 0); otherwise the momentum shrinks by I
         along its own direction. This needs no regularisation of u / |u| and is no stiff term
-        for the stepper; it never reverses the flow and leaves h and h phi alone."""
+        for the stepper; it never reverses the flow and leaves h and h phi alone. With a law
+        with hysteresis the stopping test uses the static coefficient mu_S(h) instead: a cell
+        starts only where |h u| > tau g cos(zeta) mu_S(h) h."""
         r = q
         h = q[0]
         if h >= self.par[Params.H_MIN] and tau > 0:
@@ -241,7 +206,12 @@ class Physics:
                 phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
             imp = tau * self.par[Params.G_COS] * self.mu_b(h, m / h, phi) * h
             f = 0.0 * h
-            if m > imp:
+            if ti.static(self.hysteresis):
+                # a cell starts (or keeps moving) only if the static friction mu_S(h) cannot
+                # hold it; a moving one then shrinks by the friction of its speed
+                if m > tau * self.par[Params.G_COS] * self.mu_start(h, phi) * h:
+                    f = ti.max(1.0 - imp / m, 0.0)
+            elif m > imp:
                 f = 1.0 - imp / m
             r[1] = f * q[1]
             if ti.static(not self.is_1d):

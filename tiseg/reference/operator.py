@@ -37,6 +37,7 @@ import math
 import numpy as np
 
 from ..numerics.config import OperatorConfig
+from ..physics.friction import FRICTION_LAWS
 
 SQRT2 = math.sqrt(2.0)
 
@@ -53,6 +54,7 @@ class ReferenceOperator:
         self.y = np.asarray(y_centres, dtype=float)
         # friction as a projection after each stage (project_friction), not in the source
         self.projected = cfg.friction_projected
+        self.law = FRICTION_LAWS[cfg.friction]
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
@@ -129,28 +131,18 @@ class ReferenceOperator:
     def dG(self, phi):
         return (1.0 - self.cfg.alpha) * (1.0 - 2.0 * phi)
 
+    def _weight(self, phi):
+        """The concentration a mixture law weights with: local phi with feedback."""
+        return phi if self.cfg.feedback and self.law.weighted else self.cfg.phi_ref
+
     def mu_b(self, h, speed, phi):
-        """Basal friction coefficient for the configured law, (3.4) and (3.7)."""
-        c = self.cfg
-        f = c.fric
-        if c.friction == "none":
-            return np.zeros_like(h)
-        if c.friction == "coulomb":
-            return np.full_like(h, f.coulomb_mu)
-        fr_l = speed / np.sqrt(c.g_cos * h)  # Froude number (6.5); h >= h_min here
+        """Basal friction coefficient of the configured law (the NumPy twin in
+        tiseg.physics.friction), e.g. (3.4) with (3.7)."""
+        return self.law.mu_np(self.cfg, h, speed, self._weight(phi))
 
-        def pf(mu1, mu2, beta, L):
-            x = L * fr_l
-            return mu1 + (mu2 - mu1) * x / (beta * h + x)
-
-        mus = pf(f.mu1_s, f.mu2_s, f.beta_s, f.L_s)
-        if c.friction == "pouliquen-small":
-            return mus
-        mul = pf(f.mu1_l, f.mu2_l, f.beta_l, f.L_l)
-        if c.friction == "pouliquen-large":
-            return mul
-        ph = phi if c.feedback else c.phi_ref
-        return ph * mus + (1.0 - ph) * mul
+    def mu_start(self, h, phi):
+        """The largest coefficient at rest (mu_S(h) of a law with hysteresis)."""
+        return self.law.mu_start_np(self.cfg, h, self._weight(phi))
 
     def flux(self, w: np.ndarray, direction: int) -> np.ndarray:
         """Physical flux f (x) or g (y) of the primitive state w, as conserved components."""
@@ -345,7 +337,10 @@ class ReferenceOperator:
         m = np.abs(q[lay.HU]) if lay.is_1d else np.hypot(q[lay.HU], q[lay.HV])
         phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
         imp = tau * c.g_cos * self.mu_b(hs, m / hs, phi) * hs
-        f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
+        stop = imp  # a law with hysteresis holds a cell up to its static coefficient
+        if self.law.hysteresis:
+            stop = tau * c.g_cos * self.mu_start(hs, phi) * hs
+        f = np.where(m > stop, np.maximum(1.0 - imp / np.where(m > 0, m, 1.0), 0.0), 0.0)
         f = np.where(wet, f, 1.0)
         q[lay.HU] *= f
         if not lay.is_1d:
