@@ -386,8 +386,9 @@ def test_cli_table(run_dir, capsys):
     assert "phi0 = 0.8" in out[0]
     header = out[2].split()
     assert header[:3] == ["t", "[s]", "x_f+"] and "fingers" in header
-    rows = [line.split() for line in out[3:]]
+    rows = [line.split() for line in out[3:-1]]
     assert len(rows) == 3 and rows[2][0] == "3"
+    assert out[-1].startswith("deposit: the flow has not come to rest")  # it moves at t = 3
     assert rows[0][4] == "0" and rows[0][5] == "-" and rows[2][4] == "2"
     assert float(rows[2][5]) == pytest.approx(0.25)
 

@@ -268,3 +268,46 @@ def test_u0_is_derived_only_in_the_dynamic_regime():
         name="thin",
     )
     assert thin.flow.u0 is None and "beta_star" in thin.flow.no_steady
+
+
+def test_rest_faces_are_those_of_the_step_start(ti_cpu):
+    """The rest faces (no mass across a face between two cells at rest) are those of the
+    step's initial state, slot 0, for every stage of the step. A thin cell creeping between
+    deposits, the rest at rest: after a first stage has stopped it, a stage rate of that
+    stopped state still moves mass through its faces (they were not rest faces at the step's
+    start), and only once slot 0 holds the stopped state do all h rates vanish. A finite
+    release at 125 cells/m broke the mass balance after 252 s when the later RKC stage switched
+    those faces off: RKC's stage weights of both signs (2.08, -1, -1.58 at 2 stages) then drove
+    the thin cell's h below zero, and the limiter's clip created mass."""
+    from tiseg.numerics.operator import TaichiOperator
+
+    cfg = make_config(
+        12,
+        8,
+        friction="pouliquen-extended",
+        feedback=True,
+        reconstruction="weno",
+        bc=("periodic",) * 4,
+        friction_scheme="projected",
+    )
+    lay = cfg.layout
+    g = lay.gx
+    q = np.zeros((lay.nc, lay.NX, lay.NY))
+    q[lay.H] = 2.8e-4
+    q[lay.H, g + 6, g + 3 : g + 6] = (4.8e-4, 3.26e-3, 4.8e-4)
+    q[lay.H, g + 7, g + 3 : g + 6] = (2.26e-3, 3.19e-3, 2.26e-3)
+    q[lay.HPHI] = 0.8 * q[lay.H]
+    moving = q.copy()
+    moving[lay.HV, g + 6, g + 3] = -2e-3 * q[lay.H, g + 6, g + 3]
+    ix, iy = lay.interior()
+    op = TaichiOperator(cfg, nslots=4)
+    op.set(0, moving)
+    op.rhs(0, 1, 0.0)  # the step's first evaluation: its rest faces
+    op.set(2, q)  # a later stage's state: the thin cell stopped
+    op.rhs(2, 3, 0.0)
+    r = op.get(3)[lay.H][ix, iy]
+    assert r[6, 3] != 0.0
+    assert np.count_nonzero(r) >= 3  # the thin cell and its neighbours exchange mass
+    op.set(0, q)  # the next step starts from the stopped state: every face is a rest face
+    op.rhs(0, 1, 0.0)
+    assert np.all(op.get(1)[lay.H][ix, iy] == 0.0)

@@ -83,6 +83,7 @@ import numpy as np
 
 from ..errors import InputError
 from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels, periodic_runs
+from .deposit import DEFAULT_REST_SPEED, deposit_metrics, max_speed, stop_index
 from .spectrum import spectral_wavelength
 
 DEFAULT_MIN_PERSISTENCE = 0.1  # fraction of the lines in [x_f^-, x_f^+] the count must hold on
@@ -314,6 +315,7 @@ def analyse_run(
     u0: float | None = None,
     h_min: float | None = None,
     Ly: float | None = None,
+    rest_speed: float = DEFAULT_REST_SPEED,
     **opts,
 ) -> dict:
     """Finger diagnostics of every output time of a saved run.
@@ -330,7 +332,10 @@ def analyse_run(
     ``x_front_min``, ``elongation``, ``finger_count``, ``wavelength``, ``wavelength_spectral``,
     ``front_speed``, ``front_speed_over_u0``, ``max_channel_speed``,
     ``max_channel_speed_over_u0``, ``channel_speed_over_u0``, ``channel_phi``,
-    ``levee_speed_over_u0``, ``finger_count_lines`` (None where undefined).
+    ``levee_speed_over_u0``, ``finger_count_lines`` (None where undefined), and ``deposit``:
+    whether and when the flow stopped (at most ``rest_speed`` [m/s] anywhere), its run-out and
+    thickness (:func:`tiseg.analysis.deposit.deposit_metrics`, with the per-time
+    ``max_speed``), over all output times whatever ``time`` says.
     Raises :class:`tiseg.errors.InputError` for a missing or unreadable file, a file without h
     or phi, or a time that is not an output time.
     """
@@ -342,11 +347,11 @@ def analyse_run(
     except Exception as exc:  # netCDF4 / HDF5 errors have no common base class
         raise InputError(f"cannot read {str(path)!r} as a NetCDF fields file: {exc}") from None
     with ds:
-        missing = [name for name in ("h", "phi") if name not in ds.variables]
+        missing = [name for name in ("h", "u", "phi") if name not in ds.variables]
         if missing:
             raise InputError(
                 f"{str(path)!r} has no {' and no '.join(missing)} field "
-                f"(finger diagnostics need h and phi; phi exists only with "
+                f"(finger diagnostics need h, u and phi; phi exists only with "
                 f"segregation)"
             )
         if "time" not in ds.variables or "x" not in ds.variables or "y" not in ds.variables:
@@ -375,6 +380,31 @@ def analyse_run(
             front_max(np.asarray(h_all.isel(time=i).values), x, h_min) for i in range(times.size)
         ]
         speeds = front_speed(times, xf_all)
+        # the deposit: the largest speed at every time, the last snapshot's thickness
+        flow = [
+            max_speed(
+                h_all.isel(time=i).values,
+                ds["u"].isel(time=i).values,
+                ds["v"].isel(time=i).values if "v" in ds.variables else None,
+                h_min,
+            )
+            for i in range(times.size)
+        ]
+        k = stop_index(flow, rest_speed)
+        thr = _settings(_spacing(y), phi0, opts.get("phi_threshold"), None, None)[0]
+        deposit = deposit_metrics(
+            times,
+            flow,
+            np.asarray(h_all.isel(time=times.size - 1).values),
+            np.asarray(ds["phi"].isel(time=times.size - 1).values),
+            x,
+            y,
+            h_min,
+            thr,
+            None if k is None else xf_all[k],
+            rest_speed,
+        )
+        deposit["max_speed"] = flow
 
         result = {k: [] for k in RUN_KEYS}
         for i in idx:
@@ -422,7 +452,7 @@ def analyse_run(
         "options": options,
         "times": len(idx),
     }
-    return {**head, **result}
+    return {**head, **result, "deposit": deposit}
 
 
 # =================================================================================================

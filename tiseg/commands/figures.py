@@ -166,6 +166,29 @@ def _run_fingers(args) -> int:
     return 0
 
 
+def _run_deposit(args) -> int:
+    from ..errors import require
+    from ..figures.deposit import deposit_figure
+
+    require(20 <= args.dpi <= 600, f"--dpi={args.dpi!r} must lie in [20, 600]")
+    check_output_folder(Path(args.out))
+    path = deposit_figure(args.run, args.out, dpi=args.dpi)
+    print(path)
+    if args.assets:
+        dest = _assets_dir() / path.name
+        shutil.copy2(path, dest)
+        print(dest)
+    return 0
+
+
+def _deposit_options(q) -> None:
+    q.add_argument(
+        "run",
+        metavar="RUN_DIR",
+        help="run folder of a finite release (e.g. tiseg run finite-release-deposit)",
+    )
+
+
 FIGURE_SETS = {
     "stability": (
         "figures 8-11: F(h0, phi0), growth rates sigma_M(k), sigma_Max(F) and k_c(F)",
@@ -176,6 +199,11 @@ FIGURE_SETS = {
         "figures 12-18: finger panels, grid/width/viscosity studies (from sweeps)",
         _run_fingers,
         _fingers_options,
+    ),
+    "deposit": (
+        "the deposit of a finite release that came to rest, beside figures 3(b), 4(b)",
+        _run_deposit,
+        _deposit_options,
     ),
 }
 

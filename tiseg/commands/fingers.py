@@ -17,13 +17,22 @@ def register(sub) -> None:
         "speeds over u0 and the channel phi. Fingers are the fine-rich wet "
         "channels between coarse levees in x_f- <= x <= x_f+, joined into 2D "
         "objects (periodic in y) and counted once each if they reach --min-span "
-        "of x_l; or the median count on the cross-slope lines of --lines.",
+        "of x_l; or the median count on the cross-slope lines of --lines. Once the flow "
+        "has come to rest: when it stopped, the run-out x_f+ and the deposit thickness.",
     )
     p.add_argument("dir", metavar="DIR", help="run folder with fields.nc, or a fields.nc file")
     p.add_argument(
         "--time", type=float, default=None, metavar="T", help="only the output time T [s]"
     )
     p.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    p.add_argument(
+        "--rest-speed",
+        type=float,
+        default=None,
+        metavar="U",
+        help="the flow is at rest at an output time when no wet cell is faster than U [m/s] "
+        "(default 1e-6): then the deposit's run-out, thickness and stop time are reported",
+    )
     g = p.add_argument_group("counting (defaults from the stored scene and the grid)")
     g.add_argument(
         "--phi-threshold",
@@ -113,6 +122,12 @@ def run(args) -> int:
                 f"--{name.replace('_', '-')}={value!r} must be a length >= 0 [m]",
             )
             opts[name] = value
+    if args.rest_speed is not None:
+        require(
+            math.isfinite(args.rest_speed) and args.rest_speed >= 0,
+            f"--rest-speed={args.rest_speed!r} must be a speed >= 0 [m/s]",
+        )
+        opts["rest_speed"] = args.rest_speed
     res = analyse_run(args.dir, time=args.time, **opts)
     if args.json:
         print_json(res)
@@ -157,4 +172,34 @@ def run(args) -> int:
     print("  ".join(title.rjust(w) for (title, _, _), w in zip(cols, widths)))
     for r in rows:
         print("  ".join(cell.rjust(w) for cell, w in zip(r, widths)))
+    print(_deposit_line(res["deposit"], res["time"][-1] if res["time"] else None))
     return 0
+
+
+def _deposit_line(d: dict, t_last) -> str:
+    """One line on the deposit: when the flow stopped, its run-out and thickness."""
+    last = d["max_speed"][-1] if d["max_speed"] else None
+    if not d["stopped"]:
+        speed = "no wet cell" if last is None else f"max |u| = {last:.3g} m/s"
+        return (
+            f"deposit: the flow has not come to rest by the last output time ({speed} > "
+            f"{d['rest_speed']:g} m/s)"
+        )
+    since = (
+        f"between t = {d['moving_until']:g} and {d['stop_time']:g} s"
+        if d["moving_until"] is not None
+        else f"by t = {d['stop_time']:g} s"
+    )
+    if d["run_out"] is None:
+        return f"deposit: at rest {since}, nothing left on the chute"
+
+    def mm(v):
+        return "-" if v is None else f"{1e3 * v:.3g} mm"
+
+    bound = " (reaches the domain end: a lower bound)" if d["run_out_at_domain_end"] else ""
+    return (
+        f"deposit: at rest {since}; run-out x_f+ = {d['run_out']:.4f} m{bound}; thickness "
+        f"mean {mm(d['thickness_mean'])}, max {mm(d['thickness_max'])}, channels "
+        f"{mm(d['channel_thickness'])}, levees {mm(d['levee_thickness'])}; area "
+        f"{d['area']:.4g} m^2, volume {d['volume']:.4g} m^3"
+    )

@@ -116,6 +116,11 @@ class TaichiOperator:
         # (row nslots: the boundary rates of a fused stage, whose rate has no slot)
         self.bud = ti.field(self.fp, shape=(nslots + 1, NBUDGET))
         self.phys = Physics(cfg, self.par)
+        # With the projected friction: which cells were at rest at the start of the step, the
+        # state in slot 0 (_rest_face). Recomputed at the first preparation after slot 0 is
+        # written, so every stage of a step sees the same rest faces.
+        self.rest = ti.field(ti.i8, shape=(NX, NY)) if self.phys.fr_projected else None
+        self._rest_stale = True
         self.set_params(cfg)
         self.t = 0.0
 
@@ -136,6 +141,7 @@ class TaichiOperator:
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
         self.cfg = cfg
         self._prepared = self._interior = None
+        self._rest_stale = True
         # a new h_min may make films outside the active range wet (the range is set before
         # the first call, in __init__)
         self.set_active(self.gx, self.gx + self.nx)
@@ -179,6 +185,7 @@ class TaichiOperator:
 
     def set(self, slot: int, arr: np.ndarray) -> None:
         self._prepared = self._interior = None
+        self._rest_stale = self._rest_stale or slot == 0
         self.set_active(self.gx, self.gx + self.nx)  # wet cells may now lie anywhere
         full = self.q.to_numpy()
         full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
@@ -427,21 +434,37 @@ class TaichiOperator:
         self._boundary_rates(d)
 
     @ti.func
-    def _rest_face(self, F, w0, w1):
+    def _rest_face(self, F, i0, j0, i1, j1):
         """With the projected friction scheme, no mass (and no h phi) crosses a face between
         two cells at rest: the central schemes' dissipation a/2 (h_r - h_l) would otherwise
         let a deposit's surface relax for ever. The momentum flux stays (the pressure), and
-        the friction projection decides whether the cells start to move."""
+        the friction projection decides whether the cells start to move.
+
+        "At rest" is read from the step's initial state (_mark_rest), not from the stage's: a
+        cell that the first stage stops must not switch its faces off for the later ones. The
+        rates of a step are then one smooth function, which RKC's stage weights (of both
+        signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a thin cell next
+        to a deposit below zero, and the limiter's clip then created mass."""
         out = F
         if ti.static(self.phys.fr_projected):
-            rest = w0[1] == 0.0 and w1[1] == 0.0
-            if ti.static(not self.is_1d):
-                rest = rest and w0[self.HV] == 0.0 and w1[self.HV] == 0.0
-            if rest:
+            if self.rest[i0, j0] == 1 and self.rest[i1, j1] == 1:
                 out[0] = 0.0
                 if ti.static(self.seg):
                     out[self.HPHI] = 0.0
         return out
+
+    @ti.kernel
+    def _mark_rest(self):
+        """rest := 1 where the prepared primitives have u = v = 0 (the cells the faces near the
+        active range read; further out no face flux is computed)."""
+        lo = ti.max(self.act[0] - 4, 0)
+        hi = ti.min(self.act[1] + 4, self.NX)
+        for i, j in ti.ndrange((lo, hi), (0, self.NY)):
+            w = self.w[i, j]
+            r = w[1] == 0.0
+            if ti.static(not self.is_1d):
+                r = r and w[self.HV] == 0.0
+            self.rest[i, j] = ti.cast(r, ti.i8)
 
     @ti.func
     def _x_face(self, i, j):
@@ -458,7 +481,7 @@ class TaichiOperator:
                 wl = w0 + 0.5 * self.sx[i, j]
                 wr = w1 - 0.5 * self.sx[i + 1, j]
             F = self._face_flux(wl, wr, 0)
-            F = self._rest_face(F, w0, w1)
+            F = self._rest_face(F, i, j, i + 1, j)
         if ti.static(self.visc):
             K = self._face_K(w0[0], w1[0])
             F[1] -= K * (w1[1] - w0[1]) * idx
@@ -488,7 +511,7 @@ class TaichiOperator:
                 wl = w0 + 0.5 * self.sy[i, j]
                 wr = w1 - 0.5 * self.sy[i, j + 1]
             F = self._face_flux(wl, wr, 1)
-            F = self._rest_face(F, w0, w1)
+            F = self._rest_face(F, i, j, i, j + 1)
         if ti.static(self.visc):
             idx = self.par[Params.INV_DX]
             idy = self.par[Params.INV_DY]
@@ -909,17 +932,21 @@ class TaichiOperator:
         computes only the ghost cells' ones. Any write to the slot, a parameter change or a
         new active range makes these caches stale."""
         key = (slot, t, self.active)
-        if self._prepared == key:
-            return
-        self._set_time(t)
-        if self._interior == (slot, self.active):
-            self._ghosts_edges_slopes(slot, self.serial_loops())
-        else:
-            self._ghosts_primitives_slopes(slot, self.serial_loops())
-        self._prepared = key
+        if self._prepared != key:
+            self._set_time(t)
+            if self._interior == (slot, self.active):
+                self._ghosts_edges_slopes(slot, self.serial_loops())
+            else:
+                self._ghosts_primitives_slopes(slot, self.serial_loops())
+            self._prepared = key
+        if self.rest is not None and self._rest_stale:  # a step begins: slot 0 was written
+            self._mark_rest()
+            self._rest_stale = False
 
     def _written(self, dst: int, primitives: bool = False) -> None:
         """Slot dst changed; with ``primitives`` its interior primitives are now in w."""
+        if dst == 0:
+            self._rest_stale = True
         if primitives:
             self._prepared = None
             self._interior = (dst, self.active)
