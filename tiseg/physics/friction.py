@@ -158,6 +158,19 @@ def _pouliquen_ti(ti, par, b: int):
     return one
 
 
+def _mixture_ti(ti, par, small, large):
+    """(3.4) of two species' laws one(h, Fr): mu(h, |u|, phi) = phi mu^S + (1 - phi) mu^L."""
+
+    @ti.func
+    def mu(h, spd, phi):
+        fr = spd / ti.sqrt(par[Params.G_COS] * h)
+        mus = small(h, fr)
+        mul = large(h, fr)
+        return phi * mus + (1.0 - phi) * mul
+
+    return mu
+
+
 class PouliquenMixture(FrictionLaw):
     """(3.4): phi mu^S + (1 - phi) mu^L, each species by (3.7): the paper's law."""
 
@@ -182,12 +195,7 @@ class PouliquenMixture(FrictionLaw):
         small = _pouliquen_ti(ti, par, base)
         large = _pouliquen_ti(ti, par, base + 4)
 
-        @ti.func
-        def mu(h, spd, phi):
-            fr = spd / ti.sqrt(par[Params.G_COS] * h)
-            mus = small(h, fr)
-            mul = large(h, fr)
-            return phi * mus + (1.0 - phi) * mul
+        mu = _mixture_ti(ti, par, small, large)
 
         @ti.func
         def mu_start(h, phi):
@@ -312,12 +320,7 @@ class PouliquenExtended(FrictionLaw):
         small, small_start = species(base)
         large, large_start = species(base + n)
 
-        @ti.func
-        def mu(h, spd, phi):
-            fr = spd / ti.sqrt(par[Params.G_COS] * h)
-            mus = small(h, fr)
-            mul = large(h, fr)
-            return phi * mus + (1.0 - phi) * mul
+        mu = _mixture_ti(ti, par, small, large)
 
         @ti.func
         def mu_start(h, phi):
