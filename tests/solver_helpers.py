@@ -24,6 +24,38 @@ def table1_friction(m=TABLE1, coulomb_mu=0.36):
     )
 
 
+def rates_equal_reference(cfg, q):
+    """The Taichi rates of q against the NumPy reference's, to 1e-12 of each component's
+    largest rate; returns (op, ref, Taichi rates) for further stages (slots 0..2 in use)."""
+    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.reference import ReferenceOperator
+
+    op = TaichiOperator(cfg, nslots=3)
+    ref = ReferenceOperator(cfg)
+    op.set(0, q)
+    op.rhs(0, 1, 0.0)
+    r_ti, r_np = op.get(1), ref.rhs(q.copy(), 0.0)
+    ix, iy = cfg.layout.interior()
+    scale = np.abs(r_np)[:, ix, iy].max(axis=(1, 2))
+    assert np.all(np.abs(r_ti - r_np)[:, ix, iy].max(axis=(1, 2)) <= 1e-12 * scale)
+    return op, ref, r_ti
+
+
+def projected_stage_equals_reference(op, ref, q, r_ti, dt, tau):
+    """One limited Euler stage q + dt L(q) with the friction projected over tau, against the
+    reference's limiter + project_friction; returns the Taichi result (slot 2)."""
+    lay = op.cfg.layout
+    op.combine(2, [(1.0, 0), (dt, 1)], limit=True, tau=tau, rates=(1,))
+    a = op.get(2)
+    b = q + dt * r_ti
+    ref.postprocess(b)
+    ref.project_friction(b, tau)
+    ix, iy = lay.interior()
+    for c in range(lay.nc):
+        assert np.allclose(a[c][ix, iy], b[c][ix, iy], rtol=1e-12, atol=1e-18), c
+    return a
+
+
 def make_config(nx, ny, segregation=True, **kw):
     defaults = dict(
         dx=0.01,

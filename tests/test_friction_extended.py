@@ -13,11 +13,16 @@ import math
 import numpy as np
 import pytest
 
-from solver_helpers import PERIODIC, make_config, random_state
+from solver_helpers import (
+    PERIODIC,
+    make_config,
+    projected_stage_equals_reference,
+    random_state,
+    rates_equal_reference,
+)
 from tiseg.errors import InputError
 from tiseg.material import Material
 from tiseg.physics.friction import FRICTION_LAWS, h_stop
-from tiseg.reference import ReferenceOperator
 from tiseg.scene import scene_from_dict
 from tiseg.simulation import Simulation
 
@@ -83,7 +88,6 @@ def test_taichi_law_and_projection_equal_the_numpy_twins(ti_cpu, scheme):
     """Rates (with the friction in the source when regularised) and one projected Euler stage
     equal the reference, on a state with cells in all three regimes: fast, slower than beta*,
     and at rest (some of which start and some of which hold)."""
-    from tiseg.numerics.operator import TaichiOperator
 
     rng = np.random.default_rng(11)
     cfg = make_config(
@@ -100,24 +104,11 @@ def test_taichi_law_and_projection_equal_the_numpy_twins(ti_cpu, scheme):
     pick = rng.random((lay.NX, lay.NY))
     for c in (lay.HU, lay.HV):  # 30 % at rest, 30 % at Fr ~ 0.01-0.1
         q[c] = np.where(pick < 0.3, 0.0, np.where(pick < 0.6, 0.05 * q[c], q[c]))
-    op = TaichiOperator(cfg, nslots=3)
-    ref = ReferenceOperator(cfg)
-    op.set(0, q)
-    op.rhs(0, 1, 0.0)
-    r_ti, r_np = op.get(1), ref.rhs(q.copy(), 0.0)
-    ix, iy = lay.interior()
-    scale = np.abs(r_np)[:, ix, iy].max(axis=(1, 2))
-    assert np.all(np.abs(r_ti - r_np)[:, ix, iy].max(axis=(1, 2)) <= 1e-12 * scale)
+    op, ref, r_ti = rates_equal_reference(cfg, q)
     if scheme == "regularised":
         return
-    dt, tau = 2e-3, 2e-3
-    op.combine(2, [(1.0, 0), (dt, 1)], limit=True, tau=tau, rates=(1,))
-    a = op.get(2)
-    b = q + dt * r_ti
-    ref.postprocess(b)
-    ref.project_friction(b, tau)
-    for c in range(lay.nc):
-        assert np.allclose(a[c][ix, iy], b[c][ix, iy], rtol=1e-12, atol=1e-18), c
+    a = projected_stage_equals_reference(op, ref, q, r_ti, 2e-3, 2e-3)
+    ix, iy = lay.interior()
     wet = q[lay.H][ix, iy] >= cfg.h_min
     was_rest = (pick[ix, iy] < 0.3) & wet
     starts = (a[lay.HU][ix, iy] != 0) & was_rest

@@ -16,8 +16,15 @@ import math
 import numpy as np
 import pytest
 
-from solver_helpers import OPEN, PERIODIC, coulomb_scene, make_config, random_state
-from tiseg.reference import ReferenceOperator
+from solver_helpers import (
+    OPEN,
+    PERIODIC,
+    coulomb_scene,
+    make_config,
+    projected_stage_equals_reference,
+    random_state,
+    rates_equal_reference,
+)
 from tiseg.simulation import Simulation
 
 G = 9.81
@@ -37,7 +44,6 @@ def test_projection_and_rates_equal_the_numpy_twin(ti_cpu, effects):
     (no friction in the source, no mass across faces between cells at rest) equal the
     reference's. Half the cells are at rest, some so slow that they stop, so both branches of
     the projection and the rest faces are exercised."""
-    from tiseg.numerics.operator import TaichiOperator
 
     rng = np.random.default_rng(7)
     seg = effects.pop("segregation")
@@ -56,27 +62,14 @@ def test_projection_and_rates_equal_the_numpy_twin(ti_cpu, effects):
     slow = rng.random((lay.NX, lay.NY)) < 0.2
     for c in (lay.HU, lay.HV):
         q[c] = np.where(rest, 0.0, np.where(slow, 1e-4 * q[lay.H], q[c]))
-    op = TaichiOperator(cfg, nslots=3)
-    ref = ReferenceOperator(cfg)
-    op.set(0, q)
-    op.rhs(0, 1, 0.0)
-    r_ti, r_np = op.get(1), ref.rhs(q.copy(), 0.0)
+    op, ref, r_ti = rates_equal_reference(cfg, q)
     ix, iy = lay.interior()
-    scale = np.abs(r_np)[:, ix, iy].max(axis=(1, 2))
-    assert np.all(np.abs(r_ti - r_np)[:, ix, iy].max(axis=(1, 2)) <= 1e-12 * scale)
     # the h rate vanishes wherever a cell and its four neighbours are at rest
     still = rest[1:-1, 1:-1] & rest[:-2, 1:-1] & rest[2:, 1:-1] & rest[1:-1, :-2] & rest[1:-1, 2:]
     assert still.any() and np.all(r_ti[lay.H, 1:-1, 1:-1][still] == 0.0)
     # one Euler stage with the projection, over a tau long enough that the slow cells stop
     # whatever their neighbours push into them
-    dt, tau = 2e-3, 5e-2
-    op.combine(2, [(1.0, 0), (dt, 1)], limit=True, tau=tau, rates=(1,))
-    a = op.get(2)
-    b = q + dt * r_ti
-    ref.postprocess(b)
-    ref.project_friction(b, tau)
-    for c in range(lay.nc):
-        assert np.allclose(a[c][ix, iy], b[c][ix, iy], rtol=1e-12, atol=1e-18), c
+    a = projected_stage_equals_reference(op, ref, q, r_ti, 2e-3, 5e-2)
     stopped = (a[lay.HU][ix, iy] == 0) & (a[lay.H][ix, iy] >= cfg.h_min)
     moving = (a[lay.HU][ix, iy] != 0) & (a[lay.H][ix, iy] >= cfg.h_min)
     assert stopped.sum() >= 3 and moving.sum() >= 3

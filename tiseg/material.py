@@ -205,10 +205,15 @@ def mu_pouliquen(h, Fr, sp: Species):
 
     mu = mu1 + (mu2 - mu1) / (beta h / (L Fr) + 1) = mu1 + (mu2 - mu1) L Fr / (beta h + L Fr).
     """
+    return pouliquen(h, Fr, sp.mu1, sp.mu2, sp.beta, sp.L)
+
+
+def pouliquen(h, Fr, mu1, mu2, beta, L):
+    """(3.7) from its four constants, division-free at Fr = 0 (arrays or floats)."""
     h = np.asarray(h, dtype=float)
     Fr = np.asarray(Fr, dtype=float)
-    x = sp.L * Fr
-    return sp.mu1 + (sp.mu2 - sp.mu1) * x / (sp.beta * h + x)
+    x = L * Fr
+    return mu1 + (mu2 - mu1) * x / (beta * h + x)
 
 
 def G_linear(phi, alpha: float = 1.0 / 7.0):

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..material import pouliquen as _pouliquen_np  # (3.7), the NumPy closures' own
 from .params import Params
 
 
@@ -104,12 +105,6 @@ class Coulomb(FrictionLaw):
 # ---- Pouliquen-Forterre (3.7) ------------------------------------------------------------------
 def _froude_np(c, h, speed):
     return speed / np.sqrt(c.g_cos * h)  # (6.5)
-
-
-def _pouliquen_np(h, fr, mu1, mu2, beta, L):
-    """(3.7): mu1 + (mu2 - mu1) / (beta h / (L Fr) + 1), division-free at Fr = 0."""
-    x = L * fr
-    return mu1 + (mu2 - mu1) * x / (beta * h + x)
 
 
 def _species(fric, s: str) -> list[float]:

@@ -33,7 +33,6 @@ class Physics:
         # the friction law as a component: its Taichi functions read its slots from COUNT on
         self.law = FRICTION_LAWS[cfg.friction]
         self.fr_none = cfg.friction == "none"
-        self.hysteresis = self.law.hysteresis
         # SPIR-V (Vulkan) has no 64-bit pow: the extended law's power is then taken in f32
         f32_pow = par.dtype == ti.f64 and ti.lang.impl.current_cfg().arch == ti.vulkan
         self._mu, self._mu_start = self.law.taichi(ti, par, Params.COUNT, f32_pow)
@@ -119,23 +118,26 @@ class Physics:
         return phi - self.G(phi)
 
     @ti.func
+    def _weight(self, phi):
+        """The concentration a mixture law weights with: the local phi with mobility
+        feedback, else flow.phi0."""
+        ph = self.par[Params.PHI_REF]
+        if ti.static(self.feedback):
+            ph = phi
+        return ph
+
+    @ti.func
     def mu_b(self, h, spd, phi):
         """Basal friction coefficient of the scene's law at thickness h and speed spd
         (tiseg.physics.friction); phi weights a mixture (3.4) with mobility feedback, else
         flow.phi0 does."""
-        ph = self.par[Params.PHI_REF]
-        if ti.static(self.feedback):
-            ph = phi
-        return self._mu(h, spd, ph)
+        return self._mu(h, spd, self._weight(phi))
 
     @ti.func
     def mu_start(self, h, phi):
         """The largest coefficient at rest: mu_S(h) of a law with hysteresis, else mu_b at
         zero speed."""
-        ph = self.par[Params.PHI_REF]
-        if ti.static(self.feedback):
-            ph = phi
-        return self._mu_start(h, ph)
+        return self._mu_start(h, self._weight(phi))
 
     @ti.func
     def speed_mag(self, w):
@@ -206,7 +208,7 @@ class Physics:
                 phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
             imp = tau * self.par[Params.G_COS] * self.mu_b(h, m / h, phi) * h
             f = 0.0 * h
-            if ti.static(self.hysteresis):
+            if ti.static(self.law.hysteresis):
                 # a cell starts (or keeps moving) only if the static friction mu_S(h) cannot
                 # hold it; a moving one then shrinks by the friction of its speed
                 if m > tau * self.par[Params.G_COS] * self.mu_start(h, phi) * h:
