@@ -29,6 +29,18 @@ def test_steady_json(capsys):
     assert round(o["F"], 2) == 1.57 and round(o["u0"], 3) == 0.208
 
 
+def test_steady_with_bagnold_transport(capsys):
+    """--transport bagnold: the same steady flow (G plays no part in (4.2)), and the critical
+    Froude number of (5.27) from the Bagnold G'(phi0) = 5/3 (1 - phi0)^{3/2} - 2/3."""
+    lin = run_json(capsys, ["steady", "--h0", "0.002", "--phi0", "0.8", "--json"])
+    bag = run_json(
+        capsys, ["steady", "--h0", "0.002", "--phi0", "0.8", "--transport", "bagnold", "--json"]
+    )
+    assert bag["F"] == lin["F"] and bag["u0"] == lin["u0"]
+    assert bag["Fc"] == pytest.approx(1.0 / abs(5 / 3 * 0.2**1.5 - 2 / 3), rel=1e-13)
+    assert bag["Fc"] != lin["Fc"]
+
+
 def test_stability_json(capsys):
     o = run_json(
         capsys,

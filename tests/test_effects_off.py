@@ -10,9 +10,10 @@ the test can fail.
 import math
 
 import numpy as np
+import pytest
 
 from solver_helpers import make_config, random_state
-from tiseg.physics.pointwise import Params
+from tiseg.physics.pointwise import Params, slot_bases
 
 
 def _rhs(cfg, q, poison=(), value=math.nan):
@@ -31,24 +32,25 @@ def _state(cfg, seed=0):
     return random_state(cfg.layout, np.random.default_rng(seed), smooth=True)
 
 
-VISCOUS = [Params.NU]
 POISONS = (math.nan, math.inf)  # a number that reaches a result makes it non-finite
 
 
 def _friction_slots(cfg):
     """Indices of the friction law's own numbers in the parameter field."""
-    from tiseg.physics.friction import FRICTION_LAWS
-
-    return list(range(Params.COUNT, Params.COUNT + len(FRICTION_LAWS[cfg.friction].slots)))
+    b = slot_bases(cfg)
+    return list(range(b["friction"], b["end"]))
 
 
 def test_viscosity_off_has_no_viscous_code(ti_cpu):
-    # nu = inf: any viscous face coefficient becomes inf/inf = NaN
+    """Without viscosity the parameter field has no nu slot (nothing the kernels could read);
+    with it, nu is one slot and nu = inf makes every viscous face coefficient inf/inf = NaN."""
     off = make_config(8, 6, viscous=False, bc=("periodic",) * 4)
-    r, _ = _rhs(off, _state(off), poison=VISCOUS, value=math.inf)
+    assert "viscosity" not in slot_bases(off)
+    r, _ = _rhs(off, _state(off))
     assert np.isfinite(r).all()
     on = make_config(8, 6, viscous=True, bc=("periodic",) * 4)
-    r_on, _ = _rhs(on, _state(on), poison=VISCOUS, value=math.inf)
+    assert slot_bases(on)["friction"] == slot_bases(off)["friction"] + 1
+    r_on, _ = _rhs(on, _state(on), poison=[slot_bases(on)["viscosity"]], value=math.inf)
     assert not np.isfinite(r_on).all()
 
 
@@ -57,7 +59,8 @@ def test_friction_none_has_no_friction_code(ti_cpu):
     of its numbers reaches the result (poisoned with NaN, one at a time)."""
     off = make_config(8, 6, friction="none", bc=("periodic",) * 4)
     r, op = _rhs(off, _state(off))
-    assert np.isfinite(r).all() and op.par.shape == (Params.COUNT,)
+    # the common numbers, the linear transport function's 1 - alpha and nu, nothing else
+    assert np.isfinite(r).all() and op.par.shape == (Params.COUNT + 2,)
     for law in ("pouliquen-mixture", "pouliquen-extended", "coulomb", "pouliquen-small"):
         on = make_config(8, 6, friction=law, bc=("periodic",) * 4)
         q = _state(on)
@@ -87,7 +90,7 @@ def test_one_friction_law_compiles_no_other(ti_cpu):
     assert len(_friction_slots(mix)) == 8 and len(_friction_slots(ext)) == 12
     q = _state(mix)
     r_mix, op = _rhs(mix, q)
-    assert op.par.shape == (Params.COUNT + 8,)
+    assert op.par.shape == (Params.COUNT + 2 + 8,)
     # the extended law in its dynamic regime (every Froude number above beta*) is (3.4), (3.7)
     r_ext, _ = _rhs(ext, q)
     w_fr = _froude(mix, q)
@@ -95,6 +98,25 @@ def test_one_friction_law_compiles_no_other(ti_cpu):
         assert np.allclose(r_ext, r_mix, rtol=1e-13, atol=1e-15)
     else:
         assert not np.array_equal(r_ext, r_mix)
+
+
+@pytest.mark.parametrize("transport", ["linear", "bagnold"])
+def test_segregation_off_has_no_transport_code(ti_cpu, transport):
+    """Without segregation there is no phi field and no transport slot; with it, the linear
+    function's 1 - alpha reaches the result (poisoned with NaN) and the Bagnold function has
+    no slot at all (the friction law's numbers follow the common ones directly)."""
+    kw = dict(transport=transport, viscous=False, bc=("periodic",) * 4)
+    off = make_config(8, 6, segregation=False, **kw)
+    b = slot_bases(off)
+    assert "transport" not in b and b["friction"] == Params.COUNT
+    on = make_config(8, 6, **kw)
+    b = slot_bases(on)
+    assert b["friction"] - b["transport"] == (1 if transport == "linear" else 0)
+    if transport == "linear":
+        r, _ = _rhs(on, _state(on), poison=[b["transport"]])
+        assert not np.isfinite(r).all()
+        r_clean, _ = _rhs(on, _state(on))
+        assert np.isfinite(r_clean).all()
 
 
 def _froude(cfg, q):

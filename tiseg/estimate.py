@@ -64,6 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from .numerics.config import config_from_scene
+from .physics.viscosity import VISCOSITY
 from .physics.friction import FRICTION_LAWS
 
 # Flow-model constants (see the module docstring for where they come from).
@@ -109,11 +110,11 @@ def flow_model(scene) -> FlowModel:
     """The flow model of a scene from its steady state and set-up."""
     m, fl = scene.material, scene.flow
     gc = m.g * math.cos(m.zeta)
-    alpha1 = 1.0 - m.alpha
 
     def seg(u, phi):
-        # segregation wave speed |u (1 - G'(phi))| (5.26); none without a phi field
-        return abs(u * (1.0 - alpha1 * (1.0 - 2.0 * phi))) if scene.segregation else 0.0
+        # segregation wave speed |u (1 - G'(phi))| (5.26) of the scene's transport function;
+        # none without a phi field
+        return abs(u * (1.0 - float(m.dG(phi)))) if scene.segregation else 0.0
 
     def speed(u, h, phi):
         return max(abs(u) + math.sqrt(gc * max(h, 0.0)), seg(u, phi))
@@ -245,16 +246,10 @@ def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, flo
     if scene.has_inflow:  # the run never plans with less than the inflow's speed
         ax = max(ax, model.ax(0.0))
     rho_v = 0.0
-    if scene.viscous:
-        h = model.h_max(t)
-        s = 4.0 * scene.flow.nu * math.sqrt(max(h, 0.0))  # sum over faces of K (1/h + 1/h)
-        dx, dy = scene.dx, scene.dy
-        if scene.is_1d:
-            rho_v = s / dx**2
-        else:
-            rho_v = max(
-                s / dx**2 + 0.5 * s / dy**2, 0.5 * s / dx**2 + s / dy**2
-            ) + 0.125 * 2 * s / (dx * dy)
+    if scene.viscous:  # the run's Gershgorin bound for uniform h_max (tiseg.physics.viscosity)
+        rho_v = VISCOSITY.stiffness_uniform(
+            scene.flow.nu, model.h_max(t), scene.dx, scene.dy, scene.is_1d
+        )
     rho_f = 0.0
     # a projected friction is no part of the explicit stages (Physics.project_friction)
     fric_source = scene.numerics.friction_scheme == "regularised"

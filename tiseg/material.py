@@ -7,7 +7,7 @@ Pure NumPy functions, vectorised over arrays; the Taichi kernels have ``ti.func`
   ``mu1 + (mu2 - mu1) * L Fr / (beta h + L Fr)`` so that Fr = 0 (material at rest) is regular.
 * Concentration-weighted mixture, eq. (3.4).
 * Transport functions G: linear shear profile (2.17) for any alpha (default 1/7) and the Bagnold
-  profile (2.18).
+  profile (2.18), through the components of :mod:`tiseg.physics.segregation`.
 * Monodisperse viscosity coefficient (3.8), defined only for zeta_1 < zeta < zeta_2.
 """
 
@@ -19,6 +19,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from .errors import InputError, require
+from .physics.segregation import TRANSPORTS
 
 GRAVITY = 9.81
 DEFAULT_START_GAP_DEG = 1.0  # zeta3 - zeta1 when a species gives no zeta3_deg
@@ -92,8 +93,8 @@ class Material:
         )
         require(0.0 <= self.alpha <= 1.0, f"material.alpha={self.alpha!r} must lie in [0, 1]")
         require(
-            self.transport in ("linear", "bagnold"),
-            f"material.transport={self.transport!r}: choose 'linear' or 'bagnold'",
+            self.transport in TRANSPORTS,
+            f"material.transport={self.transport!r}: choose one of {', '.join(TRANSPORTS)}",
         )
         require(self.g > 0, f"material.g={self.g!r} must be positive")
         require(self.chi == 1.0, "material.chi: only chi = 1 is supported by the model (section 3)")
@@ -153,16 +154,13 @@ class Material:
 
     # ---- transport function -------------------------------------------------------------
     def G(self, phi):
-        """Transport function G(phi): (2.17) with this alpha, or (2.18)."""
-        if self.transport == "linear":
-            return G_linear(phi, self.alpha)
-        return G_bagnold(phi)
+        """Transport function G(phi): (2.17) with this alpha, or (2.18)
+        (:mod:`tiseg.physics.segregation`)."""
+        return TRANSPORTS[self.transport].G_np(phi, self.alpha)
 
     def dG(self, phi):
         """dG/dphi."""
-        if self.transport == "linear":
-            return dG_linear(phi, self.alpha)
-        return dG_bagnold(phi)
+        return TRANSPORTS[self.transport].dG_np(phi, self.alpha)
 
     # ---- friction -------------------------------------------------------------------------
     def froude(self, h, speed):
@@ -214,40 +212,6 @@ def pouliquen(h, Fr, mu1, mu2, beta, L):
     Fr = np.asarray(Fr, dtype=float)
     x = L * Fr
     return mu1 + (mu2 - mu1) * x / (beta * h + x)
-
-
-def G_linear(phi, alpha: float = 1.0 / 7.0):
-    """G_L = (1 - alpha) phi (1 - phi), eq. (2.17)."""
-    phi = np.asarray(phi, dtype=float)
-    return (1.0 - alpha) * phi * (1.0 - phi)
-
-
-def dG_linear(phi, alpha: float = 1.0 / 7.0):
-    phi = np.asarray(phi, dtype=float)
-    return (1.0 - alpha) * (1.0 - 2.0 * phi)
-
-
-def G_bagnold(phi):
-    """G_B = 2/3 (1 - phi)(1 - (1 - phi)^(3/2)), eq. (2.18); phi is clipped to [0, 1] first
-    because (1 - phi)^(3/2) is complex for phi > 1 (the reason the paper prefers (2.17))."""
-    c = 1.0 - np.clip(np.asarray(phi, dtype=float), 0.0, 1.0)
-    return (2.0 / 3.0) * c * (1.0 - c**1.5)
-
-
-def dG_bagnold(phi):
-    c = 1.0 - np.clip(np.asarray(phi, dtype=float), 0.0, 1.0)
-    # d/dphi [2/3 (c - c^{5/2})] with dc/dphi = -1
-    return -(2.0 / 3.0) * (1.0 - 2.5 * c**1.5)
-
-
-def shear_profile_linear(zhat, alpha: float = 1.0 / 7.0):
-    """f_L(z) = alpha + 2 (1 - alpha) z, eq. (2.12)."""
-    return alpha + 2.0 * (1.0 - alpha) * np.asarray(zhat, dtype=float)
-
-
-def shear_profile_bagnold(zhat):
-    """f_B(z) = 5/3 (1 - (1 - z)^(3/2)), eq. (2.13)."""
-    return (5.0 / 3.0) * (1.0 - (1.0 - np.asarray(zhat, dtype=float)) ** 1.5)
 
 
 def nu_monodisperse(zeta_deg: float, sp: Species, g: float = GRAVITY) -> float:

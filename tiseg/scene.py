@@ -45,6 +45,7 @@ from .numerics.config import (
     FRICTION_SCHEMES,
     PHI_FLUXES,
     STEP_RULES,
+    TRANSPORTS as _TRANSPORTS,
     inflow_concentration,
     noise_modes,
 )
@@ -55,7 +56,7 @@ from .data import SCENE_DIR, builtin_file, builtin_names
 
 # ---- allowed choices ----------------------------------------------------------------------------
 FRICTION_LAWS = _FRICTION_LAWS  # effects.friction: the registry of tiseg.physics.friction
-TRANSPORTS = ("linear", "bagnold")
+TRANSPORTS = _TRANSPORTS  # material.transport: the registry of tiseg.physics.segregation
 RECONSTRUCTIONS = ("weno", "minmod", "first-order")
 OUTPUT_PRECISIONS = ("f8", "f4")
 RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}

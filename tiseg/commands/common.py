@@ -13,6 +13,7 @@ from pathlib import Path
 from ..backend import ARCHS
 from ..errors import InputError
 from ..material import Material
+from ..physics.segregation import TRANSPORTS
 from ..output.diagnostics import json_clean
 
 
@@ -21,6 +22,12 @@ def add_material_options(p) -> None:
     g = p.add_argument_group("material (Table 1 by default)")
     g.add_argument("--zeta", type=float, default=None, metavar="DEG", help="slope angle [deg] (27)")
     g.add_argument("--alpha", type=float, default=None, help="shear-profile slip alpha (1/7)")
+    g.add_argument(
+        "--transport",
+        choices=TRANSPORTS,
+        default=None,
+        help="transport function G: linear (2.17), the paper's, or bagnold (2.18) (linear)",
+    )
 
 
 def material_from_args(args) -> Material:
@@ -30,6 +37,8 @@ def material_from_args(args) -> Material:
         changes["zeta_deg"] = args.zeta
     if getattr(args, "alpha", None) is not None:
         changes["alpha"] = args.alpha
+    if getattr(args, "transport", None) is not None:
+        changes["transport"] = args.transport
     return m.with_(**changes) if changes else m
 
 

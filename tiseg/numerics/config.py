@@ -20,8 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..physics.friction import FRICTION_LAWS as _LAWS
+from ..physics.segregation import TRANSPORTS as _TRANSPORTS
 
 FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registered laws (tiseg.physics.friction)
+TRANSPORTS = tuple(_TRANSPORTS)  # material.transport: G(phi) (tiseg.physics.segregation)
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 FLUXES = ("kt", "central-upwind")  # numerics.flux: face flux of the whole system
 PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of that flux
@@ -163,6 +165,7 @@ class OperatorConfig:
     # physics numbers
     g: float = 9.81
     zeta: float = math.radians(27.0)
+    transport: str = "linear"  # G(phi): "linear" (2.17) or "bagnold" (2.18)
     alpha: float = 1.0 / 7.0  # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
     nu: float = 0.0
     phi_ref: float = 0.8  # concentration used by the friction when feedback is off
@@ -194,6 +197,7 @@ class OperatorConfig:
 
     def __post_init__(self):
         assert self.friction in FRICTION_LAWS, self.friction
+        assert self.transport in TRANSPORTS, self.transport
         assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
         assert self.flux in FLUXES, self.flux
         assert self.phi_flux in PHI_FLUXES, self.phi_flux
@@ -241,13 +245,6 @@ class OperatorConfig:
 def config_from_scene(scene) -> OperatorConfig:
     """The operator's view of a :class:`tiseg.scene.Scene`."""
     m = scene.material
-    if scene.segregation and m.transport != "linear":
-        from ..errors import InputError
-
-        raise InputError(
-            f"material.transport={m.transport!r}: the solver implements the quadratic "
-            "transport function (2.17) used throughout the paper; use 'linear'"
-        )
     lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
     fric = FrictionParams(
         m.small.mu1,
@@ -290,6 +287,7 @@ def config_from_scene(scene) -> OperatorConfig:
         friction=scene.effects.friction,
         g=m.g,
         zeta=m.zeta,
+        transport=m.transport,
         alpha=m.alpha,
         nu=scene.flow.nu if scene.viscous else 0.0,
         phi_ref=scene.flow.phi0,

@@ -18,8 +18,7 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..physics.friction import FRICTION_LAWS
-from ..physics.pointwise import Params, Physics, param_count
+from ..physics.pointwise import Params, Physics, param_count, param_values
 from .config import OperatorConfig
 
 MAX_TERMS = 6
@@ -130,12 +129,11 @@ class TaichiOperator:
         P = Params
         p = np.zeros(param_count(cfg))
         p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
-        p[P.NU], p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.nu, cfg.h_min, cfg.h_eps**4, cfg.u_eps
+        p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.h_min, cfg.h_eps**4, cfg.u_eps
         p[P.THETA], p[P.WENO_EPS] = cfg.theta, cfg.weno_eps
-        p[P.ALPHA1], p[P.PHI_REF], p[P.DX], p[P.DY] = 1.0 - cfg.alpha, cfg.phi_ref, cfg.dx, cfg.dy
-        law = FRICTION_LAWS[cfg.friction]
-        if cfg.fric is not None and law.slots:  # the friction law's numbers, from COUNT on
-            p[P.COUNT :] = law.values(cfg.fric)
+        p[P.PHI_REF], p[P.DX], p[P.DY] = cfg.phi_ref, cfg.dx, cfg.dy
+        comp = param_values(cfg)  # the components' numbers, from COUNT on
+        p[P.COUNT : P.COUNT + len(comp)] = comp
         p[P.IN_U] = cfg.inflow_u
         p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
         p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
@@ -413,18 +411,6 @@ class TaichiOperator:
             F[self.HPHI] = F[0] * ph.transported(p)
         return F
 
-    @ti.func
-    def _face_K(self, ha, hb):
-        """Harmonic mean of nu h^{3/2} of two cells; zero if either is thinner than h_min."""
-        hmin = self.par[Params.H_MIN]
-        nu = self.par[Params.NU]
-        ka = nu * ha * ti.sqrt(ha)
-        kb = nu * hb * ti.sqrt(hb)
-        k = 0.0 * ha
-        if ha >= hmin and hb >= hmin and ka + kb > 0:
-            k = 2.0 * ka * kb / (ka + kb)
-        return k
-
     @ti.kernel
     def _rates(self, d: ti.i32, serial: ti.template()):
         """slot d := L from the prepared primitives and slopes: face fluxes, their divergence
@@ -482,9 +468,10 @@ class TaichiOperator:
                 wr = w1 - 0.5 * self.sx[i + 1, j]
             F = self._face_flux(wl, wr, 0)
             F = self._rest_face(F, i, j, i + 1, j)
-        if ti.static(self.visc):
-            K = self._face_K(w0[0], w1[0])
-            F[1] -= K * (w1[1] - w0[1]) * idx
+        if ti.static(self.visc):  # the viscous stress (tiseg.physics.viscosity)
+            ph = self.phys
+            K = ph.face_K(w0[0], w1[0])
+            F[1] -= ph.normal_stress(K, w1[1] - w0[1], idx)
             if ti.static(not self.is_1d):
                 HV = ti.static(self.HV)
                 idy = self.par[Params.INV_DY]
@@ -493,7 +480,7 @@ class TaichiOperator:
                     (self.w[i, j + 1][1] - self.w[i, j - 1][1])
                     + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])
                 ) * (0.25 * idy)
-                F[HV] -= 0.5 * K * ((w1[HV] - w0[HV]) * idx + dudy)
+                F[HV] -= ph.shear_stress(K, w1[HV] - w0[HV], idx, dudy)
         return F
 
     @ti.func
@@ -513,15 +500,16 @@ class TaichiOperator:
             F = self._face_flux(wl, wr, 1)
             F = self._rest_face(F, i, j, i, j + 1)
         if ti.static(self.visc):
+            ph = self.phys
             idx = self.par[Params.INV_DX]
             idy = self.par[Params.INV_DY]
-            K = self._face_K(w0[0], w1[0])
-            F[HV] -= K * (w1[HV] - w0[HV]) * idy
+            K = ph.face_K(w0[0], w1[0])
+            F[HV] -= ph.normal_stress(K, w1[HV] - w0[HV], idy)
             dvdx = (
                 (self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
                 + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])
             ) * (0.25 * idx)
-            F[1] -= 0.5 * K * ((w1[1] - w0[1]) * idy + dvdx)
+            F[1] -= ph.shear_stress(K, w1[1] - w0[1], idy, dvdx)
         return F
 
     @ti.func
@@ -832,29 +820,20 @@ class TaichiOperator:
                         if ti.static(self.visc):
                             h = w[0]
                             if h >= hmin and gx <= i < gx + nx:
-                                inv = 1.0 / h
-                                hp = self.w[i + 1, j][0]
-                                hm = self.w[i - 1, j][0]
-                                sxs = self._face_K(h, hp) * (
-                                    inv + 1.0 / ti.max(hp, hmin)
-                                ) + self._face_K(h, hm) * (inv + 1.0 / ti.max(hm, hmin))
-                                rho = sxs * (idx * idx)
+                                hn = h  # (not read in 1D)
+                                hs = h
                                 if ti.static(not self.is_1d):
                                     hn = self.w[i, j + 1][0]
                                     hs = self.w[i, j - 1][0]
-                                    sys = self._face_K(h, hn) * (
-                                        inv + 1.0 / ti.max(hn, hmin)
-                                    ) + self._face_K(h, hs) * (inv + 1.0 / ti.max(hs, hmin))
-                                    # the mixed derivatives couple u to 8 values of v with weights
-                                    # K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h
-                                    cross = 0.125 * (sxs + sys) * (idx * idy)
-                                    rho = (
-                                        ti.max(
-                                            sxs * (idx * idx) + 0.5 * sys * (idy * idy),
-                                            0.5 * sxs * (idx * idx) + sys * (idy * idy),
-                                        )
-                                        + cross
-                                    )
+                                rho = self.phys.visc_stiffness(
+                                    h,
+                                    self.w[i + 1, j][0],
+                                    self.w[i - 1, j][0],
+                                    hn,
+                                    hs,
+                                    idx,
+                                    idy,
+                                )
                                 m2 = ti.max(m2, rho)
                         m5 = ti.max(m5, rho + fr)
             ti.atomic_max(self.red[0], m0)

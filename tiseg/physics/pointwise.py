@@ -10,32 +10,74 @@ import taichi as ti
 
 from .friction import FRICTION_LAWS
 from .params import Params
+from .segregation import TRANSPORTS
+from .viscosity import VISCOSITY
 
-__all__ = ["Physics", "Params", "param_count"]
+__all__ = ["Physics", "Params", "param_count", "slot_bases"]
+
+
+def slot_bases(cfg) -> dict[str, int]:
+    """Where each component's numbers start in the parameter field: after the common slots
+    (:attr:`Params.COUNT`) come the transport function's (only with segregation), the
+    viscosity's (only with it), then the friction law's; ``"end"`` is the field's length. A
+    component that is off has no slots."""
+    bases = {}
+    b = Params.COUNT
+    if cfg.layout.segregation:
+        bases["transport"] = b
+        b += len(TRANSPORTS[cfg.transport].slots)
+    if cfg.viscous:
+        bases["viscosity"] = b
+        b += len(VISCOSITY.slots)
+    bases["friction"] = b
+    bases["end"] = b + len(FRICTION_LAWS[cfg.friction].slots)
+    return bases
 
 
 def param_count(cfg) -> int:
-    """Slots of the parameter field: the common ones and the friction law's."""
-    return Params.COUNT + len(FRICTION_LAWS[cfg.friction].slots)
+    """Slots of the parameter field: the common ones and the components'."""
+    return slot_bases(cfg)["end"]
+
+
+def param_values(cfg) -> list[float]:
+    """The components' numbers, in the order of :func:`slot_bases` (from Params.COUNT on)."""
+    vals = []
+    if cfg.layout.segregation:
+        vals += TRANSPORTS[cfg.transport].values(cfg.alpha)
+    if cfg.viscous:
+        vals += VISCOSITY.values(cfg.nu)
+    if cfg.fric is not None:
+        vals += FRICTION_LAWS[cfg.friction].values(cfg.fric)
+    return vals
 
 
 @ti.data_oriented
 class Physics:
     def __init__(self, cfg, par):
         """cfg: the OperatorConfig; par: the operator's parameter field, of
-        :func:`param_count` slots (the friction law's from Params.COUNT on)."""
+        :func:`param_count` slots (the components' from Params.COUNT on, :func:`slot_bases`)."""
         lay = cfg.layout
         self.par = par
         self.nc = lay.nc
         self.is_1d = lay.is_1d
         self.seg = lay.segregation
         self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
-        # the friction law as a component: its Taichi functions read its slots from COUNT on
+        bases = slot_bases(cfg)
+        # the transport function G(phi) as a component (only with segregation)
+        if self.seg:
+            self._G, self._dG = TRANSPORTS[cfg.transport].taichi(ti, par, bases["transport"])
+        # the viscosity (6.2) as a component (only with it): face coefficient, stresses and
+        # the cell's stiffness bound
+        self.visc = cfg.viscous
+        if self.visc:
+            fns = VISCOSITY.taichi(ti, par, bases["viscosity"], Params.H_MIN, not self.is_1d)
+            self.face_K, self.normal_stress, self.shear_stress, self.visc_stiffness = fns
+        # the friction law as a component: its Taichi functions read its own slots
         self.law = FRICTION_LAWS[cfg.friction]
         self.fr_none = cfg.friction == "none"
         # SPIR-V (Vulkan) has no 64-bit pow: the extended law's power is then taken in f32
         f32_pow = par.dtype == ti.f64 and ti.lang.impl.current_cfg().arch == ti.vulkan
-        self._mu, self._mu_start = self.law.taichi(ti, par, Params.COUNT, f32_pow)
+        self._mu, self._mu_start = self.law.taichi(ti, par, bases["friction"], f32_pow)
         # compile-time switches as bools (ti.static does not take strings)
         self.feedback = cfg.feedback and lay.segregation and self.law.weighted
         # friction as a projection after each stage (project_friction) instead of a source
@@ -52,12 +94,12 @@ class Physics:
 
     @ti.func
     def G(self, phi):
-        """Transport function (2.17), G = (1 - alpha) phi (1 - phi)."""
-        return self.par[Params.ALPHA1] * phi * (1.0 - phi)
+        """The scene's transport function, (2.17) or (2.18) (tiseg.physics.segregation)."""
+        return self._G(phi)
 
     @ti.func
     def dG(self, phi):
-        return self.par[Params.ALPHA1] * (1.0 - 2.0 * phi)
+        return self._dG(phi)
 
     @ti.func
     def conserved(self, w):
@@ -113,8 +155,9 @@ class Physics:
     @ti.func
     def transported(self, phi):
         """phi - G(phi): the large-particle flux per unit mass flux, h u (phi - G) / (h u).
-        Increasing in phi (its derivative 1 - (1 - alpha)(1 - 2 phi) >= alpha > 0), so
-        upwinding phi by the sign of the mass flux is upwinding this flux."""
+        Non-decreasing in phi for every transport function (1 - G' >= alpha with (2.17),
+        >= 0 with (2.18)), so upwinding phi by the sign of the mass flux is upwinding this
+        flux."""
         return phi - self.G(phi)
 
     @ti.func

@@ -38,6 +38,8 @@ import numpy as np
 
 from ..numerics.config import OperatorConfig
 from ..physics.friction import FRICTION_LAWS
+from ..physics.segregation import TRANSPORTS
+from ..physics.viscosity import VISCOSITY
 
 SQRT2 = math.sqrt(2.0)
 
@@ -55,6 +57,7 @@ class ReferenceOperator:
         # friction as a projection after each stage (project_friction), not in the source
         self.projected = cfg.friction_projected
         self.law = FRICTION_LAWS[cfg.friction]
+        self.transport = TRANSPORTS[cfg.transport]
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
@@ -126,10 +129,11 @@ class ReferenceOperator:
         return w
 
     def G(self, phi):
-        return (1.0 - self.cfg.alpha) * phi * (1.0 - phi)
+        """The transport function's NumPy twin, (2.17) or (2.18)."""
+        return self.transport.G_np(phi, self.cfg.alpha)
 
     def dG(self, phi):
-        return (1.0 - self.cfg.alpha) * (1.0 - 2.0 * phi)
+        return self.transport.dG_np(phi, self.cfg.alpha)
 
     def _weight(self, phi):
         """The concentration a mixture law weights with: local phi with feedback."""
@@ -279,18 +283,13 @@ class ReferenceOperator:
         """Face stresses P (x faces, y faces) to be subtracted from the KT fluxes of hu, hv."""
         c, lay = self.cfg, self.lay
         h, u = w[0], w[1]
-        K = c.nu * h * np.sqrt(h)
-        wet = h >= c.h_min
         Px = np.zeros_like(w)
         Py = np.zeros_like(w)
 
-        def harmonic(Ka, Kb, wa, wb):
-            ssum = Ka + Kb
-            with np.errstate(divide="ignore", invalid="ignore"):
-                kf = np.where(ssum > 0, 2.0 * Ka * Kb / np.where(ssum > 0, ssum, 1.0), 0.0)
-            return np.where(wa & wb, kf, 0.0)
+        def face_K(ha, hb):  # the component's twin (tiseg.physics.viscosity)
+            return VISCOSITY.face_K_np(ha, hb, c.nu, c.h_min)
 
-        Kx = harmonic(K[:-1], K[1:], wet[:-1], wet[1:])  # face i+1/2 at index i
+        Kx = face_K(h[:-1], h[1:])  # face i+1/2 at index i
         Px[lay.HU, :-1] = Kx * (u[1:] - u[:-1]) / c.dx
         if lay.is_1d:
             return Px, Py
@@ -300,7 +299,7 @@ class ReferenceOperator:
         dudy = np.zeros_like(u)
         dudy[:-1, 1:-1] = ((u[:-1, 2:] - u[:-1, :-2]) + (u[1:, 2:] - u[1:, :-2])) / (4 * dy)
         Px[lay.HV, :-1] = 0.5 * Kx * ((v[1:] - v[:-1]) / dx + dudy[:-1])
-        Ky = harmonic(K[:, :-1], K[:, 1:], wet[:, :-1], wet[:, 1:])
+        Ky = face_K(h[:, :-1], h[:, 1:])
         Py[lay.HV, :, :-1] = Ky * (v[:, 1:] - v[:, :-1]) / dy
         dvdx = np.zeros_like(v)
         dvdx[1:-1, :-1] = ((v[2:, :-1] - v[:-2, :-1]) + (v[2:, 1:] - v[:-2, 1:])) / (4 * dx)
