@@ -236,20 +236,23 @@ def test_cli_t_end_override_runs_and_notes(ti_cpu, tmp_path, capsys):
 
 # ------------------------------------------------------------------ mutators
 def test_set_parameters_changes_scene_and_operator(ti_cpu):
-    from tiseg.physics.pointwise import Params
+    from tiseg.physics.pointwise import Params, slot_bases
 
     sim = Simulation(small())
     sim.set_parameters({"flow.nu": 0.02, "material.zeta_deg": 28.0})
     assert sim.scene.flow.nu == 0.02 and sim.scene.material.zeta_deg == 28.0
     par = sim.op.par.to_numpy()
-    assert par[Params.NU] == 0.02 and sim.op.cfg.nu == 0.02
+    NU = slot_bases(sim.op.cfg)["viscosity"]
+    assert par[NU] == 0.02 and sim.op.cfg.nu == 0.02
     assert par[Params.G_SIN] == pytest.approx(9.81 * np.sin(np.radians(28.0)), rel=1e-14)
-    sim.set_parameters({"flow.nu": 0.0})  # viscosity off: same kernels, nu = 0
-    assert sim.op.par.to_numpy()[Params.NU] == 0.0
+    sim.set_parameters({"flow.nu": 0.0})  # viscosity off: same kernels (and slots), nu = 0
+    assert slot_bases(sim.op.cfg)["viscosity"] == NU and sim.op.par.to_numpy()[NU] == 0.0
     for change, what in (
         ({"domain.resolution": 50}, "the grid"),
         ({"numerics.reconstruction": "minmod"}, "numerics.reconstruction"),
         ({"effects.segregation": False}, "segregation"),
+        ({"material.transport": "bagnold"}, "material.transport"),
+        ({"numerics.friction_scheme": "projected"}, "numerics.friction_scheme"),
     ):
         with pytest.raises(InputError, match=what):
             sim.set_parameters(change)

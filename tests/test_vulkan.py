@@ -37,7 +37,8 @@ def test_operator_render_and_viewer_suites_pass_on_vulkan_f64():
     viewer tests, run again with arch=vulkan."""
     files = ["tests/test_operator_reference.py", "tests/test_render.py", "tests/test_viewer.py"]
     p = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *files],
+        # one process (-n 0): the parent suite's other worker already shares the cores
+        [sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", *files],
         cwd=ROOT,
         env=child_env(TISEG_TEST_ARCH="vulkan"),
         capture_output=True,

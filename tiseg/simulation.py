@@ -68,6 +68,8 @@ COMPILED = {
     "viscous": "effects.viscosity",
     "feedback": "effects.mobility_feedback",
     "friction": "effects.friction",
+    "friction_scheme": "numerics.friction_scheme",
+    "transport": "material.transport",
     "reconstruction": "numerics.reconstruction",
     "flux": "numerics.flux",
     "phi_flux": "numerics.phi_flux",
