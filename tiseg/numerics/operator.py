@@ -440,11 +440,12 @@ class TaichiOperator:
         return out
 
     @ti.kernel
-    def _mark_rest(self):
+    def _mark_rest(self, serial: ti.template()):
         """rest := 1 where the prepared primitives have u = v = 0 (the cells the faces near the
         active range read; further out no face flux is computed)."""
         lo = ti.max(self.act[0] - 4, 0)
         hi = ti.min(self.act[1] + 4, self.NX)
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, self.NY)):
             w = self.w[i, j]
             r = w[1] == 0.0
@@ -686,39 +687,39 @@ class TaichiOperator:
         that h and h phi bitwise: the stage weights of the states sum to 1, but their rounded
         sum need not give the same bits, and a deposit must not creep by round-off."""
         f = ti.static(self._first_state(n, rate, rmask))
-        ref = self.q[ss[f], i, j]
-        keep = 1
-        for k in ti.static(range(n)):
-            if ti.static(k == rate):
-                if r[0] != 0.0:
-                    keep = 0
-                if ti.static(self.seg):
-                    if r[self.HPHI] != 0.0:
-                        keep = 0
-            elif ti.static((rmask >> k) & 1):
-                v = self.q[ss[k], i, j]
-                if v[0] != 0.0:
-                    keep = 0
-                if ti.static(self.seg):
-                    if v[self.HPHI] != 0.0:
-                        keep = 0
-            elif ti.static(k != f):
-                v = self.q[ss[k], i, j]
-                if v[0] != ref[0]:
-                    keep = 0
-                if ti.static(self.seg):
-                    if v[self.HPHI] != ref[self.HPHI]:
-                        keep = 0
-        if acc[1] != 0.0:
-            keep = 0
-        if ti.static(not self.is_1d):
-            if acc[self.HV] != 0.0:
-                keep = 0
         out = acc
-        if keep == 1:
-            out[0] = ref[0]
-            if ti.static(self.seg):
-                out[self.HPHI] = ref[self.HPHI]
+        moving = acc[1] != 0.0
+        if ti.static(not self.is_1d):
+            moving = moving or acc[self.HV] != 0.0
+        # a moving cell (most of a flow) reads no term again: the test costs one branch there
+        if not moving:
+            ref = self.q[ss[f], i, j]
+            keep = 1
+            for k in ti.static(range(n)):
+                if ti.static(k == rate):
+                    if r[0] != 0.0:
+                        keep = 0
+                    if ti.static(self.seg):
+                        if r[self.HPHI] != 0.0:
+                            keep = 0
+                elif ti.static((rmask >> k) & 1):
+                    v = self.q[ss[k], i, j]
+                    if v[0] != 0.0:
+                        keep = 0
+                    if ti.static(self.seg):
+                        if v[self.HPHI] != 0.0:
+                            keep = 0
+                elif ti.static(k != f):
+                    v = self.q[ss[k], i, j]
+                    if v[0] != ref[0]:
+                        keep = 0
+                    if ti.static(self.seg):
+                        if v[self.HPHI] != ref[self.HPHI]:
+                            keep = 0
+            if keep == 1:
+                out[0] = ref[0]
+                if ti.static(self.seg):
+                    out[self.HPHI] = ref[self.HPHI]
         return out
 
     @ti.kernel
@@ -919,7 +920,7 @@ class TaichiOperator:
                 self._ghosts_primitives_slopes(slot, self.serial_loops())
             self._prepared = key
         if self.rest is not None and self._rest_stale:  # a step begins: slot 0 was written
-            self._mark_rest()
+            self._mark_rest(self.serial_loops())
             self._rest_stale = False
 
     def _written(self, dst: int, primitives: bool = False) -> None:
