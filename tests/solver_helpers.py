@@ -42,14 +42,15 @@ def rates_equal_reference(cfg, q):
 
 
 def projected_stage_equals_reference(op, ref, q, r_ti, dt, tau):
-    """One limited Euler stage q + dt L(q) with the friction projected over tau, against the
-    reference's limiter + project_friction; returns the Taichi result (slot 2)."""
+    """One limited Euler stage q + dt L(q) with the friction projected over tau, the first of a
+    step (where a law with hysteresis decides which resting cells it holds), against the
+    reference's limiter + holds + project_friction; returns the Taichi result (slot 2)."""
     lay = op.cfg.layout
-    op.combine(2, [(1.0, 0), (dt, 1)], limit=True, tau=tau, rates=(1,))
+    op.combine(2, [(1.0, 0), (dt, 1)], limit=True, tau=tau, rates=(1,))  # the step's first
     a = op.get(2)
     b = q + dt * r_ti
     ref.postprocess(b)
-    ref.project_friction(b, tau)
+    ref.project_friction(b, tau, q, held=ref.holds(b, tau, ref.at_rest(q)))
     ix, iy = lay.interior()
     for c in range(lay.nc):
         assert np.allclose(a[c][ix, iy], b[c][ix, iy], rtol=1e-12, atol=1e-18), c

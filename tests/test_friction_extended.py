@@ -174,14 +174,50 @@ def test_a_layer_at_rest_starts_only_above_h_start(ti_cpu, ratio, moves):
     assert np.all(mix.fields()["u"] > 0)
 
 
-def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
+@pytest.mark.parametrize("stepper", ["ssprk3", "rkc", "ssprk4_2"])
+def test_a_layer_just_past_h_start_accelerates_as_the_law_says(ti_cpu, stepper):
+    """A uniform layer at rest 2 % thicker than h_start (at 22 degrees) cannot be held: it
+    starts on the first step, whatever the step's length, and then accelerates as the law says:
+    du/dt = g cos(zeta) (tan(zeta) - mu(h, u)), integrated by solve_ivp to 1e-10, with mu in its
+    intermediate regime (Fr < beta*). Measured at t = 0.5 s, at the sum rule's full step
+    (13 steps; 5 for SSPRK(4,2)): -0.2 % (SSPRK3), +0.5 % (RKC), -1.4 % (SSPRK(4,2)), and half
+    of that at half the step. Before the friction coefficient lagged by a stage, it was taken
+    at the speed before friction, whose dynamic regime gave an impulse that stopped this layer
+    on steps this long: it never started."""
+    import math
+
+    from scipy.integrate import solve_ivp
+
+    from tiseg.numerics.config import config_from_scene
+    from tiseg.physics.friction import FRICTION_LAWS
+
+    sc = _layer_scene(22.0).with_overrides({"numerics.stepper": stepper, "numerics.cfl": 0.5})
+    h = 1.02 * _start_thickness(sc.material)
+    cfg, law = config_from_scene(sc), FRICTION_LAWS["pouliquen-extended"]
+    tan_z = math.tan(sc.material.zeta)
+
+    def accel(t, u):
+        mu = law.mu_np(cfg, np.array([h]), np.array([max(u[0], 1e-300)]), 1.0)[0]
+        return [cfg.g_cos * (tan_z - mu)]
+
+    exact = solve_ivp(accel, (0.0, 0.5), [1e-300], rtol=1e-10, atol=1e-14).y[0, -1]
+    sim = Simulation(sc, check_every=1)
+    sim.set_state(np.full((1, sc.domain.nx), h))
+    sim.step()
+    assert np.all(sim.fields()["u"] > 0)  # started on the first step
+    sim.advance(0.5)
+    u = sim.fields()["u"].ravel()
+    assert np.ptp(u) == 0.0
+    assert abs(u[0] / exact - 1.0) < 0.02, (u[0], exact)
+
+
+def _cut_off_flow(cfl=None):
     """A steady uniform flow of the fines (2 mm, F = 0.35 > beta*) at 22 degrees whose supply
-    is cut off (a wall upstream, outflow downstream) drains and comes to rest everywhere,
-    leaving a deposit of h_stop = 0.785 mm. On finer grids the deposit converges to 0.754 mm
-    (800 and 1600 cells: 0.7530 and 0.7546 mm), 4 % under h_stop: the draining layer thins a
-    little past h_stop before friction stops it. Mass is conserved up to what left through the
-    outflow, and the deposit then stays exactly at rest."""
-    sc = scene_from_dict(
+    is cut off: a wall upstream, outflow downstream, 400 cells on 0.5 m."""
+    numerics = {"reconstruction": "minmod", "stepper": "ssprk3", "friction_scheme": "projected"}
+    if cfl is not None:
+        numerics["cfl"] = cfl
+    return scene_from_dict(
         {
             "material": {"zeta_deg": 22.0},
             "flow": {"h0": 0.002, "phi0": 1.0, "nu": 0.0},
@@ -194,15 +230,26 @@ def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
             "domain": {"Lx": 0.5, "nx": 400, "ny": 1},
             "boundary": {"x_lo": "wall", "x_hi": "outflow", "y_lo": "periodic", "y_hi": "periodic"},
             "initial": {"kind": "uniform"},
-            "numerics": {
-                "reconstruction": "minmod",
-                "stepper": "ssprk3",
-                "friction_scheme": "projected",
-            },
+            "numerics": numerics,
             "time": {"t_end": 30.0},
         },
         name="deposit",
     )
+
+
+def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
+    """The flow drains and comes to rest, leaving a deposit of h_stop = 0.785 mm, where
+    tan(zeta) = mu_D(h_stop, beta*): measured 0.9938 h_stop at 400 cells (0.9940 with steps
+    of 0.8 of the length, 0.9944 with RKC), so the deposit does not depend on the step length.
+    Before the friction coefficient lagged by a stage and the static friction decided once per
+    step, it did: 1.0040 h_stop against 0.9883 at 0.8 of the step, 1.0268 with RKC.
+
+    All but 3 of the 400 cells are then exactly at rest. Those 3 creep at 3e-6 to 2e-5 m/s,
+    each just below a step of about 1.5e-5 m in the deposit's surface: the law's intermediate
+    regime (kappa = 1e-3) lets a layer pushed a little past mu_D(h, beta*) creep, and that
+    creep has no end on this grid. Mass is conserved up to what left through the outflow, and
+    every cell at rest away from the creeping ones keeps h bit for bit."""
+    sc = _cut_off_flow()
     assert sc.flow.F > sc.material.beta_star
     m = sc.material
     hs = h_stop(m.zeta, m.small.mu1, m.small.mu2, m.small.beta, m.small.L, m.beta_star)
@@ -211,17 +258,25 @@ def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
     sim.advance(20.0)
     f = sim.fields()
     h, u = f["h"].ravel(), f["u"].ravel()
-    assert np.all(u == 0.0)  # all at rest
     deposit = h[80:320].mean()  # x in [0.1, 0.4] m
-    assert abs(deposit / hs - 1.0) < 0.06, (deposit, hs)
-    assert np.all(np.abs(h[40:360] / hs - 1.0) < 0.1)
+    print(f"\ndeposit {deposit / hs:.4f} h_stop; {np.count_nonzero(u)} cells moving")
+    assert abs(deposit / hs - 1.0) < 0.01, (deposit, hs)
+    assert np.all(np.abs(h[40:360] / hs - 1.0) < 0.05)
+    assert np.count_nonzero(u) <= 4 and np.abs(u).max() < 1e-4  # 397 of 400 exactly at rest
     net_in = sim.budget()["mass_in"]  # what the outflow took, negative
     assert -0.7 * m0 < net_in < -0.5 * m0  # 2 mm drained to a deposit of ~0.8 mm
     assert abs(sim.totals()["mass"] - (m0 + net_in)) <= 1e-12 * m0
     before = sim.conserved()
-    steps = sim.stats.steps
     sim.advance(21.0)
-    assert sim.stats.steps > steps and np.array_equal(sim.conserved(), before)
+    still = sim.fields()["u"].ravel() == 0.0
+    near = np.convolve((u != 0) | ~still, np.ones(5), mode="same") > 0  # creepers +- 2 cells
+    assert near.sum() <= 20
+    assert np.array_equal(sim.conserved()[0, :, 0][~near], before[0, :, 0][~near])
+    # the same flow with steps of 0.8 of the length leaves the same deposit
+    short = Simulation(_cut_off_flow(cfl=0.2))
+    short.advance(20.0)
+    deposit_short = short.fields()["h"].ravel()[80:320].mean()
+    assert abs(deposit_short / deposit - 1.0) < 1e-3, (deposit_short, deposit)
 
 
 # ------------------------------------------------------------------------------ scene keys

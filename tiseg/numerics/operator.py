@@ -120,6 +120,7 @@ class TaichiOperator:
         # written, so every stage of a step sees the same rest faces.
         self.rest = ti.field(ti.i8, shape=(NX, NY)) if self.phys.fr_projected else None
         self._rest_stale = True
+        self._first_stage = False  # the next limited combination is a step's first stage
         self.set_params(cfg)
         self.t = 0.0
 
@@ -433,7 +434,7 @@ class TaichiOperator:
         to a deposit below zero, and the limiter's clip then created mass."""
         out = F
         if ti.static(self.phys.fr_projected):
-            if self.rest[i0, j0] == 1 and self.rest[i1, j1] == 1:
+            if self.rest[i0, j0] >= 1 and self.rest[i1, j1] >= 1:
                 out[0] = 0.0
                 if ti.static(self.seg):
                     out[self.HPHI] = 0.0
@@ -442,7 +443,9 @@ class TaichiOperator:
     @ti.kernel
     def _mark_rest(self, serial: ti.template()):
         """rest := 1 where the prepared primitives have u = v = 0 (the cells the faces near the
-        active range read; further out no face flux is computed)."""
+        active range read; further out no face flux is computed), else 0. With a law with
+        hysteresis the step's first stage then marks the cells the static friction holds with
+        2 (_project)."""
         lo = ti.max(self.act[0] - 4, 0)
         hi = ti.min(self.act[1] + 4, self.NX)
         ti.loop_config(serialize=serial)
@@ -591,6 +594,7 @@ class TaichiOperator:
         s5: ti.i32,
         tau: float,
         rmask: ti.template(),
+        first: ti.template(),
         serial: ti.template(),
     ):
         """slot d := sum of c_k * term k (k < n), then the stage limiter if ``limit``, on the
@@ -607,7 +611,7 @@ class TaichiOperator:
         if ti.static(rate >= 0):
             self._face_fluxes(serial)
             self._boundary_rates(self.nslots)
-        self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, serial)
+        self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, first, serial)
 
     @ti.func
     def _combine_cells(
@@ -620,6 +624,7 @@ class TaichiOperator:
         ss,
         tau,
         rmask: ti.template(),
+        first: ti.template(),
         serial: ti.template(),
     ):
         """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
@@ -639,14 +644,20 @@ class TaichiOperator:
         the rate is of, or any of the sources: the update is element-wise.
 
         With the projected friction scheme the limiter is followed by the friction projection
-        over ``tau``, the stage's share of the step (Physics.project_friction), and by
-        _keep_rest; bit k of ``rmask`` marks term k as a stored rate rather than a state."""
+        over ``tau``, the stage's share of the step (_project), and by _keep_rest; bit k of
+        ``rmask`` marks term k as a stored rate rather than a state; ``first``: this is the
+        step's first stage (its static-friction decisions are made here)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         lo = ti.max(self.act[0] - 3, gx)
         hi = ti.min(self.act[1] + 3, gx + nx)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
             r = ti.Vector.zero(self.fp, self.nc)
+            # the speed of the state the stage starts from (the prepared one): the friction
+            # coefficient of the projection (Physics.project_friction)
+            spd0 = 0.0 * r[0]
+            if ti.static(limit and self.phys.fr_projected):
+                spd0 = self.phys.speed_mag(self.w[i, j])
             if ti.static(rate >= 0):
                 r = self._cell_rate(i, j)
             acc = ti.Vector.zero(self.fp, self.nc)
@@ -659,7 +670,7 @@ class TaichiOperator:
             if ti.static(limit):
                 acc = self._limit(acc)
                 if ti.static(self.phys.fr_projected):
-                    acc = self.phys.project_friction(acc, tau)
+                    acc = self._project(acc, tau, i, j, first, spd0)
                     acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
                 self.w[i, j] = self._primitive(acc)
             self.q[d, i, j] = acc
@@ -673,6 +684,32 @@ class TaichiOperator:
                 else:
                     acc += cs[k] * bk
             self.bud[d, b] = acc
+
+    @ti.func
+    def _project(self, acc, tau, i, j, first: ti.template(), spd0):
+        """The friction projection of a stage's result (Physics.project_friction, with the
+        coefficient at ``spd0``, the speed of the state the stage started from). With a law
+        with hysteresis the static friction decides once per step, on its first stage, which
+        of the cells at rest at the step's start it holds (Physics.holds, marked 2 in rest): a
+        held cell stays exactly at rest through all the step's stages, every other cell is
+        projected. Deciding per stage instead made the starts depend on the step length and
+        on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
+        out = acc
+        if ti.static(self.phys.law.hysteresis):
+            flag = ti.cast(self.rest[i, j], ti.i32)
+            if ti.static(first):
+                if flag == 1 and self.phys.holds(acc, tau) == 1:
+                    flag = 2
+                    self.rest[i, j] = ti.cast(2, ti.i8)
+            if flag == 2:
+                out[1] = 0.0
+                if ti.static(not self.is_1d):
+                    out[self.HV] = 0.0
+            else:
+                out = self.phys.project_friction(acc, tau, spd0)
+        else:
+            out = self.phys.project_friction(acc, tau, spd0)
+        return out
 
     @staticmethod
     def _first_state(n: int, rate: int, rmask: int) -> int:
@@ -922,6 +959,7 @@ class TaichiOperator:
         if self.rest is not None and self._rest_stale:  # a step begins: slot 0 was written
             self._mark_rest(self.serial_loops())
             self._rest_stale = False
+            self._first_stage = True
 
     def _written(self, dst: int, primitives: bool = False) -> None:
         """Slot dst changed; with ``primitives`` its interior primitives are now in w."""
@@ -962,8 +1000,20 @@ class TaichiOperator:
         """
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
-        self._combine(dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops())
+        first = self._first_of_step(limit)
+        self._combine(
+            dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
+        )
         self._written(dst, primitives=bool(limit))
+
+    def _first_of_step(self, limit: bool) -> bool:
+        """Whether this limited combination is the step's first stage, where a law with
+        hysteresis decides which resting cells the static friction holds (_project): the
+        first one after the rest mask was computed for a new step."""
+        first = bool(limit) and self._first_stage and self.phys.law.hysteresis
+        if limit:
+            self._first_stage = False
+        return first
 
     def stage(
         self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
@@ -979,8 +1029,9 @@ class TaichiOperator:
         self._prepare(src, t)
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
+        first = self._first_of_step(limit)
         self._combine(
-            dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, self.serial_loops()
+            dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
         )
         self._written(dst, primitives=bool(limit))
 

@@ -230,35 +230,66 @@ class Physics:
         return r
 
     @ti.func
-    def project_friction(self, q, tau):
+    def _momentum(self, q):
+        m = ti.abs(q[1])
+        if ti.static(not self.is_1d):
+            m = ti.sqrt(q[1] * q[1] + q[self.HV] * q[self.HV])
+        return m
+
+    @ti.func
+    def _phi_of(self, q, h):
+        phi = self.par[Params.PHI_REF]
+        if ti.static(self.seg):
+            phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
+        return phi
+
+    @ti.func
+    def project_friction(self, q, tau, spd0):
         """Basal friction over the time tau as a projection of the conserved state q (friction
         scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
-        et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h, mu_b
-        the scene's law at the cell's speed |hu| / h. Where |h u| <= I the friction can cancel
-        the momentum and the cell stops exactly (u = 0); otherwise the momentum shrinks by I
-        along its own direction. This needs no regularisation of u / |u| and is no stiff term
-        for the stepper; it never reverses the flow and leaves h and h phi alone. With a law
-        with hysteresis the stopping test uses the static coefficient mu_S(h) instead: a cell
-        starts only where |h u| > tau g cos(zeta) mu_S(h) h."""
+        et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h. Where
+        |h u| <= I the friction can cancel the momentum and the cell stops exactly (u = 0);
+        otherwise the momentum shrinks by I along its own direction. This needs no
+        regularisation of u / |u| and is no stiff term for the stepper; it never reverses the
+        flow and leaves h and h phi alone.
+
+        mu_b is the scene's law at ``spd0``, the cell's speed in the state the stage started
+        from: the coefficient lags by one stage. A steady uniform flow, whose gravity impulse
+        per stage equals I at its own speed, is then kept to round-off. Taken at the speed of
+        q, which is the speed before friction, a law whose coefficient grows with the speed
+        (3.7) gave an impulse too large by O(tau): it slowed steady flows and stopped a layer
+        it could not hold when the step was long. Whether a law with hysteresis holds a cell
+        at rest is decided once per step, by :meth:`holds`; a cell it holds is not projected
+        (the operator keeps it at rest)."""
         r = q
         h = q[0]
         if h >= self.par[Params.H_MIN] and tau > 0:
-            m = ti.abs(q[1])
-            if ti.static(not self.is_1d):
-                m = ti.sqrt(q[1] * q[1] + q[self.HV] * q[self.HV])
-            phi = self.par[Params.PHI_REF]
-            if ti.static(self.seg):
-                phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
-            imp = tau * self.par[Params.G_COS] * self.mu_b(h, m / h, phi) * h
+            m = self._momentum(q)
+            phi = self._phi_of(q, h)
+            imp = tau * self.par[Params.G_COS] * self.mu_b(h, spd0, phi) * h
             f = 0.0 * h
-            if ti.static(self.law.hysteresis):
-                # a cell starts (or keeps moving) only if the static friction mu_S(h) cannot
-                # hold it; a moving one then shrinks by the friction of its speed
-                if m > tau * self.par[Params.G_COS] * self.mu_start(h, phi) * h:
-                    f = ti.max(1.0 - imp / m, 0.0)
-            elif m > imp:
+            if m > imp:
                 f = 1.0 - imp / m
             r[1] = f * q[1]
             if ti.static(not self.is_1d):
                 r[self.HV] = f * q[self.HV]
+        return r
+
+    @ti.func
+    def holds(self, q, tau):
+        """1 where the static friction holds a cell that was at rest at the step's start (a
+        law with hysteresis), else 0. Called on the step's first stage, which is one Euler
+        step of length tau from the step's initial state Y0 for every stepper, so the
+        stage's momentum is tau f(Y0), f the force per unit area of gravity, pressure and
+        stress on the resting cell: the cell is held where |f(Y0)| <= g cos(zeta) mu_S(h) h,
+        a test of the initial state alone, whatever the step length, the stepper or its
+        stage count. A held cell stays exactly at rest for the whole step; one that is not
+        held starts and feels the friction of project_friction (at rest, the law's
+        coefficient at zero speed: mu_S(h) for the extended law)."""
+        r = 0
+        h = q[0]
+        if h >= self.par[Params.H_MIN] and tau > 0:
+            m = self._momentum(q)
+            if m <= tau * self.par[Params.G_COS] * self.mu_start(h, self._phi_of(q, h)) * h:
+                r = 1
         return r

@@ -324,26 +324,58 @@ class ReferenceOperator:
             S[lay.HV] = np.where(wet, -h * c.g_cos * mu * v * inv, 0.0)
         return S
 
-    def project_friction(self, q: np.ndarray, tau: float) -> None:
+    def project_friction(self, q: np.ndarray, tau: float, q0: np.ndarray, held=None) -> None:
         """The projected friction over tau, in place (Physics.project_friction): momentum
-        shrinks by tau g cos(zeta) mu_b h along itself, or stops where that cancels it."""
+        shrinks by tau g cos(zeta) mu_b h along itself, or stops where that cancels it; mu_b
+        at the speed of q0, the state the stage started from. ``held``: the cells the static
+        friction of a law with hysteresis holds for the step (:meth:`holds`), which stay at
+        rest."""
         c, lay = self.cfg, self.lay
         if not self.projected or tau <= 0:
             return
         h = q[lay.H]
         wet = h >= c.h_min
         hs = np.where(wet, h, 1.0)
-        m = np.abs(q[lay.HU]) if lay.is_1d else np.hypot(q[lay.HU], q[lay.HV])
+        m = self._momentum(q)
         phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
-        imp = tau * c.g_cos * self.mu_b(hs, m / hs, phi) * hs
-        stop = imp  # a law with hysteresis holds a cell up to its static coefficient
-        if self.law.hysteresis:
-            stop = tau * c.g_cos * self.mu_start(hs, phi) * hs
-        f = np.where(m > stop, np.maximum(1.0 - imp / np.where(m > 0, m, 1.0), 0.0), 0.0)
+        w0 = self.primitives(q0)
+        u0 = w0[lay.HU]
+        spd0 = np.abs(u0) if lay.is_1d else np.sqrt(u0 * u0 + w0[lay.HV] * w0[lay.HV])
+        imp = tau * c.g_cos * self.mu_b(hs, spd0, phi) * hs
+        f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
         f = np.where(wet, f, 1.0)
+        if held is not None:
+            f = np.where(held, 0.0, f)
         q[lay.HU] *= f
         if not lay.is_1d:
             q[lay.HV] *= f
+
+    def _momentum(self, q):
+        lay = self.lay
+        return np.abs(q[lay.HU]) if lay.is_1d else np.hypot(q[lay.HU], q[lay.HV])
+
+    def holds(self, q: np.ndarray, tau: float, at_rest) -> np.ndarray:
+        """Physics.holds: of the cells ``at_rest`` at the step's start, those whose first-stage
+        state q (one Euler step of tau) has |h u| <= tau g cos(zeta) mu_S(h) h: the static
+        friction holds them for the step (a law with hysteresis; no cell otherwise)."""
+        c, lay = self.cfg, self.lay
+        if not (self.projected and self.law.hysteresis) or tau <= 0:
+            return np.zeros_like(q[lay.H], dtype=bool)
+        h = q[lay.H]
+        wet = h >= c.h_min
+        hs = np.where(wet, h, 1.0)
+        phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
+        static = tau * c.g_cos * self.mu_start(hs, phi) * hs
+        return at_rest & wet & (self._momentum(q) <= static)
+
+    def at_rest(self, q: np.ndarray) -> np.ndarray:
+        """Cells whose primitive velocity is exactly zero (the rest mask of a step's start)."""
+        w = self.primitives(q)
+        lay = self.lay
+        r = w[lay.HU] == 0
+        if not lay.is_1d:
+            r &= w[lay.HV] == 0
+        return r
 
     def rhs(self, q: np.ndarray, t: float) -> np.ndarray:
         """dq/dt on interior cells (ghost entries of the result are zero); fills q's ghosts."""
