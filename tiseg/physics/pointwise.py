@@ -184,6 +184,7 @@ class Physics:
 
     @ti.func
     def speed_mag(self, w):
+        """|(w[1], w[HV])|: the speed of a primitive state, |h u| of a conserved one."""
         s = ti.abs(w[1])
         if ti.static(not self.is_1d):
             s = ti.sqrt(w[1] * w[1] + w[self.HV] * w[self.HV])
@@ -230,13 +231,6 @@ class Physics:
         return r
 
     @ti.func
-    def _momentum(self, q):
-        m = ti.abs(q[1])
-        if ti.static(not self.is_1d):
-            m = ti.sqrt(q[1] * q[1] + q[self.HV] * q[self.HV])
-        return m
-
-    @ti.func
     def _phi_of(self, q, h):
         phi = self.par[Params.PHI_REF]
         if ti.static(self.seg):
@@ -264,7 +258,7 @@ class Physics:
         r = q
         h = q[0]
         if h >= self.par[Params.H_MIN] and tau > 0:
-            m = self._momentum(q)
+            m = self.speed_mag(q)  # |h u| of the conserved state
             phi = self._phi_of(q, h)
             imp = tau * self.par[Params.G_COS] * self.mu_b(h, spd0, phi) * h
             f = 0.0 * h
@@ -289,7 +283,7 @@ class Physics:
         r = 0
         h = q[0]
         if h >= self.par[Params.H_MIN] and tau > 0:
-            m = self._momentum(q)
+            m = self.speed_mag(q)  # |h u| of the conserved state
             if m <= tau * self.par[Params.G_COS] * self.mu_start(h, self._phi_of(q, h)) * h:
                 r = 1
         return r
