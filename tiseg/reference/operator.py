@@ -333,14 +333,9 @@ class ReferenceOperator:
         c, lay = self.cfg, self.lay
         if not self.projected or tau <= 0:
             return
-        h = q[lay.H]
-        wet = h >= c.h_min
-        hs = np.where(wet, h, 1.0)
-        m = self._momentum(q)
-        phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
-        w0 = self.primitives(q0)
-        u0 = w0[lay.HU]
-        spd0 = np.abs(u0) if lay.is_1d else np.sqrt(u0 * u0 + w0[lay.HV] * w0[lay.HV])
+        wet, hs, phi = self._friction_cells(q)
+        m = self._magnitude(q)
+        spd0 = self._magnitude(self.primitives(q0))
         imp = tau * c.g_cos * self.mu_b(hs, spd0, phi) * hs
         f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
         f = np.where(wet, f, 1.0)
@@ -350,9 +345,20 @@ class ReferenceOperator:
         if not lay.is_1d:
             q[lay.HV] *= f
 
-    def _momentum(self, q):
+    def _magnitude(self, a):
+        """|(a[1], a[HV])|: the speed of a primitive state, |h u| of a conserved one
+        (Physics.speed_mag)."""
         lay = self.lay
-        return np.abs(q[lay.HU]) if lay.is_1d else np.hypot(q[lay.HU], q[lay.HV])
+        x = a[lay.HU]
+        return np.abs(x) if lay.is_1d else np.sqrt(x * x + a[lay.HV] * a[lay.HV])
+
+    def _friction_cells(self, q):
+        """(wet, h with 1 in films, phi the friction weights with) of a conserved state."""
+        c, lay = self.cfg, self.lay
+        wet = q[lay.H] >= c.h_min
+        hs = np.where(wet, q[lay.H], 1.0)
+        phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
+        return wet, hs, phi
 
     def holds(self, q: np.ndarray, tau: float, at_rest) -> np.ndarray:
         """Physics.holds: of the cells ``at_rest`` at the step's start, those whose first-stage
@@ -361,12 +367,9 @@ class ReferenceOperator:
         c, lay = self.cfg, self.lay
         if not (self.projected and self.law.hysteresis) or tau <= 0:
             return np.zeros_like(q[lay.H], dtype=bool)
-        h = q[lay.H]
-        wet = h >= c.h_min
-        hs = np.where(wet, h, 1.0)
-        phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
+        wet, hs, phi = self._friction_cells(q)
         static = tau * c.g_cos * self.mu_start(hs, phi) * hs
-        return at_rest & wet & (self._momentum(q) <= static)
+        return at_rest & wet & (self._magnitude(q) <= static)
 
     def at_rest(self, q: np.ndarray) -> np.ndarray:
         """Cells whose primitive velocity is exactly zero (the rest mask of a step's start)."""
