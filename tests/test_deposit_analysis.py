@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tiseg.analysis.deposit import deposit_metrics, stop_index
+from tiseg.analysis.deposit import deposit_metrics, settle_index, stop_index
 from tiseg.analysis.fingers import analyse_run
 from tiseg.cli import main
 
@@ -20,6 +20,15 @@ def test_stop_index_is_the_first_time_from_which_the_flow_stays_at_rest():
     assert stop_index([0.3, 0.0, None]) == 1  # a time without wet cells is at rest
     assert stop_index([0.3, 5e-4, 1e-4], rest_speed=1e-3) == 1
     assert stop_index([]) is None
+
+
+def test_settle_index_is_the_first_time_from_which_the_momentum_stays_small():
+    assert settle_index([0.0, 2.0, 1.0, 1e-5, 1e-6]) == 3  # at most 1e-5 of the peak 2
+    assert settle_index([0.0, 2.0, 1.0, 1e-4, 1e-6]) == 4
+    assert settle_index([2.0, 1e-6, 1.0, 1e-6]) == 3  # a flow that picks up again had not
+    assert settle_index([2.0, 1e-6, 1.0], settle_fraction=0.5) == 1
+    assert settle_index([0.0, 0.0]) == 0  # nothing ever moved
+    assert settle_index([]) is None
 
 
 @pytest.fixture(scope="module")
@@ -64,6 +73,67 @@ def test_deposit_of_a_run_that_came_to_rest(deposit_run):
     assert d["thickness_mean"] == pytest.approx((n_ch * 1e-3 + n_lev * 3e-3) / (n_ch + n_lev))
     assert d["area"] == pytest.approx((n_ch + n_lev) * dx * dx)
     assert d["volume"] == pytest.approx((n_ch * 1e-3 + n_lev * 3e-3) * dx * dx)
+    # at rest is settled, by the same time; the snapshots at 3 and 4 s are the same
+    assert d["settled"] and d["settle_time"] == 3.0 and d["basis"] == "rest"
+    assert d["thickness_change"] == 0.0
+    assert d["moving_cells"] == 0 and d["moving_volume"] == 0.0
+    # momentum: sum of h |u| dx dy over the wet cells; at 1 s the channels (1 mm) reach
+    # column 20, the levees (3 mm) column 15
+    m1 = (10 * 20 * 1e-3 + 10 * 15 * 3e-3) * 0.1 * np.hypot(1, 0.5) * dx * dx
+    assert d["momentum"][0] == pytest.approx(m1) and d["momentum"][2:] == [0.0, 0.0]
+
+
+@pytest.fixture(scope="module")
+def creeping_run(tmp_path_factory):
+    """A fields.nc (fingers scene at 40 cells/m, 60 x 20 cells) of a deposit that settles but
+    keeps one slow cell: a 2 mm layer over columns 0..29 moving at 0.1 m/s at t = 1 s, 1e-2
+    at 2 s, then at rest but for the cell (row 5, column 10) of 0.2 mm moving at 1e-3 m/s
+    at t = 3 and 4 s, where h also changes by 1e-6 m in column 29."""
+    from tiseg.output import FieldsWriter
+    from tiseg.scene import load_scene
+
+    scene = load_scene("fingers", {"domain.resolution": 40})
+    x, y = scene.domain.cell_centres()
+    ny, nx = scene.domain.shape
+    d = tmp_path_factory.mktemp("creeping")
+    wet = np.arange(nx)[None, :] < 30 + 0 * np.arange(ny)[:, None]
+    with FieldsWriter(
+        d / "fields.nc", x, y, attrs={"scene": scene.to_toml()}, fields=("h", "u", "v", "phi")
+    ) as w:
+        for t, speed in [(1.0, 0.1), (2.0, 1e-2), (3.0, 0.0), (4.0, 0.0)]:
+            h = np.where(wet, 2e-3, 0.0)
+            u = np.where(wet, speed, 0.0)
+            if speed == 0.0:
+                h[5, 10] = 2e-4
+                u[5, 10] = 1e-3
+                h[:, 29] += 1e-6 * (t - 3.0)
+            w.write(t, h=h, u=u, v=0 * u, phi=np.where(wet, 0.3, 0.0))
+    return d
+
+
+def test_a_deposit_that_settles_with_a_creeping_cell(creeping_run, capsys):
+    dx = 0.025
+    d = analyse_run(creeping_run)["deposit"]
+    # the momentum 2e-4 * 1e-3 dx^2 of the slow cell is 1e-6 of the peak at 1 s
+    peak = 600 * 2e-3 * 0.1 * dx * dx
+    assert d["momentum"][0] == pytest.approx(peak)
+    assert d["momentum"][2] / peak == pytest.approx(2e-4 * 1e-3 / (600 * 2e-3 * 0.1))
+    assert not d["stopped"] and d["stop_time"] is None
+    assert d["settled"] and d["basis"] == "settled"
+    assert d["settle_time"] == 3.0 and d["settling_until"] == 2.0
+    assert d["run_out"] == pytest.approx(29.5 * dx)
+    assert d["moving_cells"] == 1 and d["moving_max_speed"] == pytest.approx(1e-3)
+    assert d["moving_volume"] == pytest.approx(2e-4 * dx * dx)
+    assert d["thickness_change"] == pytest.approx(1e-6)
+    # with a stricter fraction it has not settled either
+    strict = analyse_run(creeping_run, settle_fraction=1e-7)["deposit"]
+    assert not strict["settled"] and strict["run_out"] is None
+    assert main(["fingers", str(creeping_run)]) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.startswith("deposit: settled between t = 2 and 3 s"), last
+    assert "1 cell (" in last and "0.001 m/s" in last
+    assert main(["fingers", str(creeping_run), "--settle-fraction", "1.5"]) == 2
+    assert "--settle-fraction" in capsys.readouterr().err
 
 
 def test_cli_reports_the_deposit(deposit_run, capsys):
@@ -122,8 +192,9 @@ def test_a_finite_release_with_the_extended_law_comes_to_rest(ti_cpu, tmp_path, 
     capsys.readouterr()
     assert main(["fingers", str(out), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)["deposit"]
-    assert d["stopped"] and d["stop_time"] <= 2.0
+    assert d["stopped"] and d["stop_time"] <= 2.0 and d["basis"] == "rest"
     assert d["max_speed"][-1] == 0.0
+    assert d["thickness_change"] == 0.0  # a deposit at rest keeps its h bitwise
     assert 0.1 < d["run_out"] < 0.39 and not d["run_out_at_domain_end"]
     # all the material is in the deposit: nothing reached the outflow
     assert d["volume"] / 0.1 == pytest.approx(0.006 * 0.08, rel=1e-2)  # films < h_min aside

@@ -10,9 +10,25 @@ times. Definitions, with "wet" meaning h >= h_min as in (6.10):
 * ``stop_time``: the first output time from which the flow is at rest at every later output
   time; ``moving_until`` the output time before it (the flow stopped in between). None if the
   flow still moves at the last output time.
-* ``run_out``: x_f^+ (6.10) at ``stop_time``, the furthest downslope wet cell of the deposit
-  [m]; ``run_out_at_domain_end`` says that the deposit reaches the last column, when material
-  has left through the outflow and the run-out is only a lower bound.
+* ``momentum`` (per output time): the momentum of the wet cells, the sum of h |u| dx dy
+  [m^4/s]. The flow has **settled** at an output time when the momentum is at most
+  ``settle_fraction`` (default :data:`DEFAULT_SETTLE_FRACTION`) of its largest value over the
+  output times, a criterion on the moving mass as a whole, as avalanche codes use to end a
+  run. ``settle_time`` / ``settling_until``: as ``stop_time`` / ``moving_until`` for it. A
+  flow at rest has settled; one that has settled may still hold a few slow cells: with the
+  projected friction, isolated films just thicker than h_stop beside a deposit at rest can keep
+  a speed of mm/s while the central flux's dissipation, which draws mass back out of the
+  thicker deposit, balances their flux into it, so that no mass moves (docs/numerics.md).
+  ``moving_cells`` / ``moving_volume`` / ``moving_max_speed``: the wet cells faster than
+  ``rest_speed`` at the last output time, their volume [m^3] and largest speed [m/s].
+* ``thickness_change``: the largest change of h in any cell between two consecutive output
+  times from ``stop_time`` (else ``settle_time``) on [m]: exactly 0 for a deposit at rest
+  (cells at rest keep their h bitwise), and how fixed a settled one is.
+* ``basis``: ``"rest"`` when the flow stopped, ``"settled"`` when it settled without stopping,
+  else None; the deposit numbers below are given in both cases, at that time.
+* ``run_out``: x_f^+ (6.10) at ``stop_time`` (else ``settle_time``), the furthest downslope
+  wet cell of the deposit [m]; ``run_out_at_domain_end`` says that the deposit reaches the last
+  column, when material has left through the outflow and the run-out is only a lower bound.
 * ``thickness_mean`` / ``thickness_max``: mean and largest h over the deposit (its wet cells)
   at the last output time [m]; ``channel_thickness`` / ``levee_thickness`` the mean h of its
   fine-rich (phi > phi_threshold) and coarse-rich cells, the locked-in channels and levees of
@@ -26,11 +42,21 @@ import math
 import numpy as np
 
 DEFAULT_REST_SPEED = 1e-6  # [m/s] the flow is at rest where no wet cell is faster
+# the flow has settled where its momentum is at most this fraction of its largest value
+DEFAULT_SETTLE_FRACTION = 1e-5
 DEPOSIT_KEYS = (
     "rest_speed",
     "stopped",
     "stop_time",
     "moving_until",
+    "settle_fraction",
+    "settled",
+    "settle_time",
+    "settling_until",
+    "basis",
+    "moving_cells",
+    "moving_volume",
+    "moving_max_speed",
     "run_out",
     "run_out_at_domain_end",
     "thickness_mean",
@@ -42,28 +68,70 @@ DEPOSIT_KEYS = (
 )
 
 
-def max_speed(h, u, v, h_min: float) -> float | None:
-    """Largest |u| over the wet cells of one snapshot (None without wet cells)."""
+def cell_area(x, y) -> float:
+    """dx dy of the grid of cell centres x, y [m^2] (a single cell's length counts as 1)."""
+    dx = float(x[1] - x[0]) if len(x) > 1 else 1.0
+    dy = float(y[1] - y[0]) if len(y) > 1 else 1.0
+    return dx * dy
+
+
+def _wet_speed(h, u, v, h_min: float):
+    """(wet mask, |u| or |(u, v)|) of one snapshot."""
     h = np.asarray(h, dtype=float)
-    wet = h >= h_min
-    if not wet.any():
-        return None
     s = np.abs(np.asarray(u, dtype=float))
     if v is not None:
         s = np.hypot(s, np.asarray(v, dtype=float))
+    return h >= h_min, s
+
+
+def max_speed(h, u, v, h_min: float) -> float | None:
+    """Largest |u| over the wet cells of one snapshot (None without wet cells)."""
+    wet, s = _wet_speed(h, u, v, h_min)
+    if not wet.any():
+        return None
     return float(s[wet].max())
+
+
+def momentum(h, u, v, h_min: float, cell_area: float) -> float:
+    """The momentum of the wet cells of one snapshot, sum of h |u| dx dy [m^4/s]."""
+    wet, s = _wet_speed(h, u, v, h_min)
+    return float((np.asarray(h, dtype=float)[wet] * s[wet]).sum() * cell_area)
+
+
+def _first_of_last_run(flags) -> int | None:
+    """Index of the first entry from which every later one is true; None if the last is
+    not."""
+    k = None
+    for i in range(len(flags) - 1, -1, -1):
+        if not flags[i]:
+            break
+        k = i
+    return k
 
 
 def stop_index(speeds, rest_speed: float = DEFAULT_REST_SPEED) -> int | None:
     """Index of the first output time from which every later one is at rest (a time without
     wet cells counts as at rest); None if the last one is not."""
-    k = None
-    for i in range(len(speeds) - 1, -1, -1):
-        s = speeds[i]
-        if s is not None and not s <= rest_speed:
-            break
-        k = i
-    return k
+    return _first_of_last_run([s is None or s <= rest_speed for s in speeds])
+
+
+def settle_index(momenta, settle_fraction: float = DEFAULT_SETTLE_FRACTION) -> int | None:
+    """Index of the first output time from which the momentum stays at most
+    ``settle_fraction`` of its largest value over all the times; None if the last one is
+    above it (or there are no times)."""
+    if not len(momenta):
+        return None
+    limit = settle_fraction * max(momenta)
+    return _first_of_last_run([m <= limit for m in momenta])
+
+
+def thickness_change(frames) -> float:
+    """The largest |h_{k+1} - h_k| over the cells and consecutive snapshots ``frames`` [m]
+    (0 for fewer than two)."""
+    out = 0.0
+    for a, b in zip(frames[:-1], frames[1:]):
+        out = max(out, float(np.abs(np.asarray(b, float) - np.asarray(a, float)).max()))
+    return out
 
 
 def deposit_metrics(
@@ -77,29 +145,51 @@ def deposit_metrics(
     phi_threshold: float,
     run_out: float | None,
     rest_speed: float = DEFAULT_REST_SPEED,
+    momenta=None,
+    settle_fraction: float = DEFAULT_SETTLE_FRACTION,
+    u_last=None,
+    v_last=None,
 ) -> dict:
     """The deposit dict of :data:`DEPOSIT_KEYS` (see the module docstring). ``speeds`` are
-    the per-time :func:`max_speed`; ``h_last``, ``phi_last`` the last snapshot (ny, nx) (phi
-    None without segregation); ``run_out``: x_f^+ at the stop time, from the caller."""
+    the per-time :func:`max_speed`, ``momenta`` the per-time :func:`momentum` (None: the
+    settling is not judged); ``h_last``, ``phi_last``, ``u_last``, ``v_last`` the last
+    snapshot (ny, nx) (phi None without segregation, v None in 1D, u None: no moving cells
+    counted); ``run_out``: x_f^+ at the stop time, else at the settle time, from the
+    caller."""
     k = stop_index(speeds, rest_speed)
+    ks = None if momenta is None else settle_index(momenta, settle_fraction)
+    if k is not None and (ks is None or ks > k):
+        ks = k  # at rest is settled
     out = dict.fromkeys(DEPOSIT_KEYS)
     out["rest_speed"] = float(rest_speed)
+    out["settle_fraction"] = float(settle_fraction)
     out["stopped"] = k is not None
-    if k is None:
-        return out
-    out["stop_time"] = float(times[k])
-    out["moving_until"] = float(times[k - 1]) if k > 0 else None
+    out["settled"] = ks is not None
     h = np.asarray(h_last, dtype=float)
+    da = cell_area(x, y)
+    if u_last is not None:
+        wet, s = _wet_speed(h, u_last, v_last, h_min)
+        moving = wet & (s > rest_speed)
+        out["moving_cells"] = int(moving.sum())
+        out["moving_volume"] = float(h[moving].sum() * da)
+        out["moving_max_speed"] = float(s[moving].max()) if moving.any() else 0.0
+    if k is not None:
+        out["stop_time"] = float(times[k])
+        out["moving_until"] = float(times[k - 1]) if k > 0 else None
+    if ks is not None:
+        out["settle_time"] = float(times[ks])
+        out["settling_until"] = float(times[ks - 1]) if ks > 0 else None
+    if ks is None:
+        return out
+    out["basis"] = "rest" if k is not None else "settled"
     wet = h >= h_min
-    dx = float(x[1] - x[0]) if len(x) > 1 else 1.0
-    dy = float(y[1] - y[0]) if len(y) > 1 else 1.0
     out["run_out"] = None if run_out is None or not math.isfinite(run_out) else float(run_out)
     out["run_out_at_domain_end"] = bool(wet[:, -1].any())
     if wet.any():
         out["thickness_mean"] = float(h[wet].mean())
         out["thickness_max"] = float(h[wet].max())
-        out["area"] = float(wet.sum() * dx * dy)
-        out["volume"] = float(h[wet].sum() * dx * dy)
+        out["area"] = float(wet.sum() * da)
+        out["volume"] = float(h[wet].sum() * da)
         if phi_last is not None:
             phi = np.asarray(phi_last, dtype=float)
             fine = wet & (phi > phi_threshold)
@@ -107,3 +197,25 @@ def deposit_metrics(
             out["channel_thickness"] = float(h[fine].mean()) if fine.any() else None
             out["levee_thickness"] = float(h[coarse].mean()) if coarse.any() else None
     return out
+
+
+def deposit_when(d: dict) -> str:
+    """'between t = a and b s' / 'by t = b s': when the flow stopped, else settled."""
+    t, before = (
+        (d["stop_time"], d["moving_until"])
+        if d["stopped"]
+        else (d["settle_time"], d["settling_until"])
+    )
+    return f"between t = {before:g} and {t:g} s" if before is not None else f"by t = {t:g} s"
+
+
+def still_moving(d: dict) -> str:
+    """What still moves in a flow that settled without coming to rest."""
+    n = d["moving_cells"]
+    if n is None:
+        return f"momentum below {d['settle_fraction']:g} of its peak"
+    return (
+        f"momentum below {d['settle_fraction']:g} of its peak, but {n} cell"
+        f"{'' if n == 1 else 's'} ({d['moving_volume']:.3g} m^3) still move at up to "
+        f"{d['moving_max_speed']:.3g} m/s"
+    )

@@ -83,7 +83,17 @@ import numpy as np
 
 from ..errors import InputError
 from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels, periodic_runs
-from .deposit import DEFAULT_REST_SPEED, deposit_metrics, max_speed, stop_index
+from .deposit import (
+    DEFAULT_REST_SPEED,
+    DEFAULT_SETTLE_FRACTION,
+    deposit_metrics,
+    max_speed,
+    cell_area,
+    momentum,
+    settle_index,
+    stop_index,
+    thickness_change,
+)
 from .spectrum import spectral_wavelength
 
 DEFAULT_MIN_PERSISTENCE = 0.1  # fraction of the lines in [x_f^-, x_f^+] the count must hold on
@@ -316,6 +326,7 @@ def analyse_run(
     h_min: float | None = None,
     Ly: float | None = None,
     rest_speed: float = DEFAULT_REST_SPEED,
+    settle_fraction: float = DEFAULT_SETTLE_FRACTION,
     **opts,
 ) -> dict:
     """Finger diagnostics of every output time of a saved run.
@@ -333,9 +344,10 @@ def analyse_run(
     ``front_speed``, ``front_speed_over_u0``, ``max_channel_speed``,
     ``max_channel_speed_over_u0``, ``channel_speed_over_u0``, ``channel_phi``,
     ``levee_speed_over_u0``, ``finger_count_lines`` (None where undefined), and ``deposit``:
-    whether and when the flow stopped (at most ``rest_speed`` [m/s] anywhere), its run-out and
-    thickness (:func:`tiseg.analysis.deposit.deposit_metrics`, with the per-time
-    ``max_speed``), over all output times whatever ``time`` says.
+    whether and when the flow stopped (at most ``rest_speed`` [m/s] anywhere) or settled (its
+    momentum at most ``settle_fraction`` of its peak), its run-out and thickness
+    (:func:`tiseg.analysis.deposit.deposit_metrics`, with the per-time ``max_speed`` and
+    ``momentum``), over all output times whatever ``time`` says.
     Raises :class:`tiseg.errors.InputError` for a missing or unreadable file, a file without h
     or phi, or a time that is not an output time.
     """
@@ -380,31 +392,43 @@ def analyse_run(
             front_max(np.asarray(h_all.isel(time=i).values), x, h_min) for i in range(times.size)
         ]
         speeds = front_speed(times, xf_all)
-        # the deposit: the largest speed at every time, the last snapshot's thickness
-        flow = [
-            max_speed(
-                h_all.isel(time=i).values,
-                ds["u"].isel(time=i).values,
-                ds["v"].isel(time=i).values if "v" in ds.variables else None,
-                h_min,
-            )
-            for i in range(times.size)
-        ]
+        # the deposit: the largest speed and the momentum at every time, the last snapshot's
+        # thickness
+        area = cell_area(x, y)
+        flow, moms = [], []
+        for i in range(times.size):
+            h_i = h_all.isel(time=i).values
+            u_i = ds["u"].isel(time=i).values
+            v_i = ds["v"].isel(time=i).values if "v" in ds.variables else None
+            flow.append(max_speed(h_i, u_i, v_i, h_min))
+            moms.append(momentum(h_i, u_i, v_i, h_min, area))
         k = stop_index(flow, rest_speed)
+        if k is None:
+            k = settle_index(moms, settle_fraction)
         thr = _settings(_spacing(y), phi0, opts.get("phi_threshold"), None, None)[0]
+        last = times.size - 1
         deposit = deposit_metrics(
             times,
             flow,
-            np.asarray(h_all.isel(time=times.size - 1).values),
-            np.asarray(ds["phi"].isel(time=times.size - 1).values),
+            np.asarray(h_all.isel(time=last).values),
+            np.asarray(ds["phi"].isel(time=last).values),
             x,
             y,
             h_min,
             thr,
             None if k is None else xf_all[k],
             rest_speed,
+            momenta=moms,
+            settle_fraction=settle_fraction,
+            u_last=np.asarray(ds["u"].isel(time=last).values),
+            v_last=np.asarray(ds["v"].isel(time=last).values) if "v" in ds.variables else None,
         )
+        if k is not None:
+            deposit["thickness_change"] = thickness_change(
+                [h_all.isel(time=i).values for i in range(k, times.size)]
+            )
         deposit["max_speed"] = flow
+        deposit["momentum"] = moms
 
         result = {k: [] for k in RUN_KEYS}
         for i in idx:

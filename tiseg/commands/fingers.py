@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from ..analysis.deposit import deposit_when, still_moving
 from .common import print_json
 
 
@@ -32,6 +33,16 @@ def register(sub) -> None:
         metavar="U",
         help="the flow is at rest at an output time when no wet cell is faster than U [m/s] "
         "(default 1e-6): then the deposit's run-out, thickness and stop time are reported",
+    )
+    p.add_argument(
+        "--settle-fraction",
+        type=float,
+        default=None,
+        metavar="F",
+        help="the flow has settled at an output time when its momentum (sum of h |u| over the "
+        "wet cells) is at most F times its largest value (default 1e-4); a flow that settled "
+        "without coming to rest gets its deposit reported at the settle time, with the cells "
+        "still moving",
     )
     g = p.add_argument_group("counting (defaults from the stored scene and the grid)")
     g.add_argument(
@@ -128,6 +139,12 @@ def run(args) -> int:
             f"--rest-speed={args.rest_speed!r} must be a speed >= 0 [m/s]",
         )
         opts["rest_speed"] = args.rest_speed
+    if args.settle_fraction is not None:
+        require(
+            math.isfinite(args.settle_fraction) and 0 <= args.settle_fraction < 1,
+            f"--settle-fraction={args.settle_fraction!r} must be a fraction in [0, 1)",
+        )
+        opts["settle_fraction"] = args.settle_fraction
     res = analyse_run(args.dir, time=args.time, **opts)
     if args.json:
         print_json(res)
@@ -177,29 +194,31 @@ def run(args) -> int:
 
 
 def _deposit_line(d: dict, t_last) -> str:
-    """One line on the deposit: when the flow stopped, its run-out and thickness."""
+    """One line on the deposit: when the flow stopped (or settled), its run-out and
+    thickness."""
     last = d["max_speed"][-1] if d["max_speed"] else None
-    if not d["stopped"]:
+    if not d["settled"]:
         speed = "no wet cell" if last is None else f"max |u| = {last:.3g} m/s"
         return (
             f"deposit: the flow has not come to rest by the last output time ({speed} > "
-            f"{d['rest_speed']:g} m/s)"
+            f"{d['rest_speed']:g} m/s; momentum above {d['settle_fraction']:g} of its peak)"
         )
-    since = (
-        f"between t = {d['moving_until']:g} and {d['stop_time']:g} s"
-        if d["moving_until"] is not None
-        else f"by t = {d['stop_time']:g} s"
-    )
+    since = deposit_when(d)
+    state = "at rest" if d["stopped"] else "settled"
     if d["run_out"] is None:
-        return f"deposit: at rest {since}, nothing left on the chute"
+        return f"deposit: {state} {since}, nothing left on the chute"
 
     def mm(v):
         return "-" if v is None else f"{1e3 * v:.3g} mm"
 
     bound = " (reaches the domain end: a lower bound)" if d["run_out_at_domain_end"] else ""
-    return (
-        f"deposit: at rest {since}; run-out x_f+ = {d['run_out']:.4f} m{bound}; thickness "
+    line = (
+        f"deposit: {state} {since}; run-out x_f+ = {d['run_out']:.4f} m{bound}; thickness "
         f"mean {mm(d['thickness_mean'])}, max {mm(d['thickness_max'])}, channels "
         f"{mm(d['channel_thickness'])}, levees {mm(d['levee_thickness'])}; area "
-        f"{d['area']:.4g} m^2, volume {d['volume']:.4g} m^3"
+        f"{d['area']:.4g} m^2, volume {d['volume']:.4g} m^3; h changes by at most "
+        f"{d['thickness_change']:.3g} m between outputs from then on"
     )
+    if not d["stopped"]:
+        line += f"; {still_moving(d)}"
+    return line

@@ -70,7 +70,14 @@ def deposit_figure(run_dir, out_dir, dpi: int = 90) -> Path:
     for ax in axes:
         if dep["run_out"] is not None:
             ax.axvline(dep["run_out"], color="k", lw=0.8, ls="--")
-    fig.text(0.01, -0.01, _caption(dep) + "\n" + _wrap(PAPER, 120), ha="left", va="top", fontsize=8)
+    fig.text(
+        0.01,
+        -0.01,
+        _wrap(_caption(dep), 120) + "\n" + _wrap(PAPER, 120),
+        ha="left",
+        va="top",
+        fontsize=8,
+    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     dest = out / FILE
@@ -88,7 +95,9 @@ def _stop_of_inflow(ds, path) -> float | None:
 
 
 def _caption(d: dict) -> str:
-    if not d["stopped"]:
+    from ..analysis.deposit import deposit_when, still_moving
+
+    if not d["settled"]:
         last = d["max_speed"][-1] if d["max_speed"] else None
         speed = "no wet cell" if last is None else f"max |u| = {last:.3g} m/s"
         return f"tiseg: the flow has not come to rest by the last output time ({speed})."
@@ -96,17 +105,14 @@ def _caption(d: dict) -> str:
     def mm(v):
         return "-" if v is None else f"{1e3 * v:.2f} mm"
 
-    when = (
-        f"between t = {d['moving_until']:g} and {d['stop_time']:g} s"
-        if d["moving_until"] is not None
-        else f"by t = {d['stop_time']:g} s"
-    )
     end = " (reaches the end of the chute)" if d["run_out_at_domain_end"] else ""
     run_out = "-" if d["run_out"] is None else f"{d['run_out']:.3f} m{end}"
+    state = "at rest" if d["stopped"] else "settled"
+    tail = "" if d["stopped"] else f" ({still_moving(d)})"
     return (
-        f"tiseg: at rest {when}; run-out x_f+ = {run_out} (dashed); deposit thickness: mean "
-        f"{mm(d['thickness_mean'])}, channels {mm(d['channel_thickness'])}, levees "
-        f"{mm(d['levee_thickness'])}, max {mm(d['thickness_max'])}."
+        f"tiseg: {state} {deposit_when(d)}{tail}; run-out x_f+ = {run_out} (dashed); deposit "
+        f"thickness: mean {mm(d['thickness_mean'])}, channels {mm(d['channel_thickness'])}, "
+        f"levees {mm(d['levee_thickness'])}, max {mm(d['thickness_max'])}."
     )
 
 

@@ -762,13 +762,16 @@ class TaichiOperator:
     @ti.kernel
     def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
         """slot d := (1 - theta) slot a + theta slot b on every cell, ghosts included, and the
-        same for the budgets (no active range: a copy must be whole)."""
+        same for the budgets (no active range: a copy must be whole). Written a + theta (b - a),
+        which gives a's bits where b == a: a deposit at rest then has the same h in every
+        snapshot, as it has in the step states ((1 - theta) a + theta a can be an ulp off)."""
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(self.NX, self.NY):
-            self.q[d, i, j] = (1.0 - theta) * self.q[a, i, j] + theta * self.q[b, i, j]
+            qa = self.q[a, i, j]
+            self.q[d, i, j] = qa + theta * (self.q[b, i, j] - qa)
         ti.loop_config(serialize=True)  # a handful of iterations
         for k in range(NBUDGET):
-            self.bud[d, k] = (1.0 - theta) * self.bud[a, k] + theta * self.bud[b, k]
+            self.bud[d, k] = self.bud[a, k] + theta * (self.bud[b, k] - self.bud[a, k])
 
     @ti.func
     def _boundary_rates(self, d):
