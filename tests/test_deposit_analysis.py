@@ -213,3 +213,23 @@ def test_deposit_figure(deposit_run, tmp_path, capsys):
     assert main(["figures", "deposit", str(tmp_path / "nowhere"), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "does not exist" in err, err
+
+
+def test_the_finite_release_deposit_scene_comes_to_rest(ti_cpu, tmp_path, capsys):
+    """The finite-release-deposit scene at 75 cells/m: every cell is at rest by 90 s, and the
+    deposit then keeps its h bit for bit. Before the mass flux of a film into a resting cell
+    was at least the film's own (TaichiOperator._rest_face), 11 isolated fine-rich films
+    just thicker than h_stop kept 5e-3 m/s from 90 s on at this resolution, while no mass
+    moved."""
+    out = tmp_path / "run"
+    argv = ["run", "finite-release-deposit", "--out", str(out), "--no-progress", "-q"]
+    for kv in ("domain.resolution=75", "time.t_end=90", "output.times=[]", "output.interval=15"):
+        argv += ["--set", kv]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main(["fingers", str(out), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)["deposit"]
+    assert d["stopped"] and d["basis"] == "rest" and d["stop_time"] <= 90.0
+    assert d["max_speed"][-1] == 0.0 and d["moving_cells"] == 0
+    assert d["thickness_change"] == 0.0
+    assert d["levee_thickness"] > 2 * d["channel_thickness"]  # coarse levees, thin channels

@@ -239,16 +239,16 @@ def _cut_off_flow(cfl=None):
 
 def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
     """The flow drains and comes to rest, leaving a deposit of h_stop = 0.785 mm, where
-    tan(zeta) = mu_D(h_stop, beta*): measured 0.9938 h_stop at 400 cells (0.9940 with steps
+    tan(zeta) = mu_D(h_stop, beta*): measured 0.9937 h_stop at 400 cells (0.9939 with steps
     of 0.8 of the length, 0.9944 with RKC), so the deposit does not depend on the step length.
     Before the friction coefficient lagged by a stage and the static friction decided once per
     step, it did: 1.0040 h_stop against 0.9883 at 0.8 of the step, 1.0268 with RKC.
 
-    All but 3 of the 400 cells are then exactly at rest. Those 3 creep at 3e-6 to 2e-5 m/s,
-    each just below a step of about 1.5e-5 m in the deposit's surface: the law's intermediate
-    regime (kappa = 1e-3) lets a layer pushed a little past mu_D(h, beta*) creep, and that
-    creep has no end on this grid. Mass is conserved up to what left through the outflow, and
-    every cell at rest away from the creeping ones keeps h bit for bit."""
+    Every one of the 400 cells is then exactly at rest and keeps h bit for bit. Before a
+    cell flowing into a resting one fed it at least its own flux h u (TaichiOperator.
+    _rest_face), 3 cells crept on at 3e-6 to 2e-5 m/s, each just below a step of about
+    1.5e-5 m in the deposit's surface, held there by the central flux's dissipation. Mass is
+    conserved up to what left through the outflow."""
     sc = _cut_off_flow()
     assert sc.flow.F > sc.material.beta_star
     m = sc.material
@@ -262,16 +262,13 @@ def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
     print(f"\ndeposit {deposit / hs:.4f} h_stop; {np.count_nonzero(u)} cells moving")
     assert abs(deposit / hs - 1.0) < 0.01, (deposit, hs)
     assert np.all(np.abs(h[40:360] / hs - 1.0) < 0.05)
-    assert np.count_nonzero(u) <= 4 and np.abs(u).max() < 1e-4  # 397 of 400 exactly at rest
+    assert np.count_nonzero(u) == 0  # all 400 exactly at rest
     net_in = sim.budget()["mass_in"]  # what the outflow took, negative
     assert -0.7 * m0 < net_in < -0.5 * m0  # 2 mm drained to a deposit of ~0.8 mm
     assert abs(sim.totals()["mass"] - (m0 + net_in)) <= 1e-12 * m0
     before = sim.conserved()
     sim.advance(21.0)
-    still = sim.fields()["u"].ravel() == 0.0
-    near = np.convolve((u != 0) | ~still, np.ones(5), mode="same") > 0  # creepers +- 2 cells
-    assert near.sum() <= 20
-    assert np.array_equal(sim.conserved()[0, :, 0][~near], before[0, :, 0][~near])
+    assert np.array_equal(sim.conserved(), before)
     # the same flow with steps of 0.8 of the length leaves the same deposit
     short = Simulation(_cut_off_flow(cfl=0.2))
     short.advance(20.0)

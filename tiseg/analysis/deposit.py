@@ -15,10 +15,8 @@ times. Definitions, with "wet" meaning h >= h_min as in (6.10):
   ``settle_fraction`` (default :data:`DEFAULT_SETTLE_FRACTION`) of its largest value over the
   output times, a criterion on the moving mass as a whole, as avalanche codes use to end a
   run. ``settle_time`` / ``settling_until``: as ``stop_time`` / ``moving_until`` for it. A
-  flow at rest has settled; one that has settled may still hold a few slow cells: with the
-  projected friction, isolated films just thicker than h_stop beside a deposit at rest can keep
-  a speed of mm/s while the central flux's dissipation, which draws mass back out of the
-  thicker deposit, balances their flux into it, so that no mass moves (docs/numerics.md).
+  flow at rest has settled; one that has settled may still hold slow cells, such as the creep
+  at ~u_eps of the regularised friction, which never stops.
   ``moving_cells`` / ``moving_volume`` / ``moving_max_speed``: the wet cells faster than
   ``rest_speed`` at the last output time, their volume [m^3] and largest speed [m/s].
 * ``thickness_change``: the largest change of h in any cell between two consecutive output

@@ -23,6 +23,10 @@ from .config import OperatorConfig
 
 MAX_TERMS = 6
 NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
+# bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
+REST = 1  # u = v = 0 exactly
+HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
+WET_REST = 4  # at rest and wet (h >= h_min)
 INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 
@@ -421,40 +425,67 @@ class TaichiOperator:
         self._boundary_rates(d)
 
     @ti.func
-    def _rest_face(self, F, i0, j0, i1, j1):
-        """With the projected friction scheme, no mass (and no h phi) crosses a face between
-        two cells at rest: the central schemes' dissipation a/2 (h_r - h_l) would otherwise
-        let a deposit's surface relax for ever. The momentum flux stays (the pressure), and
-        the friction projection decides whether the cells start to move.
+    def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
+        """With the projected friction scheme, the mass (and h phi) flux at a face next to a
+        cell at rest. "At rest" is read from the step's initial state (_mark_rest), not from
+        the stage's: a cell that the first stage stops must not switch its faces off for the
+        later ones. The rates of a step are then one smooth function, which RKC's stage
+        weights (of both signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a
+        thin cell next to a deposit below zero, and the limiter's clip then created mass.
 
-        "At rest" is read from the step's initial state (_mark_rest), not from the stage's: a
-        cell that the first stage stops must not switch its faces off for the later ones. The
-        rates of a step are then one smooth function, which RKC's stage weights (of both
-        signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a thin cell next
-        to a deposit below zero, and the limiter's clip then created mass."""
+        * Between two cells at rest no mass crosses: the central schemes' dissipation
+          a/2 (h_r - h_l) would otherwise let a deposit's surface relax for ever. The
+          momentum flux stays (the pressure), and the friction projection decides whether
+          the cells start to move.
+        * Where a moving cell flows into a wet cell at rest, at least its own flux h u_n (of
+          its reconstructed edge state) crosses into the resting cell. The central flux's
+          dissipation a/2 (h_r - h_l) would otherwise draw mass out of a thicker deposit
+          against the flow: a thin film flowing into a deposit was held in place by it, and
+          kept a speed of mm/s at a thickness just above h_stop while no mass moved. The
+          momentum flux stays the central one."""
         out = F
         if ti.static(self.phys.fr_projected):
-            if self.rest[i0, j0] >= 1 and self.rest[i1, j1] >= 1:
+            r0 = ti.cast(self.rest[i0, j0], ti.i32)
+            r1 = ti.cast(self.rest[i1, j1], ti.i32)
+            if (r0 & REST) != 0 and (r1 & REST) != 0:
                 out[0] = 0.0
                 if ti.static(self.seg):
                     out[self.HPHI] = 0.0
+            elif (r1 & WET_REST) != 0:  # the mover on the left: at least its flux to the right
+                f = self.phys.flux(wl, d)
+                if f[0] > out[0]:
+                    out[0] = f[0]
+                    if ti.static(self.seg):
+                        out[self.HPHI] = f[self.HPHI]
+            elif (r0 & WET_REST) != 0:  # the mover on the right: at least its flux to the left
+                f = self.phys.flux(wr, d)
+                if f[0] < out[0]:
+                    out[0] = f[0]
+                    if ti.static(self.seg):
+                        out[self.HPHI] = f[self.HPHI]
         return out
 
     @ti.kernel
     def _mark_rest(self, serial: ti.template()):
-        """rest := 1 where the prepared primitives have u = v = 0 (the cells the faces near the
-        active range read; further out no face flux is computed), else 0. With a law with
-        hysteresis the step's first stage then marks the cells the static friction holds with
-        2 (_project)."""
+        """rest := REST where the prepared primitives have u = v = 0, with WET_REST where such
+        a cell is also wet (h >= h_min), else 0, on the cells the faces near the active range
+        read (further out no face flux is computed). With a law with hysteresis the step's
+        first stage then adds HELD to the cells the static friction holds (_project)."""
         lo = ti.max(self.act[0] - 4, 0)
         hi = ti.min(self.act[1] + 4, self.NX)
+        hmin = self.par[Params.H_MIN]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, self.NY)):
             w = self.w[i, j]
             r = w[1] == 0.0
             if ti.static(not self.is_1d):
                 r = r and w[self.HV] == 0.0
-            self.rest[i, j] = ti.cast(r, ti.i8)
+            flag = 0
+            if r:
+                flag = REST
+                if w[0] >= hmin:
+                    flag = REST | WET_REST
+            self.rest[i, j] = ti.cast(flag, ti.i8)
 
     @ti.func
     def _x_face(self, i, j):
@@ -471,7 +502,7 @@ class TaichiOperator:
                 wl = w0 + 0.5 * self.sx[i, j]
                 wr = w1 - 0.5 * self.sx[i + 1, j]
             F = self._face_flux(wl, wr, 0)
-            F = self._rest_face(F, i, j, i + 1, j)
+            F = self._rest_face(F, wl, wr, 0, i, j, i + 1, j)
         if ti.static(self.visc):  # the viscous stress (tiseg.physics.viscosity)
             ph = self.phys
             K = ph.face_K(w0[0], w1[0])
@@ -502,7 +533,7 @@ class TaichiOperator:
                 wl = w0 + 0.5 * self.sy[i, j]
                 wr = w1 - 0.5 * self.sy[i, j + 1]
             F = self._face_flux(wl, wr, 1)
-            F = self._rest_face(F, i, j, i, j + 1)
+            F = self._rest_face(F, wl, wr, 1, i, j, i, j + 1)
         if ti.static(self.visc):
             ph = self.phys
             idx = self.par[Params.INV_DX]
@@ -690,7 +721,7 @@ class TaichiOperator:
         """The friction projection of a stage's result (Physics.project_friction, with the
         coefficient at ``spd0``, the speed of the state the stage started from). With a law
         with hysteresis the static friction decides once per step, on its first stage, which
-        of the cells at rest at the step's start it holds (Physics.holds, marked 2 in rest): a
+        of the cells at rest at the step's start it holds (Physics.holds, marked HELD in rest): a
         held cell stays exactly at rest through all the step's stages, every other cell is
         projected. Deciding per stage instead made the starts depend on the step length and
         on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
@@ -698,10 +729,10 @@ class TaichiOperator:
         if ti.static(self.phys.law.hysteresis):
             flag = ti.cast(self.rest[i, j], ti.i32)
             if ti.static(first):
-                if flag == 1 and self.phys.holds(acc, tau) == 1:
-                    flag = 2
-                    self.rest[i, j] = ti.cast(2, ti.i8)
-            if flag == 2:
+                if (flag & REST) != 0 and self.phys.holds(acc, tau) == 1:
+                    flag |= HELD
+                    self.rest[i, j] = ti.cast(flag, ti.i8)
+            if (flag & HELD) != 0:
                 out[1] = 0.0
                 if ti.static(not self.is_1d):
                     out[self.HV] = 0.0

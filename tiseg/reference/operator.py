@@ -265,13 +265,21 @@ class ReferenceOperator:
         if lay.segregation and c.phi_flux == "upwind":
             p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
             H[lay.HPHI] = H[lay.H] * (p - self.G(p))
-        if self.projected:  # no mass or h phi crosses a face between two cells at rest
-            rest = (w[lay.HU][sl(0, n - 1)[1:]] == 0) & (w[lay.HU][sl(1, n)[1:]] == 0)
+        if self.projected:  # the faces next to cells at rest (TaichiOperator._rest_face)
+            lo, hi = sl(0, n - 1)[1:], sl(1, n)[1:]
+            still = w[lay.HU] == 0
             if not lay.is_1d:
-                rest &= (w[lay.HV][sl(0, n - 1)[1:]] == 0) & (w[lay.HV][sl(1, n)[1:]] == 0)
-            H[lay.H] = np.where(rest, 0.0, H[lay.H])
-            if lay.segregation:
-                H[lay.HPHI] = np.where(rest, 0.0, H[lay.HPHI])
+                still &= w[lay.HV] == 0
+            wet_still = still & (w[lay.H] >= c.h_min)
+            both = still[lo] & still[hi]  # no mass or h phi crosses
+            # a mover flowing into a wet cell at rest: at least its own flux crosses
+            into_right = ~both & wet_still[hi] & (fl[lay.H] > H[lay.H])
+            into_left = ~both & ~wet_still[hi] & wet_still[lo] & (fr[lay.H] < H[lay.H])
+            mass = [lay.H] + ([lay.HPHI] if lay.segregation else [])
+            for k in mass:
+                H[k] = np.where(
+                    both, 0.0, np.where(into_right, fl[k], np.where(into_left, fr[k], H[k]))
+                )
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
