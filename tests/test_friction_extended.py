@@ -239,15 +239,15 @@ def _cut_off_flow(cfl=None):
 
 def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
     """The flow drains and comes to rest, leaving a deposit of h_stop = 0.785 mm, where
-    tan(zeta) = mu_D(h_stop, beta*): measured 0.9937 h_stop at 400 cells (0.9939 with steps
+    tan(zeta) = mu_D(h_stop, beta*): measured 0.9938 h_stop at 400 cells (0.9940 with steps
     of 0.8 of the length, 0.9944 with RKC), so the deposit does not depend on the step length.
     Before the friction coefficient lagged by a stage and the static friction decided once per
     step, it did: 1.0040 h_stop against 0.9883 at 0.8 of the step, 1.0268 with RKC.
 
-    Every one of the 400 cells is then exactly at rest and keeps h bit for bit. Before a
-    cell flowing into a resting one fed it at least its own flux h u (TaichiOperator.
-    _rest_face), 3 cells crept on at 3e-6 to 2e-5 m/s, each just below a step of about
-    1.5e-5 m in the deposit's surface, held there by the central flux's dissipation. Mass is
+    Every one of the 400 cells is then exactly at rest and keeps h bit for bit. Before the
+    mass flux had a floor where a cell outruns its neighbour (TaichiOperator._rest_face), 3
+    cells crept on at 3e-6 to 2e-5 m/s, each just below a step of about 1.5e-5 m in the
+    deposit's surface, held there by the central flux's dissipation. Mass is
     conserved up to what left through the outflow."""
     sc = _cut_off_flow()
     assert sc.flow.F > sc.material.beta_star

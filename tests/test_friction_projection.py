@@ -152,17 +152,20 @@ def test_released_block_comes_to_rest_and_stays_there(ti_cpu, stepper):
     assert np.array_equal(sim.conserved(), before)
 
 
-# ------------------------------------------------------ a mover flowing into a cell at rest
+# ------------------------------------------------- a mover flowing into a cell at rest or slow
 @pytest.mark.parametrize("axis", [0, 1])
 @pytest.mark.parametrize("sign", [1.0, -1.0])
-def test_a_film_flowing_into_a_resting_cell_feeds_it_its_own_flux(ti_cpu, axis, sign):
-    """Across a face between a moving cell and a wet cell at rest that it flows into, the mass
-    crosses at least at the mover's own flux h u_n, into the resting cell. Here a 1 mm layer at
-    0.05 m/s flows into a 2 mm layer at rest (piecewise constant, so the minmod edges are the
-    cells): the resting cell's h rate is h u / dx exactly, where the central flux,
-    (h u)/2 - a/2 (2 - 1) mm < 0, drew mass out of the deposit against the flow (the rate was
-    negative). A face between two resting cells carries no mass, and one the mover leaves
-    keeps the central flux. Taichi equals the NumPy reference."""
+@pytest.mark.parametrize("slow", [0.0, 1e-3])
+def test_a_film_flowing_into_a_resting_or_slow_cell_feeds_it(ti_cpu, axis, sign, slow):
+    """Where a moving cell flows into a neighbour that does not move against it, at least
+    f_u - f_d^2 / f_u of mass crosses (f_u the mover's own flux h u_n, f_d the neighbour's).
+    Here a 1 mm layer at 0.05 m/s flows into a 2 mm layer at rest or creeping the same way at
+    1e-3 m/s (piecewise constant, so the minmod edges are the cells). The central flux,
+    (f_u + f_d)/2 - a/2 (2 - 1) mm < 0, drew mass out of the thicker layer against the flow;
+    now the fed cell gains (f_u - f_d^2 / f_u - f_d) / dx exactly, f_u / dx into a cell at
+    rest. A face between two resting cells carries no mass, faces inside either layer carry
+    its own flux, and the face the movers leave keeps the central flux. Taichi equals the
+    NumPy reference."""
     cfg = make_config(
         8 if axis == 0 else 4,
         4 if axis == 0 else 8,
@@ -177,25 +180,25 @@ def test_a_film_flowing_into_a_resting_cell_feeds_it_its_own_flux(ti_cpu, axis, 
     lay = cfg.layout
     ix, iy = lay.interior()
     k = np.arange(8)
-    mover = (k < 4) if sign > 0 else (k >= 4)  # the movers flow towards the resting half
+    mover = (k < 4) if sign > 0 else (k >= 4)  # the movers flow towards the other half
     h = np.where(mover, 1e-3, 2e-3)
     shape = (8, 1) if axis == 0 else (1, 8)
     q = np.zeros((lay.nc, lay.NX, lay.NY))
     q[lay.H][ix, iy] = h.reshape(shape)
-    q[lay.HU if axis == 0 else lay.HV][ix, iy] = (h * np.where(mover, sign * 0.05, 0.0)).reshape(
-        shape
-    )
+    speed = sign * np.where(mover, 0.05, slow)
+    q[lay.HU if axis == 0 else lay.HV][ix, iy] = (h * speed).reshape(shape)
     q[lay.HPHI][ix, iy] = 0.5 * q[lay.H][ix, iy]
     _, _, r = rates_equal_reference(cfg, q)  # fills the periodic ghosts itself
     rate = r[lay.H][ix, iy][:, 0] if axis == 0 else r[lay.H][ix, iy][0, :]
     d = cfg.dx if axis == 0 else cfg.dy
-    flux = 1e-3 * 0.05
+    fu, fd = 1e-3 * 0.05, 2e-3 * slow
     fed, feeder = (4, 3) if sign > 0 else (3, 4)
-    assert rate[fed] == pytest.approx(flux / d, rel=1e-12)
-    assert abs(rate[feeder]) <= 1e-12 * flux / d  # in and out at h u
-    resting = [1, 2] if sign < 0 else [5, 6]
-    assert np.all(rate[resting] == 0.0)  # faces between cells at rest carry no mass
-    # across the periodic face the movers leave a resting cell: the central flux draws mass
+    assert rate[fed] == pytest.approx((fu - fd * fd / fu - fd) / d, rel=1e-12)
+    assert rate[feeder] == pytest.approx(fd * fd / fu / d, rel=1e-9, abs=1e-12 * fu / d)
+    inside = [1, 2, 5, 6]  # within the movers or the other layer
+    assert np.all(np.abs(rate[inside]) <= 1e-12 * fu / d)
+    if slow == 0.0:  # faces between two cells at rest carry no mass at all
+        assert np.all(rate[[1, 2] if sign < 0 else [5, 6]] == 0.0)
+    # across the periodic face the movers leave the other layer: the central flux draws mass
     # out of it, as before
-    left_behind = 7 if sign > 0 else 0
-    assert rate[left_behind] < 0.0
+    assert rate[7 if sign > 0 else 0] < 0.0

@@ -26,7 +26,7 @@ NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 # bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
-WET_REST = 4  # at rest and wet (h >= h_min)
+X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
 INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 
@@ -437,12 +437,19 @@ class TaichiOperator:
           a/2 (h_r - h_l) would otherwise let a deposit's surface relax for ever. The
           momentum flux stays (the pressure), and the friction projection decides whether
           the cells start to move.
-        * Where a moving cell flows into a wet cell at rest, at least its own flux h u_n (of
-          its reconstructed edge state) crosses into the resting cell. The central flux's
-          dissipation a/2 (h_r - h_l) would otherwise draw mass out of a thicker deposit
-          against the flow: a thin film flowing into a deposit was held in place by it, and
-          kept a speed of mm/s at a thickness just above h_stop while no mass moved. The
-          momentum flux stays the central one."""
+        * Where the upwind cell moves towards its neighbour (u_n > 0 on the left, or < 0 on
+          the right, at the step's start) and the neighbour does not move against it, at
+          least F_h >= f_u - f_d^2 / f_u crosses, f_u = h_l max(u_l, 0) the upwind cell's own
+          flux and f_d = h_r max(u_r, 0) the downwind cell's the same way (edge states;
+          mirrored for a right-hand upwind cell), with h phi carried at the upwind cell's
+          phi. Into a cell at rest that is the upwind cell's whole flux; between cells of the
+          same flux it is zero; into a slow cell it falls short of f_u by f_d^2 / f_u only. The central flux's dissipation
+          a/2 (h_r - h_l), which at low Froude numbers is most of its mass flux, would
+          otherwise draw mass back out of a thicker, slower or resting neighbour against the
+          flow: thin films flowing into a deposit, and short chains of slow cells, were held
+          in place by it and kept a speed of mm/s for ever while no mass moved. In a flow
+          whose flux does not collapse from one cell to the next the bound lies below the
+          central flux and changes nothing; the momentum flux stays the central one."""
         out = F
         if ti.static(self.phys.fr_projected):
             r0 = ti.cast(self.rest[i0, j0], ti.i32)
@@ -451,29 +458,40 @@ class TaichiOperator:
                 out[0] = 0.0
                 if ti.static(self.seg):
                     out[self.HPHI] = 0.0
-            elif (r1 & WET_REST) != 0:  # the mover on the left: at least its flux to the right
-                f = self.phys.flux(wl, d)
-                if f[0] > out[0]:
-                    out[0] = f[0]
-                    if ti.static(self.seg):
-                        out[self.HPHI] = f[self.HPHI]
-            elif (r0 & WET_REST) != 0:  # the mover on the right: at least its flux to the left
-                f = self.phys.flux(wr, d)
-                if f[0] < out[0]:
-                    out[0] = f[0]
-                    if ti.static(self.seg):
-                        out[self.HPHI] = f[self.HPHI]
+            else:
+                # at least the flux by which the upwind cell outruns its neighbour
+                pos = ti.static(X_POS if d == 0 else Y_POS)
+                neg = ti.static(X_NEG if d == 0 else Y_NEG)
+                ph = self.phys
+                c = ti.static(1 if d == 0 else self.HV)
+                if (r0 & pos) != 0 and (r1 & neg) == 0:
+                    fu = wl[0] * ti.max(wl[c], 0.0)  # the upwind cell's own flux
+                    fd = wr[0] * ti.max(wr[c], 0.0)  # the downwind cell's, the same way
+                    if fu > 0.0:
+                        lo = fu - fd * fd / fu
+                        if lo > out[0]:
+                            out[0] = lo
+                            if ti.static(self.seg):
+                                out[self.HPHI] = lo * ph.transported(wl[self.HPHI])
+                elif (r1 & neg) != 0 and (r0 & pos) == 0:
+                    fu = -wr[0] * ti.min(wr[c], 0.0)
+                    fd = -wl[0] * ti.min(wl[c], 0.0)
+                    if fu > 0.0:
+                        hi = fd * fd / fu - fu
+                        if hi < out[0]:
+                            out[0] = hi
+                            if ti.static(self.seg):
+                                out[self.HPHI] = hi * ph.transported(wr[self.HPHI])
         return out
 
     @ti.kernel
     def _mark_rest(self, serial: ti.template()):
-        """rest := REST where the prepared primitives have u = v = 0, with WET_REST where such
-        a cell is also wet (h >= h_min), else 0, on the cells the faces near the active range
-        read (further out no face flux is computed). With a law with hysteresis the step's
-        first stage then adds HELD to the cells the static friction holds (_project)."""
+        """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
+        (X_POS / X_NEG, Y_POS / Y_NEG), on the cells the faces near the active range read
+        (further out no face flux is computed). With a law with hysteresis the step's first
+        stage then adds HELD to the cells the static friction holds (_project)."""
         lo = ti.max(self.act[0] - 4, 0)
         hi = ti.min(self.act[1] + 4, self.NX)
-        hmin = self.par[Params.H_MIN]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, self.NY)):
             w = self.w[i, j]
@@ -483,8 +501,16 @@ class TaichiOperator:
             flag = 0
             if r:
                 flag = REST
-                if w[0] >= hmin:
-                    flag = REST | WET_REST
+            else:
+                if w[1] > 0.0:
+                    flag |= X_POS
+                elif w[1] < 0.0:
+                    flag |= X_NEG
+                if ti.static(not self.is_1d):
+                    if w[self.HV] > 0.0:
+                        flag |= Y_POS
+                    elif w[self.HV] < 0.0:
+                        flag |= Y_NEG
             self.rest[i, j] = ti.cast(flag, ti.i8)
 
     @ti.func

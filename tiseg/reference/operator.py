@@ -265,21 +265,40 @@ class ReferenceOperator:
         if lay.segregation and c.phi_flux == "upwind":
             p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
             H[lay.HPHI] = H[lay.H] * (p - self.G(p))
-        if self.projected:  # the faces next to cells at rest (TaichiOperator._rest_face)
+        if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
             lo, hi = sl(0, n - 1)[1:], sl(1, n)[1:]
             still = w[lay.HU] == 0
             if not lay.is_1d:
                 still &= w[lay.HV] == 0
-            wet_still = still & (w[lay.H] >= c.h_min)
             both = still[lo] & still[hi]  # no mass or h phi crosses
-            # a mover flowing into a wet cell at rest: at least its own flux crosses
-            into_right = ~both & wet_still[hi] & (fl[lay.H] > H[lay.H])
-            into_left = ~both & ~wet_still[hi] & wet_still[lo] & (fr[lay.H] < H[lay.H])
-            mass = [lay.H] + ([lay.HPHI] if lay.segregation else [])
-            for k in mass:
-                H[k] = np.where(
-                    both, 0.0, np.where(into_right, fl[k], np.where(into_left, fr[k], H[k]))
+            # the upwind cell outruns its neighbour: at least f_u - f_d^2 / f_u crosses
+            un = w[lay.HU if direction == 0 else lay.HV]  # the cells' normal speeds
+            towards_r = (un[lo] > 0) & ~(un[hi] < 0)
+            towards_l = (un[hi] < 0) & ~(un[lo] > 0)
+            c_n = lay.HU if direction == 0 else lay.HV
+
+            def bound(fu, fd):  # f_u - f_d^2 / f_u where f_u > 0, else no bound (-inf)
+                safe = np.where(fu > 0, fu, 1.0)
+                return np.where(fu > 0, fu - fd * fd / safe, -np.inf)
+
+            f_lo = bound(wl[lay.H] * np.maximum(wl[c_n], 0.0), wr[lay.H] * np.maximum(wr[c_n], 0.0))
+            f_hi = -bound(
+                -wr[lay.H] * np.minimum(wr[c_n], 0.0), -wl[lay.H] * np.minimum(wl[c_n], 0.0)
+            )
+            up_r = ~both & towards_r & (f_lo > H[lay.H])
+            up_l = ~both & towards_l & (f_hi < H[lay.H])
+            if lay.segregation:
+                pl, pr = wl[lay.HPHI], wr[lay.HPHI]
+                H[lay.HPHI] = np.where(
+                    both,
+                    0.0,
+                    np.where(
+                        up_r,
+                        np.where(up_r, f_lo, 0.0) * (pl - self.G(pl)),
+                        np.where(up_l, np.where(up_l, f_hi, 0.0) * (pr - self.G(pr)), H[lay.HPHI]),
+                    ),
                 )
+            H[lay.H] = np.where(both, 0.0, np.where(up_r, f_lo, np.where(up_l, f_hi, H[lay.H])))
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
