@@ -132,6 +132,20 @@ def thickness_change(frames) -> float:
     return out
 
 
+def deposit_index(
+    speeds,
+    momenta=None,
+    rest_speed: float = DEFAULT_REST_SPEED,
+    settle_fraction: float = DEFAULT_SETTLE_FRACTION,
+) -> int | None:
+    """The output time the deposit is reported at: the stop index if the flow stopped, else
+    the settle index (None if neither; ``momenta`` None: the settling is not judged)."""
+    k = stop_index(speeds, rest_speed)
+    if k is None and momenta is not None:
+        k = settle_index(momenta, settle_fraction)
+    return k
+
+
 def deposit_metrics(
     times,
     speeds,
@@ -153,7 +167,7 @@ def deposit_metrics(
     settling is not judged); ``h_last``, ``phi_last``, ``u_last``, ``v_last`` the last
     snapshot (ny, nx) (phi None without segregation, v None in 1D, u None: no moving cells
     counted); ``run_out``: x_f^+ at the stop time, else at the settle time, from the
-    caller."""
+    caller (at :func:`deposit_index`)."""
     k = stop_index(speeds, rest_speed)
     ks = None if momenta is None else settle_index(momenta, settle_fraction)
     if k is not None and (ks is None or ks > k):

@@ -86,12 +86,11 @@ from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels, periodi
 from .deposit import (
     DEFAULT_REST_SPEED,
     DEFAULT_SETTLE_FRACTION,
+    cell_area,
+    deposit_index,
     deposit_metrics,
     max_speed,
-    cell_area,
     momentum,
-    settle_index,
-    stop_index,
     thickness_change,
 )
 from .spectrum import spectral_wavelength
@@ -402,9 +401,7 @@ def analyse_run(
             v_i = ds["v"].isel(time=i).values if "v" in ds.variables else None
             flow.append(max_speed(h_i, u_i, v_i, h_min))
             moms.append(momentum(h_i, u_i, v_i, h_min, area))
-        k = stop_index(flow, rest_speed)
-        if k is None:
-            k = settle_index(moms, settle_fraction)
+        k = deposit_index(flow, moms, rest_speed, settle_fraction)
         thr = _settings(_spacing(y), phi0, opts.get("phi_threshold"), None, None)[0]
         last = times.size - 1
         deposit = deposit_metrics(

@@ -40,7 +40,7 @@ def register(sub) -> None:
         default=None,
         metavar="F",
         help="the flow has settled at an output time when its momentum (sum of h |u| over the "
-        "wet cells) is at most F times its largest value (default 1e-4); a flow that settled "
+        "wet cells) is at most F times its largest value (default 1e-5); a flow that settled "
         "without coming to rest gets its deposit reported at the settle time, with the cells "
         "still moving",
     )

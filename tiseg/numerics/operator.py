@@ -443,8 +443,9 @@ class TaichiOperator:
           flux and f_d = h_r max(u_r, 0) the downwind cell's the same way (edge states;
           mirrored for a right-hand upwind cell), with h phi carried at the upwind cell's
           phi. Into a cell at rest that is the upwind cell's whole flux; between cells of the
-          same flux it is zero; into a slow cell it falls short of f_u by f_d^2 / f_u only. The central flux's dissipation
-          a/2 (h_r - h_l), which at low Froude numbers is most of its mass flux, would
+          same flux it is zero; into a slow cell it falls short of f_u by f_d^2 / f_u only.
+          The central flux's dissipation a/2 (h_r - h_l), which at low Froude numbers is
+          most of its mass flux, would
           otherwise draw mass back out of a thicker, slower or resting neighbour against the
           flow: thin films flowing into a deposit, and short chains of slow cells, were held
           in place by it and kept a speed of mm/s for ever while no mass moved. In a flow
@@ -462,26 +463,28 @@ class TaichiOperator:
                 # at least the flux by which the upwind cell outruns its neighbour
                 pos = ti.static(X_POS if d == 0 else Y_POS)
                 neg = ti.static(X_NEG if d == 0 else Y_NEG)
-                ph = self.phys
-                c = ti.static(1 if d == 0 else self.HV)
                 if (r0 & pos) != 0 and (r1 & neg) == 0:
-                    fu = wl[0] * ti.max(wl[c], 0.0)  # the upwind cell's own flux
-                    fd = wr[0] * ti.max(wr[c], 0.0)  # the downwind cell's, the same way
-                    if fu > 0.0:
-                        lo = fu - fd * fd / fu
-                        if lo > out[0]:
-                            out[0] = lo
-                            if ti.static(self.seg):
-                                out[self.HPHI] = lo * ph.transported(wl[self.HPHI])
+                    out = self._flux_floor(out, wl, wr, d, 1.0)
                 elif (r1 & neg) != 0 and (r0 & pos) == 0:
-                    fu = -wr[0] * ti.min(wr[c], 0.0)
-                    fd = -wl[0] * ti.min(wl[c], 0.0)
-                    if fu > 0.0:
-                        hi = fd * fd / fu - fu
-                        if hi < out[0]:
-                            out[0] = hi
-                            if ti.static(self.seg):
-                                out[self.HPHI] = hi * ph.transported(wr[self.HPHI])
+                    out = self._flux_floor(out, wr, wl, d, -1.0)
+        return out
+
+    @ti.func
+    def _flux_floor(self, F, wu, wd, d: ti.template(), s: ti.template()):
+        """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
+        the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
+        the upwind edge state wu, f_d the same of the downwind one wd; h phi then moves at
+        the upwind cell's phi (_rest_face)."""
+        out = F
+        c = ti.static(1 if d == 0 else self.HV)
+        fu = wu[0] * ti.max(s * wu[c], 0.0)
+        fd = wd[0] * ti.max(s * wd[c], 0.0)
+        if fu > 0.0:
+            b = s * (fu - fd * fd / fu)
+            if s * b > s * out[0]:
+                out[0] = b
+                if ti.static(self.seg):
+                    out[self.HPHI] = b * self.phys.transported(wu[self.HPHI])
         return out
 
     @ti.kernel

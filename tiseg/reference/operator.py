@@ -272,10 +272,10 @@ class ReferenceOperator:
                 still &= w[lay.HV] == 0
             both = still[lo] & still[hi]  # no mass or h phi crosses
             # the upwind cell outruns its neighbour: at least f_u - f_d^2 / f_u crosses
-            un = w[lay.HU if direction == 0 else lay.HV]  # the cells' normal speeds
+            c_n = lay.HU if direction == 0 else lay.HV
+            un = w[c_n]  # the cells' normal speeds
             towards_r = (un[lo] > 0) & ~(un[hi] < 0)
             towards_l = (un[hi] < 0) & ~(un[lo] > 0)
-            c_n = lay.HU if direction == 0 else lay.HV
 
             def bound(fu, fd):  # f_u - f_d^2 / f_u where f_u > 0, else no bound (-inf)
                 safe = np.where(fu > 0, fu, 1.0)
@@ -287,18 +287,13 @@ class ReferenceOperator:
             )
             up_r = ~both & towards_r & (f_lo > H[lay.H])
             up_l = ~both & towards_l & (f_hi < H[lay.H])
+            floor = np.where(up_r, f_lo, np.where(up_l, f_hi, 0.0))  # finite where it applies
             if lay.segregation:
-                pl, pr = wl[lay.HPHI], wr[lay.HPHI]
+                p = np.where(up_r, wl[lay.HPHI], wr[lay.HPHI])  # the upwind cell's phi
                 H[lay.HPHI] = np.where(
-                    both,
-                    0.0,
-                    np.where(
-                        up_r,
-                        np.where(up_r, f_lo, 0.0) * (pl - self.G(pl)),
-                        np.where(up_l, np.where(up_l, f_hi, 0.0) * (pr - self.G(pr)), H[lay.HPHI]),
-                    ),
+                    both, 0.0, np.where(up_r | up_l, floor * (p - self.G(p)), H[lay.HPHI])
                 )
-            H[lay.H] = np.where(both, 0.0, np.where(up_r, f_lo, np.where(up_l, f_hi, H[lay.H])))
+            H[lay.H] = np.where(both, 0.0, np.where(up_r | up_l, floor, H[lay.H]))
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
