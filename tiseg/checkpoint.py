@@ -21,12 +21,16 @@ allow_pickle=False)``; no pickles, so loading a checkpoint runs no code). It hol
 ``scene``      the resolved scene TOML (``Scene.to_toml()``), ``precision``, ``arch``,
                ``layout`` (nc, NX, NY), ``format`` = "tiseg-checkpoint", ``version`` = 1,
                ``tiseg_version``
+``rest_mask``  only where resting regions are skipped (projected friction with a law with
+               hysteresis): the rest mask of the last step, int8 (NX, NY), and ``ranges``, the
+               active and the wet x range [a, b, wa, wb]; a checkpoint without them resumes
+               with the whole wet range (correct, but not bit for bit)
 ============== =================================================================================
 
 Nothing else is needed: the RKC stepper keeps no state between steps (every slot but 0 is
 overwritten before it is read), the stage coefficients are a pure function of the stage count,
-the inflow parameters are a function of t, and the active x range is recomputed from slot 0 and
-``last_stages`` at the start of each step. Restoring these numbers therefore continues the
+the inflow parameters are a function of t, and the active x range is recomputed from slot 0,
+``last_stages`` and the rest mask at the start of each step. Restoring these numbers therefore continues the
 run exactly as if it had not been interrupted (``tests/test_checkpoint.py`` checks bitwise
 equality of fields and diagnostics in f64).
 
@@ -107,6 +111,8 @@ def state_arrays(
 
     op = sim.op
     meta = dict(meta) if meta is not None else sim.checkpoint_meta()
+    # the rest mask belongs to the current state only
+    rest = op.rest_state() if q is None else None
     q = op.get(0) if q is None else q
     budget = op.budget(0) if budget is None else budget
     d = {
@@ -129,6 +135,8 @@ def state_arrays(
         "arch": np.array(sim.backend.arch),
         "layout": np.array([op.nc, op.NX, op.NY]),
     }
+    if rest is not None:
+        d.update(rest)
     for k, v in extra.items():
         d[k] = np.asarray(v)
     return d
@@ -237,6 +245,10 @@ def restore(sim, ck: dict) -> None:
     op.set(0, ck["q"])
     op.reset_budget(ck["budget"])
     sim.restore_meta(ck)
+    if "rest_mask" in ck and "ranges" in ck:  # resting regions skipped as the run did
+        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY):
+            raise CheckpointError("the checkpoint's rest mask has the wrong shape")
+        op.restore_rest_state(ck["rest_mask"], ck["ranges"])
 
 
 # =================================================================================================

@@ -158,9 +158,13 @@ class Simulation:
         active_region: bool = True,
         check_every: int = 10,
         mass_tol: float | None = None,
+        skip_rest: bool = True,
     ):
-        """``check_every``: guard check every that many steps (0: only on steps that make a
-        snapshot); ``mass_tol``: relative mass-balance tolerance of the guard (tiseg.guards)."""
+        """``active_region``: work only on the x range that can change (exact); ``skip_rest``:
+        leave out of it the regions held at rest (projected friction with a law with
+        hysteresis; exact: False only to compare); ``check_every``: guard check every that
+        many steps (0: only on steps that make a snapshot); ``mass_tol``: relative
+        mass-balance tolerance of the guard (tiseg.guards)."""
         from .numerics.operator import TaichiOperator
 
         self.scene = scene
@@ -185,6 +189,8 @@ class Simulation:
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
         self.active_region = active_region and scene.boundary.x_lo != "periodic"
+        # and leave out the regions held at rest (TaichiOperator._quiescent): exact as well
+        self.op.skip_rest = self.op.skip_rest and bool(skip_rest) and self.active_region
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
         self.callbacks: dict[str, Callback] = {}
         self.check_every = check_every  # registers the guard callback
@@ -452,7 +458,14 @@ class Simulation:
         if self.active_region:
             extent = self.op.wet_extent(0, self.t)
             self._set_active(extent, self._last_stages)
-        stab = self.op.stability(0, self.t)
+        if self.active_region and self.op.active[0] == self.op.active[1]:
+            # nothing can change (every cell is a dry film or held at rest, far from any
+            # other): no stability limit, the step goes to the stop time at no cost
+            from .numerics.operator import StabilityNumbers
+
+            stab = StabilityNumbers(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        else:
+            stab = self.op.stability(0, self.t)
         ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
         ax = max(ax, self._inflow_speed())
         dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc)
@@ -489,9 +502,16 @@ class Simulation:
             a = max(a, abs(c.inflow_u * (1.0 - (1.0 - c.alpha) * (1.0 - 2.0 * phi))))
         return a
 
-    def _set_active(self, extent: tuple[int, int], stages: int) -> None:
+    def _set_active(self, extent: tuple[int, int, int, int], stages: int) -> None:
+        """The x range the next step of ``stages`` stages works on, from the wet and the live
+        extent (TaichiOperator.wet_extent). Wet cells spread at most one cell per stage, so
+        cells further than ``stages`` + ACTIVE_MARGIN from every wet one are dry films that
+        stay so. Where resting regions are skipped (a law with hysteresis, projected
+        friction), a change travels at most 2 cells per stage (the stencil's reach), so cells
+        further than 2 ``stages`` + ACTIVE_MARGIN from every live one keep their bits; the
+        step works on the intersection of the two ranges, which is empty when nothing moves."""
         lay = self.layout
-        first, last = extent
+        first, last, lfirst, llast = extent
         pad = stages + ACTIVE_MARGIN
         inflow = self.scene.boundary.x_lo == "inflow"
         if last < 0:  # nothing wet: only an inflow can wet cells
@@ -499,7 +519,19 @@ class Simulation:
         else:
             a = lay.gx if inflow else first - pad
             b = last + 1 + pad
-        self.op.set_active(a, b)
+        wet = (a, b)
+        if self.op.skip_rest:
+            lpad = 2 * stages + ACTIVE_MARGIN
+            # an inflow that still runs changes the inlet's ghost cells: never skipped
+            inlet = inflow and self.t <= self.cfg.inflow_stop
+            if llast < 0:
+                la, lb = (lay.gx, lay.gx + lpad) if inlet else (a, a)
+            else:
+                la = lay.gx if inlet else lfirst - lpad
+                lb = llast + 1 + lpad
+            a, b = max(a, la), min(b, lb)
+            b = max(a, b)
+        self.op.set_active(a, b, wet)
 
     def step(self, t_stop: float | None = None, stages: int | None = None) -> StepInfo:
         """One time step, then the callbacks that fell due. ``t_stop``: land there instead of

@@ -107,7 +107,11 @@ class TaichiOperator:
         # 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
         self.rows_per_block = max(1, 256 // NY)
         self.total = ti.field(ti.f64, shape=2)
-        self.wet = ti.field(ti.i32, shape=2)
+        # first and last x index of a wet cell, then of a live one (_wet_extent)
+        self.wet = ti.field(ti.i32, shape=4)
+        # the x range the wet scan covers (besides the halo): the wet cells and their margin,
+        # which contains the active range act and, with resting regions skipped, more
+        self.wrng = ti.field(ti.i32, shape=2)
         self._prepared = None  # (slot, t, active range) whose primitives are in w
         # (slot, active range) whose interior primitives a limited combine left in w (ghost
         # cells and slopes still to do)
@@ -124,6 +128,11 @@ class TaichiOperator:
         # written, so every stage of a step sees the same rest faces.
         self.rest = ti.field(ti.i8, shape=(NX, NY)) if self.phys.fr_projected else None
         self._rest_stale = True
+        # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
+        # of such cells far from any moving one then need no work at all, and the active range
+        # leaves them out (_quiescent, Simulation._set_active). Decided from the rest mask of
+        # the step before, so the mask is part of the run's state (checkpoints keep it).
+        self.skip_rest = bool(self.phys.fr_projected and self.phys.law.hysteresis)
         self._first_stage = False  # the next limited combination is a step's first stage
         self.set_params(cfg)
         self.t = 0.0
@@ -146,8 +155,9 @@ class TaichiOperator:
         self._prepared = self._interior = None
         self._rest_stale = True
         # a new h_min may make films outside the active range wet (the range is set before
-        # the first call, in __init__)
+        # the first call, in __init__), and new numbers may start resting cells
         self.set_active(self.gx, self.gx + self.nx)
+        self._forget_rest()
         self.par.from_numpy(p.astype(self.np_fp))
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no
@@ -167,6 +177,10 @@ class TaichiOperator:
         on = 0.0 if t > self.cfg.inflow_stop else 1.0
         key = (h, on)
         if key != self._inflow_key:
+            if self._inflow_key is not None and self._inflow_key[1] != on:
+                # the inflow stopped: the inlet is a wall from now on, and the rest mask of the
+                # step before, taken with the inflow's ghost cells, says nothing of it
+                self._forget_rest()
             self.par[Params.IN_H] = h
             self.par[Params.IN_ON] = on
             self._inflow_key = key
@@ -190,6 +204,8 @@ class TaichiOperator:
         self._prepared = self._interior = None
         self._rest_stale = self._rest_stale or slot == 0
         self.set_active(self.gx, self.gx + self.nx)  # wet cells may now lie anywhere
+        if slot == 0:
+            self._forget_rest()  # and any of them may move
         full = self.q.to_numpy()
         full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
         self.q.from_numpy(full)
@@ -479,9 +495,11 @@ class TaichiOperator:
         c = ti.static(1 if d == 0 else self.HV)
         fu = wu[0] * ti.max(s * wu[c], 0.0)
         fd = wd[0] * ti.max(s * wd[c], 0.0)
-        if fu > 0.0:
+        # f_u - f_d^2 / f_u > s F  <=>  f_u^2 - f_d^2 > s F f_u (f_u > 0): the division only
+        # where the floor applies, which in a flow is rare (a division on every face cost ~2 %)
+        if fu > 0.0 and fu * fu - fd * fd > s * out[0] * fu:
             b = s * (fu - fd * fd / fu)
-            if s * b > s * out[0]:
+            if s * b > s * out[0]:  # never false but at a tie of rounding
                 out[0] = b
                 if ti.static(self.seg):
                     out[self.HPHI] = b * self.phys.transported(wu[self.HPHI])
@@ -758,9 +776,12 @@ class TaichiOperator:
         if ti.static(self.phys.law.hysteresis):
             flag = ti.cast(self.rest[i, j], ti.i32)
             if ti.static(first):
-                if (flag & REST) != 0 and self.phys.holds(acc, tau) == 1:
-                    flag |= HELD
-                    self.rest[i, j] = ti.cast(flag, ti.i8)
+                # nested, not `and`: Taichi's `and` evaluates both sides, and holds() (the start
+                # coefficient mu_S) on every moving cell cost ~5 % of a fingers step
+                if (flag & REST) != 0:
+                    if self.phys.holds(acc, tau) == 1:
+                        flag |= HELD
+                        self.rest[i, j] = ti.cast(flag, ti.i8)
             if (flag & HELD) != 0:
                 out[1] = 0.0
                 if ti.static(not self.is_1d):
@@ -970,26 +991,36 @@ class TaichiOperator:
         return ti.Vector([self.total[0], self.total[1]])
 
     @ti.kernel
-    def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.i32):
+    def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(4, ti.i32):
         """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
-        cell with h >= h_min, returned (one launch, no field read-back).
+        cell with h >= h_min, and of a live cell (see _quiescent), returned (one launch, no
+        field read-back).
 
-        Only the x range [a - 3, b + 3) that steps write is scanned: every cell outside it is
-        a dry film (the active range is the wet extent plus a margin, and a step writes
-        nothing further out), and whatever could put wet cells there (set, set_params) makes
-        the active range whole again. A fingers run's early steps then scan the front, not
-        the empty chute."""
+        Only the x range [wa - 3, wb + 3) around the wet range is scanned for wet cells: every
+        cell outside it is a dry film (the wet range is the wet extent plus a margin, and a
+        step writes nothing further out), and whatever could put wet cells there (set,
+        set_params) makes the ranges whole again. A fingers run's early steps then scan the
+        front, not the empty chute. Live cells are looked for on the range the last step
+        wrote, [a - 3, b + 3) around the active range: every cell beyond it was quiescent when
+        it was left out, and nothing has touched it since."""
         self._ghosts(s)
         self.wet[0] = self.NX
         self.wet[1] = -1
+        self.wet[2] = self.NX
+        self.wet[3] = -1
         hmin = self.par[Params.H_MIN]
-        lo = ti.max(self.act[0] - 3, 0)
-        hi = ti.min(self.act[1] + 3, self.NX)
+        lo = ti.max(self.wrng[0] - 3, 0)
+        hi = ti.min(self.wrng[1] + 3, self.NX)
+        # the live scan: interior cells only (their neighbours, ghosts included, are read)
+        llo = ti.max(self.act[0] - 3, self.gx)
+        lhi = ti.min(self.act[1] + 3, self.gx + self.nx)
         B = ti.static(self.rows_per_block)
         ti.loop_config(serialize=serial)
         for blk in range((hi - lo + B - 1) // B):
             first = self.NX
             last = -1
+            lfirst = self.NX
+            llast = -1
             for r in range(B):
                 i = lo + blk * B + r
                 if i < hi:
@@ -997,10 +1028,41 @@ class TaichiOperator:
                         if self.q[s, i, j][0] >= hmin:
                             first = ti.min(first, i)
                             last = ti.max(last, i)
+                        if ti.static(self.skip_rest):
+                            if llo <= i < lhi:
+                                if self._quiescent(s, i, j, hmin) == 0:
+                                    lfirst = ti.min(lfirst, i)
+                                    llast = ti.max(llast, i)
             if last >= 0:  # one atomic per block of rows (see _stability)
                 ti.atomic_min(self.wet[0], first)
                 ti.atomic_max(self.wet[1], last)
-        return ti.Vector([self.wet[0], self.wet[1]])
+            if llast >= 0:
+                ti.atomic_min(self.wet[2], lfirst)
+                ti.atomic_max(self.wet[3], llast)
+        return ti.Vector([self.wet[0], self.wet[1], self.wet[2], self.wet[3]])
+
+    @ti.func
+    def _quiescent(self, s, i, j, hmin):
+        """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
+        next one as well if nothing within the step's reach has changed: it was at rest at
+        the step's start, the static friction held it (HELD) or it is a dry film, and its four
+        neighbours were at rest too. No mass then crossed its faces (_rest_face), so
+        _keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
+        friction holds a cell does not depend on the step length (Physics.holds), so the same
+        data around the cell give the same answer in the next step: a cell further than the
+        next step's reach from every live cell keeps its bits without being computed. (Rest
+        mask of the last step: REST from its start, HELD from its first stage.)"""
+        r = ti.cast(self.rest[i, j], ti.i32)
+        q = 0
+        if (r & REST) != 0:
+            if (r & HELD) != 0 or self.q[s, i, j][0] < hmin:
+                nb = ti.cast(self.rest[i - 1, j], ti.i32) & ti.cast(self.rest[i + 1, j], ti.i32)
+                if ti.static(not self.is_1d):
+                    nb &= ti.cast(self.rest[i, j - 1], ti.i32)
+                    nb &= ti.cast(self.rest[i, j + 1], ti.i32)
+                if (nb & REST) != 0:
+                    q = 1
+        return q
 
     # ------------------------------------------------------------------ stepper interface
     def _prepare(self, slot: int, t: float) -> None:
@@ -1122,10 +1184,19 @@ class TaichiOperator:
         t = self._totals(slot, self.serial_loops(whole=True))
         return float(t[0]), float(t[1])
 
-    def set_active(self, a: int, b: int) -> None:
-        """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted)."""
+    def set_active(self, a: int, b: int, wet: tuple[int, int] | None = None) -> None:
+        """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted).
+        ``wet``: the range [wa, wb) the next wet scan covers (_wet_extent), which holds [a, b);
+        by default [a, b) itself. It is wider where resting regions are left out."""
         a = max(self.gx, int(a))
         b = max(a, min(self.gx + self.nx, int(b)))
+        wa, wb = (a, b) if wet is None else wet
+        wa = min(max(self.gx, int(wa)), a)
+        wb = max(min(self.gx + self.nx, int(wb)), b)
+        if getattr(self, "wet_range", None) != (wa, wb):
+            self.wrng[0] = wa
+            self.wrng[1] = wb
+            self.wet_range = (wa, wb)
         if getattr(self, "active", None) == (a, b):
             return  # each field write from Python is a kernel launch
         self._prepared = self._interior = None
@@ -1150,11 +1221,39 @@ class TaichiOperator:
         (tests/test_determinism.py)."""
         return self._serial_whole if whole else self._serial_active
 
-    def wet_extent(self, slot: int, t: float) -> tuple[int, int]:
-        """(first, last) x index with a cell h >= h_min after filling ghosts; (NX, -1) if none."""
+    def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
+        """(first, last) x index with a cell h >= h_min after filling ghosts, (NX, -1) if
+        none; then (first, last) x index of a live cell, one that may change in the next step
+        (_quiescent): the same as the wet ones unless resting regions can be skipped."""
         self._set_time(t)
         w = self._wet_extent(slot, self.serial_loops())
-        return int(w[0]), int(w[1])
+        if not self.skip_rest:
+            return int(w[0]), int(w[1]), int(w[0]), int(w[1])
+        return int(w[0]), int(w[1]), int(w[2]), int(w[3])
+
+    def _forget_rest(self) -> None:
+        """Clear the rest mask: every cell counts as live until a step has marked it again."""
+        if getattr(self, "rest", None) is not None:
+            self.rest.fill(0)
+
+    def rest_state(self) -> dict[str, np.ndarray] | None:
+        """What the skipping of resting regions needs besides slot 0, for a checkpoint: the
+        rest mask of the last step and the active and wet ranges (None without skipping)."""
+        if not self.skip_rest:
+            return None
+        return {
+            "rest_mask": self.rest.to_numpy(),
+            "ranges": np.array([*self.active, *self.wet_range], dtype=np.int64),
+        }
+
+    def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
+        """Inverse of :meth:`rest_state` (after slot 0 was set): the next step then skips
+        what the run it continues would have skipped, so a resumed run keeps its bits."""
+        if not self.skip_rest:
+            return
+        self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
+        a, b, wa, wb = (int(v) for v in ranges)
+        self.set_active(a, b, (wa, wb))
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         self._prepare(slot, t)

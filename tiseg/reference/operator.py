@@ -277,13 +277,22 @@ class ReferenceOperator:
             towards_r = (un[lo] > 0) & ~(un[hi] < 0)
             towards_l = (un[hi] < 0) & ~(un[lo] > 0)
 
-            def bound(fu, fd):  # f_u - f_d^2 / f_u where f_u > 0, else no bound (-inf)
+            def bound(fu, fd, sF):
+                # f_u - f_d^2 / f_u where it lies above s F (tested first without the division,
+                # as the kernel does), else no bound (-inf)
+                over = (fu > 0) & (fu * fu - fd * fd > sF * fu)
                 safe = np.where(fu > 0, fu, 1.0)
-                return np.where(fu > 0, fu - fd * fd / safe, -np.inf)
+                return np.where(over, fu - fd * fd / safe, -np.inf)
 
-            f_lo = bound(wl[lay.H] * np.maximum(wl[c_n], 0.0), wr[lay.H] * np.maximum(wr[c_n], 0.0))
+            f_lo = bound(
+                wl[lay.H] * np.maximum(wl[c_n], 0.0),
+                wr[lay.H] * np.maximum(wr[c_n], 0.0),
+                H[lay.H],
+            )
             f_hi = -bound(
-                -wr[lay.H] * np.minimum(wr[c_n], 0.0), -wl[lay.H] * np.minimum(wl[c_n], 0.0)
+                -wr[lay.H] * np.minimum(wr[c_n], 0.0),
+                -wl[lay.H] * np.minimum(wl[c_n], 0.0),
+                -H[lay.H],
             )
             up_r = ~both & towards_r & (f_lo > H[lay.H])
             up_l = ~both & towards_l & (f_hi < H[lay.H])

@@ -1,0 +1,111 @@
+"""Regions held at rest cost nothing: with the projected friction and a law with hysteresis,
+columns whose cells the static friction holds, far from every moving cell, are left out of
+the active x range (TaichiOperator._quiescent, Simulation._set_active). For the same steps
+that must change no bit, and a resumed run must skip what the run it continues skipped."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tiseg import checkpoint
+from tiseg.scene import load_scene
+from tiseg.simulation import Simulation
+
+# the finite release that comes to rest, on a coarse grid: 75 x 25 cells, at rest by ~95 s
+DEPOSIT = {"domain.resolution": 50, "time.t_end": 120.0, "output.times": []}
+
+
+def _deposit(**kw) -> Simulation:
+    return Simulation(load_scene("finite-release-deposit", DEPOSIT), **kw)
+
+
+def _twin_step(a: Simulation, b: Simulation, least_stages: int) -> int:
+    """One step of both simulations with the same dt and stage count (each plans its own
+    active range for them): the smaller of their steps and the larger of their stage counts
+    and ``least_stages`` (more RKC stages are always stable, and they reach further). Returns
+    that stage count."""
+    pa, pb = a.plan(), b.plan()
+    s = max(pa.stages, pb.stages, least_stages)
+    pa, pb = a.plan(stages=s), b.plan(stages=s)
+    dt = min(pa.dt, pb.dt)
+    for sim in (a, b):
+        sim.stepper.step(sim.op, sim.t, dt, s)
+        sim.t += dt
+    return s
+
+
+def test_skipped_columns_get_the_bits_a_full_computation_gives(ti_cpu):
+    """From the same state, steps of the same length and stage count with and without
+    skipping give the same state bit for bit, through the arrest of the rear of the deposit,
+    while the skipping one leaves most of the deposit's columns out. (The step size and the
+    stage count a run chooses follow the cells it computes, so the two runs themselves take
+    different steps: see the next test.)"""
+    skip, full = _deposit(), _deposit(skip_rest=False)
+    assert skip.op.skip_rest and not full.op.skip_rest
+    skip.advance(25.0)
+    full.op.set(0, skip.op.get(0))
+    full.op.reset_budget(skip.op.budget(0))
+    full.t = skip.t
+    narrowest, stages, n = 1.0, set(), 0
+    while skip.t < 50.0:
+        # 2 to 9 stages in turn: a step reaches 2 cells per stage, the skipping's margin too
+        stages.add(_twin_step(skip, full, 2 + n % 8))
+        n += 1
+        (a, b), (wa, wb) = skip.op.active, skip.op.wet_range
+        narrowest = min(narrowest, (b - a) / (wb - wa))
+    np.testing.assert_array_equal(skip.conserved(), full.conserved())
+    np.testing.assert_array_equal(skip.op.budget(0), full.op.budget(0))
+    assert np.any(skip.conserved()[1] != 0)  # still flowing at the front
+    assert narrowest < 0.7, narrowest  # a good part of the deposit left out
+    assert stages == set(range(2, 10))
+
+
+def test_a_deposit_at_rest_costs_one_step_per_report(ti_cpu):
+    """The whole run with and without skipping: the same deposit up to the truncation error of
+    the different steps they take, and once nothing moves the skipping run computes nothing
+    and reaches each report in one step, where the full one keeps stepping."""
+    skip, full = _deposit(), _deposit(skip_rest=False)
+    for t in np.arange(10.0, 120.0 + 1e-9, 10.0):
+        n_skip, n_full = skip.stats.steps, full.stats.steps
+        skip.advance(t)
+        full.advance(t)
+    qs, qf = skip.conserved(), full.conserved()
+    assert not np.any(qs[1] != 0) and not np.any(qf[1] != 0)  # both at rest
+    assert skip.op.active[0] == skip.op.active[1]  # nothing to compute
+    assert skip.stats.steps - n_skip == 1 and full.stats.steps - n_full > 50
+    assert np.abs(qs[0] - qf[0]).sum() <= 1e-3 * qf[0].sum(), np.abs(qs[0] - qf[0]).sum()
+
+
+def test_a_resumed_run_skips_what_the_run_it_continues_skipped(ti_cpu, tmp_path):
+    """A checkpoint taken while the rear of the deposit is skipped keeps the rest mask and the
+    ranges: the resumed run takes the same steps to the same bits."""
+    ref = _deposit()
+    ref.advance(50.0)
+    a, b = ref.op.active
+    assert b - a < ref.op.wet_range[1] - ref.op.wet_range[0]  # some columns are skipped
+    path = checkpoint.save(tmp_path / "checkpoint.npz", ref)
+    ck = checkpoint.load(path)
+    assert ck["rest_mask"].shape == (ref.op.NX, ref.op.NY)
+    n0 = ref.stats.steps
+    ref.advance(70.0)
+
+    again = _deposit()
+    checkpoint.restore(again, ck)
+    assert again.op.active == (a, b)
+    again.advance(70.0)
+    assert again.stats.steps - n0 == ref.stats.steps - n0
+    np.testing.assert_array_equal(again.conserved(), ref.conserved())
+
+
+def test_a_parameter_change_wakes_a_resting_deposit(ti_cpu):
+    """Skipped columns are only skipped while nothing about them changes: steepening the slope
+    beyond the start angle must set the whole deposit moving again."""
+    sim = _deposit()
+    sim.advance(110.0)
+    assert sim.op.active[0] == sim.op.active[1]
+    sim.set_parameters({"material.zeta_deg": 40.0})
+    sim.advance(110.2)
+    q = sim.conserved()
+    wet = q[0] >= sim.cfg.h_min
+    # all of it slides downslope, but for a few films just over h_min at its edges
+    assert np.mean(q[1][wet] != 0) > 0.97 and q[1][wet].sum() > 0
