@@ -37,11 +37,16 @@ OUT = Path(__file__).resolve().parent / "friction"
 
 
 def _machine() -> str:
+    """The CPU's model name (Linux) or the platform's, the system and the core count."""
     import os
 
-    return (
-        f"{platform.processor() or platform.machine()}, {platform.system()}, {os.cpu_count()} cores"
-    )
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return f"{cpu}, {platform.system()}, {os.cpu_count()} cores"
 
 
 def _fingers(law, scheme, resolution, t_end):
@@ -186,6 +191,9 @@ def rest_skipping(a) -> None:
         print(row, flush=True)
         rows.append(row)
     _write_csv(OUT / "rest.csv", rows)
+    qs, qf = sims["skip"].conserved(), sims["full"].conserved()
+    dh = float(abs(qs[0] - qf[0]).max())
+    same = "the same bits" if (qs == qf).all() else f"max |h_skip - h_full| = {dh:.3g} m"
     tot = {
         k: sum(r[k] for r in rows)
         for k in ("skip_wall_s", "full_wall_s", "skip_steps", "full_steps")
@@ -211,6 +219,8 @@ def rest_skipping(a) -> None:
     lines += [
         f"| total | {tot['skip_wall_s']:.1f} | {tot['full_wall_s']:.1f} | {tot['skip_steps']} | "
         f"{tot['full_steps']} | | |",
+        "",
+        f"Final states of the two runs: {same}.",
     ]
     (OUT / "rest.md").write_text("\n".join(lines) + "\n")
 

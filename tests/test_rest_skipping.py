@@ -63,7 +63,9 @@ def test_skipped_columns_get_the_bits_a_full_computation_gives(ti_cpu):
 def test_a_deposit_at_rest_costs_one_step_per_report(ti_cpu):
     """The whole run with and without skipping: the same deposit up to the truncation error of
     the different steps they take, and once nothing moves the skipping run computes nothing
-    and reaches each report in one step, where the full one keeps stepping."""
+    and reaches each report in one step, where the full one keeps stepping. Skipped columns
+    are only skipped while nothing about them changes: steepening the slope beyond the start
+    angle sets the whole deposit moving again."""
     skip, full = _deposit(), _deposit(skip_rest=False)
     for t in np.arange(10.0, 120.0 + 1e-9, 10.0):
         n_skip, n_full = skip.stats.steps, full.stats.steps
@@ -73,39 +75,33 @@ def test_a_deposit_at_rest_costs_one_step_per_report(ti_cpu):
     assert not np.any(qs[1] != 0) and not np.any(qf[1] != 0)  # both at rest
     assert skip.op.active[0] == skip.op.active[1]  # nothing to compute
     assert skip.stats.steps - n_skip == 1 and full.stats.steps - n_full > 50
-    assert np.abs(qs[0] - qf[0]).sum() <= 1e-3 * qf[0].sum(), np.abs(qs[0] - qf[0]).sum()
+    # 3.7e-6 when written: the truncation error of the different steps
+    assert np.abs(qs[0] - qf[0]).sum() <= 1e-4 * qf[0].sum(), np.abs(qs[0] - qf[0]).sum()
+
+    skip.set_parameters({"material.zeta_deg": 40.0})
+    skip.advance(120.2)
+    q = skip.conserved()
+    wet = q[0] >= skip.cfg.h_min
+    # all of it slides downslope, but for a few films just over h_min at its edges
+    assert np.mean(q[1][wet] != 0) > 0.97 and q[1][wet].sum() > 0
 
 
 def test_a_resumed_run_skips_what_the_run_it_continues_skipped(ti_cpu, tmp_path):
     """A checkpoint taken while the rear of the deposit is skipped keeps the rest mask and the
     ranges: the resumed run takes the same steps to the same bits."""
     ref = _deposit()
-    ref.advance(50.0)
+    ref.advance(40.0)
     a, b = ref.op.active
     assert b - a < ref.op.wet_range[1] - ref.op.wet_range[0]  # some columns are skipped
     path = checkpoint.save(tmp_path / "checkpoint.npz", ref)
     ck = checkpoint.load(path)
     assert ck["rest_mask"].shape == (ref.op.NX, ref.op.NY)
     n0 = ref.stats.steps
-    ref.advance(70.0)
+    ref.advance(48.0)
 
     again = _deposit()
     checkpoint.restore(again, ck)
     assert again.op.active == (a, b)
-    again.advance(70.0)
+    again.advance(48.0)
     assert again.stats.steps - n0 == ref.stats.steps - n0
     np.testing.assert_array_equal(again.conserved(), ref.conserved())
-
-
-def test_a_parameter_change_wakes_a_resting_deposit(ti_cpu):
-    """Skipped columns are only skipped while nothing about them changes: steepening the slope
-    beyond the start angle must set the whole deposit moving again."""
-    sim = _deposit()
-    sim.advance(110.0)
-    assert sim.op.active[0] == sim.op.active[1]
-    sim.set_parameters({"material.zeta_deg": 40.0})
-    sim.advance(110.2)
-    q = sim.conserved()
-    wet = q[0] >= sim.cfg.h_min
-    # all of it slides downslope, but for a few films just over h_min at its edges
-    assert np.mean(q[1][wet] != 0) > 0.97 and q[1][wet].sum() > 0
