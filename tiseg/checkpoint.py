@@ -23,8 +23,9 @@ allow_pickle=False)``; no pickles, so loading a checkpoint runs no code). It hol
                ``tiseg_version``
 ``rest_mask``  only where resting regions are skipped (projected friction with a law with
                hysteresis): the rest mask of the last step, int8 (NX, NY), and ``ranges``, the
-               active and the wet x range [a, b, wa, wb]; a checkpoint without them resumes
-               with the whole wet range (correct, but not bit for bit)
+               active and the wet x range and whether an inflow ran when the mask was taken
+               [a, b, wa, wb, on] (on: 1, 0, or -1 for no mask); a checkpoint without them
+               resumes with the whole wet range (correct, but not bit for bit)
 ============== =================================================================================
 
 Nothing else is needed: the RKC stepper keeps no state between steps (every slot but 0 is
@@ -246,8 +247,8 @@ def restore(sim, ck: dict) -> None:
     op.reset_budget(ck["budget"])
     sim.restore_meta(ck)
     if "rest_mask" in ck and "ranges" in ck:  # resting regions skipped as the run did
-        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY):
-            raise CheckpointError("the checkpoint's rest mask has the wrong shape")
+        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or np.shape(ck["ranges"]) != (5,):
+            raise CheckpointError("the checkpoint's rest mask or ranges have the wrong shape")
         op.restore_rest_state(ck["rest_mask"], ck["ranges"])
 
 

@@ -177,10 +177,6 @@ class TaichiOperator:
         on = 0.0 if t > self.cfg.inflow_stop else 1.0
         key = (h, on)
         if key != self._inflow_key:
-            if self._inflow_key is not None and self._inflow_key[1] != on:
-                # the inflow stopped: the inlet is a wall from now on, and the rest mask of the
-                # step before, taken with the inflow's ghost cells, says nothing of it
-                self._forget_rest()
             self.par[Params.IN_H] = h
             self.par[Params.IN_ON] = on
             self._inflow_key = key
@@ -1085,6 +1081,7 @@ class TaichiOperator:
             self._mark_rest(self.serial_loops())
             self._rest_stale = False
             self._first_stage = True
+            self._mask_inflow = self._inflow_on(t)
 
     def _written(self, dst: int, primitives: bool = False) -> None:
         """Slot dst changed; with ``primitives`` its interior primitives are now in w."""
@@ -1226,24 +1223,35 @@ class TaichiOperator:
         none; then (first, last) x index of a live cell, one that may change in the next step
         (_quiescent): the same as the wet ones unless resting regions can be skipped."""
         self._set_time(t)
+        if self.skip_rest and self._mask_inflow != self._inflow_on(t):
+            # the inflow stopped since the last step began: the inlet is a wall now, and the
+            # rest mask, taken with the inflow's ghost cells, says nothing of it
+            self._forget_rest()
         w = self._wet_extent(slot, self.serial_loops())
         if not self.skip_rest:
             return int(w[0]), int(w[1]), int(w[0]), int(w[1])
         return int(w[0]), int(w[1]), int(w[2]), int(w[3])
 
+    def _inflow_on(self, t: float) -> bool:
+        """Whether an inflow runs at time t (as _set_time decides it)."""
+        return self.bc[0] == "inflow" and not t > self.cfg.inflow_stop
+
     def _forget_rest(self) -> None:
         """Clear the rest mask: every cell counts as live until a step has marked it again."""
         if getattr(self, "rest", None) is not None:
             self.rest.fill(0)
+        # whether an inflow ran when the mask was taken (None: no mask)
+        self._mask_inflow = None
 
     def rest_state(self) -> dict[str, np.ndarray] | None:
         """What the skipping of resting regions needs besides slot 0, for a checkpoint: the
         rest mask of the last step and the active and wet ranges (None without skipping)."""
         if not self.skip_rest:
             return None
+        on = -1 if self._mask_inflow is None else int(self._mask_inflow)
         return {
             "rest_mask": self.rest.to_numpy(),
-            "ranges": np.array([*self.active, *self.wet_range], dtype=np.int64),
+            "ranges": np.array([*self.active, *self.wet_range, on], dtype=np.int64),
         }
 
     def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
@@ -1252,8 +1260,9 @@ class TaichiOperator:
         if not self.skip_rest:
             return
         self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
-        a, b, wa, wb = (int(v) for v in ranges)
+        a, b, wa, wb, on = (int(v) for v in ranges)
         self.set_active(a, b, (wa, wb))
+        self._mask_inflow = None if on < 0 else bool(on)
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         self._prepare(slot, t)
