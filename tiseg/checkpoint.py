@@ -247,7 +247,8 @@ def restore(sim, ck: dict) -> None:
     op.reset_budget(ck["budget"])
     sim.restore_meta(ck)
     if "rest_mask" in ck and "ranges" in ck:  # resting regions skipped as the run did
-        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or np.shape(ck["ranges"]) != (5,):
+        shape_ok = np.shape(ck["ranges"]) in ((4,), (5,))
+        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or not shape_ok:
             raise CheckpointError("the checkpoint's rest mask or ranges have the wrong shape")
         op.restore_rest_state(ck["rest_mask"], ck["ranges"])
 

@@ -162,7 +162,8 @@ class Simulation:
     ):
         """``active_region``: work only on the x range that can change (exact); ``skip_rest``:
         leave out of it the regions held at rest (projected friction with a law with
-        hysteresis; exact: False only to compare); ``check_every``: guard check every that
+        hysteresis and a stepper that keeps rest bit for bit, every one but SSPRK(10,4);
+        exact for the same steps: False only to compare); ``check_every``: guard check every that
         many steps (0: only on steps that make a snapshot); ``mass_tol``: relative
         mass-balance tolerance of the guard (tiseg.guards)."""
         from .numerics.operator import TaichiOperator
@@ -190,7 +191,10 @@ class Simulation:
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
         self.active_region = active_region and scene.boundary.x_lo != "periodic"
         # and leave out the regions held at rest (TaichiOperator._quiescent): exact as well
-        self.op.skip_rest = self.op.skip_rest and bool(skip_rest) and self.active_region
+        # (for steppers that keep a resting cell's bits)
+        self.op.skip_rest = (
+            self.op.skip_rest and bool(skip_rest) and self.active_region and self.stepper.keeps_rest
+        )
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
         self.callbacks: dict[str, Callback] = {}
         self.check_every = check_every  # registers the guard callback
@@ -453,7 +457,10 @@ class Simulation:
         """The next step from the current state (sets the operator's active range for it).
 
         ``t_stop``: a time the step must land on rather than pass (default the scene's
-        t_end); ``stages``: a fixed stage count (benchmarks), else the stiffness decides."""
+        t_end); ``stages``: a fixed stage count (benchmarks), else the stiffness decides.
+        Plan once per step: a second plan finds the rest mask the first one took (without
+        the static friction's hold) and computes resting regions it could skip (correct,
+        only slower)."""
         sc = self.scene
         if self.active_region:
             extent = self.op.wet_extent(0, self.t)

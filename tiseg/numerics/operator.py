@@ -1197,6 +1197,11 @@ class TaichiOperator:
         if getattr(self, "active", None) == (a, b):
             return  # each field write from Python is a kernel launch
         self._prepared = self._interior = None
+        if getattr(self, "rest", None) is not None and self._first_stage:
+            # the step's rest mask was taken on the old range (_mark_rest: act +- 4) and the
+            # step has not begun: take it again on the new one (slot 0 is the same), or
+            # cells the range now takes in would keep bits of an earlier step, or none
+            self._rest_stale = True
         self.act[0] = a
         self.act[1] = b
         self.active = (a, b)
@@ -1260,7 +1265,8 @@ class TaichiOperator:
         if not self.skip_rest:
             return
         self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
-        a, b, wa, wb, on = (int(v) for v in ranges)
+        a, b, wa, wb, *flag = (int(v) for v in ranges)
+        on = flag[0] if flag else -1  # (no flag in the first checkpoints of 2026-12-03)
         self.set_active(a, b, (wa, wb))
         self._mask_inflow = None if on < 0 else bool(on)
 

@@ -24,6 +24,10 @@ class Stepper:
     name = "base"
     slots = 1
     order = 1
+    # whether a cell held at rest keeps its h bit for bit through a step (every stage a
+    # limited combination of states and rates: TaichiOperator._keep_rest); the skipping of
+    # resting regions is exact only then
+    keeps_rest = True
 
     def plan(
         self, dt_cfl: float, rho: float, dt_max: float, stages: int | None = None

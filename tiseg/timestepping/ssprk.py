@@ -112,6 +112,7 @@ class SSPRK104(_ExplicitRK):
     name = "ssprk10_4"
     slots = 4
     order = 4
+    keeps_rest = False  # its mixing stage combines a partial sum, unlimited: rest to round-off
     stages = 10
     beta = 13.9
     ssp = 6.0
