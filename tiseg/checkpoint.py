@@ -31,8 +31,8 @@ allow_pickle=False)``; no pickles, so loading a checkpoint runs no code). It hol
 Nothing else is needed: the RKC stepper keeps no state between steps (every slot but 0 is
 overwritten before it is read), the stage coefficients are a pure function of the stage count,
 the inflow parameters are a function of t, and the active x range is recomputed from slot 0,
-``last_stages`` and the rest mask at the start of each step. Restoring these numbers therefore continues the
-run exactly as if it had not been interrupted (``tests/test_checkpoint.py`` checks bitwise
+``last_stages`` and the rest mask at the start of each step. Restoring these numbers therefore
+continues the run exactly as if it had not been interrupted (``tests/test_checkpoint.py`` checks bitwise
 equality of fields and diagnostics in f64).
 
 When
@@ -247,8 +247,7 @@ def restore(sim, ck: dict) -> None:
     op.reset_budget(ck["budget"])
     sim.restore_meta(ck)
     if "rest_mask" in ck and "ranges" in ck:  # resting regions skipped as the run did
-        shape_ok = np.shape(ck["ranges"]) in ((4,), (5,))
-        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or not shape_ok:
+        if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or np.shape(ck["ranges"]) != (5,):
             raise CheckpointError("the checkpoint's rest mask or ranges have the wrong shape")
         op.restore_rest_state(ck["rest_mask"], ck["ranges"])
 

@@ -501,7 +501,7 @@ class Simulation:
         """Wave speed of the full (un-ramped) inflow state: an empty chute being filled must
         not be allowed one huge step just because nothing inside moves yet."""
         c = self.cfg
-        if c.bc[0] != "inflow" or self.t > c.inflow_stop:
+        if not self.op.inflow_on(self.t):
             return 0.0
         a = abs(c.inflow_u) + math.sqrt(c.g_cos * c.inflow_h)
         if c.segregation:
@@ -530,14 +530,13 @@ class Simulation:
         if self.op.skip_rest:
             lpad = 2 * stages + ACTIVE_MARGIN
             # an inflow that still runs changes the inlet's ghost cells: never skipped
-            inlet = inflow and self.t <= self.cfg.inflow_stop
+            inlet = self.op.inflow_on(self.t)
             if llast < 0:
                 la, lb = (lay.gx, lay.gx + lpad) if inlet else (a, a)
             else:
                 la = lay.gx if inlet else lfirst - lpad
                 lb = llast + 1 + lpad
-            a, b = max(a, la), min(b, lb)
-            b = max(a, b)
+            a, b = max(a, la), min(b, lb)  # (set_active makes an empty range of b < a)
         self.op.set_active(a, b, wet)
 
     def step(self, t_stop: float | None = None, stages: int | None = None) -> StepInfo:

@@ -174,7 +174,7 @@ class TaichiOperator:
         if self.bc[0] != "inflow":
             return
         h, _, _ = self.cfg.inflow_state(t)
-        on = 0.0 if t > self.cfg.inflow_stop else 1.0
+        on = 1.0 if self.inflow_on(t) else 0.0
         key = (h, on)
         if key != self._inflow_key:
             self.par[Params.IN_H] = h
@@ -1020,12 +1020,13 @@ class TaichiOperator:
             for r in range(B):
                 i = lo + blk * B + r
                 if i < hi:
+                    scan_live = llo <= i < lhi
                     for j in range(self.gy, self.gy + self.ny):
                         if self.q[s, i, j][0] >= hmin:
                             first = ti.min(first, i)
                             last = ti.max(last, i)
                         if ti.static(self.skip_rest):
-                            if llo <= i < lhi:
+                            if scan_live:
                                 if self._quiescent(s, i, j, hmin) == 0:
                                     lfirst = ti.min(lfirst, i)
                                     llast = ti.max(llast, i)
@@ -1081,7 +1082,7 @@ class TaichiOperator:
             self._mark_rest(self.serial_loops())
             self._rest_stale = False
             self._first_stage = True
-            self._mask_inflow = self._inflow_on(t)
+            self._mask_inflow = self.inflow_on(t)
 
     def _written(self, dst: int, primitives: bool = False) -> None:
         """Slot dst changed; with ``primitives`` its interior primitives are now in w."""
@@ -1226,19 +1227,17 @@ class TaichiOperator:
     def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts, (NX, -1) if
         none; then (first, last) x index of a live cell, one that may change in the next step
-        (_quiescent): the same as the wet ones unless resting regions can be skipped."""
+        (_quiescent), found only where resting regions are skipped (else (NX, -1))."""
         self._set_time(t)
-        if self.skip_rest and self._mask_inflow != self._inflow_on(t):
+        if self.skip_rest and self._mask_inflow != self.inflow_on(t):
             # the inflow stopped since the last step began: the inlet is a wall now, and the
             # rest mask, taken with the inflow's ghost cells, says nothing of it
             self._forget_rest()
         w = self._wet_extent(slot, self.serial_loops())
-        if not self.skip_rest:
-            return int(w[0]), int(w[1]), int(w[0]), int(w[1])
         return int(w[0]), int(w[1]), int(w[2]), int(w[3])
 
-    def _inflow_on(self, t: float) -> bool:
-        """Whether an inflow runs at time t (as _set_time decides it)."""
+    def inflow_on(self, t: float) -> bool:
+        """Whether an inflow runs at time t (until the scene's inflow stop time)."""
         return self.bc[0] == "inflow" and not t > self.cfg.inflow_stop
 
     def _forget_rest(self) -> None:
@@ -1265,8 +1264,7 @@ class TaichiOperator:
         if not self.skip_rest:
             return
         self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
-        a, b, wa, wb, *flag = (int(v) for v in ranges)
-        on = flag[0] if flag else -1  # (no flag in the first checkpoints of 2026-12-03)
+        a, b, wa, wb, on = (int(v) for v in ranges)
         self.set_active(a, b, (wa, wb))
         self._mask_inflow = None if on < 0 else bool(on)
 
