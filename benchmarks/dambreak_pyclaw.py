@@ -44,6 +44,7 @@ CASES = {"stoker": HR, "ritter": 0.0}
 BASE = {"theta": 1.5, "flux": "kt", "step_rule": "max", "cfl": 0.25, "precision": "f64"}
 SUM = {"step_rule": "sum", "cfl": 0.5}
 SHARP = {"reconstruction": "minmod", "theta": 2.0, "flux": "central-upwind", **SUM}
+LOCAL = {**SHARP, "step_rule": "local"}
 
 
 def _combo(**kw) -> dict:
@@ -65,6 +66,10 @@ COMBOS = {
     "minmod2+cu+ssprk9_3+sum": _combo(stepper="ssprk9_3", **SHARP),
     "minmod2+cu+ssprk16_3+sum": _combo(stepper="ssprk16_3", **SHARP),
     "minmod2+cu+ssprk4_2+sum+f32": _combo(stepper="ssprk4_2", **SHARP, precision="f32"),
+    # the local sum rule (the dam-break scene's numerics from session 12 on)
+    "minmod2+cu+ssprk4_2+local": _combo(stepper="ssprk4_2", **LOCAL),
+    "minmod2+cu+ssprk16_3+local": _combo(stepper="ssprk16_3", **LOCAL),
+    "minmod2+cu+ssprk10_4+local": _combo(stepper="ssprk10_4", **LOCAL),
     "minmod2+cu+ssprk10_2+sum+f32": _combo(stepper="ssprk10_2", **SHARP, precision="f32"),
 }
 DEFAULT_COMBOS = (

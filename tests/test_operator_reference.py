@@ -184,3 +184,37 @@ def test_transport_function_changes_the_phi_rate():
     r1 = ReferenceOperator(dataclasses.replace(base, transport="bagnold")).rhs(q.copy(), 0.05)
     lay = base.layout
     assert np.abs(r1[lay.HPHI] - r0[lay.HPHI]).max() > 1e-2 * np.abs(r0[lay.HPHI]).max()
+
+
+@pytest.mark.parametrize("bc", [BOUNDARIES[0], BOUNDARIES[1]])
+@pytest.mark.parametrize("state", ["smooth", "wet-dry"])
+def test_local_step_rate_matches_reference(ti_cpu, bc, state):
+    """The stability pass's rate of step_rule "local" equals its NumPy twin: over the rows of
+    the interior and the columns it scans (the interior and the first ghost column either side),
+    the largest max(a_x over i-1..i+1) / dx + max(a_y over j-1..j+1) / dy, with the reference's
+    ghost cells, primitives and characteristic speeds (segregation speed included); the x and y
+    maxima, which it now reads from the same stored speeds, stay those of the reference."""
+    from tiseg.numerics.operator import TaichiOperator
+
+    rng = np.random.default_rng(4)
+    cfg = make_config(14, 9, bc=bc, local_step_rate=True)
+    q = random_state(cfg.layout, rng, wet_dry=state == "wet-dry", smooth=state == "smooth")
+    op = TaichiOperator(cfg, nslots=2)
+    op.set(0, q)
+    stab = op.stability(0, 0.05)
+    ref = ReferenceOperator(cfg)
+    qr = q.copy()
+    ref.fill_ghosts(qr, 0.05)
+    w = ref.primitives(qr)
+    ax, ay = ref.speed(w, 0), ref.speed(w, 1)
+    lay = cfg.layout
+    i = slice(lay.gx - 1, lay.gx + lay.nx + 1)
+    j = slice(lay.gy, lay.gy + lay.ny)
+    A = np.maximum(np.maximum(ax[:-2], ax[1:-1]), ax[2:])[i.start - 1 : i.stop - 1, j]
+    B = np.maximum(np.maximum(ay[:, :-2], ay[:, 1:-1]), ay[:, 2:])[i, j.start - 1 : j.stop - 1]
+    twin = (A / cfg.dx + B / cfg.dy).max()
+    assert stab.rate_local == pytest.approx(twin, rel=1e-12)
+    assert stab.ax == pytest.approx(ax[i, j].max(), rel=1e-12)
+    assert stab.ay == pytest.approx(ay[i, j].max(), rel=1e-12)
+    # not the sum of the global maxima: the test would pass a rule that ignored locality
+    assert twin < 0.999 * (stab.ax / cfg.dx + stab.ay / cfg.dy)

@@ -116,7 +116,7 @@ def test_other_builtins_resolved_values():
     assert d.u0 is None and d.inflow is None and d.fields == ("h", "u")
     assert d.initial.x0 == 0.1 and d.initial.h_left == 0.002 and d.initial.h_right == 0.0
     assert d.numerics.stepper == "ssprk4_2" and d.numerics.reconstruction == "minmod"
-    assert d.numerics.step_rule == "sum" and d.numerics.cfl == 0.5 and d.numerics.theta == 2.0
+    assert d.numerics.step_rule == "local" and d.numerics.cfl == 0.5 and d.numerics.theta == 2.0
 
     m = load_scene("monodisperse-front")
     assert m.flow.phi0 == 1.0 and m.inflow.phi == 1.0

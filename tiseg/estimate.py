@@ -9,7 +9,8 @@ ingredients:
    active region the operator computes) as functions of time. The step and stage count then
    follow from exactly the rules the run uses (:meth:`Simulation.plan` and the stepper's
    ``plan``, :func:`tiseg.simulation.step_limits`): dt = cfl / max(a_x/dx, a_y/dy), or
-   cfl / (a_x/dx + a_y/dy) with ``numerics.step_rule = "sum"``, times an SSP stepper's SSP
+   cfl / (a_x/dx + a_y/dy) with ``numerics.step_rule = "sum"`` (also for ``"local"``, whose
+   per-cell rate the model does not know: an upper bound on its steps), times an SSP stepper's SSP
    coefficient, and, for RKC, s from dt * rho with
    rho = max(rho_visc, rho_fric) + 2 (a_x/dx + a_y/dy), rho_visc the Gershgorin bound of the
    viscous term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow (the run bounds

@@ -297,8 +297,9 @@ class NumericsConfig:
     # ("upwind", keeps contacts sharp), or the flux scheme's own ("central", the paper's)
     stepper: str = "rkc"  # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler
     cfl: float = 0.25  # Courant number of the hyperbolic part, in (0, 1]; default 0.25 with
-    # step_rule "max", 0.5 with "sum" (each rule's forward-Euler positivity bound)
-    step_rule: str = "max"  # "max": dt = cfl min(dx/a, dy/b); "sum": dt = cfl / (a/dx + b/dy)
+    # step_rule "max", 0.5 with "sum" and "local" (each rule's forward-Euler positivity bound)
+    step_rule: str = "max"  # "max": dt = cfl min(dx/a, dy/b); "sum": dt = cfl / (a/dx + b/dy);
+    # "local": dt = cfl / max over cells of (a/dx + b/dy), a and b from the cell's faces
     # (Kurganov & Petrova 2007; up to 2x longer steps where one direction dominates)
     precision: str = "f64"  # floating-point precision of the kernels
     h_min: float = 1e-4  # fluxes vanish where h < h_min (section 6.2) [m]

@@ -73,11 +73,14 @@ COMPILED = {
     "reconstruction": "numerics.reconstruction",
     "flux": "numerics.flux",
     "phi_flux": "numerics.phi_flux",
+    "local_step_rate": 'numerics.step_rule (to or from "local")',
     "bc": "the boundaries",
 }
 
 
-def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, float]:
+def step_limits(
+    ax: float, ay: float, rho_stiff: float, scene, rate_local: float | None = None
+) -> tuple[float, float]:
     """(dt_cfl, rho): the rules every step is planned with, shared with tiseg.estimate.
 
     dt_cfl is the forward-Euler step of the KT positivity proof (Kurganov & Petrova 2007,
@@ -88,15 +91,30 @@ def step_limits(ax: float, ay: float, rho_stiff: float, scene) -> tuple[float, f
       cell average as a convex mix of its four edge values; weighting the x and y pairs by
       their shares of a_x/dx + a_y/dy instead of 1/2 each gives this bound, which equals the
       1D one where a single direction carries the waves and is never below the max rule's.
+    * step_rule "local": dt = C / max over cells of (A/dx + B/dy), positive for C <= 1/2,
+      with A and B the largest speeds among the cell and its two neighbours along x and along
+      y (``rate_local``, from the stability pass): the same proof with the weights chosen
+      cell by cell, each cell needing only the speeds of its own four faces. The global
+      maxima of a_x and a_y need not meet in one cell (a dam break's fastest x wave runs
+      where the flow is shallow, its fastest y wave where it is deep), so this step is
+      never below the sum rule's and is 1.17x it on the Stoker dam break. Without
+      ``rate_local`` (tiseg.estimate) it falls back to the sum rule, an upper bound on the
+      steps. 1D: all three rules are dt = C dx / a_x.
 
     SSP steppers multiply it by their SSP coefficient. rho is the spectral radius the steppers
-    plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy)
-    (NUMERICS finding 6)."""
+    plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy),
+    a Gershgorin bound of the convective Jacobian, whose rows are cells: with the local rule
+    2 rate_local bounds it (NUMERICS finding 6)."""
     rx = ax / scene.dx
     ry = ay / scene.dy if not scene.is_1d else 0.0
-    rate = rx + ry if scene.numerics.step_rule == "sum" else max(rx, ry)
+    rule = scene.numerics.step_rule
+    if rule == "local" and rate_local is not None and not scene.is_1d:
+        rate = conv = min(rate_local, rx + ry)  # (the bound can only be tighter)
+    else:
+        rate = rx + ry if rule in ("sum", "local") else max(rx, ry)
+        conv = rx + ry
     dt_cfl = scene.numerics.cfl / rate if rate > 0 else math.inf
-    return dt_cfl, rho_stiff + 2.0 * (rx + ry)
+    return dt_cfl, rho_stiff + 2.0 * conv
 
 
 @dataclass
@@ -474,8 +492,13 @@ class Simulation:
         else:
             stab = self.op.stability(0, self.t)
         ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
-        ax = max(ax, self._inflow_speed())
-        dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc)
+        rate_local = stab.rate_local
+        a_in = self._inflow_speed()
+        if a_in > ax:  # the inlet's face speed, which the stability pass does not see
+            ax = a_in
+            if rate_local is not None:
+                rate_local = max(rate_local, a_in / sc.dx + ay / sc.dy)
+        dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc, rate_local)
         stop = self._stop_time(t_stop)
         remaining = max(stop - self.t, 0.0)
         if not math.isfinite(dt_cfl) and rho == 0:  # nothing moves and nothing is stiff

@@ -31,7 +31,7 @@ PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of 
 # projection after each stage that stops cells exactly (tiseg.physics.pointwise)
 FRICTION_SCHEMES = ("regularised", "projected")
 # numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
-STEP_RULES = {"max": 0.25, "sum": 0.5}
+STEP_RULES = {"max": 0.25, "sum": 0.5, "local": 0.5}
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
 GHOST = 2
 NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
@@ -182,6 +182,8 @@ class OperatorConfig:
     h_eps: float = 1e-7
     u_eps: float = 1e-3
     friction_scheme: str = "regularised"
+    # the stability pass also finds the largest per-cell rate of step_rule "local"
+    local_step_rate: bool = False
     # boundaries: x_lo, x_hi, y_lo, y_hi
     bc: tuple = ("outflow", "outflow", "periodic", "periodic")
     # inflow (6.8)-(6.9)
@@ -302,6 +304,7 @@ def config_from_scene(scene) -> OperatorConfig:
         h_eps=num.h_eps,
         u_eps=num.u_eps,
         friction_scheme=num.friction_scheme,
+        local_step_rate=num.step_rule == "local" and not lay.is_1d,
         bc=scene.boundary.as_tuple(),
         **kw,
     )

@@ -40,6 +40,12 @@ class StabilityNumbers:
     max_speed: float  # max |u| [m/s]
     rho_stiff: float  # Gershgorin bound of viscous + friction together: max over cells of the
     # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
+    # step_rule "local" (2D): max over cells of a_x/dx + a_y/dy, each speed the largest of the
+    # cell and its two neighbours along that direction [1/s]; None where not computed
+    rate_local: float | None = None
+
+
+NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in order
 
 
 # Below this many cells a CPU launch runs its loops on the calling thread. Each parallel loop
@@ -77,6 +83,7 @@ class TaichiOperator:
         self.rec_minmod = cfg.reconstruction == "minmod"
         self.flux_cu = cfg.flux == "central-upwind"
         self.phi_upwind = cfg.phi_flux == "upwind"
+        self.local_rate = bool(cfg.local_step_rate) and not self.is_1d
         self.bc = tuple(cfg.bc)
         self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
         # serial loops: forced (True/False), or chosen from the cells a launch covers; the
@@ -94,11 +101,13 @@ class TaichiOperator:
             self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
             self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
         self.par = ti.field(self.fp, shape=param_count(cfg))
+        # step_rule "local": each cell's wave speeds along x and y, for the stability pass
+        self.spd = ti.Vector.field(2, self.fp, shape=(NX, NY)) if self.local_rate else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
         self.inflow_prof = (
             ti.field(self.fp, shape=NY) if self.seg and cfg.bc[0] == "inflow" else None
         )
-        self.red = ti.field(self.fp, shape=6)
+        self.red = ti.field(self.fp, shape=NSTAB)
         # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
         self.act = ti.field(ti.i32, shape=2)
@@ -883,11 +892,11 @@ class TaichiOperator:
     # default is f32), which rounded every f64 run's step limits to f32. One kernel per
     # precision, chosen in __init__; only the chosen one is ever compiled (Metal has no f64).
     @ti.kernel
-    def _stability_f64(self, serial: ti.template()) -> ti.types.vector(6, ti.f64):
+    def _stability_f64(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f64):
         return self._stability_body(serial)
 
     @ti.kernel
-    def _stability_f32(self, serial: ti.template()) -> ti.types.vector(6, ti.f32):
+    def _stability_f32(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f32):
         return self._stability_body(serial)
 
     @ti.func
@@ -903,10 +912,15 @@ class TaichiOperator:
         theorem bounds the spectrum of both terms together by the largest per-cell sum
         (red[5]). The friction peaks in slow thin margins and levees, the viscosity in thick
         fast channels, so the sum of the two maxima (red[2] + red[3]) overestimates it by up
-        to 2x, and the RKC stage count with it."""
+        to 2x, and the RKC stage count with it.
+
+        With step_rule "local" (2D) red[6] is the largest per-cell convective rate
+        max(a_x over i-1..i+1)/dx + max(a_y over j-1..j+1)/dy: the speeds of the faces of the
+        cell, which bound the forward-Euler step that keeps that cell's h >= 0 (see
+        tiseg.simulation.step_limits). Only such runs compute it."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         ti.loop_config(serialize=True)  # a handful of iterations
-        for k in range(6):
+        for k in range(NSTAB):
             self.red[k] = 0.0
         hmin = self.par[Params.H_MIN]
         idx = self.par[Params.INV_DX]
@@ -915,6 +929,14 @@ class TaichiOperator:
         lo = ti.max(self.act[0] - 1, gx - 1)
         hi = ti.min(self.act[1] + 1, gx + nx + 1)
         B = ti.static(self.rows_per_block)
+        if ti.static(self.local_rate):
+            # each cell's (a_x, a_y) once, neighbours and ghost rows included: the rate reads
+            # 5 speeds per cell, and recomputing them (a square root each) cost 10 % of a
+            # Stoker step on one thread
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.NY)):
+                w = self.w[i, j]
+                self.spd[i, j] = ti.Vector([self.phys.speed(w, 0), self.phys.speed(w, 1)])
         ti.loop_config(serialize=serial)
         for blk in range((hi - lo + B - 1) // B):
             m0 = 0.0
@@ -923,14 +945,27 @@ class TaichiOperator:
             m3 = 0.0
             m4 = 0.0
             m5 = 0.0
+            m6 = 0.0
             for r in range(B):
                 i = lo + blk * B + r
                 if i < hi:
                     for j in range(gy, gy + ny):
                         w = self.w[i, j]
-                        m0 = ti.max(m0, self.phys.speed(w, 0))
-                        if ti.static(not self.is_1d):
-                            m1 = ti.max(m1, self.phys.speed(w, 1))
+                        if ti.static(self.local_rate):
+                            sp = self.spd[i, j]
+                            m0 = ti.max(m0, sp[0])
+                            m1 = ti.max(m1, sp[1])
+                            axm = ti.max(
+                                ti.max(self.spd[i - 1, j][0], sp[0]), self.spd[i + 1, j][0]
+                            )
+                            aym = ti.max(
+                                ti.max(self.spd[i, j - 1][1], sp[1]), self.spd[i, j + 1][1]
+                            )
+                            m6 = ti.max(m6, axm * idx + aym * idy)
+                        else:
+                            m0 = ti.max(m0, self.phys.speed(w, 0))
+                            if ti.static(not self.is_1d):
+                                m1 = ti.max(m1, self.phys.speed(w, 1))
                         m4 = ti.max(m4, self.phys.speed_mag(w))
                         fr = self.phys.friction_rate(w)
                         m3 = ti.max(m3, fr)
@@ -960,7 +995,8 @@ class TaichiOperator:
             ti.atomic_max(self.red[3], m3)
             ti.atomic_max(self.red[4], m4)
             ti.atomic_max(self.red[5], m5)
-        return ti.Vector([self.red[k] for k in ti.static(range(6))])
+            ti.atomic_max(self.red[6], m6)
+        return ti.Vector([self.red[k] for k in ti.static(range(NSTAB))])
 
     @ti.kernel
     def _totals(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
@@ -1272,5 +1308,11 @@ class TaichiOperator:
         self._prepare(slot, t)
         r = [float(v) for v in self._stability(self.serial_loops())]
         return StabilityNumbers(
-            ax=r[0], ay=r[1], rho_visc=r[2], rho_fric=r[3], max_speed=r[4], rho_stiff=r[5]
+            ax=r[0],
+            ay=r[1],
+            rho_visc=r[2],
+            rho_fric=r[3],
+            max_speed=r[4],
+            rho_stiff=r[5],
+            rate_local=r[6] if self.local_rate else None,
         )
