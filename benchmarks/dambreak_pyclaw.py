@@ -22,6 +22,17 @@ Taichi initialisation, kernel compile or cache load, first step) is recorded apa
 ``--repeats`` runs counts (these machines are shared and noisy). Rows go to results.csv as they
 come (a study resumes where it stopped); results.md and work_precision.png are written from all
 rows.
+
+    python benchmarks/dambreak_pyclaw.py --out benchmarks/dambreak/paired --paired 3
+        [--band 960 992 1024 1056 1088] [--combos ...] [--threads 1 2]
+
+``--paired ROUNDS`` measures side by side instead: per thread count one process holds PyClaw
+and every combo, compiles and warms them on the ``--band`` grids, then solves round after
+round, each round every code once per grid in a rotating order. Each round's wall ratio
+tiseg / PyClaw (over the band's grids) is one paired measurement, and a load change between
+rounds cancels out of it. The band's mean errors set the accuracy ratio (one grid's error moves
+by up to 15 % with where the bore falls in its cell). paired.csv holds every solve (whole
+rounds, so a study resumes); paired_CASE.md the report.
 """
 
 from __future__ import annotations
@@ -112,113 +123,203 @@ def exact_h(case: str, x: np.ndarray, dx: float) -> np.ndarray:
     return cell_averages(f, x, dx)
 
 
+# ---- one solve of each code --------------------------------------------------------------------
+def tiseg_build(case: str, combo: str, nx: int, threads: int):
+    """(scene, Simulation) of the problem on nx x nx/8 cells with the combo's numerics."""
+    from tiseg.scene import load_scene
+    from tiseg.simulation import Simulation
+
+    over = {
+        "domain.Lx": LX,
+        "domain.Ly": LY,
+        "domain.nx": nx,
+        "domain.ny": max(nx // 8, 1),
+        "boundary.y_lo": "wall",
+        "boundary.y_hi": "wall",
+        "flow.h0": HL,
+        "initial.x0": X0,
+        "initial.h_left": HL,
+        "initial.h_right": CASES[case],
+        "numerics.h_min": 1e-6,
+        "numerics.h_eps": 1e-9,
+        "time.t_end": T_END,
+        "output.interval": T_END,
+        **{f"numerics.{key}": v for key, v in COMBOS[combo].items()},
+    }
+    sc = load_scene("dam-break", over)
+    return sc, Simulation(sc, threads=threads)
+
+
+def tiseg_solve(case: str, sc, sim) -> dict:
+    """Reset to the initial state and solve to T_END: the row of that solve."""
+    sim.reset()
+    t1 = time.perf_counter()
+    sim.advance(T_END)
+    wall = time.perf_counter() - t1
+    h = sim.fields()["h"]
+    x, _ = sc.domain.cell_centres()
+    err = float(np.mean(np.abs(h - exact_h(case, x, sc.dx)[None, :])))  # h is (ny, nx)
+    return {
+        "nx": sc.domain.nx,
+        "cells": h.size,
+        "error": err,
+        "h_min": float(h.min()),
+        "steps": sim.stats.steps,
+        "rhs_evals": sim.stats.stages,
+        "wall_s": wall,
+        "startup_s": math.nan,
+    }
+
+
+def pyclaw_solve(case: str, nx: int) -> dict:
+    """Build PyClaw's solver and solve to T_END (the build is timed as part of the run, as
+    it always was: it is small against the solve)."""
+    from clawpack import pyclaw, riemann
+
+    solver = pyclaw.ClawSolver2D(riemann.shallow_roe_with_efix_2D)
+    solver.limiters = pyclaw.limiters.tvd.MC
+    solver.dimensional_split = True
+    solver.cfl_desired, solver.cfl_max = 0.9, 1.0
+    solver.bc_lower[0] = solver.bc_upper[0] = pyclaw.BC.extrap
+    solver.bc_lower[1] = solver.bc_upper[1] = pyclaw.BC.wall
+    xd = pyclaw.Dimension(0.0, LX, nx, name="x")
+    yd = pyclaw.Dimension(0.0, LY, max(nx // 8, 1), name="y")
+    domain = pyclaw.Domain([xd, yd])
+    state = pyclaw.State(domain, 3)
+    state.problem_data["grav"] = 9.81
+    X, _ = state.grid.p_centers
+    state.q[0] = np.where(X < X0, HL, CASES[case])
+    state.q[1] = state.q[2] = 0.0
+    claw = pyclaw.Controller()
+    claw.solution = pyclaw.Solution(state, domain)
+    claw.solver, claw.tfinal, claw.num_output_times = solver, T_END, 1
+    claw.output_format, claw.keep_copy, claw.verbosity = None, True, 0
+    t1 = time.perf_counter()
+    with np.errstate(all="ignore"):
+        claw.run()
+    wall = time.perf_counter() - t1
+    h = claw.frames[-1].q[0]
+    x = (np.arange(nx) + 0.5) * (LX / nx)
+    err = float(np.mean(np.abs(h - exact_h(case, x, LX / nx)[:, None])))
+    return {
+        "nx": nx,
+        "cells": h.size,
+        "error": err,
+        "h_min": float(np.nanmin(h)) if np.isfinite(h).any() else math.nan,
+        "steps": solver.status["numsteps"],
+        "rhs_evals": math.nan,
+        "wall_s": wall,
+        "startup_s": math.nan,
+    }
+
+
 # ---- workers (one per process) ------------------------------------------------------------------
 def tiseg_ladder(case: str, combo: str, threads: int, nxs: list[int]) -> list[dict]:
     t0 = time.perf_counter()
     from tiseg import backend
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
 
     backend.init("cpu", COMBOS[combo].get("precision", "f64"), threads)
     rows = []
     for k, nx in enumerate(nxs):
-        over = {
-            "domain.Lx": LX,
-            "domain.Ly": LY,
-            "domain.nx": nx,
-            "domain.ny": max(nx // 8, 1),
-            "boundary.y_lo": "wall",
-            "boundary.y_hi": "wall",
-            "flow.h0": HL,
-            "initial.x0": X0,
-            "initial.h_left": HL,
-            "initial.h_right": CASES[case],
-            "numerics.h_min": 1e-6,
-            "numerics.h_eps": 1e-9,
-            "time.t_end": T_END,
-            "output.interval": T_END,
-            **{f"numerics.{key}": v for key, v in COMBOS[combo].items()},
-        }
-        sc = load_scene("dam-break", over)
-        sim = Simulation(sc, threads=threads)
+        sc, sim = tiseg_build(case, combo, nx, threads)
         sim.step(T_END)
         if k == 0:  # start-up: everything up to the end of the first step
             startup = time.perf_counter() - t0
         # a whole warm-up run compiles every kernel of this grid (Taichi specialises them per
         # operator; the guard's kernels first run at step 10): the timed run is all solve
         sim.advance(T_END)
-        sim.reset()
-        t1 = time.perf_counter()
-        sim.advance(T_END)
-        wall = time.perf_counter() - t1
-        h = sim.fields()["h"]
-        x, _ = sc.domain.cell_centres()
-        err = float(np.mean(np.abs(h - exact_h(case, x, sc.dx)[None, :])))  # h is (ny, nx)
-        rows.append(
-            {
-                "nx": nx,
-                "cells": h.size,
-                "error": err,
-                "h_min": float(h.min()),
-                "steps": sim.stats.steps,
-                "rhs_evals": sim.stats.stages,
-                "wall_s": wall,
-                "startup_s": startup if k == 0 else math.nan,
-            }
-        )
+        row = tiseg_solve(case, sc, sim)
+        row["startup_s"] = startup if k == 0 else math.nan
+        rows.append(row)
     return rows
 
 
 def pyclaw_ladder(case: str, nxs: list[int]) -> list[dict]:
     t0 = time.perf_counter()
-    from clawpack import pyclaw, riemann
+    from clawpack import pyclaw, riemann  # noqa: F401
 
     startup = time.perf_counter() - t0
     rows = []
     for nx in nxs:
-        solver = pyclaw.ClawSolver2D(riemann.shallow_roe_with_efix_2D)
-        solver.limiters = pyclaw.limiters.tvd.MC
-        solver.dimensional_split = True
-        solver.cfl_desired, solver.cfl_max = 0.9, 1.0
-        solver.bc_lower[0] = solver.bc_upper[0] = pyclaw.BC.extrap
-        solver.bc_lower[1] = solver.bc_upper[1] = pyclaw.BC.wall
-        xd = pyclaw.Dimension(0.0, LX, nx, name="x")
-        yd = pyclaw.Dimension(0.0, LY, max(nx // 8, 1), name="y")
-        domain = pyclaw.Domain([xd, yd])
-        state = pyclaw.State(domain, 3)
-        state.problem_data["grav"] = 9.81
-        X, _ = state.grid.p_centers
-        state.q[0] = np.where(X < X0, HL, CASES[case])
-        state.q[1] = state.q[2] = 0.0
-        claw = pyclaw.Controller()
-        claw.solution = pyclaw.Solution(state, domain)
-        claw.solver, claw.tfinal, claw.num_output_times = solver, T_END, 1
-        claw.output_format, claw.keep_copy, claw.verbosity = None, True, 0
-        t1 = time.perf_counter()
-        with np.errstate(all="ignore"):
-            claw.run()
-        wall = time.perf_counter() - t1
-        h = claw.frames[-1].q[0]
-        x = (np.arange(nx) + 0.5) * (LX / nx)
-        err = float(np.mean(np.abs(h - exact_h(case, x, LX / nx)[:, None])))
-        rows.append(
-            {
-                "nx": nx,
-                "cells": h.size,
-                "error": err,
-                "h_min": float(np.nanmin(h)) if np.isfinite(h).any() else math.nan,
-                "steps": solver.status["numsteps"],
-                "rhs_evals": math.nan,
-                "wall_s": wall,
-                "startup_s": startup if not rows else math.nan,
-            }
-        )
+        row = pyclaw_solve(case, nx)
+        row["startup_s"] = startup if not rows else math.nan
+        rows.append(row)
     return rows
 
 
+def paired_rounds(
+    case: str, combos: list[str], threads: int, nxs: list[int], rounds: int, first: int = 0
+):
+    """Both codes in this one process, alternating solve by solve: for each round and grid,
+    PyClaw and every combo solve once, in an order that rotates from round to round. A load
+    change on a shared machine then hits both codes of a round alike, and the ratio of their
+    walls within a round is the side-by-side measure. Yields one row per solve."""
+    from tiseg import backend
+
+    precisions = {COMBOS[c].get("precision", "f64") for c in combos}
+    if len(precisions) > 1:
+        raise SystemExit("--paired: Taichi's precision is process-wide; give combos of one")
+    backend.init("cpu", precisions.pop(), threads)
+    sims = {}
+    for c in combos:  # compile and warm every grid first
+        for nx in nxs:
+            sc, sim = tiseg_build(case, c, nx, threads)
+            sim.advance(T_END)
+            sims[c, nx] = (sc, sim)
+    pyclaw_solve(case, nxs[0])  # PyClaw's import and first solve
+    runners = [("pyclaw", "roe+mc")] + [("tiseg", c) for c in combos]
+    for rnd in range(first, rounds):
+        for nx in nxs:
+            k = (rnd + nx) % len(runners)
+            for code, combo in runners[k:] + runners[:k]:
+                if code == "pyclaw":
+                    row = pyclaw_solve(case, nx)
+                else:
+                    row = tiseg_solve(case, *sims[combo, nx])
+                yield {"code": code, "combo": combo, "round": rnd, **row}
+
+
 # ---- driver -------------------------------------------------------------------------------------
+PAIRED_COLUMNS = (
+    "case",
+    "threads",
+    "round",
+    "code",
+    "combo",
+    "nx",
+    "cells",
+    "error",
+    "h_min",
+    "steps",
+    "rhs_evals",
+    "wall_s",
+)
+
+
 def _worker_main(argv: list[str]) -> None:
     spec = json.loads(argv[0])
+    if spec["code"] == "paired":  # whole rounds go to the csv as they end (a study resumes)
+        path = Path(spec["csv"])
+        new = not path.exists()
+        with path.open("a", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=PAIRED_COLUMNS, extrasaction="ignore")
+            if new:
+                w.writeheader()
+            held: list[dict] = []
+            args = [spec[k] for k in ("case", "combos", "threads", "nx", "rounds", "first_round")]
+            for row in paired_rounds(*args):
+                if held and row["round"] != held[-1]["round"]:
+                    w.writerows(held)
+                    f.flush()
+                    held = []
+                held.append({**row, "case": spec["case"], "threads": spec["threads"]})
+                print(
+                    f"round {row['round']} {row['code']} {row['combo']} nx={row['nx']}: "
+                    f"error {row['error']:.3e}, wall {row['wall_s']:.3f} s",
+                    flush=True,
+                )
+            w.writerows(held)
+        return
     if spec["code"] == "pyclaw":
         rows = pyclaw_ladder(spec["case"], spec["nx"])
     else:
@@ -373,6 +474,74 @@ def band_summary(rows: list[dict], case: str, band: list[int]) -> list[str]:
     return lines
 
 
+def paired_summary(rows: list[dict], case: str, band: list[int]) -> list[str]:
+    """Markdown of a --paired study: per grid each solve's error and median wall over the
+    rounds; then, per combo and thread count, the median over rounds of the wall ratio to
+    PyClaw's in that round (summed over the band's grids), the ratio of the mean errors over
+    the band, and the wall at PyClaw's error estimated from the two (band_summary)."""
+    rows = [r for r in rows if r["case"] == case]
+    if not rows:
+        return []
+    walls: dict[tuple, list[float]] = {}
+    errs: dict[tuple, float] = {}
+    per_round: dict[tuple, float] = {}
+    for r in rows:
+        key = (int(r["threads"]), r["code"], r["combo"], int(r["nx"]))
+        walls.setdefault(key, []).append(float(r["wall_s"]))
+        errs[key] = float(r["error"])
+        rk = (int(r["threads"]), r["code"], r["combo"], int(r["round"]))
+        if int(r["nx"]) in band:
+            per_round[rk] = per_round.get(rk, 0.0) + float(r["wall_s"])
+    lines = [
+        f"Paired study, case {case}: PyClaw and tiseg in one process per thread count, "
+        "alternating solve by solve (wall: median over the rounds).",
+        "",
+        "| threads | code | settings | nx | error | wall s (median) | rounds |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for key in sorted(walls, key=lambda k: (k[0], k[1] != "pyclaw", k[2], k[3])):
+        th, code, combo, nx = key
+        lines.append(
+            f"| {th} | {code} | {combo} | {nx} | {errs[key]:.3e} | "
+            f"{float(np.median(walls[key])):.3f} | {len(walls[key])} |"
+        )
+    lines += [
+        "",
+        f"Over the grids {', '.join(map(str, band))}: wall ratio = median over rounds of "
+        "(tiseg's walls summed over the grids) / (PyClaw's, same round); error ratio = mean "
+        "error / PyClaw's mean error; at equal error (est.) = wall ratio x error ratio^3.",
+        "",
+        "| threads | settings | rounds | wall / PyClaw's (median, range) | error / PyClaw's "
+        "| wall at PyClaw's error / PyClaw's (est.) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for th in sorted({k[0] for k in walls}):
+        e_ref = [errs.get((th, "pyclaw", "roe+mc", n)) for n in band]
+        if any(e is None for e in e_ref):
+            continue
+        for combo in sorted({k[2] for k in walls if k[0] == th and k[1] == "tiseg"}):
+            e = [errs.get((th, "tiseg", combo, n)) for n in band]
+            if any(x is None for x in e):
+                continue
+            ratios = [
+                w / per_round[(th, "pyclaw", "roe+mc", rnd)]
+                for (t2, code, c2, rnd), w in per_round.items()
+                if t2 == th
+                and code == "tiseg"
+                and c2 == combo
+                and (th, "pyclaw", "roe+mc", rnd) in per_round
+            ]
+            if not ratios:
+                continue
+            er = float(np.mean(e)) / float(np.mean(e_ref))
+            wr = float(np.median(ratios))
+            lines.append(
+                f"| {th} | {combo} | {len(ratios)} | {wr:.3f} ({min(ratios):.3f}-"
+                f"{max(ratios):.3f}) | {er:.3f} | {wr * er**3:.2f} |"
+            )
+    return lines
+
+
 def plot(rows: list[dict], case: str, path: Path) -> None:
     import matplotlib
 
@@ -430,12 +599,21 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--no-pyclaw", action="store_true", help="tiseg alone")
     p.add_argument("--report-only", action="store_true", help="rewrite results.md and the plot")
+    p.add_argument(
+        "--paired",
+        type=int,
+        metavar="ROUNDS",
+        help="instead of ladders: PyClaw and the combos alternating in one process per thread "
+        "count, ROUNDS rounds over the --band grids; paired.csv and paired_CASE.md",
+    )
     p.add_argument("--worker", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.worker:
         _worker_main([args.worker])
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.paired:
+        return paired_main(args)
     csv_path = args.out / "results.csv"
     rows = read_rows(csv_path)
     if not args.report_only:
@@ -475,6 +653,40 @@ def main(argv=None) -> int:
     md = summary(rows, args.case, ref_nx) + band_summary(rows, args.case, args.band)
     (args.out / f"results_{args.case}.md").write_text("\n".join(md) + "\n")
     plot(rows, args.case, args.out / f"work_precision_{args.case}.png")
+    print("\n".join(md))
+    return 0
+
+
+def paired_main(args) -> int:
+    csv_path = args.out / "paired.csv"
+    if not args.report_only:
+        for th in args.threads:
+            rows = [
+                r for r in read_rows(csv_path) if r["case"] == args.case and int(r["threads"]) == th
+            ]
+            # the rounds on record (the worker writes whole rounds)
+            per_round = len(args.band) * (1 + len(args.combos))
+            rounds = [int(r["round"]) for r in rows]
+            complete = {k for k in set(rounds) if rounds.count(k) == per_round}
+            first = max(complete) + 1 if complete else 0
+            if first >= args.paired:
+                continue
+            spec = {
+                "code": "paired",
+                "case": args.case,
+                "combos": list(args.combos),
+                "threads": th,
+                "nx": list(args.band),
+                "rounds": args.paired,
+                "first_round": first,
+                "csv": str(csv_path.resolve()),
+            }
+            me = str(Path(__file__).resolve())
+            p = subprocess.run([sys.executable, me, "--worker", json.dumps(spec)], cwd=args.out)
+            if p.returncode:
+                raise SystemExit(f"paired worker for {th} thread(s) failed")
+    md = paired_summary(read_rows(csv_path), args.case, list(args.band))
+    (args.out / f"paired_{args.case}.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
     return 0
 
