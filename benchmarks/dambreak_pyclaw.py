@@ -96,21 +96,9 @@ DEFAULT_COMBOS = (
     "minmod2+cu+ssprk16_3+sum",
     "minmod2+cu+ssprk4_2+sum+f32",
 )
-COLUMNS = (
-    "case",
-    "code",
-    "combo",
-    "threads",
-    "nx",
-    "cells",
-    "error",
-    "h_min",
-    "steps",
-    "rhs_evals",
-    "wall_s",
-    "startup_s",
-    "repeat",
-)
+# what one solve reports (tiseg_solve, pyclaw_solve), and the csv columns around it
+SOLVE_FIELDS = ("nx", "cells", "error", "h_min", "steps", "rhs_evals", "wall_s")
+COLUMNS = ("case", "code", "combo", "threads", *SOLVE_FIELDS, "startup_s", "repeat")
 
 
 def exact_h(case: str, x: np.ndarray, dx: float) -> np.ndarray:
@@ -280,20 +268,7 @@ def paired_rounds(
 
 
 # ---- driver -------------------------------------------------------------------------------------
-PAIRED_COLUMNS = (
-    "case",
-    "threads",
-    "round",
-    "code",
-    "combo",
-    "nx",
-    "cells",
-    "error",
-    "h_min",
-    "steps",
-    "rhs_evals",
-    "wall_s",
-)
+PAIRED_COLUMNS = ("case", "threads", "round", "code", "combo", *SOLVE_FIELDS)
 
 
 def _worker_main(argv: list[str]) -> None:
