@@ -57,6 +57,15 @@ def projected_stage_equals_reference(op, ref, q, r_ti, dt, tau):
     return a
 
 
+def local_rate_twin(a, b, dx, dy) -> float:
+    """NumPy twin of the stability pass's rate of step_rule "local": the largest, over the
+    cells, of max(a over i-1..i+1) / dx + max(b over j-1..j+1) / dy. a, b: the x and y wave
+    speeds indexed (x, y), on the cells that count plus one layer of neighbours around them."""
+    A = np.maximum(np.maximum(a[:-2, 1:-1], a[1:-1, 1:-1]), a[2:, 1:-1])
+    B = np.maximum(np.maximum(b[1:-1, :-2], b[1:-1, 1:-1]), b[1:-1, 2:])
+    return float((A / dx + B / dy).max())
+
+
 def make_config(nx, ny, segregation=True, **kw):
     defaults = dict(
         dx=0.01,

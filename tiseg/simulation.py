@@ -108,7 +108,7 @@ def step_limits(
     rx = ax / scene.dx
     ry = ay / scene.dy if not scene.is_1d else 0.0
     rule = scene.numerics.step_rule
-    if rule == "local" and rate_local is not None and not scene.is_1d:
+    if rule == "local" and rate_local is not None:  # (the operator gives none in 1D)
         rate = conv = min(rate_local, rx + ry)  # (the bound can only be tighter)
     else:
         rate = rx + ry if rule in ("sum", "local") else max(rx, ry)
