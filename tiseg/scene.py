@@ -44,6 +44,8 @@ from .numerics.config import (
     FRICTION_LAWS as _FRICTION_LAWS,
     FRICTION_SCHEMES,
     PHI_FLUXES,
+    SPLIT_CFL,
+    SPLIT_STEPPERS,
     STEP_RULES,
     TRANSPORTS as _TRANSPORTS,
     inflow_concentration,
@@ -745,7 +747,7 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     boundary = _read_boundary(top.table("boundary"), domain)
     inflow = _read_inflow(top.table("inflow"), top.has("inflow"), boundary, domain, flow)
     initial = _read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects)
-    numerics = _read_numerics(top.table("numerics"), flow, domain.ny == 1)
+    numerics = _read_numerics(top.table("numerics"), flow, domain.ny == 1, effects)
     output = _read_output(top.table("output"), time.t_end)
     return Scene(
         name=name,
@@ -1179,7 +1181,11 @@ def _read_initial(
     return InitialConfig(kind=kind, x0=x0, x1=x1, y0=y0, y1=y1, h=h, phi=phi)
 
 
-def _read_numerics(t: "_Table", flow: FlowConfig, is_1d: bool = False) -> NumericsConfig:
+def _read_numerics(
+    t: "_Table", flow: FlowConfig, is_1d: bool = False, effects: EffectsConfig | None = None
+) -> NumericsConfig:
+    stepper = t.choice("stepper", STEPPERS, "rkc")
+    split = stepper in SPLIT_STEPPERS
     rule = t.choice("step_rule", tuple(STEP_RULES), "max")
     n = NumericsConfig(
         reconstruction=t.choice(
@@ -1188,8 +1194,8 @@ def _read_numerics(t: "_Table", flow: FlowConfig, is_1d: bool = False) -> Numeri
         theta=t.number("theta", 1.5, lo=1.0, hi=2.0),
         flux=t.choice("flux", FLUXES, "kt"),
         phi_flux=t.choice("phi_flux", PHI_FLUXES, "upwind"),
-        stepper=t.choice("stepper", STEPPERS, "rkc"),
-        cfl=t.number("cfl", STEP_RULES[rule], positive=True, hi=1.0),
+        stepper=stepper,
+        cfl=t.number("cfl", SPLIT_CFL if split else STEP_RULES[rule], positive=True, hi=1.0),
         step_rule=rule,
         precision=t.choice("precision", PRECISIONS, "f64"),
         h_min=t.number("h_min", 1e-4, positive=True),
@@ -1198,16 +1204,19 @@ def _read_numerics(t: "_Table", flow: FlowConfig, is_1d: bool = False) -> Numeri
         friction_scheme=t.choice("friction_scheme", FRICTION_SCHEMES, "regularised"),
         max_stages=t.integer("max_stages", 200, lo=2),
     )
-    # the max rule's bound is the sum rule's in 1D, where a_y plays no part
-    bound = STEP_RULES["sum"] if is_1d else STEP_RULES[rule]
-    if n.cfl > bound * (1 + 1e-12):
-        from .log import note
+    if split:
+        _check_split(n, flow, effects)
+    else:
+        # the max rule's bound is the sum rule's in 1D, where a_y plays no part
+        bound = STEP_RULES["sum"] if is_1d else STEP_RULES[rule]
+        if n.cfl > bound * (1 + 1e-12):
+            from .log import note
 
-        note(
-            f"numerics.cfl={n.cfl:g} is above the positivity bound {bound:g} of step_rule "
-            f"{rule!r}{' in 1D' if is_1d else ''}: h may turn negative at dry fronts, where the "
-            "stage limiter clips it and mass is then not conserved exactly"
-        )
+            note(
+                f"numerics.cfl={n.cfl:g} is above the positivity bound {bound:g} of step_rule "
+                f"{rule!r}{' in 1D' if is_1d else ''}: h may turn negative at dry fronts, where "
+                "the stage limiter clips it and mass is then not conserved exactly"
+            )
     _require(
         n.h_eps < n.h_min,
         "numerics.h_eps",
@@ -1221,6 +1230,35 @@ def _read_numerics(t: "_Table", flow: FlowConfig, is_1d: bool = False) -> Numeri
         f"must be smaller than flow.h0={flow.h0!r} (else the reference flow counts as empty)",
     )
     return n
+
+
+def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig | None) -> None:
+    """What the split stepper needs (tiseg.numerics.split): a step per direction, and no
+    stiff terms, which its single explicit sweep cannot take."""
+    why = f"numerics.stepper={n.stepper!r} (dimensionally split sweeps)"
+    _require(
+        n.step_rule == "max",
+        "numerics.step_rule",
+        n.step_rule,
+        f"{why} limits each direction's sweep by its own Courant number: use step_rule = "
+        "'max' (dt = cfl min(dx/a_x, dy/a_y), cfl up to 1)",
+    )
+    if effects is None:
+        return
+    _require(
+        not (effects.viscosity and flow.nu > 0.0),
+        "effects.viscosity",
+        effects.viscosity,
+        f"{why} has no stiff terms: switch the viscosity off (or flow.nu = 0), or use "
+        "numerics.stepper = 'rkc'",
+    )
+    _require(
+        effects.friction == "none",
+        "effects.friction",
+        effects.friction,
+        f"{why} has no stiff terms: use friction = 'none', or an SSP stepper such as "
+        "numerics.stepper = 'ssprk4_2' (or 'rkc')",
+    )
 
 
 def _read_output(t: "_Table", t_end: float) -> OutputConfig:

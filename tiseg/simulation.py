@@ -586,6 +586,7 @@ class Simulation:
         pending = self._pending_snapshots(t0, t1)
         if any(tk < t1 for tk, _ in pending):
             self.op.blend(self.PREV, 0, 0, 0.0)  # keep the state before the step
+        self.stepper.index = self.stats.steps  # (a split step's sweep order follows it)
         self.stepper.step(self.op, t0, dt, s)
         self.t = t1
         self.stats.steps += 1

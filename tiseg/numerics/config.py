@@ -32,6 +32,9 @@ PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of 
 FRICTION_SCHEMES = ("regularised", "projected")
 # numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
 STEP_RULES = {"max": 0.25, "sum": 0.5, "local": 0.5}
+# numerics.stepper values that advance by dimensionally split sweeps (tiseg.numerics.split)
+SPLIT_STEPPERS = ("hancock",)
+SPLIT_CFL = 0.9  # their default Courant number per sweep (stable up to 1)
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
 GHOST = 2
 NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
@@ -184,6 +187,9 @@ class OperatorConfig:
     friction_scheme: str = "regularised"
     # the stability pass also finds the largest per-cell rate of step_rule "local"
     local_step_rate: bool = False
+    # the dimensionally split scheme (numerics.stepper "hancock", tiseg.numerics.split): no
+    # stiff terms (viscosity, friction) allowed
+    split: bool = False
     # boundaries: x_lo, x_hi, y_lo, y_hi
     bc: tuple = ("outflow", "outflow", "periodic", "periodic")
     # inflow (6.8)-(6.9)
@@ -206,6 +212,7 @@ class OperatorConfig:
         assert self.friction_scheme in FRICTION_SCHEMES, self.friction_scheme
         for b in self.bc:
             assert b in BOUNDARIES, b
+        assert not (self.split and (self.viscous or self.friction != "none")), "split: stiff"
 
     @property
     def friction_projected(self) -> bool:
@@ -305,6 +312,7 @@ def config_from_scene(scene) -> OperatorConfig:
         u_eps=num.u_eps,
         friction_scheme=num.friction_scheme,
         local_step_rate=num.step_rule == "local" and not lay.is_1d,
+        split=num.stepper in SPLIT_STEPPERS,
         bc=scene.boundary.as_tuple(),
         **kw,
     )

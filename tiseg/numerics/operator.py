@@ -20,6 +20,7 @@ import taichi as ti
 from .. import backend
 from ..physics.pointwise import Params, Physics, param_count, param_values
 from .config import OperatorConfig
+from .split import SplitSweeps
 
 MAX_TERMS = 6
 NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
@@ -59,7 +60,7 @@ SERIAL_CELLS = 60_000
 
 
 @ti.data_oriented
-class TaichiOperator:
+class TaichiOperator(SplitSweeps):
     def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
         """``serial``: run every loop on the calling thread (True), never (False), or decide
         per launch (None, :meth:`serial_loops`); the results are the same bits either way."""
@@ -84,6 +85,9 @@ class TaichiOperator:
         self.flux_cu = cfg.flux == "central-upwind"
         self.phi_upwind = cfg.phi_flux == "upwind"
         self.local_rate = bool(cfg.local_step_rate) and not self.is_1d
+        # the split scheme (numerics.stepper "hancock", tiseg.numerics.split): sweeps instead
+        # of evaluations of L, with their own edge fields and no stored slopes
+        self.split = bool(cfg.split)
         self.bc = tuple(cfg.bc)
         self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
         # serial loops: forced (True/False), or chosen from the cells a launch covers; the
@@ -96,10 +100,15 @@ class TaichiOperator:
         self.q = ti.Vector.field(nc, self.fp, shape=(nslots, NX, NY))
         self.w = ti.Vector.field(nc, self.fp, shape=(NX, NY))
         self.fx = ti.Vector.field(nc, self.fp, shape=(NX, NY))
-        self.sx = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
+        slopes = not self.rec_first and not self.split
+        self.sx = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if slopes else None
         if not self.is_1d:
             self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
-            self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if not self.rec_first else None
+            self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if slopes else None
+        if self.split:  # a sweep's predicted edge states and draining factors
+            self.ew = ti.Vector.field(nc, self.fp, shape=(NX, NY))
+            self.ee = ti.Vector.field(nc, self.fp, shape=(NX, NY))
+            self.drain = ti.field(self.fp, shape=(NX, NY))
         self.par = ti.field(self.fp, shape=param_count(cfg))
         # step_rule "local": each cell's wave speeds along x and y, for the stability pass
         self.spd = ti.Vector.field(2, self.fp, shape=(NX, NY)) if self.local_rate else None
@@ -386,7 +395,7 @@ class TaichiOperator:
     @ti.func
     def _slopes(self, serial: ti.template()):
         a, b = self.act[0], self.act[1]
-        if ti.static(not self.rec_first):
+        if ti.static(not self.rec_first and not self.split):
             # x slopes on the interior rows of [a - 2, b + 2), y slopes on [a, b) and the
             # ghost rows next to the interior: one pass over w for both (memory, not
             # arithmetic, sets the pace of these loops on large grids)
@@ -1133,8 +1142,18 @@ class TaichiOperator:
         if self._interior is not None and self._interior[0] == dst:
             self._interior = None
 
+    def _no_operator(self) -> None:
+        if self.split:
+            from ..errors import TisegError
+
+            raise TisegError(
+                "numerics.stepper 'hancock' advances by sweeps (tiseg.numerics.split) and "
+                "has no semi-discrete operator L to evaluate"
+            )
+
     def rhs(self, src: int, dst: int, t: float) -> None:
         """slot dst := L(slot src, t) on interior cells (fills src's ghost cells)."""
+        self._no_operator()
         self._prepare(src, t)
         self._written(dst)
         self._rates(dst, self.serial_loops())
@@ -1182,6 +1201,7 @@ class TaichiOperator:
         bits, in one launch and without storing the rate. Exactly one term is the rate.
         ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
         stage is a convex combination of states and one Euler step of that length."""
+        self._no_operator()
         rate = [k for k, (_, s) in enumerate(terms) if s < 0]
         assert len(rate) == 1, terms
         tau = terms[rate[0]][0] if tau is None else tau

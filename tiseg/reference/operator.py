@@ -246,25 +246,8 @@ class ReferenceOperator:
 
         wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
         wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
-        ql, qr = self.conserved(wl), self.conserved(wr)
-        fl, fr = self.flux(wl, direction), self.flux(wr, direction)
-        if c.flux == "central-upwind":
-            lo_l, hi_l = self.speed_range(wl, direction)
-            lo_r, hi_r = self.speed_range(wr, direction)
-            ap = np.maximum(np.maximum(hi_l, hi_r), 0.0)
-            am = np.minimum(np.minimum(lo_l, lo_r), 0.0)
-            den = ap - am
-            safe = np.where(den > 0, den, 1.0)
-            H = np.where(
-                den > 0, (ap * fl - am * fr) / safe + ap * am / safe * (qr - ql), 0.5 * (fl + fr)
-            )
-        else:
-            a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
-            H = 0.5 * (fl + fr) - 0.5 * a * (qr - ql)
+        H = self.numerical_flux(wl, wr, direction)
         lay = self.lay
-        if lay.segregation and c.phi_flux == "upwind":
-            p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
-            H[lay.HPHI] = H[lay.H] * (p - self.G(p))
         if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
             lo, hi = sl(0, n - 1)[1:], sl(1, n)[1:]
             still = w[lay.HU] == 0
@@ -309,6 +292,29 @@ class ReferenceOperator:
         out = np.zeros_like(w)
         out[sl(0, n - 1)] = H
         return out
+
+    def numerical_flux(self, wl: np.ndarray, wr: np.ndarray, direction: int) -> np.ndarray:
+        """The face flux of step 4 between edge states wl | wr (primitives) along direction."""
+        c, lay = self.cfg, self.lay
+        ql, qr = self.conserved(wl), self.conserved(wr)
+        fl, fr = self.flux(wl, direction), self.flux(wr, direction)
+        if c.flux == "central-upwind":
+            lo_l, hi_l = self.speed_range(wl, direction)
+            lo_r, hi_r = self.speed_range(wr, direction)
+            ap = np.maximum(np.maximum(hi_l, hi_r), 0.0)
+            am = np.minimum(np.minimum(lo_l, lo_r), 0.0)
+            den = ap - am
+            safe = np.where(den > 0, den, 1.0)
+            H = np.where(
+                den > 0, (ap * fl - am * fr) / safe + ap * am / safe * (qr - ql), 0.5 * (fl + fr)
+            )
+        else:
+            a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
+            H = 0.5 * (fl + fr) - 0.5 * a * (qr - ql)
+        if lay.segregation and c.phi_flux == "upwind":
+            p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
+            H[lay.HPHI] = H[lay.H] * (p - self.G(p))
+        return H
 
     def viscous_fluxes(self, w: np.ndarray):
         """Face stresses P (x faces, y faces) to be subtracted from the KT fluxes of hu, hv."""

@@ -16,6 +16,7 @@ axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
 
 from .base import STEPPERS, Stepper, make_stepper, stepper_for
 from .rkc import RKC
+from .split import Hancock
 from .ssprk import SSPRK2, SSPRK3, SSPRK42, SSPRK93, SSPRK102, SSPRK104, SSPRK163, Euler
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "make_stepper",
     "stepper_for",
     "RKC",
+    "Hancock",
     "SSPRK2",
     "SSPRK3",
     "SSPRK42",

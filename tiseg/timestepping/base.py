@@ -28,6 +28,10 @@ class Stepper:
     # limited combination of states and rates: TaichiOperator._keep_rest); the skipping of
     # resting regions is exact only then
     keeps_rest = True
+    # how many steps the run has taken before this one, set by the simulation before each
+    # step: a stepper whose steps differ by their parity (the split step's sweep order) reads
+    # it, so that a resumed run steps as the run it continues
+    index = 0
 
     def plan(
         self, dt_cfl: float, rho: float, dt_max: float, stages: int | None = None

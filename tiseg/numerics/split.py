@@ -1,0 +1,255 @@
+"""Dimensionally split MUSCL-Hancock sweeps (``numerics.stepper = "hancock"``).
+
+A step of the split scheme is one sweep per direction, each a complete one-stage
+finite-volume update of its own: where the semi-discrete operator (:mod:`.operator`) is
+integrated by Runge-Kutta stages that each need the fluxes of both directions, a sweep moves
+the state a whole step along one direction from a single flux evaluation. Along direction d
+(spacing D, lambda = dt / D), on the cells' primitives w:
+
+1. the limited slopes s of the operator (:meth:`TaichiOperator._slope`: minmod-theta or the
+   WENO-type slope, with h >= 0 and 0 <= phi <= 1 at the edges);
+2. the edge states w -+ s/2, conserved q_W, q_E, evolved half a step by the cell's own flux
+   difference (Hancock's predictor; van Leer 1984, Toro 2009 section 14.4):
+
+       q~_W,E = q_W,E - lambda/2 (f(q_E) - f(q_W)) + dt/2 S(w)
+
+   where the predicted h of either edge would be negative the cell keeps its unevolved edges
+   (first order in time there: the predictor is a Taylor step and knows nothing of dry beds);
+3. the numerical flux of the operator (``numerics.flux``: central-upwind = HLL with the local
+   one-sided speeds, or KT; ``phi_flux`` upwind) between q~_E of a cell and q~_W of its
+   neighbour, zero between two films thinner than h_min;
+4. the draining-time correction (Bollermann, Chen, Kurganov & Noelle 2013, J. Sci. Comput. 56,
+   267): a cell whose outgoing mass lambda (F+_h + F-_h) exceeds its h gives out only h, every
+   component of the flux through a face being scaled by theta = h / outgoing of the cell the
+   mass leaves. So h >= 0 after any step that the scheme's stability allows, not only below a
+   positivity bound, and the scaling is conservative (a face's flux is one number for both
+   cells);
+5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S(w*), the source (gravity along the slope) at
+   the predicted mid-step state w* of the cell and in the x sweep only; then the stage limiter
+   (phi in [0, 1], no momentum in films thinner than h_min).
+
+The sweeps alternate their order from step to step (x then y, then y then x), which makes the
+splitting error of two steps second order (Strang 1968) at two sweeps a step; each sweep is
+stable for Courant numbers up to 1 (``numerics.cfl``, with step_rule "max": dt = cfl min(dx/a_x,
+dy/a_y)), against 1/2 for a_x dt/dx + a_y dt/dy of the unsplit scheme's Euler steps. A sweep
+costs about half an evaluation of the operator, so a step at cfl 0.9 covers about three times
+the distance per unit of work of SSPRK(4,2) at the sum rule's bound (benchmarks/README.md).
+
+What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
+stability of RKC or the friction projection within stages; a scene with either must use the
+Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sweep is
+:func:`tiseg.reference.split.hancock_sweep`.
+"""
+
+import taichi as ti
+
+from ..physics.pointwise import Params
+
+
+@ti.data_oriented
+class SplitSweeps:
+    """The sweeps of the split scheme, a part of :class:`TaichiOperator` (its fields ``w``,
+    ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
+    which only a split scene allocates)."""
+
+    def sweep(self, d: int, t: float, dt: float) -> None:
+        """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
+        update of the active range in place, its boundary fluxes into slot 0's budget."""
+        self._set_time(t)
+        key = (0, t, self.active)
+        # what the last preparation left valid in w: everything (a stability pass at t on
+        # slot 0), the interior (the last sweep), or nothing
+        fresh = 2 if self._prepared == key else (1 if self._interior == (0, self.active) else 0)
+        lam = dt / (self.cfg.dx if d == 0 else self.cfg.dy)
+        self._sweep(d, fresh, lam, dt, self.serial_loops())
+        self._written(0, primitives=True)
+
+    @ti.kernel
+    def _sweep(
+        self, d: ti.template(), fresh: ti.template(), lam: float, dt: float, serial: ti.template()
+    ):
+        """Sweep along d in one launch (top-level loops run in order): ghosts and primitives
+        as far as ``fresh`` says they are stale, the predicted edges, the face fluxes, the
+        draining factors, the update with its budget."""
+        if ti.static(fresh < 2):
+            self._ghosts(0)
+            if ti.static(fresh == 1):
+                self._edge_primitives(0, serial)
+            else:
+                self._primitives(0, serial)
+        self._predict(d, lam, dt, serial)
+        self._sweep_faces(d, serial)
+        self._drain(d, lam, serial)
+        self._sweep_update(d, lam, dt, serial)
+
+    # -------------------------------------------------------------- index helpers
+    @ti.func
+    def _nb(self, i, j, d: ti.template(), k):
+        """The cell k cells along d from (i, j)."""
+        ii, jj = i, j
+        if ti.static(d == 0):
+            ii = i + k
+        else:
+            jj = j + k
+        return ii, jj
+
+    # -------------------------------------------------------------- the passes
+    @ti.func
+    def _predict(self, d: ti.template(), lam, dt, serial: ti.template()):
+        """Hancock's predicted edge states of every cell a face of this sweep reads, as
+        primitives: west/south edge in ew, east/north edge in ee."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ph = self.phys
+        ilo, ihi, jlo, jhi = a, b, gy, gy + ny
+        if ti.static(d == 0):
+            ilo, ihi = ti.max(a - 1, 1), ti.min(b + 1, self.NX - 1)
+        else:
+            jlo, jhi = gy - 1, gy + ny + 1
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+            w0 = self.w[i, j]
+            s = w0 * 0.0
+            if ti.static(not self.rec_first):
+                im, jm = self._nb(i, j, d, -1)
+                ip, jp = self._nb(i, j, d, 1)
+                s = self._slope(self.w[im, jm], w0, self.w[ip, jp])
+            wW = w0 - 0.5 * s
+            wE = w0 + 0.5 * s
+            qW = ph.conserved(wW)
+            qE = ph.conserved(wE)
+            shift = (0.5 * lam) * (ph.flux(wE, d) - ph.flux(wW, d))
+            if ti.static(d == 0):
+                shift -= (0.5 * dt) * ph.source(w0)
+            pW = qW - shift
+            pE = qE - shift
+            if pW[0] < 0.0 or pE[0] < 0.0:  # the predictor would empty an edge
+                pW = qW
+                pE = qE
+            self.ew[i, j] = self._primitive(pW)
+            self.ee[i, j] = self._primitive(pE)
+
+    @ti.func
+    def _sweep_faces(self, d: ti.template(), serial: ti.template()):
+        """Numerical fluxes between the predicted edges: the face (m, m + 1) along d at m's
+        index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        hmin = self.par[Params.H_MIN]
+        ilo, ihi, jlo, jhi = a, b, gy, gy + ny
+        if ti.static(d == 0):
+            ilo = a - 1
+        else:
+            jlo = gy - 1
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+            i1, j1 = self._nb(i, j, d, 1)
+            F = ti.Vector.zero(self.fp, self.nc)
+            if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
+                F = self._face_flux(self.ee[i, j], self.ew[i1, j1], d)
+            if ti.static(d == 0):
+                self.fx[i, j] = F
+            else:
+                self.fy[i, j] = F
+
+    @ti.func
+    def _face(self, i, j, d: ti.template()):
+        F = self.fx[i, j]
+        if ti.static(d == 1):
+            F = self.fy[i, j]
+        return F
+
+    @ti.func
+    def _drain(self, d: ti.template(), lam, serial: ti.template()):
+        """theta of each cell the sweep updates: 1, or h / (its outgoing mass over the step)
+        where that exceeds h (the draining time over the step); 1 on the cells around them,
+        which this sweep leaves as they are."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ilo, ihi, jlo, jhi = a, b, gy, gy + ny
+        if ti.static(d == 0):
+            ilo, ihi = a - 1, b + 1
+        else:
+            jlo, jhi = gy - 1, gy + ny + 1
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+            th = 1.0 + 0.0 * lam
+            inside = a <= i < b
+            if ti.static(d == 1):
+                inside = gy <= j < gy + ny
+            if inside:
+                im, jm = self._nb(i, j, d, -1)
+                out = lam * (
+                    ti.max(self._face(i, j, d)[0], 0.0) - ti.min(self._face(im, jm, d)[0], 0.0)
+                )
+                h = self.q[0, i, j][0]
+                if out > h:
+                    th = h / out
+            self.drain[i, j] = th
+
+    @ti.func
+    def _scaled(self, F, th_lo, th_hi):
+        """A face's flux scaled by the draining factor of the cell its mass leaves."""
+        out = F
+        if F[0] > 0.0:
+            out = th_lo * F
+        elif F[0] < 0.0:
+            out = th_hi * F
+        return out
+
+    @ti.func
+    def _sweep_update(self, d: ti.template(), lam, dt, serial: ti.template()):
+        """q := q - lambda (F_{m+1/2} - F_{m-1/2}) (+ dt S at the predicted mid-step state in
+        the x sweep), limited, with its primitives into w; then the boundary fluxes of the
+        sweep times dt into slot 0's budget."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ph = self.phys
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((a, b), (gy, gy + ny)):
+            im, jm = self._nb(i, j, d, -1)
+            ip, jp = self._nb(i, j, d, 1)
+            th = self.drain[i, j]
+            Fp = self._scaled(self._face(i, j, d), th, self.drain[ip, jp])
+            Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
+            upd = -lam * (Fp - Fm)
+            if ti.static(d == 0):
+                # the cell's mid-step state: the mean of its predicted edges (conserved)
+                mid = 0.5 * (ph.conserved(self.ew[i, j]) + ph.conserved(self.ee[i, j]))
+                upd += dt * ph.source(self._primitive(mid))
+            acc = self._limit(self.q[0, i, j] + upd)
+            self.w[i, j] = self._primitive(acc)
+            self.q[0, i, j] = acc
+        # the budget: what entered through the domain's faces along d (as _boundary_rates)
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            if ti.static(d == 0):
+                wl = 1.0 if a == gx else 0.0
+                wr = 1.0 if b == gx + nx else 0.0
+                m0 = 0.0 * dt
+                m1 = 0.0 * dt
+                for j in range(gy, gy + ny):
+                    Fl = self._scaled(self.fx[gx - 1, j], self.drain[gx - 1, j], self.drain[gx, j])
+                    Fr = self._scaled(
+                        self.fx[gx + nx - 1, j], self.drain[gx + nx - 1, j], self.drain[gx + nx, j]
+                    )
+                    m0 += wl * Fl[0] - wr * Fr[0]
+                    if ti.static(self.seg):
+                        m1 += wl * Fl[self.HPHI] - wr * Fr[self.HPHI]
+                dy = self.par[Params.DY]
+                self.bud[0, 0] += dt * m0 * dy
+                self.bud[0, 1] += dt * m1 * dy
+            else:
+                m2 = 0.0 * dt
+                m3 = 0.0 * dt
+                for i in range(a, b):
+                    Fl = self._scaled(self.fy[i, gy - 1], self.drain[i, gy - 1], self.drain[i, gy])
+                    Fr = self._scaled(
+                        self.fy[i, gy + ny - 1], self.drain[i, gy + ny - 1], self.drain[i, gy + ny]
+                    )
+                    m2 += Fl[0] - Fr[0]
+                    if ti.static(self.seg):
+                        m3 += Fl[self.HPHI] - Fr[self.HPHI]
+                dx = self.par[Params.DX]
+                self.bud[0, 2] += dt * m2 * dx
+                self.bud[0, 3] += dt * m3 * dx
