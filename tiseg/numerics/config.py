@@ -36,6 +36,9 @@ STEP_RULES = {"max": 0.25, "sum": 0.5, "local": 0.5}
 SPLIT_STEPPERS = ("hancock",)
 SPLIT_CFL = 0.9  # their default Courant number per sweep (stable up to 1)
 BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
+# their codes in the kernels (compile-time constants)
+INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
+BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 GHOST = 2
 NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
 

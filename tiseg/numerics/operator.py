@@ -19,7 +19,7 @@ import taichi as ti
 
 from .. import backend
 from ..physics.pointwise import Params, Physics, param_count, param_values
-from .config import OperatorConfig
+from .config import BC_CODES, INFLOW, OUTFLOW, PERIODIC, WALL, OperatorConfig
 from .split import SplitSweeps
 
 MAX_TERMS = 6
@@ -28,8 +28,6 @@ NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
 X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
-INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
-BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 
 
 @dataclass

@@ -21,19 +21,20 @@ the state a whole step along one direction from a single flux evaluation. Along 
 4. the draining-time correction (Bollermann, Chen, Kurganov & Noelle 2013, J. Sci. Comput. 56,
    267): a cell whose outgoing mass lambda (F+_h + F-_h) exceeds its h gives out only h, every
    component of the flux through a face being scaled by theta = h / outgoing of the cell the
-   mass leaves. So h >= 0 after any step that the scheme's stability allows, not only below a
-   positivity bound, and the scaling is conservative (a face's flux is one number for both
-   cells);
-5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S(w*), the source (gravity along the slope) at
-   the predicted mid-step state w* of the cell and in the x sweep only; then the stage limiter
-   (phi in [0, 1], no momentum in films thinner than h_min).
+   mass leaves; with segregation the same for its small particles (h phi) and its large ones
+   (h (1 - phi)), theta the smallest of the three. So h >= 0 and 0 <= phi <= 1 after any step
+   that the scheme's stability allows, not only below a positivity bound, and the scaling is
+   conservative (a face's flux is one number for both cells);
+5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S, the source (gravity along the slope,
+   g sin(zeta) h, the only one without friction) in the x sweep only, by the trapezoidal rule
+   between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
+   momentum in films thinner than h_min).
 
 The sweeps alternate their order from step to step (x then y, then y then x), which makes the
 splitting error of two steps second order (Strang 1968) at two sweeps a step; each sweep is
 stable for Courant numbers up to 1 (``numerics.cfl``, with step_rule "max": dt = cfl min(dx/a_x,
 dy/a_y)), against 1/2 for a_x dt/dx + a_y dt/dy of the unsplit scheme's Euler steps. A sweep
-costs about half an evaluation of the operator, so a step at cfl 0.9 covers about three times
-the distance per unit of work of SSPRK(4,2) at the sum rule's bound (benchmarks/README.md).
+costs about 0.8 of an evaluation of the operator (benchmarks/README.md section 8).
 
 What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
 stability of RKC or the friction projection within stages; a scene with either must use the
@@ -44,6 +45,7 @@ Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sw
 import taichi as ti
 
 from ..physics.pointwise import Params
+from .config import PERIODIC
 
 
 @ti.data_oriented
@@ -79,7 +81,7 @@ class SplitSweeps:
                 self._primitives(0, serial)
         self._predict(d, lam, dt, serial)
         self._sweep_faces(d, serial)
-        self._drain(d, lam, serial)
+        self._drain_factors(d, lam, serial)
         self._sweep_update(d, lam, dt, serial)
 
     # -------------------------------------------------------------- index helpers
@@ -153,6 +155,14 @@ class SplitSweeps:
                 self.fy[i, j] = F
 
     @ti.func
+    def _along(self, d: ti.template(), m, k):
+        """The cell (i, j) at index m along d and k across it."""
+        i, j = m, k
+        if ti.static(d == 1):
+            i, j = k, m
+        return i, j
+
+    @ti.func
     def _face(self, i, j, d: ti.template()):
         F = self.fx[i, j]
         if ti.static(d == 1):
@@ -160,10 +170,11 @@ class SplitSweeps:
         return F
 
     @ti.func
-    def _drain(self, d: ti.template(), lam, serial: ti.template()):
-        """theta of each cell the sweep updates: 1, or h / (its outgoing mass over the step)
-        where that exceeds h (the draining time over the step); 1 on the cells around them,
-        which this sweep leaves as they are."""
+    def _drain_factors(self, d: ti.template(), lam, serial: ti.template()):
+        """drain := each updated cell's factor, 1 or h / (its outgoing mass over the step)
+        where that exceeds h; 1 on the cells next to them that the sweep leaves as they are
+        (ghosts, cells beyond the active range). A pass of its own: the update must read its
+        neighbours' factors from their h before the update."""
         gy, ny = ti.static(self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         ilo, ihi, jlo, jhi = a, b, gy, gy + ny
@@ -179,13 +190,53 @@ class SplitSweeps:
                 inside = gy <= j < gy + ny
             if inside:
                 im, jm = self._nb(i, j, d, -1)
-                out = lam * (
-                    ti.max(self._face(i, j, d)[0], 0.0) - ti.min(self._face(im, jm, d)[0], 0.0)
-                )
-                h = self.q[0, i, j][0]
-                if out > h:
-                    th = h / out
+                Fp = self._face(i, j, d)
+                Fm = self._face(im, jm, d)
+                q0 = self.q[0, i, j]
+                out = lam * (ti.max(Fp[0], 0.0) - ti.min(Fm[0], 0.0))
+                if out > q0[0]:
+                    th = q0[0] / out
+                if ti.static(self.seg):
+                    # the small particles (h phi) and the large ones (h (1 - phi)) of the cell
+                    # as well: phi then stays in [0, 1] without the limiter's clip, which
+                    # would create or destroy particles (with phi_flux "upwind" all three
+                    # fluxes of a face run the same way, so one factor serves the face)
+                    P = ti.static(self.HPHI)
+                    out_s = lam * (ti.max(Fp[P], 0.0) - ti.min(Fm[P], 0.0))
+                    if out_s * th > q0[P]:
+                        th = q0[P] / out_s
+                    out_l = lam * (ti.max(Fp[0] - Fp[P], 0.0) - ti.min(Fm[0] - Fm[P], 0.0))
+                    if out_l * th > q0[0] - q0[P]:
+                        th = (q0[0] - q0[P]) / out_l
             self.drain[i, j] = th
+        # across a periodic boundary the ghost cell is its image: the face there is one face
+        # of two cells, so both must scale it by the same factor (else mass is made or lost)
+        if ti.static(self.bcc[2 * d] == PERIODIC):
+            if ti.static(d == 0):
+                ti.loop_config(serialize=True)  # a column of cells
+                for j in range(gy, gy + ny):
+                    self._periodic_image(d, j)
+            else:
+                ti.loop_config(serialize=True)  # a row
+                for i in range(a, b):
+                    self._periodic_image(d, i)
+
+    @ti.func
+    def _periodic_image(self, d: ti.template(), k):
+        """The draining factors of the two ghost cells at index k across d from their images."""
+        g, n = ti.static((self.gx, self.nx) if d == 0 else (self.gy, self.ny))
+        i0, j0 = self._along(d, g - 1, k)
+        i1, j1 = self._along(d, g + n - 1, k)
+        self.drain[i0, j0] = self.drain[i1, j1]
+        i0, j0 = self._along(d, g + n, k)
+        i1, j1 = self._along(d, g, k)
+        self.drain[i0, j0] = self.drain[i1, j1]
+
+    @ti.func
+    def _gravity(self, h):
+        """g sin(zeta) h, zero in films thinner than h_min (as Physics.source without
+        friction)."""
+        return ti.select(h >= self.par[Params.H_MIN], h * self.par[Params.G_SIN], 0.0)
 
     @ti.func
     def _scaled(self, F, th_lo, th_hi):
@@ -199,12 +250,11 @@ class SplitSweeps:
 
     @ti.func
     def _sweep_update(self, d: ti.template(), lam, dt, serial: ti.template()):
-        """q := q - lambda (F_{m+1/2} - F_{m-1/2}) (+ dt S at the predicted mid-step state in
-        the x sweep), limited, with its primitives into w; then the boundary fluxes of the
-        sweep times dt into slot 0's budget."""
+        """q := q - lambda (F_{m+1/2} - F_{m-1/2}) with the fluxes scaled by the draining
+        factors (+ the gravity source in the x sweep), limited, with its primitives into w;
+        then the boundary fluxes of the sweep times dt into slot 0's budget."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         a, b = self.act[0], self.act[1]
-        ph = self.phys
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((a, b), (gy, gy + ny)):
             im, jm = self._nb(i, j, d, -1)
@@ -212,12 +262,13 @@ class SplitSweeps:
             th = self.drain[i, j]
             Fp = self._scaled(self._face(i, j, d), th, self.drain[ip, jp])
             Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
+            q0 = self.q[0, i, j]
             upd = -lam * (Fp - Fm)
             if ti.static(d == 0):
-                # the cell's mid-step state: the mean of its predicted edges (conserved)
-                mid = 0.5 * (ph.conserved(self.ew[i, j]) + ph.conserved(self.ee[i, j]))
-                upd += dt * ph.source(self._primitive(mid))
-            acc = self._limit(self.q[0, i, j] + upd)
+                # gravity along the slope, h g sin(zeta) (the only source without friction),
+                # by the trapezoidal rule between the cell's h before and after the fluxes
+                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
+            acc = self._limit(q0 + upd)
             self.w[i, j] = self._primitive(acc)
             self.q[0, i, j] = acc
         # the budget: what entered through the domain's faces along d (as _boundary_rates)

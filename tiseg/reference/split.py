@@ -64,10 +64,22 @@ def hancock_sweep(
     out = lam * (np.maximum(H[0], 0.0) - np.minimum(Hm[0], 0.0))
     theta = np.ones(h.shape)
     inner = sl(g, g + m)[1:]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        th = np.where(out > q[0], q[0] / np.where(out > 0, out, 1.0), 1.0)
+
+    def ratio(th, out, have):  # th, lowered to have / out where out th exceeds what it has
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(out * th > have, have / np.where(out > 0, out, 1.0), th)
+
+    th = ratio(np.ones(h.shape), out, q[0])
+    if lay.segregation:  # small particles, then large ones
+        P = lay.HPHI
+        th = ratio(th, lam * (np.maximum(H[P], 0.0) - np.minimum(Hm[P], 0.0)), q[P])
+        out_l = lam * (np.maximum(H[0] - H[P], 0.0) - np.minimum(Hm[0] - Hm[P], 0.0))
+        th = ratio(th, out_l, q[0] - q[P])
     if drain:
         theta[inner] = th[inner]
+        if c.bc[2 * d] == "periodic":  # the ghost cells are their images (one face, one factor)
+            theta[sl(g - 1, g)[1:]] = theta[sl(g + m - 1, g + m)[1:]]
+            theta[sl(g + m, g + m + 1)[1:]] = theta[sl(g, g + 1)[1:]]
     theta_hi = np.ones(h.shape)  # the factor of each face's high-side cell
     theta_hi[sl(0, n - 1)[1:]] = theta[sl(1, n)[1:]]
     fac = np.where(H[0] > 0.0, theta, np.where(H[0] < 0.0, theta_hi, 1.0))
@@ -76,9 +88,12 @@ def hancock_sweep(
     Hsm = np.zeros_like(Hs)
     Hsm[sl(1, n)] = Hs[sl(0, n - 1)]
     upd = -lam * (Hs - Hsm)
-    if d == 0:
-        mid = 0.5 * (ref.conserved(eW) + ref.conserved(eE))
-        upd = upd + dt * ref.source(ref.primitives(mid))
+    if d == 0:  # g sin(zeta) h by the trapezoidal rule (the source without friction)
+
+        def gravity(h):
+            return np.where(h >= c.h_min, h * c.g_sin, 0.0)
+
+        upd[lay.HU] += 0.5 * dt * (gravity(q[0]) + gravity(q[0] + upd[0]))
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
