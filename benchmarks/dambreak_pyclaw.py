@@ -57,6 +57,8 @@ BASE = {"theta": 1.5, "flux": "kt", "step_rule": "max", "cfl": 0.25, "precision"
 SUM = {"step_rule": "sum", "cfl": 0.5}
 SHARP = {"reconstruction": "minmod", "theta": 2.0, "flux": "central-upwind", **SUM}
 LOCAL = {**SHARP, "step_rule": "local"}
+# the split MUSCL-Hancock sweeps (tiseg.numerics.split): each sweep's own Courant number
+HANCOCK = {**SHARP, "stepper": "hancock", "step_rule": "max", "cfl": 0.9}
 
 
 def _combo(**kw) -> dict:
@@ -83,6 +85,11 @@ COMBOS = {
     "minmod2+cu+ssprk16_3+local": _combo(stepper="ssprk16_3", **LOCAL),
     "minmod2+cu+ssprk10_4+local": _combo(stepper="ssprk10_4", **LOCAL),
     "minmod2+cu+ssprk10_2+sum+f32": _combo(stepper="ssprk10_2", **SHARP, precision="f32"),
+    # dimensionally split MUSCL-Hancock sweeps (the dam-break scene's numerics from session 13)
+    "minmod2+cu+hancock": _combo(**HANCOCK),
+    "minmod2+cu+hancock+cfl0.75": _combo(**{**HANCOCK, "cfl": 0.75}),
+    "minmod2+cu+hancock+cfl0.6": _combo(**{**HANCOCK, "cfl": 0.6}),
+    "minmod2+cu+hancock+cfl0.5": _combo(**{**HANCOCK, "cfl": 0.5}),
 }
 DEFAULT_COMBOS = (
     "weno+rkc",

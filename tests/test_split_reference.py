@@ -2,8 +2,6 @@
 (tiseg.reference.split) to round-off: the predictor, its dry-edge fallback, the face fluxes,
 the draining-time scaling, the source at mid-step, the limiter and the boundary budget."""
 
-import itertools
-
 import numpy as np
 import pytest
 
@@ -55,7 +53,13 @@ def _rel(cfg, a, b):
 
 @pytest.mark.parametrize(
     "rec,bc,state",
-    list(itertools.product(("minmod", "weno"), BOUNDARIES, ("smooth", "wet-dry"))),
+    [
+        ("minmod", BOUNDARIES[0], "wet-dry"),
+        ("minmod", BOUNDARIES[1], "smooth"),
+        ("minmod", BOUNDARIES[2], "wet-dry"),
+        ("weno", BOUNDARIES[1], "wet-dry"),
+        ("weno", BOUNDARIES[2], "smooth"),
+    ],
 )
 def test_sweeps_match_reference_2d(ti_cpu, rec, bc, state):
     rng = np.random.default_rng(7)
@@ -72,8 +76,14 @@ def test_sweeps_match_reference_2d(ti_cpu, rec, bc, state):
     assert abs(gained - mass) <= 1e-12 * max(abs(q[0][ix, iy]).sum() * cfg.dx * cfg.dy, 1e-12)
 
 
-@pytest.mark.parametrize("flux,phi_flux", [("kt", "central"), ("central-upwind", "upwind")])
-@pytest.mark.parametrize("bc", BOUNDARIES)
+@pytest.mark.parametrize(
+    "flux,phi_flux,bc",
+    [
+        ("kt", "central", BOUNDARIES[0]),
+        ("central-upwind", "upwind", BOUNDARIES[1]),
+        ("central-upwind", "central", BOUNDARIES[2]),
+    ],
+)
 def test_sweep_matches_reference_1d(ti_cpu, flux, phi_flux, bc):
     rng = np.random.default_rng(8)
     bc = bc[:2] + ("periodic",) * 2

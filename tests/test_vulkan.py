@@ -33,9 +33,14 @@ needs_vulkan = pytest.mark.skipif(VULKAN is not None, reason=f"no Vulkan: {VULKA
 @needs_vulkan
 def test_operator_render_and_viewer_suites_pass_on_vulkan_f64():
     """The reference-equality tests (every reconstruction, wet/dry states, every boundary,
-    every effect, the inflow noise: 1e-12 relative in f64), the renderer tests and the GGUI
-    viewer tests, run again with arch=vulkan."""
-    files = ["tests/test_operator_reference.py", "tests/test_render.py", "tests/test_viewer.py"]
+    every effect, the inflow noise: 1e-12 relative in f64; the split sweeps likewise), the
+    renderer tests and the GGUI viewer tests, run again with arch=vulkan."""
+    files = [
+        "tests/test_operator_reference.py",
+        "tests/test_split_reference.py",
+        "tests/test_render.py",
+        "tests/test_viewer.py",
+    ]
     p = subprocess.run(
         # one process (-n 0): the parent suite's other worker already shares the cores
         [sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", *files],

@@ -267,7 +267,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
 
     model = model or flow_model(scene)
     num = scene.numerics
-    stepper = stepper_for(num)
+    stepper = stepper_for(num, is_1d=scene.is_1d)
     t_end = scene.t_end if t_end is None else t_end
     times = [t for t in scene.output_times if 1e-12 < t <= t_end + 1e-12]
     if not times or times[-1] < t_end - 1e-12:
@@ -428,9 +428,16 @@ def calibrate(
     terms = [(1.0, 0)] + [(0.0, 0)] * (n_terms - 1)
     spare = op.nslots - 1
 
-    def stage():
-        op.rhs(0, 1, sim.t)
-        op.combine(spare, terms, limit=True)
+    if stepper.split:
+
+        def stage():  # a stage is a sweep (it moves slot 0 by a negligible step)
+            op.sweep(0, sim.t, 1e-12)
+
+    else:
+
+        def stage():
+            op.rhs(0, 1, sim.t)
+            op.combine(spare, terms, limit=True)
 
     # the step at a fixed stage count: its time less that many stages is the per-step work
     s_cal = 2 if rkc else stepper.stages

@@ -197,7 +197,7 @@ class Simulation:
         self.backend = backend.state()
         self.cfg = config_from_scene(scene)
         self.layout = self.cfg.layout
-        self.stepper = stepper_for(scene.numerics)
+        self.stepper = stepper_for(scene.numerics, is_1d=scene.is_1d)
         # two slots beyond the stepper's: the state before a step that crosses a snapshot
         # time, and the snapshot interpolated from it and the state after the step
         nstep = max(self.stepper.slots, 2)

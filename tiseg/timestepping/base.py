@@ -28,6 +28,8 @@ class Stepper:
     # limited combination of states and rates: TaichiOperator._keep_rest); the skipping of
     # resting regions is exact only then
     keeps_rest = True
+    # advances by dimensionally split sweeps (tiseg.numerics.split) rather than stages of L
+    split = False
     # how many steps the run has taken before this one, set by the simulation before each
     # step: a stepper whose steps differ by their parity (the split step's sweep order) reads
     # it, so that a resumed run steps as the run it continues
@@ -47,10 +49,16 @@ class Stepper:
         raise NotImplementedError
 
 
-def stepper_for(numerics, name: str | None = None) -> Stepper:
-    """The stepper of a scene's [numerics] (or the one named), with the scene's RKC stage cap."""
+def stepper_for(numerics, name: str | None = None, is_1d: bool = False) -> Stepper:
+    """The stepper of a scene's [numerics] (or the one named), with the scene's RKC stage cap
+    (and, for the split sweeps, how many directions there are)."""
     name = name or numerics.stepper
-    return make_stepper(name, **({"max_stages": numerics.max_stages} if name == "rkc" else {}))
+    kw = {}
+    if name == "rkc":
+        kw["max_stages"] = numerics.max_stages
+    if getattr(STEPPERS.get(name), "split", False):
+        kw["dims"] = 1 if is_1d else 2
+    return make_stepper(name, **kw)
 
 
 def make_stepper(name: str, **kwargs) -> Stepper:
