@@ -115,8 +115,8 @@ def test_other_builtins_resolved_values():
     assert d.effects.friction == "none" and d.material.zeta_deg == 0.0
     assert d.u0 is None and d.inflow is None and d.fields == ("h", "u")
     assert d.initial.x0 == 0.1 and d.initial.h_left == 0.002 and d.initial.h_right == 0.0
-    assert d.numerics.stepper == "ssprk4_2" and d.numerics.reconstruction == "minmod"
-    assert d.numerics.step_rule == "local" and d.numerics.cfl == 0.5 and d.numerics.theta == 2.0
+    assert d.numerics.stepper == "hancock" and d.numerics.reconstruction == "minmod"
+    assert d.numerics.step_rule == "max" and d.numerics.cfl == 0.6 and d.numerics.theta == 2.0
 
     m = load_scene("monodisperse-front")
     assert m.flow.phi0 == 1.0 and m.inflow.phi == 1.0
@@ -213,10 +213,12 @@ def test_override_round_trip(tmp_path):
 
 
 def test_other_friction_laws_and_kinds():
-    c = load_scene(
-        "dam-break", ["effects.friction=coulomb", "effects.coulomb_mu=0.3", "material.zeta_deg=25"]
-    )
+    sets = ["effects.friction=coulomb", "effects.coulomb_mu=0.3", "material.zeta_deg=25"]
+    c = load_scene("dam-break", sets + ["numerics.stepper=ssprk4_2", "numerics.step_rule=local"])
     assert c.effects.coulomb_mu == 0.3 and c.material.zeta_deg == 25.0
+    # the scene's split sweeps take no friction, and say what to use instead
+    with pytest.raises(InputError, match="ssprk4_2"):
+        load_scene("dam-break", sets)
     text = MINIMAL + '[initial]\nkind = "release"\nx0 = 0.01\nx1 = 0.05\ny0 = 0.01\ny1 = 0.04\n'
     text += '[boundary]\nx_lo = "wall"\nx_hi = "outflow"\n'
     r = scene_from_text(text, name="rel")

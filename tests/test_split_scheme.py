@@ -222,9 +222,10 @@ def test_concentrations_at_0_and_1_stay_bounded_and_conserved(ti_cpu):
     assert 0.0 < tot["small_mass"] < tot["mass"]
 
 
-def test_scene_refuses_stiff_terms_and_defaults_to_cfl_0_9(caplog):
+def test_scene_refuses_stiff_terms_and_defaults_to_cfl_0_6(caplog):
     base = {"numerics.stepper": "hancock", "numerics.step_rule": "max"}
-    assert load_scene("dam-break", base).numerics.cfl == 0.9
+    assert load_scene("dam-break", base).numerics.cfl == 0.6
+    assert load_scene("dam-break", {**base, "numerics.stepper": "ssprk4_2"}).numerics.cfl == 0.25
     assert load_scene("dam-break", {**base, "numerics.cfl": 1.0}).numerics.cfl == 1.0
     with pytest.raises(InputError, match="effects.viscosity.*no stiff terms"):
         load_scene("dam-break", {**base, "effects.viscosity": True, "flow.nu": 1e-3})

@@ -301,7 +301,7 @@ class NumericsConfig:
     # "hancock": dimensionally split MUSCL-Hancock sweeps (no viscosity, no friction)
     cfl: float = 0.25  # Courant number of the hyperbolic part, in (0, 1]; default 0.25 with
     # step_rule "max", 0.5 with "sum" and "local" (each rule's forward-Euler positivity bound),
-    # 0.9 with stepper "hancock" (each sweep is stable up to 1; h >= 0 whatever the step)
+    # 0.6 with stepper "hancock" (each sweep is stable up to 1; h >= 0 whatever the step)
     step_rule: str = "max"  # "max": dt = cfl min(dx/a, dy/b); "sum": dt = cfl / (a/dx + b/dy);
     # "local": dt = cfl / max over cells of (a/dx + b/dy), a and b from the cell's faces
     # (Kurganov & Petrova 2007; up to 2x longer steps where one direction dominates)
