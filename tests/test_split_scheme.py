@@ -64,8 +64,9 @@ def test_second_order_on_a_smooth_1d_wave(ti_cpu):
 def test_alternating_sweeps_make_2d_second_order(ti_cpu, monkeypatch):
     """A diagonal wave in a periodic square: with the sweep order alternating from step to
     step the error falls at second order; with x-then-y every step (Godunov splitting) the
-    splitting error makes it first order, which this test tells apart (measured: 2.1 against
-    1.5 and 1.3 from 32 to 128 cells against a 512-cell reference)."""
+    splitting error makes it first order, which this test tells apart (measured with a
+    512-cell reference: 2.1 against 1.5 and 1.3 from 32 to 128 cells; here 16 to 64 cells
+    against 192)."""
     n_ref = 192
     ref = _smooth(n_ref, n_ref, 0.3)
 
@@ -99,11 +100,9 @@ def test_dry_bed_dam_break_stays_positive_and_conservative(ti_cpu, cfl):
     sc = dam_break_2d(96, 0.0, "hancock", "max", **{"numerics.cfl": cfl})
     sim = Simulation(sc)
     m0 = sim.totals()["mass"]
-    hmin = math.inf
-    while sim.t < 0.1 - 1e-12:
-        sim.step(0.1)
-        hmin = min(hmin, float(sim.conserved()[0].min()))
-    assert hmin >= 0.0
+    sim.advance(0.1)
+    # (the limiter clips h < 0 to 0, so h >= 0 holds anyway: mass to round-off says no clip
+    # had anything to do)
     assert abs(sim.totals()["mass"] - m0) / m0 < 1e-13
     h = sim.fields()["h"]
     assert np.abs(h - h[:1]).max() == 0.0  # the y sweeps change nothing, bit for bit
@@ -119,12 +118,8 @@ def test_dry_column_collapse_stays_positive_and_conservative(ti_cpu):
     step and mass to round-off, where the waves cross both sweeps."""
     sc, sim = _column_collapse(48, "max", "hancock", cfl=1.0)
     m0 = sim.totals()["mass"]
-    hmin = math.inf
-    while sim.t < 0.1 - 1e-12:
-        sim.step(0.1)
-        hmin = min(hmin, float(sim.conserved()[0].min()))
-    assert hmin >= 0.0
-    assert abs(sim.totals()["mass"] - m0) / m0 < 1e-13
+    sim.advance(0.1)
+    assert abs(sim.totals()["mass"] - m0) / m0 < 1e-13  # (a clip of h < 0 would add mass)
 
 
 def test_wet_bed_dam_break_converges_to_stoker(ti_cpu):
@@ -144,6 +139,35 @@ def test_wet_bed_dam_break_converges_to_stoker(ti_cpu):
         errs.append(out["hancock"])
         assert out["hancock"] < 0.95 * out["ssprk4_2"], out
     assert np.all(_rates(errs) > 0.9), errs
+
+
+def test_closed_box_on_a_slope_keeps_its_mass(ti_cpu):
+    """Material sliding down a 20 degree slope into a wall, in a closed 2D box: no mass may
+    cross the walls. The ghost cells of a wall mirror the cell next to it, so their gravity
+    source is mirrored too; with the interior's sign the predictor pushed mass through the
+    walls (about dt g sin(zeta) h / 2 per step, booked in the budget as inflow)."""
+    over = {
+        "material.zeta_deg": 20.0,
+        "domain.Lx": 0.4,
+        "domain.nx": 80,
+        "domain.ny": 4,
+        "domain.Ly": 0.02,
+        "boundary.x_lo": "wall",
+        "boundary.x_hi": "wall",
+        "boundary.y_lo": "wall",
+        "boundary.y_hi": "wall",
+        "initial.x0": 0.3,
+        "numerics.stepper": "hancock",
+        "time.t_end": 0.3,
+        "output.interval": 0.3,
+    }
+    sim = Simulation(load_scene("dam-break", over))
+    m0 = sim.totals()["mass"]
+    sim.advance(0.3)
+    assert abs(sim.budget()["mass_in"]) <= 1e-15 * m0 / 0.02
+    assert abs(sim.totals()["mass"] - m0) <= 1e-13 * m0
+    h = sim.fields()["h"]
+    assert h[:, -1].max() > 3 * h[:, 0].max()  # it did slide down to the x_hi wall
 
 
 def test_rows_of_a_quasi_1d_run_equal_the_1d_run(ti_cpu):
@@ -214,8 +238,8 @@ def test_concentrations_at_0_and_1_stay_bounded_and_conserved(ti_cpu):
     tot0 = sim.totals()
     for _ in range(200):
         sim.step()
-        st = sim.state()
-        assert st["phi"].min() >= 0.0 and st["phi"].max() <= 1.0
+    # the limiter clips h phi into [0, h], so phi is bounded anyway: conservation of the small
+    # particles to round-off is what says the clip never acted
     tot = sim.totals()
     assert abs(tot["mass"] - tot0["mass"]) <= 1e-13 * tot0["mass"]
     assert abs(tot["small_mass"] - tot0["small_mass"]) <= 1e-12 * tot0["mass"]

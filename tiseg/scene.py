@@ -1262,6 +1262,14 @@ def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig | N
         f"{why}: use friction = 'none', or an SSP stepper such as numerics.stepper = "
         "'ssprk4_2' (or 'rkc')",
     )
+    _require(
+        not effects.segregation or n.phi_flux == "upwind",
+        "numerics.phi_flux",
+        n.phi_flux,
+        f"numerics.stepper={n.stepper!r} keeps 0 <= phi <= 1 by scaling each face's fluxes by "
+        "the factor of the cell the mass leaves, which needs the h phi flux to run with the "
+        "mass flux: use phi_flux = 'upwind' with segregation",
+    )
 
 
 def _read_output(t: "_Table", t_end: float) -> OutputConfig:

@@ -142,6 +142,8 @@ def measure(
     if repeats < 1:
         raise InputError(f"--repeats {repeats}: must be >= 1")
     scene = _run_scene(run_dir)
+    if scene.numerics.stepper not in steppers:  # the verdict is about the run's own stepper
+        steppers = (*steppers, scene.numerics.stepper)
     states = _states(run_dir, times)
     shape = (scene.domain.nx, scene.domain.ny)
     if states and states[0][1].shape[1:] != shape:

@@ -24,7 +24,9 @@ the state a whole step along one direction from a single flux evaluation. Along 
    mass leaves; with segregation the same for its small particles (h phi) and its large ones
    (h (1 - phi)), theta the smallest of the three. So h >= 0 and 0 <= phi <= 1 after any step
    that the scheme's stability allows, not only below a positivity bound, and the scaling is
-   conservative (a face's flux is one number for both cells);
+   conservative (a face's flux is one number for both cells). (phi_flux "upwind", which the
+   scene requires with segregation here, makes the three fluxes of a face run the same way,
+   so the factor of the cell the mass leaves is the one all three need);
 5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S, the source (gravity along the slope,
    g sin(zeta) h, the only one without friction) in the x sweep only, by the trapezoidal rule
    between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
@@ -34,7 +36,7 @@ The sweeps alternate their order from step to step (x then y, then y then x), wh
 splitting error of two steps second order (Strang 1968) at two sweeps a step; each sweep is
 stable for Courant numbers up to 1 (``numerics.cfl``, with step_rule "max": dt = cfl min(dx/a_x,
 dy/a_y)), against 1/2 for a_x dt/dx + a_y dt/dy of the unsplit scheme's Euler steps. A sweep
-costs about 0.8 of an evaluation of the operator (benchmarks/README.md section 8).
+costs about 0.7 of an evaluation of the operator (benchmarks/README.md section 7).
 
 What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
 stability of RKC or the friction projection within stages; a scene with either must use the
@@ -45,7 +47,7 @@ Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sw
 import taichi as ti
 
 from ..physics.pointwise import Params
-from .config import PERIODIC
+from .config import INFLOW, PERIODIC, WALL
 
 
 @ti.data_oriented
@@ -58,6 +60,10 @@ class SplitSweeps:
         """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
         update of the active range in place, its boundary fluxes into slot 0's budget."""
         self._set_time(t)
+        if self.bc[2 * d] == "periodic" and d == 0:
+            # the ghosts' draining factors are copied from the edge cells, which the factor
+            # pass computes only on the active range (the simulation keeps it whole then)
+            assert self.active == (self.gx, self.gx + self.nx), "periodic x: whole range"
         key = (0, t, self.active)
         # what the last preparation left valid in w: everything (a stability pass at t on
         # slot 0), the interior (the last sweep), or nothing
@@ -121,15 +127,44 @@ class SplitSweeps:
             qW = ph.conserved(wW)
             qE = ph.conserved(wE)
             shift = (0.5 * lam) * (ph.flux(wE, d) - ph.flux(wW, d))
+            keep = 0  # 1: the edges stay unevolved
             if ti.static(d == 0):
-                shift -= (0.5 * dt) * ph.source(w0)
+                gs = self._ghost_source(i)
+                keep = ti.cast(gs[1], ti.i32)
+                shift -= (0.5 * dt * gs[0]) * ph.source(w0)
             pW = qW - shift
             pE = qE - shift
-            if pW[0] < 0.0 or pE[0] < 0.0:  # the predictor would empty an edge
+            if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
                 pW = qW
                 pE = qE
             self.ew[i, j] = self._fast_primitive(pW)
             self.ee[i, j] = self._fast_primitive(pE)
+
+    @ti.func
+    def _ghost_source(self, i):
+        """(sign of the source, keep as 0 or 1) in the x predictor of cell column i.
+        Interior, outflow and periodic ghost cells evolve as the cells they copy (+1). A wall's ghost cell is
+        the mirror image of its interior cell, so its source is mirrored too (-1): the
+        predicted edges on both sides of the wall then mirror each other and no mass crosses
+        it (with +1 the gravity source pushed mass through a wall on a slope). An inflow's
+        ghost cells hold the prescribed state, which is not evolved (keep = 1); a stopped
+        inflow is a wall."""
+        gx, nx = ti.static(self.gx, self.nx)
+        lo, hi = ti.static(self.bcc[0], self.bcc[1])
+        sgn = 1.0
+        keep = 0
+        if i < gx:
+            if ti.static(lo == WALL):
+                sgn = -1.0
+            elif ti.static(lo == INFLOW):
+                if self.par[Params.IN_ON] > 0.5:
+                    keep = 1
+                else:
+                    sgn = -1.0
+        elif i >= gx + nx:
+            if ti.static(hi == WALL):
+                sgn = -1.0
+        return ti.Vector([sgn, ti.cast(keep, self.fp)])
 
     @ti.func
     def _fast_primitive(self, q):
@@ -194,10 +229,12 @@ class SplitSweeps:
 
     @ti.func
     def _drain_factors(self, d: ti.template(), lam, serial: ti.template()):
-        """drain := each updated cell's factor, 1 or h / (its outgoing mass over the step)
-        where that exceeds h; 1 on the cells next to them that the sweep leaves as they are
-        (ghosts, cells beyond the active range). A pass of its own: the update must read its
-        neighbours' factors from their h before the update."""
+        """drain := each updated cell's factor: 1, or what it holds / what would leave it over
+        the step where that is less, the smallest of that ratio for h and, with segregation,
+        for h phi and h (1 - phi); 1 on the cells next to them that the sweep leaves as they
+        are (ghosts, cells beyond the active range), except that a periodic boundary's ghost
+        cells take their images' factors. A pass of its own: the update must read its
+        neighbours' factors, computed from their h before the update."""
         gy, ny = ti.static(self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         ilo, ihi, jlo, jhi = a, b, gy, gy + ny

@@ -7,7 +7,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from .operator import ReferenceOperator
+from .operator import SQRT2, ReferenceOperator
+
+
+def split_primitives(ref: ReferenceOperator, q: np.ndarray) -> np.ndarray:
+    """The primitives of a split scene (SplitSweeps._fast_primitive): the reference's
+    desingularised ones computed as (hu) / h where h >= h_eps, which they equal up to
+    rounding, and the desingularised formula below."""
+    c, lay = ref.cfg, ref.lay
+    h = np.maximum(q[lay.H], 0.0)
+    h4 = h * h * h * h
+    eps4 = c.h_eps**4
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(h4 >= eps4, 1.0 / np.where(h > 0, h, 1.0), SQRT2 * h / np.sqrt(h4 + eps4))
+        w = np.empty_like(q)
+        w[0] = h
+        for comp in range(1, lay.nc):
+            w[comp] = r * q[comp]
+        if lay.segregation:
+            safe = np.where(h > 0, h, 1.0)
+            w[lay.HPHI] = np.where(h > 0, np.clip(q[lay.HPHI] / safe, 0.0, 1.0), 0.0)
+    return w
 
 
 def hancock_sweep(
@@ -37,18 +57,30 @@ def hancock_sweep(
         return tuple(idx)
 
     ref.fill_ghosts(q, t)
-    w = ref.primitives(q)
+    w = split_primitives(ref, q)
     lam = dt / (c.dx if d == 0 else c.dy)
     s = ref.slopes(w, axis)
     wW, wE = w - 0.5 * s, w + 0.5 * s
     qW, qE = ref.conserved(wW), ref.conserved(wE)
     shift = 0.5 * lam * (ref.flux(wE, d) - ref.flux(wW, d))
+    keep = np.zeros(q.shape[1:], dtype=bool)  # edges left unevolved: an inflow's ghost cells
     if d == 0:
-        shift = shift - 0.5 * dt * ref.source(w)
+        # a wall's ghost cells mirror the source as they mirror the state
+        sgn = np.ones(q.shape[1:])
+        gx, nx = lay.gx, lay.nx
+        lo, hi = c.bc[0], c.bc[1]
+        inflow_on = lo == "inflow" and not t > c.inflow_stop
+        if lo == "wall" or (lo == "inflow" and not inflow_on):
+            sgn[:gx] = -1.0
+        keep[:gx] = inflow_on
+        if hi == "wall":
+            sgn[gx + nx :] = -1.0
+        shift = shift - 0.5 * dt * sgn[None] * ref.source(w)
     pW, pE = qW - shift, qE - shift
     bad = ((pW[0] < 0.0) | (pE[0] < 0.0))[None] & fallback  # the predictor would empty an edge
-    eW = ref.primitives(np.where(bad, qW, pW))
-    eE = ref.primitives(np.where(bad, qE, pE))
+    bad = bad | keep[None]
+    eW = split_primitives(ref, np.where(bad, qW, pW))
+    eE = split_primitives(ref, np.where(bad, qE, pE))
     # the face (m, m + 1) at index m; zero between films thinner than h_min
     H = np.zeros_like(q)
     H[sl(0, n - 1)] = ref.numerical_flux(eE[sl(0, n - 1)], eW[sl(1, n)], d)

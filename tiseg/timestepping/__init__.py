@@ -9,7 +9,9 @@ Every stepper advances slot 0 of an operator offering
 * ``stage(dst, terms, src, t)``: the same combination with one term ``(c, RATE)`` standing for
   L(slot src, t), computed in the same launch and never stored (``base.RATE``),
 
-and chooses its step from two numbers the caller measures on the current state: the convective
+(a split stepper, ``split = True``, calls ``sweep(d, t, dt)`` instead: one dimensionally
+split update of slot 0 along direction d, tiseg.numerics.split), and chooses its step from two
+numbers the caller measures on the current state: the convective
 step ``dt_cfl`` and the spectral radius ``rho`` of the operator's Jacobian on the negative real
 axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
 """

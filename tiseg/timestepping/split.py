@@ -11,8 +11,9 @@ class Hancock(Stepper):
     """One MUSCL-Hancock sweep per direction, in the order x, y on even steps and y, x on odd
     ones (the step's index comes from the simulation, ``index``, so a resumed run sweeps as
     the uninterrupted one did). The step is the convective limit itself: with step_rule
-    "max" and numerics.cfl <= 1 (default 0.6) that is each sweep's Courant number. No stiff terms (the scene
-    refuses viscosity and friction with this stepper), so the spectral radius plays no part.
+    "max" and numerics.cfl <= 1 (default 0.6) that is each sweep's Courant number. No stiff
+    terms (the scene refuses viscosity and friction with this stepper), so the spectral
+    radius plays no part.
 
     ``stages`` counts the sweeps: ``dims``, 2 (1 in 1D). Each moves a wet front by at most
     one cell, as a Runge-Kutta stage does (the simulation's active range relies on it)."""
