@@ -289,9 +289,13 @@ class TaichiOperator(SplitSweeps):
         h = ti.max(q[0], 0.0)
         h4 = h * h * h * h
         denom = ti.sqrt(h4 + ti.max(h4, self.par[Params.H_EPS4]))
+        return self._primitive_of(q, h, ti.sqrt(2.0) * h / denom)
+
+    @ti.func
+    def _primitive_of(self, q, h, r):
+        """w of q with h = max(q_h, 0) and the velocities r times the momenta."""
         w = q
         w[0] = h
-        r = ti.sqrt(2.0) * h / denom
         for c in ti.static(range(1, self.nc)):
             w[c] = r * q[c]
         if ti.static(self.seg):

@@ -178,16 +178,7 @@ class SplitSweeps:
             r = 1.0 / h
         else:
             r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.par[Params.H_EPS4])
-        w = q
-        w[0] = h
-        for c in ti.static(range(1, self.nc)):
-            w[c] = r * q[c]
-        if ti.static(self.seg):  # (not desingularised: TaichiOperator._primitive)
-            phi = 0.0 * h
-            if h > 0:
-                phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
-            w[self.HPHI] = phi
-        return w
+        return self._primitive_of(q, h, r)
 
     @ti.func
     def _sweep_faces(self, d: ti.template(), serial: ti.template()):
