@@ -21,6 +21,7 @@ import numpy as np
 
 from ..physics.friction import FRICTION_LAWS as _LAWS
 from ..physics.segregation import TRANSPORTS as _TRANSPORTS
+from ..timestepping import STEPPERS as _STEPPERS
 
 FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registered laws (tiseg.physics.friction)
 TRANSPORTS = tuple(_TRANSPORTS)  # material.transport: G(phi) (tiseg.physics.segregation)
@@ -32,8 +33,9 @@ PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of 
 FRICTION_SCHEMES = ("regularised", "projected")
 # numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
 STEP_RULES = {"max": 0.25, "sum": 0.5, "local": 0.5}
-# numerics.stepper values that advance by dimensionally split sweeps (tiseg.numerics.split)
-SPLIT_STEPPERS = ("hancock",)
+# numerics.stepper values that advance by dimensionally split sweeps (tiseg.numerics.split):
+# the registered steppers that say so
+SPLIT_STEPPERS = tuple(name for name, cls in _STEPPERS.items() if cls.split)
 # their default Courant number per sweep: stable up to 1, and 0.6 did the least work for a
 # given error on the Stoker dam break (benchmarks/README.md section 7; the error of a fan
 # grows with cfl, a smooth wave's much less)

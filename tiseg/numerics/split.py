@@ -60,7 +60,7 @@ class SplitSweeps:
         """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
         update of the active range in place, its boundary fluxes into slot 0's budget."""
         self._set_time(t)
-        if self.bc[2 * d] == "periodic" and d == 0:
+        if d == 0 and self.bc[0] == "periodic":
             # the ghosts' draining factors are copied from the edge cells, which the factor
             # pass computes only on the active range (the simulation keeps it whole then)
             assert self.active == (self.gx, self.gx + self.nx), "periodic x: whole range"
@@ -129,9 +129,8 @@ class SplitSweeps:
             shift = (0.5 * lam) * (ph.flux(wE, d) - ph.flux(wW, d))
             keep = 0  # 1: the edges stay unevolved
             if ti.static(d == 0):
-                gs = self._ghost_source(i)
-                keep = ti.cast(gs[1], ti.i32)
-                shift -= (0.5 * dt * gs[0]) * ph.source(w0)
+                sgn, keep = self._ghost_source(i)
+                shift -= (0.5 * dt * sgn) * ph.source(w0)
             pW = qW - shift
             pE = qE - shift
             if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
@@ -143,8 +142,9 @@ class SplitSweeps:
     @ti.func
     def _ghost_source(self, i):
         """(sign of the source, keep as 0 or 1) in the x predictor of cell column i.
-        Interior, outflow and periodic ghost cells evolve as the cells they copy (+1). A wall's ghost cell is
-        the mirror image of its interior cell, so its source is mirrored too (-1): the
+        Interior, outflow and periodic ghost cells evolve as the cells they copy (+1). A
+        wall's ghost cell is the mirror image of its interior cell, so its source is mirrored
+        too (-1): the
         predicted edges on both sides of the wall then mirror each other and no mass crosses
         it (with +1 the gravity source pushed mass through a wall on a slope). An inflow's
         ghost cells hold the prescribed state, which is not evolved (keep = 1); a stopped
@@ -164,7 +164,7 @@ class SplitSweeps:
         elif i >= gx + nx:
             if ti.static(hi == WALL):
                 sgn = -1.0
-        return ti.Vector([sgn, ti.cast(keep, self.fp)])
+        return sgn, keep
 
     @ti.func
     def _fast_primitive(self, q):
@@ -202,6 +202,15 @@ class SplitSweeps:
                 self.fx[i, j] = F
             else:
                 self.fy[i, j] = F
+
+    @ti.func
+    def _across(self, d: ti.template()):
+        """The range [lo, hi) of cells across d that a sweep along d updates: the interior
+        rows in x, the active columns in y."""
+        lo, hi = self.gy, self.gy + self.ny
+        if ti.static(d == 1):
+            lo, hi = self.act[0], self.act[1]
+        return lo, hi
 
     @ti.func
     def _along(self, d: ti.template(), m, k):
@@ -263,14 +272,10 @@ class SplitSweeps:
         # across a periodic boundary the ghost cell is its image: the face there is one face
         # of two cells, so both must scale it by the same factor (else mass is made or lost)
         if ti.static(self.bcc[2 * d] == PERIODIC):
-            if ti.static(d == 0):
-                ti.loop_config(serialize=True)  # a column of cells
-                for j in range(gy, gy + ny):
-                    self._periodic_image(d, j)
-            else:
-                ti.loop_config(serialize=True)  # a row
-                for i in range(a, b):
-                    self._periodic_image(d, i)
+            lo, hi = self._across(d)
+            ti.loop_config(serialize=True)  # a column or a row of cells
+            for k in range(lo, hi):
+                self._periodic_image(d, k)
 
     @ti.func
     def _periodic_image(self, d: ti.template(), k):
@@ -322,36 +327,29 @@ class SplitSweeps:
             acc = self._limit(q0 + upd)
             self.w[i, j] = self._fast_primitive(acc)
             self.q[0, i, j] = acc
-        # the budget: what entered through the domain's faces along d (as _boundary_rates)
+        # the budget: what entered through the domain's faces along d (as _boundary_rates;
+        # along x a face beyond the active range carried no flux this time)
+        g, n = ti.static((gx, nx) if d == 0 else (gy, ny))
+        wl = 1.0
+        wr = 1.0
+        if ti.static(d == 0):
+            wl = ti.select(a == gx, 1.0, 0.0)
+            wr = ti.select(b == gx + nx, 1.0, 0.0)
+        lo, hi = self._across(d)
         ti.loop_config(serialize=True)
-        for _ in range(1):
-            if ti.static(d == 0):
-                wl = 1.0 if a == gx else 0.0
-                wr = 1.0 if b == gx + nx else 0.0
-                m0 = 0.0 * dt
-                m1 = 0.0 * dt
-                for j in range(gy, gy + ny):
-                    Fl = self._scaled(self.fx[gx - 1, j], self.drain[gx - 1, j], self.drain[gx, j])
-                    Fr = self._scaled(
-                        self.fx[gx + nx - 1, j], self.drain[gx + nx - 1, j], self.drain[gx + nx, j]
-                    )
-                    m0 += wl * Fl[0] - wr * Fr[0]
-                    if ti.static(self.seg):
-                        m1 += wl * Fl[self.HPHI] - wr * Fr[self.HPHI]
-                dy = self.par[Params.DY]
-                self.bud[0, 0] += dt * m0 * dy
-                self.bud[0, 1] += dt * m1 * dy
-            else:
-                m2 = 0.0 * dt
-                m3 = 0.0 * dt
-                for i in range(a, b):
-                    Fl = self._scaled(self.fy[i, gy - 1], self.drain[i, gy - 1], self.drain[i, gy])
-                    Fr = self._scaled(
-                        self.fy[i, gy + ny - 1], self.drain[i, gy + ny - 1], self.drain[i, gy + ny]
-                    )
-                    m2 += Fl[0] - Fr[0]
-                    if ti.static(self.seg):
-                        m3 += Fl[self.HPHI] - Fr[self.HPHI]
-                dx = self.par[Params.DX]
-                self.bud[0, 2] += dt * m2 * dx
-                self.bud[0, 3] += dt * m3 * dx
+        for _ in range(1):  # (one thread sums in a fixed order)
+            mass = 0.0 * dt
+            small = 0.0 * dt
+            for k in range(lo, hi):
+                i0, j0 = self._along(d, g - 1, k)
+                i1, j1 = self._along(d, g, k)
+                Fl = self._scaled(self._face(i0, j0, d), self.drain[i0, j0], self.drain[i1, j1])
+                i0, j0 = self._along(d, g + n - 1, k)
+                i1, j1 = self._along(d, g + n, k)
+                Fr = self._scaled(self._face(i0, j0, d), self.drain[i0, j0], self.drain[i1, j1])
+                mass += wl * Fl[0] - wr * Fr[0]
+                if ti.static(self.seg):
+                    small += wl * Fl[self.HPHI] - wr * Fr[self.HPHI]
+            width = self.par[Params.DY] if ti.static(d == 0) else self.par[Params.DX]
+            self.bud[0, 2 * d] += dt * mass * width
+            self.bud[0, 2 * d + 1] += dt * small * width

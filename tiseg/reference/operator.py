@@ -118,10 +118,15 @@ class ReferenceOperator:
         h = np.maximum(q[lay.H], 0.0)
         h4 = h**4
         denom = np.sqrt(h4 + np.maximum(h4, c.h_eps**4))
+        return self.primitives_of(q, h, lambda m: SQRT2 * h * m / denom)
+
+    def primitives_of(self, q: np.ndarray, h: np.ndarray, velocity) -> np.ndarray:
+        """w of q with h = max(q_h, 0), each velocity ``velocity(momentum)`` and phi bounded."""
+        lay = self.lay
         w = np.empty_like(q)
         w[0] = h
         for comp in range(1, lay.nc):
-            w[comp] = SQRT2 * h * q[comp] / denom
+            w[comp] = velocity(q[comp])
         if lay.segregation:
             # phi = h phi / h, bounded; no desingularisation (it would bias thin films to 0)
             safe = np.where(h > 0, h, 1.0)

@@ -20,14 +20,7 @@ def split_primitives(ref: ReferenceOperator, q: np.ndarray) -> np.ndarray:
     eps4 = c.h_eps**4
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where(h4 >= eps4, 1.0 / np.where(h > 0, h, 1.0), SQRT2 * h / np.sqrt(h4 + eps4))
-        w = np.empty_like(q)
-        w[0] = h
-        for comp in range(1, lay.nc):
-            w[comp] = r * q[comp]
-        if lay.segregation:
-            safe = np.where(h > 0, h, 1.0)
-            w[lay.HPHI] = np.where(h > 0, np.clip(q[lay.HPHI] / safe, 0.0, 1.0), 0.0)
-    return w
+    return ref.primitives_of(q, h, lambda m: r * m)
 
 
 def hancock_sweep(
