@@ -1184,7 +1184,7 @@ def _read_initial(
 
 
 def _read_numerics(
-    t: "_Table", flow: FlowConfig, is_1d: bool = False, effects: EffectsConfig | None = None
+    t: "_Table", flow: FlowConfig, is_1d: bool, effects: EffectsConfig
 ) -> NumericsConfig:
     stepper = t.choice("stepper", STEPPERS, "rkc")
     split = stepper in SPLIT_STEPPERS
@@ -1242,12 +1242,10 @@ def _read_numerics(
     return n
 
 
-def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig | None) -> None:
+def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) -> None:
     """What the split stepper needs (tiseg.numerics.split): no stiff terms, which its single
     explicit sweep per direction cannot take. (Any step rule is stable with it: "max" is
     each sweep's own Courant number, "sum" and "local" give shorter steps.)"""
-    if effects is None:
-        return
     why = f"numerics.stepper={n.stepper!r} (dimensionally split sweeps) has no stiff terms"
     _require(
         not (effects.viscosity and flow.nu > 0.0),
