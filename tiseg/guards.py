@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
+from .field_tree import FieldTree
 from .numerics.operator import NBUDGET
 
 # Rules, in the order of the result table; a cell is reported under the first rule it breaks.
@@ -95,10 +96,13 @@ class StateGuard:
         if mass_tol is None:
             mass_tol = 1e-6 if op.np_fp == np.float64 else 1e-3
         self.mass_tol = float(mass_tol)
-        self.res = ti.field(ti.i32, shape=(4, 2))
-        self.par = ti.field(op.fp, shape=3)  # h_tol, phi_tol, h_min
-        self.good = ti.Vector.field(op.nc, op.fp, shape=(op.NX, op.NY))
-        self.good_bud = ti.field(op.fp, shape=NBUDGET)
+        ft = self.field_tree = FieldTree()  # freed with the guard
+        self.res = ft.field(ti.i32, (4, 2))
+        self.par = ft.field(op.fp, 3)  # h_tol, phi_tol, h_min
+        self.good = ft.vector(op.nc, op.fp, (op.NX, op.NY))
+        self.good_bud = ft.field(op.fp, NBUDGET)
+        ft.finalize()
+        ft.free_with(self)
         self.good_meta: dict | None = None  # t, steps, ... of the copy in self.good
         self.set_params()
 

@@ -18,6 +18,7 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
+from ..field_tree import FieldTree
 from ..physics.pointwise import Params, Physics, param_count, param_values
 from .config import BC_CODES, INFLOW, OUTFLOW, PERIODIC, WALL, OperatorConfig
 from .split import SplitSweeps
@@ -94,55 +95,54 @@ class TaichiOperator(SplitSweeps):
         self._threads = st.threads or backend.available_cores()
         self._on_cpu = st.arch == "cpu"
         self._serial_whole = self._serial_for(NX * NY)
-        # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects)
-        self.q = ti.Vector.field(nc, self.fp, shape=(nslots, NX, NY))
-        self.w = ti.Vector.field(nc, self.fp, shape=(NX, NY))
-        self.fx = ti.Vector.field(nc, self.fp, shape=(NX, NY))
+        # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects),
+        # in one field tree that is freed with the operator
+        ft = self.field_tree = FieldTree()
+        self.q = ft.vector(nc, self.fp, (nslots, NX, NY))
+        self.w = ft.vector(nc, self.fp, (NX, NY))
+        self.fx = ft.vector(nc, self.fp, (NX, NY))
         slopes = not self.rec_first and not self.split
-        self.sx = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if slopes else None
+        self.sx = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
         if not self.is_1d:
-            self.fy = ti.Vector.field(nc, self.fp, shape=(NX, NY))
-            self.sy = ti.Vector.field(nc, self.fp, shape=(NX, NY)) if slopes else None
+            self.fy = ft.vector(nc, self.fp, (NX, NY))
+            self.sy = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
         if self.split:  # a sweep's predicted edge states and draining factors
-            self.ew = ti.Vector.field(nc, self.fp, shape=(NX, NY))
-            self.ee = ti.Vector.field(nc, self.fp, shape=(NX, NY))
-            self.drain = ti.field(self.fp, shape=(NX, NY))
-        self.par = ti.field(self.fp, shape=param_count(cfg))
+            self.ew = ft.vector(nc, self.fp, (NX, NY))
+            self.ee = ft.vector(nc, self.fp, (NX, NY))
+            self.drain = ft.field(self.fp, (NX, NY))
+        self.par = ft.field(self.fp, param_count(cfg))
         # step_rule "local": each cell's wave speeds along x and y, for the stability pass
-        self.spd = ti.Vector.field(2, self.fp, shape=(NX, NY)) if self.local_rate else None
+        self.spd = ft.vector(2, self.fp, (NX, NY)) if self.local_rate else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
-        self.inflow_prof = (
-            ti.field(self.fp, shape=NY) if self.seg and cfg.bc[0] == "inflow" else None
-        )
-        self.red = ti.field(self.fp, shape=NSTAB)
+        self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
+        self.red = ft.field(self.fp, NSTAB)
         # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
         # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
-        self.act = ti.field(ti.i32, shape=2)
-        self.rowsum = ti.field(ti.f64, shape=(NX, 2))
+        self.act = ft.field(ti.i32, 2)
+        self.rowsum = ft.field(ti.f64, (NX, 2))
         # rows reduced by one thread before one atomic (_stability, _wet_extent): a row in 2D,
         # 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
         self.rows_per_block = max(1, 256 // NY)
-        self.total = ti.field(ti.f64, shape=2)
+        self.total = ft.field(ti.f64, 2)
         # first and last x index of a wet cell, then of a live one (_wet_extent)
-        self.wet = ti.field(ti.i32, shape=4)
+        self.wet = ft.field(ti.i32, 4)
         # the x range the wet scan covers (besides the halo): the wet cells and their margin,
         # which contains the active range act and, with resting regions skipped, more
-        self.wrng = ti.field(ti.i32, shape=2)
+        self.wrng = ft.field(ti.i32, 2)
         self._prepared = None  # (slot, t, active range) whose primitives are in w
         # (slot, active range) whose interior primitives a limited combine left in w (ghost
         # cells and slopes still to do)
         self._interior = None
-        self.set_active(self.gx, self.gx + self.nx)
         # Boundary budgets per slot: rates of (mass, small-particle mass) entering through the
         # x faces and the y faces. combine() applies the same linear combination to them as to
         # the states, so slot 0 accumulates exactly the time integral the scheme uses.
         # (row nslots: the boundary rates of a fused stage, whose rate has no slot)
-        self.bud = ti.field(self.fp, shape=(nslots + 1, NBUDGET))
+        self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
         self.phys = Physics(cfg, self.par)
         # With the projected friction: which cells were at rest at the start of the step, the
         # state in slot 0 (_rest_face). Recomputed at the first preparation after slot 0 is
         # written, so every stage of a step sees the same rest faces.
-        self.rest = ti.field(ti.i8, shape=(NX, NY)) if self.phys.fr_projected else None
+        self.rest = ft.field(ti.i8, (NX, NY)) if self.phys.fr_projected else None
         self._rest_stale = True
         # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
         # of such cells far from any moving one then need no work at all, and the active range
@@ -150,6 +150,9 @@ class TaichiOperator(SplitSweeps):
         # the step before, so the mask is part of the run's state (checkpoints keep it).
         self.skip_rest = bool(self.phys.fr_projected and self.phys.law.hysteresis)
         self._first_stage = False  # the next limited combination is a step's first stage
+        ft.finalize()  # the fields exist from here on
+        ft.free_with(self)
+        self.set_active(self.gx, self.gx + self.nx)
         self.set_params(cfg)
         self.t = 0.0
 
