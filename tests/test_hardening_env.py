@@ -79,3 +79,96 @@ def test_cache_folder_choice(tmp_path, monkeypatch):
     monkeypatch.setattr(backend, "_private_temp_dir", lambda: str(blocked))
     with pytest.raises(TisegError, match="TI_OFFLINE_CACHE_FILE_PATH"):
         backend.cache_folder()
+
+
+# ------------------------------------------------------------------------ movies and frames
+@pytest.fixture(scope="module")
+def fake_run(tmp_path_factory):
+    """A run folder with a small fields.nc of made-up snapshots (no simulation to wait for)."""
+    import numpy as np
+
+    from tiseg.output.netcdf import FieldsWriter
+
+    out = tmp_path_factory.mktemp("fake_run")
+    nx, ny = 12, 6
+    x, y = (np.arange(nx) + 0.5) * 0.01, (np.arange(ny) + 0.5) * 0.01
+    with FieldsWriter(out / "fields.nc", x, y) as w:
+        for k in range(3):
+            h = np.where(np.arange(nx)[None, :] < 4 + 3 * k, 0.004, 0.0) * np.ones((ny, 1))
+            w.write(0.1 * k, h=h, u=h * 10, v=0 * h, phi=np.full((ny, nx), 0.5))
+    return out
+
+
+def _limit_ffmpeg_file_size(monkeypatch, limit):
+    """Children started from here may write files of at most ``limit`` bytes (writes past it
+    fail with EFBIG, as on a full disk), so ffmpeg cannot finish a movie."""
+    import resource
+    import signal
+
+    real = subprocess.Popen
+
+    def popen(*args, **kw):
+        before = kw.get("preexec_fn")
+
+        def small_files():
+            if before is not None:
+                before()
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of being killed
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+        kw["preexec_fn"] = small_files
+        return real(*args, **kw)
+
+    monkeypatch.setattr(subprocess, "Popen", popen)
+
+
+def test_movie_that_cannot_be_finished_is_an_error(tmp_path, monkeypatch):
+    """ffmpeg failing to write the movie (here: a file-size limit, like a full disk) was not
+    noticed: "wrote", exit status 0 and an unplayable file."""
+    import numpy as np
+
+    from tiseg.render.movie import MovieWriter
+
+    _limit_ffmpeg_file_size(monkeypatch, 2000)
+    path = tmp_path / "m.mp4"
+    noise = np.random.default_rng(1).integers(0, 256, (5, 64, 64, 3), dtype=np.uint8)
+    with pytest.raises(TisegError, match=r"cannot write the movie .*m\.mp4.*: File too large"):
+        with MovieWriter(path) as w:
+            for frame in noise:
+                w.append(frame)
+    assert not path.exists()  # the broken file is removed
+
+
+@pytest.mark.parametrize("kind", ["--movie", "--gif", "--frames", "--panels"])
+def test_render_to_an_unwritable_place_is_one_line(ti_cpu, fake_run, tmp_path, kind, capsys):
+    """A path under a regular file cannot be made; /dev/full takes no byte (ENOSPC): one line
+    each, no traceback, and /dev/full is left alone. (Not --panels /dev/full: matplotlib
+    adds .png to a name without a suffix.)"""
+    from tiseg.cli import main
+
+    blocked = tmp_path / "file"
+    blocked.write_text("")
+    names = {"--movie": "x.mp4", "--gif": "x.gif", "--frames": "fr", "--panels": "p.png"}
+    targets = [str(blocked / names[kind])]
+    if kind in ("--movie", "--gif"):
+        targets.append("/dev/full")
+    for target in targets:
+        assert main(["render", str(fake_run), "--field", "h", kind, target]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("tiseg render: error: ") and err.count("\n") == 1, err
+    assert os.path.exists("/dev/full") and not os.path.isfile("/dev/full")
+
+
+def test_run_movie_that_cannot_be_written(ti_cpu, tmp_path, monkeypatch, capsys):
+    """`tiseg run --movie` on a disk that fills up: one line and exit status 2, no movie left;
+    the run's own files are kept."""
+    from tiseg.cli import main
+
+    _limit_ffmpeg_file_size(monkeypatch, 2000)
+    movie = tmp_path / "m.mp4"
+    args = ["run", "dam-break", "--set", "domain.nx=40", "--out", str(tmp_path / "run")]
+    assert main([*args, "--movie", str(movie), "--movie-field", "h", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tiseg run: error: cannot write the movie ") and err.count("\n") == 1
+    assert "File too large" in err and not movie.exists()
+    assert (tmp_path / "run" / "fields.nc").is_file()

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, TisegError
 from . import colours as C
 
 
@@ -73,7 +73,7 @@ def plot_panels(
     from matplotlib.patches import Patch
 
     from .frame import render_fields
-    from .movie import _snapshot, global_range, run_h_min
+    from .movie import _remove_file, _snapshot, global_range, run_h_min
 
     field = C.canonical_field(field)
     ds, run_dir, opened = _open(ds)
@@ -136,8 +136,14 @@ def plot_panels(
             fig.suptitle(title)
         if path is not None:
             path = Path(path)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fig.savefig(path, dpi=150)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fig.savefig(path, dpi=150)
+            except OSError as exc:
+                _remove_file(path)
+                raise TisegError(
+                    f"cannot write the figure {str(path)!r}: {exc.strerror or exc}"
+                ) from None
         return fig
     finally:
         if opened:
