@@ -172,3 +172,61 @@ def test_run_movie_that_cannot_be_written(ti_cpu, tmp_path, monkeypatch, capsys)
     assert err.startswith("tiseg run: error: cannot write the movie ") and err.count("\n") == 1
     assert "File too large" in err and not movie.exists()
     assert (tmp_path / "run" / "fields.nc").is_file()
+
+
+# ------------------------------------------------------------------ top-level error handling
+STEADY = ["steady", "--h0", "0.005", "--phi0", "0.5", "--json"]
+
+
+def _cli(argv, **kw):
+    """``tiseg ARGV`` in a child process, started as the installed ``tiseg`` script starts it."""
+    code = f"import sys; sys.argv = {['tiseg', *argv]!r}\n" + kw.pop("before", "")
+    code += "from tiseg.cli import main\nsys.exit(main())\n"
+    if "stdout" not in kw:
+        kw["capture_output"] = True
+    return subprocess.run([sys.executable, "-c", code], text=True, timeout=120, **kw)
+
+
+def test_ctrl_c_while_importing(tmp_path):
+    """Ctrl-C while tiseg imports NumPy (here raised by an import hook at that moment) ends in
+    one line and status 130; `import tiseg` imported NumPy before the handler was in place."""
+    hook = (
+        "class CtrlC:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'numpy':\n"
+        "            raise KeyboardInterrupt\n"
+        "sys.meta_path.insert(0, CtrlC())\n"
+    )
+    res = _cli(STEADY, before=hook)
+    assert (res.returncode, res.stderr, res.stdout) == (130, "tiseg: interrupted\n", "")
+
+
+def test_deleted_working_folder_is_one_line(tmp_path, monkeypatch, capsys):
+    from tiseg.cli import main
+
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    assert main(["run", "dam-break", "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "current folder no longer exists" in err
+    assert not (tmp_path / "run").exists()
+
+
+def test_closed_pipe_on_stdout_is_quiet():
+    """A reader that has gone (`tiseg ... | head -c0`): Python's documented exit status 1 for
+    EPIPE, and no BrokenPipeError traceback."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # closed before the child writes: its first write fails with EPIPE
+    try:
+        res = _cli(STEADY, stdout=write_end, stderr=subprocess.PIPE)
+    finally:
+        os.close(write_end)
+    assert (res.returncode, res.stderr) == (1, "")
+
+
+def test_closed_stdout_is_quiet():
+    """`tiseg ... >&-`: the results go nowhere, as print() does without a stdout, no traceback."""
+    res = _cli(STEADY, preexec_fn=lambda: os.close(1))
+    assert (res.returncode, res.stderr) == (0, "")
