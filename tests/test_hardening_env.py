@@ -230,3 +230,40 @@ def test_closed_stdout_is_quiet():
     """`tiseg ... >&-`: the results go nowhere, as print() does without a stdout, no traceback."""
     res = _cli(STEADY, preexec_fn=lambda: os.close(1))
     assert (res.returncode, res.stderr) == (0, "")
+
+
+# ------------------------------------------------------------------ symbolic links at outputs
+@pytest.mark.parametrize("kind", ["default movie", "--movie", "--gif", "--panels", "--frames"])
+def test_render_does_not_write_through_links(fake_run, tmp_path, kind, capsys):
+    """A link at an output (the default RUN/phi.mp4, a frames folder, ...) pointing outside:
+    one line, and the file (or folder) it points to is left as it was."""
+    from tiseg.cli import main
+
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    victim = outside / "precious"
+    victim.write_text("keep me")
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "fields.nc").symlink_to(fake_run / "fields.nc")
+    name = {"--gif": "x.gif", "--panels": "p.png", "--frames": "fr"}.get(kind, "phi.mp4")
+    link = run / name
+    link.symlink_to(outside if kind == "--frames" else victim)
+    argv = ["render", str(run)] + ([] if kind == "default movie" else [kind, str(link)])
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "symbolic link" in err, err
+    assert victim.read_text() == "keep me" and sorted(outside.iterdir()) == [victim]
+    assert link.is_symlink()
+
+
+def test_frames_do_not_write_through_links(ti_cpu, fake_run, tmp_path):
+    from tiseg.render.movie import render_run
+
+    victim = tmp_path / "precious"
+    victim.write_text("keep me")
+    (tmp_path / "fr").mkdir()
+    (tmp_path / "fr" / "frame_00001.png").symlink_to(victim)
+    with pytest.raises(TisegError, match="symbolic link"):
+        render_run(fake_run, field="h", frames=tmp_path / "fr")
+    assert victim.read_text() == "keep me"

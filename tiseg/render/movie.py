@@ -68,6 +68,7 @@ class MovieWriter:
         self._log = None
         self._frames: list[np.ndarray] = []
         self._fill = C.to_uint8(C.BACKGROUND_RGB)
+        refuse_link(self.path)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -178,6 +179,16 @@ def _ffmpeg_problem(log: str) -> str:
     return re.sub(r"^\[[^\]]*\]\s*", "", lines[0]).strip() if lines else ""
 
 
+def refuse_link(path: Path) -> None:
+    """Refuse to write at a symbolic link: what would be written is its target, which may be
+    any file outside the run folder. (A link is not replaced either: the user put it there.)"""
+    if path.is_symlink():
+        raise InputError(
+            f"{str(path)!r} is a symbolic link (to {os.readlink(path)!r}); tiseg does not "
+            "write through links: remove it or choose another name"
+        )
+
+
 def _remove_file(path: Path) -> None:
     """Remove a broken output, if it is a plain file (never a device such as /dev/full)."""
     if path.is_file() and not path.is_symlink():
@@ -189,6 +200,7 @@ def _write_file(path: Path, data: bytes, what: str) -> None:
     """Write an encoded picture; when that fails (a full disk, ...), remove the part written
     and raise one line. (Encoded in memory first: imageio, when its own file write fails,
     raises again later from a destructor, as a traceback at exit.)"""
+    refuse_link(path)
     try:
         with open(path, "wb") as f:
             f.write(data)
@@ -211,6 +223,7 @@ class FrameFolderWriter:
         self.prefix = prefix
         self.count = 0
         self.paths: list[Path] = []
+        refuse_link(self.folder)
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:

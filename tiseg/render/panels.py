@@ -73,7 +73,7 @@ def plot_panels(
     from matplotlib.patches import Patch
 
     from .frame import render_fields
-    from .movie import _remove_file, _snapshot, global_range, run_h_min
+    from .movie import _remove_file, _snapshot, global_range, refuse_link, run_h_min
 
     field = C.canonical_field(field)
     ds, run_dir, opened = _open(ds)
@@ -136,6 +136,7 @@ def plot_panels(
             fig.suptitle(title)
         if path is not None:
             path = Path(path)
+            refuse_link(path)
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 fig.savefig(path, dpi=150)
