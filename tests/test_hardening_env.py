@@ -267,3 +267,49 @@ def test_frames_do_not_write_through_links(ti_cpu, fake_run, tmp_path):
     with pytest.raises(TisegError, match="symbolic link"):
         render_run(fake_run, field="h", frames=tmp_path / "fr")
     assert victim.read_text() == "keep me"
+
+
+# ------------------------------------------------------------------------ panels, no Taichi
+def test_render_panels_needs_no_taichi(fake_run, tmp_path, monkeypatch):
+    """`tiseg render --panels` drew its pictures with the Taichi kernel: it started Taichi
+    (seconds, a cache folder, and the abort without HOME) for a matplotlib figure."""
+    from tiseg.cli import main
+
+    def no_taichi(*args, **kw):
+        raise AssertionError("render --panels used Taichi")
+
+    monkeypatch.setattr(backend, "init", no_taichi)
+    monkeypatch.setattr(backend, "state", no_taichi)  # what a kernel asks for its runtime
+    assert main(["render", str(fake_run), "--panels", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").stat().st_size > 1000
+
+
+def test_numpy_pictures_match_the_kernel(ti_cpu):
+    """The panels' NumPy pictures are the frame kernel's, to one 8-bit level: every field, with
+    and without relief shading, up- and down-scaled, 2D and 1D, empty cells and a NaN phi."""
+    import numpy as np
+
+    from tiseg.render import render_fields
+    from tiseg.render.raster import render_fields_numpy
+
+    rng = np.random.default_rng(3)
+    for ny, nx in ((7, 13), (1, 20)):
+        h = np.abs(rng.normal(0.0, 0.003, (ny, nx)))
+        h[:, :3] = 0.0  # an empty chute
+        fields = {
+            "h": h,
+            "phi": rng.uniform(-0.2, 1.2, (ny, nx)),
+            "u": rng.normal(0.0, 1.0, (ny, nx)),
+            "v": rng.normal(0.0, 1.0, (ny, nx)),
+            "x": np.arange(nx) * 0.01,
+            "y": np.arange(ny) * 0.01,
+        }
+        fields["phi"][0, 5] = np.nan
+        for field in ("phi", "h", "speed", "u", "v"):
+            for shade in (True, False):
+                for scale, aspect in ((3, 1.0), (0.5, 0.7)):
+                    kw = dict(field=field, shade=shade, scale=scale, aspect=aspect)
+                    a = render_fields(fields, 1e-3, colourbar=False, **kw)
+                    b = render_fields_numpy(fields, 1e-3, **kw)
+                    assert a.shape == b.shape, kw
+                    assert np.abs(a.astype(int) - b).max() <= 1, kw
