@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -146,7 +147,9 @@ def cache_folder() -> str:
     )
     candidates = [os.environ.get("TI_OFFLINE_CACHE_FILE_PATH"), taichi_default]
     try:
-        candidates.append(os.path.join(_private_temp_dir(), "taichi", "ticache"))
+        private = _private_temp_dir()
+        if _owned_folder(private):
+            candidates.append(os.path.join(private, "taichi", "ticache"))
     except OSError:  # gettempdir: no writable temp folder at all
         pass
     tried = []
@@ -163,6 +166,19 @@ def cache_folder() -> str:
         f"no folder for Taichi's kernel cache can be written (tried {', '.join(tried)}): "
         "set TI_OFFLINE_CACHE_FILE_PATH to a writable folder"
     )
+
+
+def _owned_folder(folder: str) -> bool:
+    """Whether ``folder`` (made here, mode 700, if missing) is a folder of this user's that no one
+    else may write to: a fixed name in a shared temp folder may have been made by someone else,
+    and Taichi loads compiled code from its kernel cache."""
+    try:
+        os.makedirs(folder, mode=0o700, exist_ok=True)
+        st = os.lstat(folder)
+    except OSError:
+        return False
+    mine = not hasattr(os, "getuid") or st.st_uid == os.getuid()
+    return stat.S_ISDIR(st.st_mode) and mine and not st.st_mode & 0o022
 
 
 def _writable_folder(folder: str) -> bool:
