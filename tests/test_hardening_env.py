@@ -75,10 +75,15 @@ def test_cache_folder_choice(tmp_path, monkeypatch):
     monkeypatch.setenv("TI_OFFLINE_CACHE_FILE_PATH", str(blocked / "mine"))
     monkeypatch.setenv("XDG_CACHE_HOME", str(blocked))
     assert backend.cache_folder() == str(_fallback_cache(tmp_path))
-    # a temp folder of that name that others may write to (made by someone else) is not used
+    # a temp folder of that name that others may write to (made by someone else) is not used,
+    # also where it is Taichi's default (HOME unset)
     os.chmod(_fallback_cache(tmp_path).parents[1], 0o777)
     with pytest.raises(TisegError, match="TI_OFFLINE_CACHE_FILE_PATH"):
         backend.cache_folder()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(_fallback_cache(tmp_path).parents[1]))
+    with pytest.raises(TisegError, match="TI_OFFLINE_CACHE_FILE_PATH"):
+        backend.cache_folder()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocked))
     os.chmod(_fallback_cache(tmp_path).parents[1], 0o700)
     assert backend.cache_folder() == str(_fallback_cache(tmp_path))
     # nothing writable at all: one line that says what to do

@@ -147,21 +147,22 @@ def cache_folder() -> str:
     )
     candidates = [os.environ.get("TI_OFFLINE_CACHE_FILE_PATH"), taichi_default]
     try:
-        private = _private_temp_dir()
-        if _owned_folder(private):
-            candidates.append(os.path.join(private, "taichi", "ticache"))
+        private = _private_temp_dir()  # also Taichi's default when HOME is unset (see above)
+        candidates.append(os.path.join(private, "taichi", "ticache"))
     except OSError:  # gettempdir: no writable temp folder at all
-        pass
+        private = None
     tried = []
     for folder in candidates:
-        if folder and folder not in tried:
-            if _writable_folder(folder):
-                if tried:
-                    from .log import debug
+        if not folder or folder in tried:
+            continue
+        shared = private is not None and folder.startswith(private + os.sep)
+        if (not shared or _owned_folder(private)) and _writable_folder(folder):
+            if tried:
+                from .log import debug
 
-                    debug(f"Taichi's kernel cache: {folder} ({', '.join(tried)} cannot be written)")
-                return folder
-            tried.append(folder)
+                debug(f"Taichi's kernel cache: {folder} ({', '.join(tried)} cannot be written)")
+            return folder
+        tried.append(folder)
     raise TisegError(
         f"no folder for Taichi's kernel cache can be written (tried {', '.join(tried)}): "
         "set TI_OFFLINE_CACHE_FILE_PATH to a writable folder"
