@@ -161,13 +161,14 @@ def test_render_to_an_unwritable_place_is_one_line(ti_cpu, fake_run, tmp_path, k
     blocked.write_text("")
     names = {"--movie": "x.mp4", "--gif": "x.gif", "--frames": "fr", "--panels": "p.png"}
     targets = [str(blocked / names[kind])]
-    if kind in ("--movie", "--gif"):
+    full = kind in ("--movie", "--gif") and os.path.exists("/dev/full")  # Linux
+    if full:
         targets.append("/dev/full")
     for target in targets:
         assert main(["render", str(fake_run), "--field", "h", kind, target]) == 2
         err = capsys.readouterr().err
         assert err.startswith("tiseg render: error: ") and err.count("\n") == 1, err
-    assert os.path.exists("/dev/full") and not os.path.isfile("/dev/full")
+    assert not full or not os.path.isfile("/dev/full")  # still the device
 
 
 def test_run_movie_that_cannot_be_written(ti_cpu, tmp_path, monkeypatch, capsys):
