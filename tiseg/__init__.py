@@ -7,8 +7,6 @@ simulations (section 6) with a Kurganov-Tadmor scheme in Taichi on CPU or GPU.
 
 from .backend import init
 from .errors import InputError, TisegError
-from .material import TABLE1, Material, Species
-from .steady import SteadyState, steady_state
 
 __version__ = "0.1.0"
 
@@ -26,7 +24,20 @@ __all__ = [
 
 
 def __getattr__(name):
-    # Heavier parts are imported on first use so that `import tiseg` stays light.
+    # Heavier parts (NumPy and up) are imported on first use so that `import tiseg` stays light:
+    # the command line installs its Ctrl-C handling only once `tiseg` is imported.
+    if name in ("material", "steady"):
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    if name in ("TABLE1", "Material", "Species"):
+        from . import material
+
+        return getattr(material, name)
+    if name in ("SteadyState", "steady_state"):
+        from . import steady
+
+        return getattr(steady, name)
     if name in ("Simulation",):
         from .simulation import Simulation
 

@@ -9,14 +9,29 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import sys
+import tempfile
 from dataclasses import dataclass
 
-from .errors import InputError
+from .errors import InputError, TisegError
 
 # Keep Taichi quiet and offline (no version check over the network, no banner).
 os.environ.setdefault("TI_SKIP_VERSION_CHECK", "ON")
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "0")
+
+
+def _private_temp_dir() -> str:
+    """A folder of this user's under the system temp dir (the cache of last resort)."""
+    uid = os.getuid() if hasattr(os, "getuid") else os.getpid()
+    return os.path.join(tempfile.gettempdir(), f"tiseg-{uid}")
+
+
+# Taichi's core library works out its cache folder ($XDG_CACHE_HOME/taichi, else
+# $HOME/.cache/taichi) while it loads, and aborts the process (SIGABRT) when neither variable is
+# set; this module is imported before anything imports Taichi (tiseg/__init__.py), so name one.
+if "XDG_CACHE_HOME" not in os.environ and "HOME" not in os.environ:
+    os.environ["XDG_CACHE_HOME"] = _private_temp_dir()
 
 ARCHS = ("cpu", "gpu", "auto", "vulkan")
 PRECISIONS = ("f32", "f64")
@@ -100,6 +115,9 @@ def init(
         offline_cache=True,
         log_level=ti.WARN,
     )
+    cache = cache_folder()
+    if cache != os.environ.get("TI_OFFLINE_CACHE_FILE_PATH"):
+        kwargs["offline_cache_file_path"] = cache
     if threads and ti_arch == ti.cpu:
         kwargs["cpu_max_num_threads"] = threads
     # Taichi prints "[Taichi] Starting on arch=..." on stdout; keep stdout for results (JSON)
@@ -113,6 +131,67 @@ def init(
     generation = 1 if _state is None else _state.generation + 1
     _state = BackendState(resolved, precision, threads, generation)
     return _state
+
+
+def cache_folder() -> str:
+    """The folder for Taichi's offline kernel cache: TI_OFFLINE_CACHE_FILE_PATH when set, else
+    Taichi's default ($XDG_CACHE_HOME/taichi/ticache or ~/.cache/taichi/ticache), else a folder
+    under the system temp dir; the first one that can be written.
+
+    Always checked and passed to Taichi, because Taichi writes to it at exit even with the offline
+    cache off, and crashes (SIGSEGV, after a finished run) when it cannot be created."""
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    home = os.environ.get("HOME")
+    taichi_default = os.path.join(
+        xdg if xdg is not None else os.path.join(home or "", ".cache"), "taichi", "ticache"
+    )
+    candidates = [os.environ.get("TI_OFFLINE_CACHE_FILE_PATH"), taichi_default]
+    try:
+        private = _private_temp_dir()  # also Taichi's default when HOME is unset (see above)
+        candidates.append(os.path.join(private, "taichi", "ticache"))
+    except OSError:  # gettempdir: no writable temp folder at all
+        private = None
+    tried = []
+    for folder in candidates:
+        if not folder or folder in tried:
+            continue
+        shared = private is not None and folder.startswith(private + os.sep)
+        if (not shared or _owned_folder(private)) and _writable_folder(folder):
+            if tried:
+                from .log import debug
+
+                debug(f"Taichi's kernel cache: {folder} ({', '.join(tried)} cannot be written)")
+            return folder
+        tried.append(folder)
+    raise TisegError(
+        f"no folder for Taichi's kernel cache can be written (tried {', '.join(tried)}): "
+        "set TI_OFFLINE_CACHE_FILE_PATH to a writable folder"
+    )
+
+
+def _owned_folder(folder: str) -> bool:
+    """Whether ``folder`` (made here, mode 700, if missing) is a folder of this user's that no one
+    else may write to: a fixed name in a shared temp folder may have been made by someone else,
+    and Taichi loads compiled code from its kernel cache."""
+    try:
+        os.makedirs(folder, mode=0o700, exist_ok=True)
+        st = os.lstat(folder)
+    except OSError:
+        return False
+    mine = not hasattr(os, "getuid") or st.st_uid == os.getuid()
+    return stat.S_ISDIR(st.st_mode) and mine and not st.st_mode & 0o022
+
+
+def _writable_folder(folder: str) -> bool:
+    """Whether ``folder`` exists or can be made, and a file can be created in it (tried, not
+    judged from permission bits: root writes into a read-only folder)."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError:
+        return False
+    return True
 
 
 NO_VULKAN = (
@@ -280,8 +359,6 @@ def check_field_room() -> None:
     """A TisegError instead of Taichi's crash when the runtime is nearly out of field trees."""
     n = field_trees()
     if n > MAX_FIELD_TREES - SPARE_FIELD_TREES:
-        from .errors import TisegError
-
         raise TisegError(
             f"this process holds {n} Taichi field trees (Taichi allows "
             f"{MAX_FIELD_TREES}; each simulation takes a few and keeps them): "

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from .errors import RunInterrupted, TisegError
@@ -91,6 +92,50 @@ def _subparsers(parser):
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line; its exit status. Ctrl-C at any time after ``import tiseg`` (which
+    imports nothing heavy, so that this handler is in place before the slow imports) ends in
+    one line and status 130, a reader that closes the pipe early (``| head``) in silence."""
+    try:
+        _usable_std_streams()
+        try:
+            os.getcwd()  # Taichi and relative paths need it
+        except OSError:
+            sys.stderr.write(
+                "tiseg: error: the current folder no longer exists (or cannot be read); "
+                "cd into one that does\n"
+            )
+            return 2
+        status = _main(argv)
+        sys.stdout.flush()  # a closed pipe shows here, not as a traceback at exit
+        return status
+    except KeyboardInterrupt:
+        sys.stderr.write("tiseg: interrupted\n")
+        return 130
+    except BrokenPipeError:
+        # as Python's documentation of SIGPIPE advises: stdout to /dev/null, so that the
+        # interpreter's own flush at exit raises nothing again, and exit status 1
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        return 1
+
+
+def _usable_std_streams() -> None:
+    """Put /dev/null on a standard descriptor that is closed (``tiseg ... >&-``): output then
+    goes nowhere instead of failing, and no file opened later takes descriptor 1 or 2 (which
+    would receive what is meant for stdout or stderr, from tiseg, Taichi or ffmpeg)."""
+    for fd, name in ((0, "stdin"), (1, "stdout"), (2, "stderr")):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+        if getattr(sys, name) is None:  # Python found the descriptor closed at start-up
+            setattr(sys, name, open(fd, "r" if fd == 0 else "w", closefd=False))
+
+
+def _main(argv: list[str] | None) -> int:
     from .log import configure
 
     parser = build_parser()

@@ -61,7 +61,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..errors import InputError
     from ..render.colours import canonical_field
-    from ..render.movie import render_run
+    from ..render.movie import refuse_link, render_run
 
     try:
         field = canonical_field(args.field)
@@ -79,6 +79,9 @@ def run(args) -> int:
     movie = args.movie
     if movie is None and args.gif is None and args.frames is None and args.panels is None:
         movie = str(Path(args.run_dir) / f"{field}.mp4")  # a sensible default
+    for target in (movie, args.gif, args.frames, args.panels):  # before anything is written
+        if target is not None:
+            refuse_link(Path(target))
     summary = {"field": field, "outputs": []}
     if movie is not None or args.gif is not None or args.frames is not None:
         res = render_run(

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from ..errors import TisegError
 from .common import (
     add_scene_arguments,
     check_output_folder,
@@ -183,8 +184,7 @@ def run(args) -> int:
             signals=True,
         )
     finally:
-        if movie is not None:
-            movie.close()
+        movie_error = _close_movie(movie)
     after = sim.totals()
     bud = sim.budget()
     summary = {
@@ -206,7 +206,7 @@ def run(args) -> int:
         * stats.stages
         / max(stats.wall, 1e-12),
     }
-    if movie is not None:
+    if movie is not None and movie_error is None:
         summary["movie"] = str(movie.path)
         summary["movie_frames"] = movie.count
     if args.json:
@@ -222,9 +222,23 @@ def run(args) -> int:
             f"mass balance error {summary['mass_balance_error']:.3g} m^3 (relative {rel:.2g}); "
             f"output in {out}/"
         )
-        if movie is not None:
+        if movie is not None and movie_error is None:
             print(f"movie: {movie.path} ({movie.count} frames)")
+    if movie_error is not None:  # the run itself is complete and saved
+        raise movie_error
     return 0
+
+
+def _close_movie(movie):
+    """Finish the movie of a run (also of a stopped one: its frames so far); the TisegError when
+    it could not be written, to be raised after the run's summary (the run's files are fine)."""
+    if movie is None:
+        return None
+    try:
+        movie.close()
+    except TisegError as exc:
+        return exc
+    return None
 
 
 def _movie(args, sim):

@@ -5,14 +5,15 @@
 * :func:`annotate`, :func:`add_colourbar` - time stamp, scale bar, colour bar burned in.
 * :class:`MovieWriter`, :class:`FrameFolderWriter`, :func:`render_run` - mp4 / GIF / PNG frames.
 * :class:`MovieRecorder` - frames of a running simulation into a movie (run, demo, viewer).
-* :func:`plot_panels` - paper-style matplotlib panels (figures 12-14).
+* :func:`plot_panels` - paper-style matplotlib panels (figures 12-14), the kernel's pictures
+  computed in NumPy (:mod:`tiseg.render.raster`): they need no Taichi.
 
 Colours (``tiseg.render.colours``): phi = 1 white fines, phi = 0 brown coarse grains, turquoise
 empty chute (h < h_min); viridis for h, |u|, u, v. x runs left to right, y bottom to top.
 """
 
 from .colours import CHUTE_RGB, COARSE_RGB, FIELD_NAMES, FINES_RGB, canonical_field, viridis_table
-from .frame import FrameRenderer, add_colourbar, annotate, image_size, render_fields
+from .raster import image_size
 
 __all__ = [
     "render_fields",
@@ -35,7 +36,12 @@ __all__ = [
 
 
 def __getattr__(name):
-    # movie/panels pull in imageio and matplotlib.pyplot: import them only when asked for
+    # frame imports Taichi, movie/panels imageio and matplotlib: import them only when asked
+    # for (the panels and the movie writers need no Taichi)
+    if name in ("FrameRenderer", "add_colourbar", "annotate", "render_fields"):
+        from . import frame
+
+        return getattr(frame, name)
     if name in ("MovieWriter", "MovieRecorder", "FrameFolderWriter", "render_run", "open_writer"):
         from . import movie
 

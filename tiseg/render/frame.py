@@ -2,8 +2,8 @@
 
 Everything tiseg draws goes through :class:`_Painter.paint`: off-screen frames of NumPy fields
 (:func:`render_fields`), frames straight from a running simulation's Taichi state
-(:class:`FrameRenderer`), the GGUI viewer (which paints into its window image) and, through the
-shared colour table, the matplotlib panels. Only plain ``ti.field`` s and kernels are used, so it
+(:class:`FrameRenderer`) and the GGUI viewer (which paints into its window image); the matplotlib
+panels use its NumPy twin (:mod:`tiseg.render.raster`, no Taichi). Only plain ``ti.field`` s and kernels are used, so it
 runs on every Taichi backend and needs no Vulkan; the picture comes back with ``to_numpy``.
 
 Orientation (as in figure 12): x (downslope) runs from left to right, y (cross-slope) from bottom
@@ -37,15 +37,22 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..errors import InputError
 from . import colours as C
+from .raster import (  # noqa: F401  (image_size and the constants are also used from here)
+    DEFAULT_RELIEF,
+    DEFAULT_SHADE,
+    MAX_SIDE,
+    MIN_1D_HEIGHT,
+    PAPER_DX,
+    _shade_strength,
+    _spacing,
+    image_size,
+)
 
 # Indices in the painter's run-time parameter field (changing them recompiles nothing).
 P_HMIN, P_VMIN, P_VMAX, P_MODE, P_SHADE, P_RELIEF, P_LX, P_LY, P_DX, P_DY, P_PHI = range(11)
 P_COUNT = 11
 
-DEFAULT_SHADE = 0.35  # S: at most +-35 % brightness from relief
-DEFAULT_RELIEF = 10.0  # R: vertical exaggeration of the slopes of h
 _BIG = 3.0e38
 
 
@@ -335,29 +342,6 @@ def _array_painter(nx: int, ny: int) -> _Painter:
     return _painters[key]
 
 
-MIN_1D_HEIGHT = 40  # a 1D run (one row of cells) is drawn as a band this tall
-MAX_SIDE = 16384  # pixels: the largest picture side (video encoders stop at 8192)
-
-
-def image_size(nx: int, ny: int, scale: float = 1.0, aspect: float = 1.0) -> tuple[int, int]:
-    """(width, height) in pixels of a map of nx x ny cells: ``scale`` pixels per cell along x,
-    ``aspect = dy / dx`` keeps cells of other shapes true to size. A 1D run (ny = 1) becomes a
-    band at least MIN_1D_HEIGHT pixels tall, so that it can be seen."""
-    if not (scale > 0 and math.isfinite(scale)):
-        raise ValueError(f"scale={scale!r} must be a positive number")
-    w, h = nx * scale, ny * scale * aspect
-    if not (w <= MAX_SIDE and h <= MAX_SIDE):
-        raise InputError(
-            f"scale={scale:g} pixels per cell makes a {w:.3g} x {h:.3g} pixel "
-            f"picture of {nx} x {ny} cells; at most {MAX_SIDE} pixels a side: "
-            f"use a scale of at most {MAX_SIDE / max(nx, ny * aspect):.3g}"
-        )
-    h = max(1, int(round(h)))
-    if ny == 1:
-        h = max(h, MIN_1D_HEIGHT)
-    return max(1, int(round(w))), h
-
-
 def render_fields(
     fields: dict,
     h_min: float,
@@ -411,34 +395,6 @@ def render_fields(
     if colourbar:
         out = add_colourbar(out, field, *(vrange or (0.0, 1.0)))
     return out
-
-
-PAPER_DX = 1.0 / 750.0  # N_x / L_x = 750 per metre (figure 12)
-
-
-def _spacing(coord, given, fallback):
-    """Cell size: the given one, else the spacing of a coordinate array, else fallback."""
-    if given is not None:
-        return float(given)
-    if coord is not None and np.size(coord) > 1:
-        return float(
-            abs(
-                np.asarray(coord, dtype=np.float64).ravel()[1]
-                - np.asarray(coord, dtype=np.float64).ravel()[0]
-            )
-        )
-    return float(fallback)
-
-
-def _shade_strength(shade) -> float:
-    if shade is True:
-        return DEFAULT_SHADE
-    if shade is False or shade is None:
-        return 0.0
-    s = float(shade)
-    if not (0.0 <= s <= 1.0):
-        raise ValueError(f"shade={shade!r}: give True/False or a strength in [0, 1]")
-    return s
 
 
 # =================================================================================================

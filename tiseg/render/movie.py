@@ -13,12 +13,19 @@ cropped to the first frame's size, because a video has one size.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import math
+import os
+import re
+import subprocess
+import tempfile
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, TisegError
 from . import colours as C
 
 DEFAULT_FPS = 10.0
@@ -57,9 +64,11 @@ class MovieWriter:
         self.gif = self.path.suffix.lower() == ".gif"
         self.count = 0
         self.shape: tuple[int, int] | None = None
-        self._gen = None
+        self._proc = None  # ffmpeg
+        self._log = None
         self._frames: list[np.ndarray] = []
         self._fill = C.to_uint8(C.BACKGROUND_RGB)
+        refuse_link(self.path)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -80,48 +89,130 @@ class MovieWriter:
         if self.gif:
             self._frames.append(frame)
         else:
-            self._gen.send(frame.tobytes())
+            self._send(frame.tobytes())
         self.count += 1
 
     def _open(self) -> None:
+        """Start ffmpeg, reading raw RGB frames on its stdin. Started here rather than through
+        imageio-ffmpeg's ``write_frames``, which never looks at ffmpeg's exit status: a movie on
+        a full disk came out unplayable (no index) without any error."""
         import imageio_ffmpeg
 
         h, w = self.shape
-        self._gen = imageio_ffmpeg.write_frames(
-            str(self.path),
-            (w, h),
-            fps=self.fps,
-            codec="libx264",
-            pix_fmt_in="rgb24",
-            pix_fmt_out="yuv420p",
-            macro_block_size=1,
-            quality=self.quality,
-            ffmpeg_log_level="error",
+        fps = Fraction(self.fps).limit_denominator()
+        crf = int((1.0 - self.quality / 10.0) * 51)  # imageio-ffmpeg's quality scale, 51 worst
+        cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-v", "error"]
+        cmd += ["-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}", "-pix_fmt", "rgb24"]
+        cmd += ["-r", str(fps), "-i", "-", "-an", "-vcodec", "libx264", "-pix_fmt", "yuv420p"]
+        cmd += ["-crf", str(crf), str(self.path)]
+        self._log = tempfile.TemporaryFile()  # ffmpeg's messages, for the one-line error
+        # a session of its own: Ctrl-C stops tiseg, which then finishes the movie itself
+        self._proc = subprocess.Popen(
+            cmd,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=self._log,
+            start_new_session=True,
         )
-        self._gen.send(None)  # start ffmpeg
+
+    def _send(self, data: bytes) -> None:
+        try:
+            self._proc.stdin.write(data)
+        except OSError:  # ffmpeg has quit (it could not open the file, the disk is full, ...)
+            self._finish()
+            _remove_file(self.path)
+            raise TisegError(f"cannot write the movie {str(self.path)!r}: ffmpeg quit") from None
+
+    def _finish(self) -> None:
+        """Wait for ffmpeg; when it failed, remove what it left and raise one line."""
+        proc, self._proc = self._proc, None
+        with contextlib.suppress(OSError):  # a pipe ffmpeg has already closed
+            proc.stdin.close()
+        status = proc.wait()
+        self._log.seek(0)
+        log = self._log.read().decode("utf-8", "replace")
+        self._log.close()
+        problem = None
+        if status != 0:
+            problem = _ffmpeg_problem(log) or f"ffmpeg exit status {status}"
+        elif self.path.is_file() and self.path.stat().st_size == 0:
+            problem = "ffmpeg wrote an empty file"
+        if problem is not None:
+            _remove_file(self.path)
+            raise TisegError(f"cannot write the movie {str(self.path)!r}: {problem}")
 
     def close(self) -> None:
+        """Finish the file; a TisegError (and no file left) when it could not be written."""
         if self.gif:
-            if self._frames:
+            frames, self._frames = self._frames, []
+            if frames:
                 import imageio.v3 as iio
 
-                iio.imwrite(
-                    self.path,
-                    np.stack(self._frames),
+                data = iio.imwrite(
+                    "<bytes>",
+                    np.stack(frames),
                     extension=".gif",
                     duration=1000.0 / self.fps,
                     loop=0,
                 )
-            self._frames = []
-        elif self._gen is not None:
-            self._gen.close()
-            self._gen = None
+                _write_file(self.path, data, "GIF")
+        elif self._proc is not None:
+            self._finish()
 
     def __enter__(self) -> "MovieWriter":
         return self
 
     def __exit__(self, *exc) -> None:
-        self.close()
+        if exc[0] is not None:
+            _close_quietly(self)
+        else:
+            self.close()
+
+
+def _ffmpeg_problem(log: str) -> str:
+    """The cause in ffmpeg's error messages: the first system error named (such as "No space
+    left on device"), else its first line without the "[out#0/mp4 @ 0x...] " source tag."""
+    found = [(log.find(m), m) for m in map(os.strerror, errno.errorcode) if m in log]
+    if found:
+        return min(found)[1]
+    lines = log.strip().splitlines()
+    return re.sub(r"^\[[^\]]*\]\s*", "", lines[0]).strip() if lines else ""
+
+
+def refuse_link(path: Path) -> None:
+    """Refuse to write at a symbolic link: what would be written is its target, which may be
+    any file outside the run folder. (A link is not replaced either: the user put it there.)"""
+    if path.is_symlink():
+        raise InputError(
+            f"{str(path)!r} is a symbolic link (to {os.readlink(path)!r}); tiseg does not "
+            "write through links: remove it or choose another name"
+        )
+
+
+def _remove_file(path: Path) -> None:
+    """Remove a broken output, if it is a plain file (never a device such as /dev/full)."""
+    if path.is_file() and not path.is_symlink():
+        with contextlib.suppress(OSError):
+            path.unlink()
+
+
+def _write_file(path: Path, data: bytes, what: str) -> None:
+    """Write an encoded picture; when that fails (a full disk, ...), remove the part written
+    and raise one line. (Encoded in memory first: imageio, when its own file write fails,
+    raises again later from a destructor, as a traceback at exit.)"""
+    refuse_link(path)
+    try:
+        with open(path, "wb") as f:
+            f.write(data)
+    except OSError as exc:
+        _remove_file(path)
+        raise TisegError(f"cannot write the {what} {str(path)!r}: {exc.strerror or exc}") from None
+
+
+def _close_quietly(writer) -> None:
+    """Close a writer while another exception is on its way: its error must not hide that one."""
+    with contextlib.suppress(TisegError):
+        writer.close()
 
 
 class FrameFolderWriter:
@@ -132,6 +223,7 @@ class FrameFolderWriter:
         self.prefix = prefix
         self.count = 0
         self.paths: list[Path] = []
+        refuse_link(self.folder)
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -143,7 +235,11 @@ class FrameFolderWriter:
         import imageio.v3 as iio
 
         path = self.folder / f"{self.prefix}{self.count:05d}.png"
-        iio.imwrite(path, np.asarray(frame, dtype=np.uint8))
+        _write_file(
+            path,
+            iio.imwrite("<bytes>", np.asarray(frame, dtype=np.uint8), extension=".png"),
+            "frame",
+        )
         self.paths.append(path)
         self.count += 1
 
@@ -207,7 +303,7 @@ class MovieRecorder:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.close()
+        self.writer.__exit__(*exc)
 
 
 def open_writer(path, fps: float = DEFAULT_FPS):
@@ -371,11 +467,21 @@ def render_run(
                     w.append(img)
                 if bar is not None:
                     bar.update(1)
+        except BaseException:
+            for w in writers:  # what was written so far stays a valid movie, if it can be
+                _close_quietly(w)
+            raise
         finally:
-            for w in writers:
-                w.close()
             if bar is not None:
                 bar.close()
+        problems = []
+        for w in writers:  # every writer closed, even after another one failed
+            try:
+                w.close()
+            except TisegError as exc:
+                problems.append(exc)
+        if problems:
+            raise problems[0]
     finally:
         ds.close()
     return {

@@ -1,7 +1,8 @@
 """Paper-style panels (figures 12-14): one panel per time, axes in metres, a colour bar.
 
-The pictures inside the axes are made by the frame kernel (:func:`tiseg.render.render_fields`),
-so the panels show exactly the colours of the movies and the viewer; matplotlib only adds axes,
+The pictures inside the axes are the frame kernel's (:func:`tiseg.render.render_fields`), computed
+in NumPy (:mod:`tiseg.render.raster`, so that no Taichi starts), so the panels show exactly the
+colours of the movies and the viewer; matplotlib only adds axes,
 titles and a colour bar built from the same colour table (:func:`colours.matplotlib_cmap`).
 """
 
@@ -11,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, TisegError
 from . import colours as C
 
 
@@ -72,8 +73,8 @@ def plot_panels(
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
-    from .frame import render_fields
-    from .movie import _snapshot, global_range, run_h_min
+    from .movie import _remove_file, _snapshot, global_range, refuse_link, run_h_min
+    from .raster import render_fields_numpy
 
     field = C.canonical_field(field)
     ds, run_dir, opened = _open(ds)
@@ -101,14 +102,13 @@ def plot_panels(
         fig = Figure(figsize=(width, n * (panel_h + 0.45) + 0.6), layout="constrained")
         axes = fig.subplots(n, 1, squeeze=False)[:, 0]
         for ax, k in zip(axes, idx):
-            img = render_fields(
+            img = render_fields_numpy(  # the frame kernel's picture, without starting Taichi
                 _snapshot(ds, k),
                 h_min,
                 field=field,
                 shade=shade,
                 scale=scale,
                 vrange=vrange,
-                colourbar=False,
                 aspect=dy / dx if y.size > 1 else 1.0,
             )
             ax.imshow(
@@ -136,8 +136,15 @@ def plot_panels(
             fig.suptitle(title)
         if path is not None:
             path = Path(path)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fig.savefig(path, dpi=150)
+            refuse_link(path)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fig.savefig(path, dpi=150)
+            except OSError as exc:
+                _remove_file(path)
+                raise TisegError(
+                    f"cannot write the figure {str(path)!r}: {exc.strerror or exc}"
+                ) from None
         return fig
     finally:
         if opened:
