@@ -25,11 +25,14 @@ def ti_cpu():
 
 @pytest.fixture(scope="module", autouse=True)
 def _room_for_fields():
-    """Start a test file with a fresh Taichi runtime when the last ones used up most of its
-    field trees (Taichi frees none until it is re-initialised; the suite makes a few hundred
-    simulations in one process). Nothing is shared between test files but the settings."""
+    """Start a test file with a fresh Taichi runtime only if the last ones left most of its
+    field trees taken. Simulations free theirs when collected (tiseg.field_tree); renderers
+    and viewer windows still hold plain fields until the runtime is reset."""
+    import gc
+
     from tiseg import backend
 
+    gc.collect()  # simulations of the last file free their field trees (tiseg.field_tree)
     if backend.is_initialised() and backend.field_trees() > backend.MAX_FIELD_TREES // 2:
         st = backend.state()
         backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
