@@ -160,6 +160,11 @@ def load(path) -> dict:
         raise CheckpointError(f"no checkpoint {str(path)!r}") from None
     except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
         raise CheckpointError(f"{str(path)!r} is not a readable checkpoint ({exc})") from None
+    except MemoryError:  # a damaged header claiming an enormous array
+        raise CheckpointError(
+            f"{str(path)!r} is not a readable checkpoint (an array header asks for more "
+            "memory than there is: the file is damaged)"
+        ) from None
     if str(data.get("format", "")) != FORMAT:
         raise CheckpointError(f"{str(path)!r} is not a tiseg checkpoint")
     try:
@@ -178,8 +183,12 @@ def load(path) -> dict:
             out[k] = str(v)
         elif v.dtype.kind in "iu":
             out[k] = int(v)
-        else:
+        elif v.dtype.kind in "fb":
             out[k] = float(v)
+        else:  # complex, bytes, ...: nothing tiseg writes
+            raise CheckpointError(
+                f"{str(path)!r}: {k} holds a {v.dtype} value, not a number: the file is damaged"
+            )
     return out
 
 
@@ -250,6 +259,18 @@ def restore(sim, ck: dict) -> None:
         if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or np.shape(ck["ranges"]) != (5,):
             raise CheckpointError("the checkpoint's rest mask or ranges have the wrong shape")
         op.restore_rest_state(ck["rest_mask"], ck["ranges"])
+    # The state must pass the run's checks as it stands: a checkpoint damaged in a way that
+    # leaves its numbers finite would otherwise fail the first check of the resumed run and be
+    # reported as the run's own broken mass balance.
+    steps = sim.stats.steps
+    v = sim.guard.scan(sim.t, steps) or sim.guard.check_mass(
+        sim.totals(), sim.initial_totals, sim.budget(), sim.t, steps
+    )
+    if v is not None:
+        raise CheckpointError(
+            f"{CHECKPOINT_NAME} is damaged: its state fails the checks of a run "
+            f"({v.message()}); start the run again with --overwrite"
+        )
 
 
 # =================================================================================================
@@ -295,14 +316,39 @@ def open_run_dir(run_dir) -> tuple[object, dict]:
         validate(ck, scene, CHECKPOINT_NAME)
     except CheckpointError as exc:
         raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
+    _check_fields_grid(d / "fields.nc", scene, run_dir)
     return scene, ck
 
 
-def append_diagnostics(path, keep_rows: int):
+def _check_fields_grid(path: Path, scene, run_dir) -> None:
+    """InputError when ``path`` holds fields on another grid than ``scene`` 's: it is not the
+    run's file (found before anything runs; an unreadable file is left to the resume, which
+    keeps it aside as damaged)."""
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(path, "r") as ds:
+            grid = (ds.dimensions["x"].size, ds.dimensions["y"].size)
+    except (OSError, RuntimeError, KeyError):
+        return
+    if grid != (scene.domain.nx, scene.domain.ny):
+        raise InputError(
+            f"--resume {str(run_dir)!r}: fields.nc holds fields on a {grid[0]} x {grid[1]} "
+            f"grid, the run's scene has {scene.domain.nx} x {scene.domain.ny} cells: it is "
+            "not this run's fields file; put the run's own fields.nc back"
+        )
+
+
+def append_diagnostics(path, keep_rows: int, t: float | None = None):
     """A diagnostics writer that continues ``path`` after its first ``keep_rows`` rows.
 
     Rows written after the checkpoint by the killed run (and a half-written last line) are
-    dropped by rewriting the file atomically; new rows are appended to it."""
+    dropped by rewriting the file atomically; new rows are appended to it. The rows the
+    checkpoint knows of must be whole, and (with ``t``, the checkpoint's time) the last of
+    them at time ``t``: a damaged, lost or repeated row among them is refused, naming the line,
+    rather than repaired. Why refuse: dropping the bad row would shift every later row (the
+    checkpoint counts rows), and cutting the file there would silently lose the rows after it;
+    refused, the file stays as it is and can be mended by hand."""
     import csv
     import io
 
@@ -314,14 +360,40 @@ def append_diagnostics(path, keep_rows: int):
             rows = list(csv.reader(fh))
     except OSError as exc:
         raise CheckpointError(f"cannot read {str(path)!r}: {exc.strerror or exc}") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise CheckpointError(
+            f"{str(path)!r} is damaged ({exc}): it is not the UTF-8 CSV tiseg writes; "
+            "restore it, or start the run again with --overwrite"
+        ) from None
     if not rows:
         raise CheckpointError(f"{str(path)!r} has no header row")
     header = rows[0]
-    body = [r for r in rows[1:] if len(r) == len(header)][:keep_rows]
-    if len(body) < keep_rows:
+    body = rows[1 : keep_rows + 1]  # what follows was written after the checkpoint: it goes
+    if len(body) < keep_rows or (body and not _whole_row(body[-1], header)):
+        whole = sum(_whole_row(r, header) for r in body)
         raise CheckpointError(
-            f"{str(path)!r} has {len(body)} complete rows, the checkpoint expects {keep_rows}"
+            f"{str(path)!r} has {whole} complete rows, the checkpoint expects {keep_rows}"
         )
+    bad = next((i for i, r in enumerate(body) if not _whole_row(r, header)), None)
+    if bad is not None:
+        raise CheckpointError(
+            f"{str(path)!r} line {bad + 2} is damaged ({','.join(body[bad])[:40]!r} is not a "
+            f"row of {len(header)} numbers); the checkpoint needs its first {keep_rows} rows: "
+            "mend that line, or start the run again with --overwrite"
+        )
+    if body and "time" in header:
+        times = [float(r[header.index("time")]) for r in body]
+        back = next((i for i in range(1, len(times)) if not times[i] > times[i - 1]), None)
+        if back is not None or (t is not None and times[-1] != t):
+            where = (
+                f"row {back + 1} repeats or goes back in time"
+                if back is not None
+                else f"row {keep_rows} is at t={times[-1]!r} s, the checkpoint at t={t!r} s"
+            )
+            raise CheckpointError(
+                f"{str(path)!r}: {where}: rows were lost or repeated; restore the file, or "
+                "start the run again with --overwrite"
+            )
     buf = io.StringIO(newline="")
     csv.writer(buf).writerows([header] + body)
     write_text_atomic(path, buf.getvalue())  # keeps the file's permissions
@@ -337,6 +409,19 @@ def append_diagnostics(path, keep_rows: int):
             self.rows = keep_rows
 
     return _Appending()
+
+
+def _whole_row(row: list, header: list) -> bool:
+    """A row as tiseg writes it: one cell per column, each a number or empty."""
+    if len(row) != len(header):
+        return False
+    try:
+        for cell in row:
+            if cell != "":
+                float(cell)
+    except ValueError:
+        return False
+    return True
 
 
 __all__ = [

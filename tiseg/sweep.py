@@ -440,7 +440,8 @@ def scene_fingerprint(scene: Scene) -> str:
 # =================================================================================================
 def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
     """The completion record of a finished run folder, or None when it is absent or unreadable,
-    or (with ``scene``) when the folder's stored ``scene.toml`` is not that scene.
+    when the run's fields.nc is gone, or (with ``scene``) when the folder's stored
+    ``scene.toml`` is not that scene.
 
     Why compare scenes rather than a hash of their text: the stored scene is re-read with the
     current code, so a new scene key with a default (which does not change what was computed)
@@ -453,6 +454,8 @@ def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
     except (OSError, ValueError):
         return None
     if not isinstance(rec, dict) or rec.get("marker_version") != MARKER_VERSION:
+        return None
+    if not (run_dir / "fields.nc").is_file():  # the results are gone: not a finished run
         return None
     if scene is not None:
         try:
@@ -491,6 +494,8 @@ def execute_run(spec: dict) -> dict:
         return {"name": spec["name"], "status": "busy", "holder": lock.holder()}
     try:
         return _execute_locked(spec, run_dir, scene)
+    except TisegError as exc:  # a user mistake or a run that failed its guard: no retry, one line
+        return {"name": spec["name"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
     finally:
         lock.release()
 
@@ -500,11 +505,15 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     from . import backend
     from .analysis.fingers import analyse_run
     from .output import write_json_atomic
+    from .output.manifest import record
+    from .output.run_folder import check_fresh_folder
     from .simulation import Simulation
 
     rec = read_marker(run_dir, scene)
     if rec is not None:  # finished meanwhile by the holder we waited on
         return {**rec, "status": "reused"}
+    # the member's own earlier output may be replaced, files that tiseg did not write may not
+    check_fresh_folder(run_dir, bool(spec.get("overwrite")), replace_run=True)
     (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene
     t0 = _time.perf_counter()
     # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
@@ -518,6 +527,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
         out_dir=run_dir, progress=False, on_output=report, overwrite=True
     )  # its own folder, without a completion marker
     metrics = analyse_run(run_dir)
+    record(run_dir, [FINGERS_FILE, DONE_MARKER])
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
     nx, ny = scene.domain.nx, scene.domain.ny
     rec = {
@@ -647,6 +657,42 @@ class SweepResult:
         return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
 
 
+SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv")
+# what makes two sweeps the same: the runs and what is tabulated (not the file's place or text)
+SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "times")
+
+
+def check_sweep_folder(sweep: Sweep, out) -> None:
+    """Refuse an ``out`` that holds another sweep (its ``sweep.json`` defines other runs) or a
+    table that no sweep.json of tiseg's accounts for: running there would replace the other
+    sweep's table and, under shared folder names, its finished runs."""
+    out = Path(out)
+    if not out.is_dir():
+        return
+    present = [n for n in SWEEP_OUTPUTS if (out / n).exists()]
+    if not present:
+        return
+    hint = "choose a new --out, or pass --overwrite to replace it"
+    try:
+        stored = json.loads((out / "sweep.json").read_text(encoding="utf-8"))["sweep"]
+        theirs = {k: stored[k] for k in SAME_SWEEP_KEYS}
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+        raise InputError(
+            f"--out {str(out)!r} holds {', '.join(present)} that no sweep of tiseg's wrote "
+            f"there (no readable sweep.json); {hint}"
+        ) from None
+    from .output.diagnostics import json_clean
+
+    # as sweep.json stores it (tuples as lists, non-finite numbers as null)
+    ours = json.loads(json.dumps(json_clean({k: sweep.to_dict()[k] for k in SAME_SWEEP_KEYS})))
+    if _canonical(theirs) != _canonical(ours):
+        differ = [k for k in SAME_SWEEP_KEYS if _canonical(theirs[k]) != _canonical(ours[k])]
+        raise InputError(
+            f"--out {str(out)!r} holds another sweep ({theirs['name']!r}, its "
+            f"{', '.join(differ)} differ from this one's); {hint}"
+        )
+
+
 def run_sweep(
     sweep: Sweep,
     out,
@@ -657,6 +703,7 @@ def run_sweep(
     arch: str = "cpu",
     echo: Callable[[str], None] | None = stderr_line,
     progress_interval: float = 30.0,
+    overwrite: bool = False,
 ) -> SweepResult:
     """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
 
@@ -666,7 +713,9 @@ def run_sweep(
     the number of runs). ``threads_per_task``: Taichi CPU threads per run (default: cores /
     workers locally, the worker's own thread count on a remote cluster). ``echo``: where
     progress lines go (default stderr; the command line: the ``tiseg`` logger; None: silent). ``progress_interval``: seconds between progress lines
-    of one running run.
+    of one running run. ``overwrite``: write into an ``out`` that holds
+    another sweep, and replace files that tiseg did not write in member folders (by default
+    both are refused, see :func:`check_sweep_folder`).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
     calling script: call this from under ``if __name__ == "__main__":`` in a script.
@@ -683,6 +732,8 @@ def run_sweep(
         problem = threads_problem(threads_per_task, "--threads-per-task")
         if problem:
             raise InputError(problem)
+    if not overwrite:
+        check_sweep_folder(sweep, out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -728,7 +779,17 @@ def run_sweep(
 
 
 def _run_on_dask(
-    sweep, out, pending, records, scheduler, workers, threads_per_task, arch, say, progress_interval
+    sweep,
+    out,
+    pending,
+    records,
+    scheduler,
+    workers,
+    threads_per_task,
+    arch,
+    say,
+    progress_interval,
+    overwrite=False,
 ) -> None:
     try:
         from distributed import Client, LocalCluster, as_completed
@@ -806,6 +867,7 @@ def _run_on_dask(
                 "arch": arch,
                 "threads": threads,
                 "report": True,
+                "overwrite": overwrite,
             }
             # retries=1: a transient failure (a worker lost, ti.init briefly out of resources)
             # is tried once more; a run's own error fails again and is reported
@@ -831,6 +893,7 @@ def _run_on_dask(
                     "status": "failed",
                     "error": f"{type(exc).__name__}: {first.strip()}",
                 }
+            if rec.get("status") == "failed":
                 say(f"[{done}/{len(futures)}] {run.name}: FAILED ({rec['error']})")
             else:
                 say(f"[{done}/{len(futures)}] {run.name}: {_summary(rec)}")
@@ -1036,6 +1099,7 @@ __all__ = [
     "load_sweep",
     "sweep_from_dict",
     "run_sweep",
+    "check_sweep_folder",
     "execute_run",
     "read_marker",
     "read_table",

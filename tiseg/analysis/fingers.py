@@ -379,6 +379,8 @@ def analyse_run(
             raise InputError(f"{str(path)!r} stores no readable scene: give phi0 and h_min")
 
         times = np.asarray(ds["time"].values, dtype=float)
+        if times.size == 0:
+            raise InputError(f"{str(path)!r} holds no snapshot yet: nothing to analyse")
         x = np.asarray(ds["x"].values, dtype=float)
         y = np.asarray(ds["y"].values, dtype=float)
         idx = list(range(times.size))

@@ -97,6 +97,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..analysis.fingers import analyse_run
     from ..errors import require
+    from ..output.netcdf import reading
 
     require(
         args.time is None or (math.isfinite(args.time) and args.time >= 0),
@@ -145,7 +146,8 @@ def run(args) -> int:
             f"--settle-fraction={args.settle_fraction!r} must be a fraction in [0, 1)",
         )
         opts["settle_fraction"] = args.settle_fraction
-    res = analyse_run(args.dir, time=args.time, **opts)
+    with reading(args.dir):  # a damaged data block: one line
+        res = analyse_run(args.dir, time=args.time, **opts)
     if args.json:
         print_json(res)
         return 0

@@ -61,6 +61,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..errors import InputError
     from ..render.colours import canonical_field
+    from ..output.netcdf import reading
     from ..render.movie import refuse_link, render_run
 
     try:
@@ -83,34 +84,35 @@ def run(args) -> int:
         if target is not None:
             refuse_link(Path(target))
     summary = {"field": field, "outputs": []}
-    if movie is not None or args.gif is not None or args.frames is not None:
-        res = render_run(
-            args.run_dir,
-            field=field,
-            movie=movie,
-            frames=args.frames,
-            gif=args.gif,
-            fps=args.fps,
-            max_frames=args.max_frames,
-            shade=not args.no_shade,
-            scale=args.scale,
-            vrange=vrange,
-            annotate=not args.no_annotate,
-        )
-        summary.update(res)
-    if args.panels is not None:
-        from ..render.panels import plot_panels
+    with reading(args.run_dir):  # a damaged data block: one line, not a traceback
+        if movie is not None or args.gif is not None or args.frames is not None:
+            res = render_run(
+                args.run_dir,
+                field=field,
+                movie=movie,
+                frames=args.frames,
+                gif=args.gif,
+                fps=args.fps,
+                max_frames=args.max_frames,
+                shade=not args.no_shade,
+                scale=args.scale,
+                vrange=vrange,
+                annotate=not args.no_annotate,
+            )
+            summary.update(res)
+        if args.panels is not None:
+            from ..render.panels import plot_panels
 
-        plot_panels(
-            args.run_dir,
-            args.times,
-            field,
-            args.panels,
-            shade=not args.no_shade,
-            vrange=vrange,
-            scale=args.scale or 1.0,
-        )
-        summary["outputs"] = list(summary["outputs"]) + [args.panels]
+            plot_panels(
+                args.run_dir,
+                args.times,
+                field,
+                args.panels,
+                shade=not args.no_shade,
+                vrange=vrange,
+                scale=args.scale or 1.0,
+            )
+            summary["outputs"] = list(summary["outputs"]) + [args.panels]
     if args.json:
         print_json(summary)
     else:

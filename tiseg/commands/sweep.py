@@ -77,6 +77,13 @@ def register(sub) -> None:
         "--arch", choices=ARCHS, default="cpu", help="Taichi backend of each run (default cpu)"
     )
     p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an --out folder that holds another sweep, replacing its table and "
+        "the runs it shares folder names with, and files in run folders that tiseg did not "
+        "write",
+    )
+    p.add_argument(
         "--check",
         action="store_true",
         help="validate the sweep file and list its runs, run nothing",
@@ -131,6 +138,7 @@ def run(args) -> int:
         arch=args.arch,
         echo=info,
         progress_interval=args.progress_interval,
+        overwrite=args.overwrite,
     )
     if args.json:
         from .common import print_json

@@ -24,6 +24,7 @@ new complete file.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import math
@@ -179,7 +180,12 @@ class FieldsWriter:
 
     @classmethod
     def append(
-        cls, path, keep: int, t_max: float | None = None, h_min: float | None = None
+        cls,
+        path,
+        keep: int,
+        t_max: float | None = None,
+        h_min: float | None = None,
+        shape: tuple[int, int] | None = None,
     ) -> "FieldsWriter":
         """Reopen the file of an interrupted run to append snapshots after its first ``keep``.
 
@@ -187,8 +193,10 @@ class FieldsWriter:
         half-written by a kill: the data of a record is written before its time) are dropped,
         by rewriting the file through a temporary copy and ``os.replace``. Raises
         :class:`FieldsFileError` when the file cannot be read or holds fewer than ``keep``
-        complete records (or a kept time after ``t_max``). ``h_min``: as for a new writer; the
-        quantisation and the precision are the file's own.
+        complete records (or a kept time after ``t_max``), or when a kept record's data cannot
+        be read (a damaged block). ``h_min``: as for a new writer; the quantisation and the
+        precision are the file's own. ``shape``: the run's (ny, nx); a file of another grid is
+        not this run's file (an InputError: it is neither damaged nor to be replaced).
         """
         path = Path(path)
         try:
@@ -196,6 +204,7 @@ class FieldsWriter:
                 fields = tuple(v for v in ds.variables if v in FIELD_ATTRS)
                 times = np.ma.filled(ds.variables["time"][:].astype("f8"), np.nan)
                 n = ds.dimensions["time"].size
+                grid = (ds.dimensions["y"].size, ds.dimensions["x"].size)
                 dtype = ds.variables[fields[0]].dtype.str[1:] if fields else "f8"
                 quant = ds.variables[fields[0]].quantization() if fields else None
         except (OSError, KeyError, IndexError, RuntimeError) as exc:
@@ -214,9 +223,22 @@ class FieldsWriter:
                 f"but the checkpoint expects {keep} complete snapshots"
                 + (f" up to t={t_max!r}" if t_max is not None else "")
             )
+        if shape is not None and tuple(grid) != tuple(shape):
+            from ..errors import InputError
+
+            raise InputError(
+                f"{str(path)!r} holds fields on a {grid[1]} x {grid[0]} grid, the run's scene "
+                f"has {shape[1]} x {shape[0]} cells: it is not this run's fields file; put the "
+                "run's own fields.nc back"
+            )
         digits = int(quant[0]) if quant else None
-        if n != keep:
-            _truncate_copy(path, keep, fields, dtype, h_min, digits)
+        try:
+            if n != keep:
+                _truncate_copy(path, keep, fields, dtype, h_min, digits)
+            else:  # every kept record must be readable: a damaged block is found now
+                _read_records(path, keep, fields)
+        except (OSError, RuntimeError) as exc:
+            raise FieldsFileError(f"{path}: a record cannot be read ({exc})") from None
         self = cls.__new__(cls)
         self.path = path
         self.fields = fields
@@ -325,22 +347,82 @@ def _truncate_copy(
             w.close()
 
 
+def _read_records(path: Path, keep: int, fields) -> None:
+    """Read (and drop) the first ``keep`` records of every field: the library raises on a
+    damaged data block."""
+    with netCDF4.Dataset(path, "r") as ds:
+        for f in fields:
+            for i in range(keep):
+                ds.variables[f][i]
+
+
 def read_fields(path):
     """Open a fields file as an :class:`xarray.Dataset` (time stays float seconds); a file
-    that cannot be read (truncated, damaged, not NetCDF) is an InputError saying so."""
+    that cannot be read (truncated, damaged, not NetCDF) is an InputError saying so.
+
+    Records whose time is missing (NaN or the NetCDF fill value) are left out: a writer stores
+    a record's time after its fields, so such a record was cut short by a kill and is not a
+    snapshot (its "time" would read as 9.97e36 s)."""
     import xarray as xr
 
     from ..errors import InputError
 
     try:
-        return xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
+        ds = xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
-        reason = getattr(exc, "strerror", None) or str(exc).split("\n")[0]
-        raise InputError(
-            f"{str(path)!r} cannot be read as a NetCDF fields file ({reason}): "
-            "it is damaged or truncated (a resumable run repairs it with "
-            "`tiseg run --resume`)"
-        ) from None
+        raise InputError(unreadable_message(path, exc)) from None
+    if "time" in ds.variables and ds["time"].ndim == 1 and ds.sizes.get("time", 0):
+        ok = written_times(ds["time"].values)
+        if not ok.all():
+            whole = ds.isel(time=np.flatnonzero(ok))
+            whole.set_close(ds.close)  # closing the selection closes the file
+            return whole
+    return ds
+
+
+@contextlib.contextmanager
+def reading(path):
+    """Errors of the NetCDF / HDF5 library while the data of ``path`` are read (lazily, after
+    :func:`read_fields` opened it) become one InputError line: a damaged data block is a
+    damaged file, not a bug of tiseg. ``path``: the file, or the run folder that holds it."""
+    from ..errors import InputError, TisegError
+
+    path = Path(path) / "fields.nc" if Path(path).is_dir() else Path(path)
+
+    try:
+        yield
+    except TisegError:
+        raise
+    except (OSError, RuntimeError) as exc:
+        if "NetCDF:" not in str(exc):
+            raise  # not the library's (a movie that cannot be written, a bug): as it was
+        raise InputError(unreadable_message(path, exc)) from None
+
+
+def written_times(times) -> np.ndarray:
+    """Mask of the records whose time was written: finite and not the NetCDF fill value
+    (9.97e36; netCDF4 may also hand it over masked)."""
+    t = np.ma.filled(np.ma.asarray(times, dtype="f8"), np.nan)
+    return np.isfinite(t) & (np.abs(t) < 0.5 * netCDF4.default_fillvals["f8"])
+
+
+def unreadable_message(path, exc: BaseException) -> str:
+    """Why ``path`` could not be read, in one line: the run that is writing it (the HDF5
+    library refuses to open a file another process writes), or a damaged file."""
+    from ..paths import RunLock
+
+    holder = RunLock(Path(path).parent).busy() if Path(path).parent.is_dir() else None
+    if holder is not None:
+        return (
+            f"{str(path)!r} is being written by a running tiseg run ({holder}); "
+            "wait for it to finish"
+        )
+    reason = getattr(exc, "strerror", None) or str(exc).split("\n")[0] or type(exc).__name__
+    return (
+        f"{str(path)!r} cannot be read as a NetCDF fields file ({reason}): "
+        "it is damaged or truncated (a resumable run repairs it with "
+        "`tiseg run --resume`)"
+    )
 
 
 def _attr_value(value):
@@ -358,4 +440,11 @@ def _attr_value(value):
     return json.dumps(value, default=str)
 
 
-__all__ = ["FieldsWriter", "FieldsFileError", "read_fields", "FIELD_ATTRS"]
+__all__ = [
+    "FieldsWriter",
+    "FieldsFileError",
+    "read_fields",
+    "reading",
+    "written_times",
+    "FIELD_ATTRS",
+]

@@ -7,9 +7,11 @@ a guard failure saves). A resumed run appends to the files of its folder.
 
 Safety (:mod:`tiseg.paths`): the folder is locked for as long as the run writes there (a
 second writer is refused, naming the holder); no file is written through a symbolic link; a
-fresh run refuses a folder that holds anything but a tiseg run's files, and a finished or
-unfinished run, unless ``overwrite`` (the command line's ``--overwrite``); a resume removes
-the temporary files a killed writer left behind.
+fresh run refuses a folder that holds any file tiseg did not write there (whatever its name:
+the manifest ``.tiseg-files.json`` lists what tiseg wrote, :mod:`tiseg.output.manifest`), and
+a finished or unfinished run, unless ``overwrite`` (the command line's ``--overwrite``); a
+resume checks, once it holds the lock, that the checkpoint it read is still the folder's, and
+removes the temporary files a killed writer left behind.
 
 Checkpoints hold the state at the end of a step, never an interpolated snapshot, so a resumed
 run continues with exactly the steps of an uninterrupted one. They are written after every
@@ -31,6 +33,7 @@ from ..limits import disk_note
 from ..paths import HOLDER_NAME, LOCK_NAME, RunLock, refuse_symlinks
 from ..schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
 from .diagnostics import DiagnosticsWriter, write_text_atomic, write_units
+from .manifest import MANIFEST_NAME, Manifest, record
 from .netcdf import FieldsFileError, FieldsWriter
 
 DIAGNOSTICS = "diagnostics.csv"
@@ -47,11 +50,28 @@ RUN_FILES = (
     LOCK_NAME,
     HOLDER_NAME,
 )
+# what a run folder writes there itself (listed in the manifest before the first of them)
+WRITES = (
+    "scene.toml",
+    "fields.nc",
+    DIAGNOSTICS,
+    DIAGNOSTICS + "-metadata.json",
+    _ckpt.CHECKPOINT_NAME,
+    "failure",
+)
+
+
+# tiseg's by name: the run lock is taken before anything in the folder can be checked, and the
+# manifest is the record of what tiseg wrote (hidden names no one else uses)
+OWN_NAMES = (LOCK_NAME, HOLDER_NAME, MANIFEST_NAME)
 
 
 def foreign_files(folder: Path, also=()) -> list[str]:
-    """Entries of ``folder`` that are not a tiseg run's (``also``: more allowed names)."""
-    known = set(RUN_FILES) | set(also)
+    """Entries of ``folder`` that tiseg did not write there: not in its manifest (every entry
+    when there is none), not a lock or temporary file of tiseg's (``also``: more names allowed
+    by name, for a caller that writes files of its own there)."""
+    manifest = Manifest.read(folder)
+    known = set(OWN_NAMES) | set(also) | (manifest.files if manifest else set())
     out = []
     try:
         entries = sorted(Path(folder).iterdir())
@@ -61,22 +81,28 @@ def foreign_files(folder: Path, also=()) -> list[str]:
         ) from None
     for p in entries:
         n = p.name
-        if (
-            n in known
-            or (n.startswith("fields.damaged-") and n.endswith(".nc"))
-            or (n.startswith(".") and n.endswith(".tmp"))
-        ):
-            continue
+        if n in known or (manifest and n.startswith(".") and n.endswith(".tmp")):
+            continue  # an atomic write of tiseg's that a kill interrupted
         out.append(n + ("/" if p.is_dir() else ""))
     return out
 
 
-def check_fresh_folder(folder, overwrite: bool = False, also=()) -> None:
-    """Refuse a folder for a fresh run when it holds other files than a tiseg run's, or a run
-    (finished or not), unless ``overwrite``."""
+def check_fresh_folder(folder, overwrite: bool = False, also=(), replace_run: bool = False) -> None:
+    """Refuse a folder for a fresh run when it holds files tiseg did not write there, or a run
+    (finished or not), unless ``overwrite``. ``replace_run``: the folder's own earlier run may
+    be replaced (a sweep member's), files that are not tiseg's still may not.
+
+    A run that saved nothing (no checkpoint, not finished: its first writes failed) left only
+    tiseg's partial output, which a new run replaces without ``overwrite``."""
     folder = Path(folder)
     if overwrite or not folder.is_dir():
         return
+    if not replace_run and (folder / _ckpt.CHECKPOINT_NAME).is_file():
+        raise InputError(
+            f"output folder {str(folder)!r} holds an unfinished run "
+            f"({_ckpt.CHECKPOINT_NAME}); continue it with `tiseg run --resume "
+            f"{folder}`, or pass --overwrite to start over there"
+        )
     other = foreign_files(folder, also)
     if other:
         shown = ", ".join(other[:5]) + (f" and {len(other) - 5} more" if len(other) > 5 else "")
@@ -85,13 +111,13 @@ def check_fresh_folder(folder, overwrite: bool = False, also=()) -> None:
             f"run's ({shown}); choose another folder, or pass --overwrite "
             "(overwrite=True) to write there anyway"
         )
-    if (folder / _ckpt.CHECKPOINT_NAME).is_file():
-        raise InputError(
-            f"output folder {str(folder)!r} holds an unfinished run "
-            f"({_ckpt.CHECKPOINT_NAME}); continue it with `tiseg run --resume "
-            f"{folder}`, or pass --overwrite to start over there"
-        )
-    if (folder / "fields.nc").exists():
+    manifest = Manifest.read(folder)
+    started_only = manifest is not None and not manifest.saved
+    if (
+        not replace_run
+        and (folder / "fields.nc").exists()
+        and not (started_only and not (folder / "failure").exists())
+    ):
         raise InputError(
             f"output folder {str(folder)!r} holds an earlier run; choose another "
             "folder, or pass --overwrite (overwrite=True) to replace it"
@@ -116,6 +142,33 @@ def remove_stale_temporaries(folder: Path) -> None:
                 p.unlink()
             except OSError:
                 pass
+
+
+@contextlib.contextmanager
+def _signals_deferred():
+    """SIGINT and SIGTERM that arrive in the block are held back and sent again when it ends
+    (their own handlers act then). Python handlers, not a signal mask: the signal may reach any
+    thread of the process (Taichi's), its Python handler always runs in the main thread."""
+    import os
+    import signal
+    import threading
+
+    sigs = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or any(
+        signal.getsignal(sig) is None
+        for sig in sigs  # a handler Python cannot put back
+    ):
+        yield
+        return
+    caught: list[int] = []
+    old = {sig: signal.signal(sig, lambda signum, frame: caught.append(signum)) for sig in sigs}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(caught):
+            os.kill(os.getpid(), sig)
 
 
 class OutputError(TisegError):
@@ -145,6 +198,7 @@ class RunFolder:
                 disk_note(out, sc, sim.backend.precision, len(sc.output_times))
                 clear_earlier_run(out)
             else:
+                self._check_still_current()
                 remove_stale_temporaries(out)
             self._open(resume)
         except BaseException:
@@ -155,19 +209,49 @@ class RunFolder:
         sim.failure_dir = out / "failure"
         self.counts()
 
+    def _check_still_current(self) -> None:
+        """Refuse to resume from a state the folder's run has left behind: the checkpoint was
+        read before the lock was taken, and a run that held the lock meanwhile may have
+        continued or finished it; appending from the old state would truncate its files and
+        compute its steps again. Checked under the lock, before anything is written."""
+        sim = self.sim
+        try:
+            ck = _ckpt.load(self.path / _ckpt.CHECKPOINT_NAME)
+        except _ckpt.CheckpointError:
+            ck = {}
+        if ck.get("t") != sim.t or ck.get("steps") != sim.stats.steps:
+            now = (
+                f"it is now at t={ck['t']:.6g} s"
+                if isinstance(ck.get("t"), float)
+                else "it has no checkpoint now (it finished)"
+            )
+            raise InputError(
+                f"the run in {str(self.path)!r} went on since this resume read its checkpoint "
+                f"at t={sim.t:.6g} s ({now}): another process continued it; nothing was "
+                "written here"
+            )
+
     def _open(self, resume) -> None:
         out, sim, sc = self.path, self.sim, self.sim.scene
         try:
+            # listed before they are written: a kill in between leaves no unlisted file
+            record(out, WRITES, saved=resume is not None)  # a resumed run has saved
             if resume is None:
                 write_text_atomic(out / "scene.toml", sc.to_toml())
                 self.fields = self._new_fields_writer(out / "fields.nc")
                 self.diag = DiagnosticsWriter(out / DIAGNOSTICS)
                 write_units(out / DIAGNOSTICS, self.diag.columns, one_d=sim.layout.is_1d)
             else:
-                self.diag = _ckpt.append_diagnostics(out / DIAGNOSTICS, resume["diag_rows"])
+                self.diag = _ckpt.append_diagnostics(
+                    out / DIAGNOSTICS, resume["diag_rows"], t=sim.t
+                )
                 try:
                     self.fields = FieldsWriter.append(
-                        out / "fields.nc", resume["snapshots"], sim.t, h_min=sc.numerics.h_min
+                        out / "fields.nc",
+                        resume["snapshots"],
+                        sim.t,
+                        h_min=sc.numerics.h_min,
+                        shape=(sc.domain.ny, sc.domain.nx),
                     )
                 except FieldsFileError as exc:
                     self.fields = self._salvage_fields(exc)
@@ -229,12 +313,15 @@ class RunFolder:
         nxt = (math.floor(sim.t / interval * (1 + 1e-12)) + 1) * interval if interval else math.nan
         with self._writing(self.checkpoint_path):
             _ckpt.save(self.checkpoint_path, sim, next_sim=nxt)
+            if self.saved_t is None:  # the first: the folder now holds a run
+                record(self.path, saved=True)
         self.saved_t = sim.t
 
     def finish(self) -> None:
         """At the scene's end time nothing is left to resume: the checkpoint goes."""
         t_end = self.sim.scene.t_end
         if self.sim.t >= t_end - 1e-12 * max(1.0, t_end):
+            record(self.path, saved=True)
             self.checkpoint_path.unlink(missing_ok=True)
 
     @contextlib.contextmanager
@@ -274,16 +361,19 @@ class RunFolder:
         )
 
     def close(self) -> None:
-        self.counts()
-        for w in (self.fields, self.diag):
-            if w is not None:
-                try:
-                    w.close()
-                except (OSError, RuntimeError):  # after a failed write: keep its message
-                    pass
-        if self.lock is not None:
-            self.lock.release()
-            self.lock = None
+        """Close the files and release the folder; SIGINT and SIGTERM wait until this is done
+        (a signal in the middle would leave the lock's holder file behind)."""
+        with _signals_deferred():
+            self.counts()
+            for w in (self.fields, self.diag):
+                if w is not None:
+                    try:
+                        w.close()
+                    except (OSError, RuntimeError):  # after a failed write: keep its message
+                        pass
+            if self.lock is not None:
+                self.lock.release()
+                self.lock = None
 
     # ------------------------------------------------------------------ fields.nc
     def _new_fields_writer(self, path: Path) -> FieldsWriter:
@@ -312,6 +402,7 @@ class RunFolder:
         while (self.path / f"fields.damaged-{n}.nc").exists():
             n += 1
         kept = self.path / f"fields.damaged-{n}.nc"
+        record(self.path, [kept.name])
         if old.exists():
             old.replace(kept)
         from ..log import logger
