@@ -121,7 +121,7 @@ MIN_CELLS = 4  # a periodic axis needs at least 2 x GHOST(=2) interior cells
 MIN_CELLS_PER_PERTURBATION = 4  # cells across one wavelength Ly/modes of the inflow (6.9)
 MAX_CELLS = 2**31 - 1  # Taichi fields are indexed with 32-bit integers
 MAX_NU = 1e3  # [m^(3/2)/s] largest viscosity coefficient accepted
-MAX_OUTPUT_TIMES = 1_000_000  # guards against e.g. output.interval = 1e-12
+MAX_OUTPUT_TIMES = 1_000_000  # snapshots or checkpoint times: guards against interval = 1e-12
 
 _MISSING = object()
 
@@ -1270,6 +1270,23 @@ def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) ->
     )
 
 
+def _interval_count(key: str, interval: float, t_end: float, what: str) -> int:
+    """How many multiples of ``interval`` lie in (0, t_end]; an InputError past
+    MAX_OUTPUT_TIMES. An interval so short that there would be more than that many is a typo
+    (1e-300 for 1e-3), and its multiples could not all be told apart in the output's times;
+    t_end / interval is compared as a float first, as it may overflow."""
+    ratio = t_end / interval * (1 + 1e-12)
+    _require(
+        ratio < MAX_OUTPUT_TIMES + 1,
+        key,
+        interval,
+        f"gives {f'{ratio:.4g}' if math.isfinite(ratio) else 'over 1e308'} {what} up to "
+        f"t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed (an interval of at least "
+        f"{t_end / MAX_OUTPUT_TIMES:.3g} s)",
+    )
+    return math.floor(ratio)
+
+
 def _read_output(t: "_Table", t_end: float) -> OutputConfig:
     interval = t.number("interval", None, positive=True)
     times = tuple(t.number_list("times", ()))
@@ -1286,16 +1303,12 @@ def _read_output(t: "_Table", t_end: float) -> OutputConfig:
         )
         times = tuple(v for v in times if v <= t_end * (1 + 1e-12))
     checkpoint = t.number("checkpoint_interval", None, positive=True)
+    if checkpoint is not None:
+        _interval_count("output.checkpoint_interval", checkpoint, t_end, "checkpoint times")
     # (time, priority): explicit times, 0 and t_end win over a nearby multiple of the interval
     cands = [(0.0, 0), (t_end, 0)] + [(min(v, t_end), 0) for v in times]
     if interval is not None:
-        n = int(math.floor(t_end / interval * (1 + 1e-12)))
-        _require(
-            n <= MAX_OUTPUT_TIMES,
-            "output.interval",
-            interval,
-            f"gives {n} snapshots up to t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed",
-        )
+        n = _interval_count("output.interval", interval, t_end, "snapshots")
         # %.12g turns 19 * 0.1 = 1.9000000000000001 into 1.9
         cands += [(min(float(f"{i * interval:.12g}"), t_end), 1) for i in range(n + 1)]
     cands.sort()
