@@ -115,3 +115,123 @@ def test_intervals_giving_too_many_times_are_one_line(setting, capfd, tmp_path):
 def test_an_interval_of_a_millionth_of_the_run_is_accepted():
     sc = load_scene("dam-break", ["time.t_end=1", "output.checkpoint_interval=1e-6"])
     assert sc.output.checkpoint_interval == 1e-6
+
+
+# ------------------------------------------------------------------ item 2: memory
+def _cgroup_tree(tmp_path, own: str, files: dict[str, str]) -> tuple:
+    """A fake /sys/fs/cgroup (files: path under it -> content) and /proc/self/cgroup."""
+    root = tmp_path / "cgroup"
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text + "\n")
+    me = tmp_path / "self_cgroup"
+    me.write_text(own)
+    return root, me
+
+
+def _v2_files() -> dict[str, str]:
+    """A job's own cgroup allows 3 GiB (1 used), its parent 10 GiB (9.5 used): 0.5 GiB left."""
+    from tiseg.limits import GB
+
+    return {
+        "memory.current": "123",  # the root has no memory.max
+        "batch/memory.max": str(10 * GB),
+        "batch/memory.current": str(int(9.5 * GB)),
+        "batch/job7/memory.max": str(3 * GB),
+        "batch/job7/memory.current": str(GB),
+    }
+
+
+def test_cgroup_v2_reads_the_least_room_from_the_process_up(tmp_path):
+    import tiseg.limits as L
+
+    files = _v2_files()
+    root, me = _cgroup_tree(tmp_path, "0::/batch/job7\n", files)
+    assert L.cgroup_available(root, me) == L.GB // 2
+    files["batch/memory.max"] = "max"  # no limit above: the job's own 2 GiB left
+    root, me = _cgroup_tree(tmp_path, "0::/batch/job7\n", files)
+    assert L.cgroup_available(root, me) == 2 * L.GB
+
+
+def test_cgroup_v1_memory_controller_and_no_limit(tmp_path):
+    import tiseg.limits as L
+
+    unlimited = "9223372036854771712"
+    files = {
+        "memory/memory.limit_in_bytes": unlimited,
+        "memory/memory.usage_in_bytes": "5",
+        "memory/docker/abc/memory.limit_in_bytes": str(4 * L.GB),
+        "memory/docker/abc/memory.usage_in_bytes": str(L.GB),
+    }
+    root, me = _cgroup_tree(tmp_path, "5:cpu:/other\n4:memory:/docker/abc\n0::/\n", files)
+    assert L.cgroup_available(root, me) == 3 * L.GB
+    root, me = _cgroup_tree(
+        tmp_path / "free", "4:memory:/\n", {"memory/memory.limit_in_bytes": unlimited}
+    )
+    assert L.cgroup_available(root, me) is None  # v1's "no limit" is a huge number
+    assert L.cgroup_available(tmp_path / "nowhere", tmp_path / "nothing") is None
+
+
+def test_memory_available_is_the_cgroup_limit_when_it_is_lower(tmp_path):
+    import tiseg.limits as L
+
+    meminfo = tmp_path / "meminfo"
+    meminfo.write_text("MemTotal:  67108864 kB\nMemAvailable:  33554432 kB\n")  # 32 GiB
+    root, me = _cgroup_tree(
+        tmp_path, "0::/\n", {"memory.max": str(2 * L.GB), "memory.current": str(L.GB)}
+    )
+    assert L.memory_available(meminfo, root, me) == L.GB
+    assert L.memory_available(meminfo, tmp_path / "none", me) == 32 * L.GB
+
+
+def test_a_grid_past_the_cgroup_limit_is_refused(ti_cpu, tmp_path, monkeypatch):
+    import tiseg.limits as L
+    from tiseg.simulation import Simulation
+
+    meminfo = tmp_path / "meminfo"
+    meminfo.write_text("MemAvailable:  33554432 kB\n")
+    root, me = _cgroup_tree(tmp_path, "0::/\n", {"memory.max": str(L.GB // 100)})
+    monkeypatch.setattr(L, "MEMINFO", meminfo)
+    monkeypatch.setattr(L, "CGROUP_ROOT", root)
+    monkeypatch.setattr(L, "SELF_CGROUP", me)
+    sc = load_scene("fingers", ["domain.resolution=100", "time.t_end=0.01"])
+    with pytest.raises(InputError, match=r"needs about .* GB .* 0.01 GB are available"):
+        Simulation(sc)
+
+
+_PEAK = """
+import os, resource, sys
+import tiseg, tiseg.limits as L
+from tiseg.scene import load_scene
+from tiseg.simulation import Simulation
+tiseg.init("cpu", sys.argv[1])
+sc = load_scene("fingers", ["domain.resolution=300", "time.t_end=0.01", "output.times=[0.005]"])
+rss = lambda: int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+before = rss()
+sim = Simulation(sc, precision=sys.argv[1])
+sim.run(out_dir=sys.argv[2], progress=False)
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(peak - before, L.memory_needed(sim.layout, sim.op.nslots, sys.argv[1]))
+"""
+
+
+def test_the_memory_estimate_covers_the_peak_of_a_run(tmp_path):
+    """A child process runs 70 000 cells in f64 with a snapshot: what its memory grew by at
+    its peak lies within the estimate, and the estimate is less than twice that (the fixed
+    overhead weighs most on so small a grid; the unfixed estimate was 0.37 of it). The
+    slowest test here (a few seconds): the only honest check is a real run's peak."""
+    import subprocess
+    import sys
+
+    from solver_helpers import child_env
+
+    out = subprocess.run(
+        [sys.executable, "-c", _PEAK, "f64", str(tmp_path / "run")],
+        capture_output=True,
+        text=True,
+        env=child_env(),
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    grown, estimate = map(int, out.stdout.split()[-2:])
+    assert grown <= estimate <= 2 * grown, (grown, estimate)
