@@ -235,3 +235,26 @@ def test_the_memory_estimate_covers_the_peak_of_a_run(tmp_path):
     assert out.returncode == 0, out.stderr
     grown, estimate = map(int, out.stdout.split()[-2:])
     assert grown <= estimate <= 2 * grown, (grown, estimate)
+
+
+# ------------------------------------------------------------------ item 3: nesting
+@pytest.mark.parametrize("section", ["flow", "mystery"])
+def test_a_table_nested_500_deep_is_one_line(section, capfd, tmp_path):
+    from solver_helpers import MINIMAL_SCENE
+
+    path = tmp_path / "deep.toml"
+    header = ".".join([section] + ["x"] * 500)
+    path.write_text('name = "deep"' + MINIMAL_SCENE + f"[{header}]\na = 1\n")
+    line = _one_line_error(capfd, _call(["run", str(path), "--out", str(tmp_path / "o")]))
+    assert "nest more than 16 levels deep" in line and f"{section}.x.x" in line, line
+
+
+def test_a_deeply_nested_dict_override_is_refused():
+    deep = {"a": 1}
+    for _ in range(600):
+        deep = {"x": deep}
+    for base in ("dam-break", load_scene("dam-break")):
+        with pytest.raises(InputError, match="flow.deep.x.x.*nest more than 16 levels"):
+            load_scene(base, {"flow.deep": deep})
+    nested_ok = load_scene("fingers", {"material.small.zeta1_deg": 21.0})
+    assert nested_ok.material.small.zeta1_deg == 21.0

@@ -121,6 +121,7 @@ MIN_CELLS = 4  # a periodic axis needs at least 2 x GHOST(=2) interior cells
 MIN_CELLS_PER_PERTURBATION = 4  # cells across one wavelength Ly/modes of the inflow (6.9)
 MAX_CELLS = 2**31 - 1  # Taichi fields are indexed with 32-bit integers
 MAX_NU = 1e3  # [m^(3/2)/s] largest viscosity coefficient accepted
+MAX_NESTING = 16  # levels of tables and arrays: a scene needs 3, a deeper one is refused
 MAX_OUTPUT_TIMES = 1_000_000  # snapshots or checkpoint times: guards against interval = 1e-12
 
 _MISSING = object()
@@ -576,9 +577,9 @@ def scene_from_dict(
     """Validate a scene given as the nested dict a TOML file parses to."""
     if not isinstance(data, Mapping):
         raise InputError(f"a scene must be a table of sections, got {_type_name(data)}")
-    data = _deep_copy(data)
     label = label or (repr(source) if source else repr(name))
     try:
+        data = _deep_copy(data)
         _apply_overrides(data, overrides)
     except InputError as exc:
         raise InputError(f"scene {label}: {exc}") from None
@@ -1552,14 +1553,23 @@ def _apply_overrides(data: dict, overrides) -> None:
         if value is None:  # dict overrides only: remove the key
             node.pop(parts[-1], None)
         else:
-            node[parts[-1]] = _deep_copy(value)
+            node[parts[-1]] = _deep_copy(value, key, len(parts))
 
 
-def _deep_copy(v):
+def _deep_copy(v, where: str = "", depth: int = 0):
+    """A copy of nested tables and arrays, refused past MAX_NESTING levels (which the
+    recursion would otherwise meet as a RecursionError traceback); ``where``: the key path."""
+    if depth > MAX_NESTING:
+        raise InputError(
+            f"{where if len(where) <= 60 else where[:57] + '...'}: tables or arrays nest more than {MAX_NESTING} levels deep "
+            "(a scene needs at most 3, as in material.small.zeta1_deg)"
+        )
     if isinstance(v, Mapping):
-        return {k: _deep_copy(x) for k, x in v.items()}
+        return {
+            k: _deep_copy(x, f"{where}.{k}" if where else str(k), depth + 1) for k, x in v.items()
+        }
     if isinstance(v, (list, tuple)):
-        return [_deep_copy(x) for x in v]
+        return [_deep_copy(x, f"{where}[{i}]", depth + 1) for i, x in enumerate(v)]
     return v
 
 
