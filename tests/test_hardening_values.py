@@ -90,26 +90,32 @@ def test_an_interval_lost_in_the_times_rounding_is_refused_not_a_hang():
 
 
 @pytest.mark.parametrize(
-    "setting, word",
+    "t_end, setting, word",
     [
-        ("output.checkpoint_interval=1e-300", "1e+300 checkpoint times"),  # hung, unfixed
-        ("output.checkpoint_interval=9.9e-7", "1.01e+06 checkpoint times"),
-        ("output.interval=1e-320", "over 1e308 snapshots"),  # t_end / interval overflows
+        (1, "output.checkpoint_interval=1e-300", "1e+300 checkpoint times"),  # hung, unfixed
+        (1, "output.checkpoint_interval=9.9e-7", "1.01e+06 checkpoint times"),
+        (1e10, "output.interval=1e-300", "over 1e308 snapshots"),  # t_end / interval overflows
     ],
 )
-def test_intervals_giving_too_many_times_are_refused(setting, word):
+def test_intervals_giving_too_many_times_are_refused(t_end, setting, word):
     key = setting.split("=")[0]
     with pytest.raises(InputError) as info:
-        load_scene("dam-break", ["time.t_end=1", setting])
+        load_scene("dam-break", [f"time.t_end={t_end}", setting])
     msg = str(info.value)
     assert f"{key}=" in msg and word in msg and "at most 1000000" in msg, msg
-    assert "at least 1e-06 s" in msg, msg
+    assert f"at least {t_end / 1e6:.3g} s" in msg, msg
 
 
-@pytest.mark.parametrize("setting", ["output.checkpoint_interval=9.9e-7", "output.interval=1e-320"])
-def test_intervals_giving_too_many_times_are_one_line(setting, capfd, tmp_path):
-    line = _run_refused(capfd, tmp_path, "domain.nx=40", "time.t_end=1", setting)
-    assert setting.split("=")[0] in line and "at most 1000000" in line, line
+@pytest.mark.parametrize(
+    "sets",
+    [
+        ("time.t_end=1", "output.checkpoint_interval=9.9e-7"),
+        ("time.t_end=1e10", "output.interval=1e-300"),
+    ],
+)
+def test_intervals_giving_too_many_times_are_one_line(sets, capfd, tmp_path):
+    line = _run_refused(capfd, tmp_path, "domain.nx=40", *sets)
+    assert sets[1].split("=")[0] in line and "at most 1000000" in line, line
 
 
 def test_an_interval_of_a_millionth_of_the_run_is_accepted():
@@ -258,3 +264,80 @@ def test_a_deeply_nested_dict_override_is_refused():
             load_scene(base, {"flow.deep": deep})
     nested_ok = load_scene("fingers", {"material.small.zeta1_deg": 21.0})
     assert nested_ok.material.small.zeta1_deg == 21.0
+
+
+# ------------------------------------------------------------------ item 4: lower bounds
+@pytest.mark.parametrize(
+    "setting, words",
+    [
+        ("numerics.cfl=1e-300", ["numerics.cfl=1e-300", "at least 0.001"]),  # never finished
+        ("numerics.h_eps=1e-300", ["numerics.h_eps=1e-300", "at least 1e-09 m"]),  # NaN
+        ("flow.nu=1e-400", ["flow.nu=1e-400", "read as 0.0", "write 0"]),  # viscosity off
+        ("flow.nu=-2.5e-999", ["flow.nu=-2.5e-999", "read as -0.0"]),
+        ("flow.nu=1e-310", ["flow.nu=1e-310", "smallest normal double"]),  # subnormal
+        ("output.times=[0.1, 1e-400]", ["output.times[1]=1e-400", "read as 0.0"]),
+    ],
+)
+def test_values_that_cannot_finish_or_change_meaning_are_refused(setting, words):
+    with pytest.raises(InputError) as info:
+        load_scene("dam-break", ["domain.nx=40", setting])
+    assert all(w in str(info.value) for w in words), info.value
+
+
+@pytest.mark.parametrize("setting", ["flow.nu=1e-400", "numerics.h_eps=1e-300"])
+def test_such_values_are_one_line_on_the_command_line(setting, capfd, tmp_path):
+    line = _run_refused(capfd, tmp_path, "domain.nx=40", "time.t_end=0.01", setting)
+    assert f"scene 'dam-break': {setting}:" in line, line
+
+
+def test_an_underflowing_number_in_a_scene_file_is_refused_by_key(tmp_path):
+    from solver_helpers import MINIMAL_SCENE
+
+    path = tmp_path / "s.toml"
+    path.write_text('name = "s"' + MINIMAL_SCENE + "[flow]\nnu = 1.5E-400\n")
+    with pytest.raises(InputError, match=r"flow\.nu=1\.5E-400: .*read as 0\.0"):
+        load_scene(str(path))
+
+
+@pytest.mark.parametrize(
+    "setting, value",
+    [
+        ("flow.nu=0.0", 0.0),
+        ("flow.nu=0e-400", 0.0),  # written as zero: zero
+        ("flow.nu=2.5e-300", 2.5e-300),  # tiny but a normal double
+        ("numerics.cfl=0.001", 0.001),
+        ("numerics.h_eps=1e-9", 1e-9),  # what the tests of dry fronts use
+    ],
+)
+def test_the_bounds_leave_small_honest_values_alone(setting, value):
+    key, _ = setting.split("=")
+    sc = load_scene("dam-break", [setting])
+    section, name = key.split(".")
+    assert getattr(getattr(sc, section), name) == value
+
+
+def test_the_estimate_prints_huge_counts_readably():
+    from tiseg.estimate import Estimate
+
+    calibration = {
+        "arch": "cpu",
+        "precision": "f64",
+        "threads": 0,
+        "stage_s": [1e-4],
+        "step_overhead_s": [1e-4],
+        "active_cells": [40],
+        "wall_s": 1.0,
+    }
+    est = Estimate(
+        scene="s", grid=(40, 1), t_end=0.2, steps=5 * 10**300, rhs_evals=10**301,
+        mean_stages=2.0, dt_min=1e-301, dt_max=1e-301, mean_active_cells=40.0,
+        wall_steps_s=1e298, wall_diagnostics_s=0.0, wall_output_s=0.0, wall_compile_s=1.0,
+        wall_s=1e298, wall_idle_s=1e297, setup_s=1.0, model=["m"], calibration=calibration,
+    )  # fmt: skip
+    text = "\n".join(est.lines())
+    assert "steps 5e+300, operator evaluations 1e+301" in text, text
+    assert "about 2.78e+294 h" in text and "(2.78e+293 h idle)" in text, text
+    assert max(len(line) for line in text.splitlines()) < 400
+    small = Estimate(**{**est.as_dict(), "steps": 123456, "rhs_evals": 999_999_999, "wall_s": 7200})
+    assert "steps 123456, operator evaluations 999999999" in "\n".join(small.lines())
+    assert "about 2.00 h" in "\n".join(small.lines())
