@@ -37,8 +37,8 @@ def _one_line_error(capfd, rc) -> str:
     return lines[0]
 
 
-def _run_refused(capfd, tmp_path, *sets: str) -> str:
-    argv = ["run", "dam-break", "--out", str(tmp_path / "out"), "--no-progress"]
+def _run_refused(capfd, tmp_path, *sets: str, scene: str = "dam-break") -> str:
+    argv = ["run", scene, "--out", str(tmp_path / "out"), "--no-progress"]
     for s in sets:
         argv += ["--set", s]
     line = _one_line_error(capfd, _call(argv))
@@ -341,3 +341,31 @@ def test_the_estimate_prints_huge_counts_readably():
     small = Estimate(**{**est.as_dict(), "steps": 123456, "rhs_evals": 999_999_999, "wall_s": 7200})
     assert "steps 123456, operator evaluations 999999999" in "\n".join(small.lines())
     assert "about 2.00 h" in "\n".join(small.lines())
+
+
+# ------------------------------------------------------------------ item 5: no steady state
+@pytest.mark.parametrize(
+    "zeta, phi0, words",
+    [
+        (80.0, 0.8, ["zeta=80 deg is steeper than the friction can hold", "accelerates"]),
+        (35.0, 0.8, ["dynamic angle is 32.2 deg", "gentler slope or another concentration"]),
+        (10.0, 0.8, ["zeta=10 deg is gentler than the friction's static angle", "comes to rest"]),
+        (27.0, 0.1, ["it needs phi0 > phi0*=0.2353 (4.8)"]),  # the case phi0* is meant for
+    ],
+)
+def test_no_steady_state_says_why_in_words(zeta, phi0, words):
+    from tiseg.material import Material
+    from tiseg.steady import phi0_star, steady_state
+
+    with pytest.raises(InputError) as info:
+        steady_state(0.002, phi0, Material(zeta_deg=zeta))
+    msg = str(info.value)
+    assert all(w in msg for w in words), msg
+    star = phi0_star(Material(zeta_deg=zeta))
+    assert (f"{star:.4f}" in msg) == (0 < star < 1), msg  # -26.8835 and 1.9858 are not named
+
+
+def test_a_scene_on_a_steep_slope_is_one_line_in_words(capfd, tmp_path):
+    line = _run_refused(capfd, tmp_path, "material.zeta_deg=80", scene="fingers")
+    assert "steeper than the friction can hold" in line and "phi0*" not in line, line
+    assert "raise flow.phi0" not in line, line

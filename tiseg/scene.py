@@ -838,8 +838,8 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
         except InputError as exc:
             why = (
                 f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; effects.friction="
-                f"{law!r} defines u0 only from a steady uniform flow (raise "
-                "flow.phi0 or change material.zeta_deg)"
+                f"{law!r} defines u0 only from a steady uniform flow (change flow.phi0 or "
+                "material.zeta_deg)"
             )
             return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         except (ArithmeticError, ValueError) as exc:
