@@ -565,7 +565,7 @@ class Estimate:
         c = self.calibration
         return [
             f"{self.scene}: {self.grid[0]} x {self.grid[1]} cells to t = {self.t_end:g} s",
-            f"  steps {self.steps}, operator evaluations {self.rhs_evals} "
+            f"  steps {_count(self.steps)}, operator evaluations {_count(self.rhs_evals)} "
             f"(mean {self.mean_stages:.2f} stages per step), dt {self.dt_min:.3g} .. {self.dt_max:.3g} s, "
             f"mean active cells {self.mean_active_cells:.0f} ({100 * self.mean_active_cells / max(1, self.grid[0] * self.grid[1]):.0f} %)",
             f"  wall time about {_hms(self.wall_s)} at the machine's present load "
@@ -580,12 +580,19 @@ class Estimate:
         ]
 
 
+def _count(n: int) -> str:
+    """A count as digits up to a billion, then as 1.23e+15 (not hundreds of digits)."""
+    return str(n) if n < 10**9 else f"{float(n):.3g}"
+
+
 def _hms(s: float) -> str:
     if s < 60:
         return f"{s:.1f} s"
     if s < 3600:
         return f"{s / 60:.1f} min"
-    return f"{s / 3600:.2f} h"
+    if s < 3600 * 1e6:
+        return f"{s / 3600:.2f} h"
+    return f"{s / 3600:.3g} h"
 
 
 def estimate(

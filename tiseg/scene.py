@@ -27,6 +27,7 @@ import difflib
 import math
 import numbers
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -121,7 +122,15 @@ MIN_CELLS = 4  # a periodic axis needs at least 2 x GHOST(=2) interior cells
 MIN_CELLS_PER_PERTURBATION = 4  # cells across one wavelength Ly/modes of the inflow (6.9)
 MAX_CELLS = 2**31 - 1  # Taichi fields are indexed with 32-bit integers
 MAX_NU = 1e3  # [m^(3/2)/s] largest viscosity coefficient accepted
-MAX_OUTPUT_TIMES = 1_000_000  # guards against e.g. output.interval = 1e-12
+# Lower bounds of numbers that would otherwise be accepted and never finish or fail later:
+# the number of steps grows as 1 / numerics.cfl: below MIN_CFL a run takes more than 500 times
+# the steps of the default 0.5 (numerics.cfl = 1e-300 never finished)
+MIN_CFL = 1e-3
+# the velocity's desingularisation divides by h^4 + max(h^4, h_eps^4): h_eps^4 must remain a
+# normal number in f32 (1e-9^4 = 1e-36 > 1.2e-38), else dry cells give 0/0 = NaN at step 1
+MIN_H_EPS = 1e-9
+MAX_NESTING = 16  # levels of tables and arrays: a scene needs 3, a deeper one is refused
+MAX_OUTPUT_TIMES = 1_000_000  # snapshots or checkpoint times: guards against interval = 1e-12
 
 _MISSING = object()
 
@@ -299,7 +308,7 @@ class NumericsConfig:
     # ("upwind", keeps contacts sharp), or the flux scheme's own ("central", the paper's)
     stepper: str = "rkc"  # Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler, or
     # "hancock": dimensionally split MUSCL-Hancock sweeps (no viscosity, no friction)
-    cfl: float = 0.25  # Courant number of the hyperbolic part, in (0, 1]; default 0.25 with
+    cfl: float = 0.25  # Courant number of the hyperbolic part, in [0.001, 1]; 0.25 with
     # step_rule "max", 0.5 with "sum" and "local" (each rule's forward-Euler positivity bound),
     # 0.6 with stepper "hancock" (each sweep is stable up to 1; h >= 0 whatever the step)
     step_rule: str = "max"  # "max": dt = cfl min(dx/a, dy/b); "sum": dt = cfl / (a/dx + b/dy);
@@ -307,7 +316,7 @@ class NumericsConfig:
     # (Kurganov & Petrova 2007; up to 2x longer steps where one direction dominates)
     precision: str = "f64"  # floating-point precision of the kernels
     h_min: float = 1e-4  # fluxes vanish where h < h_min (section 6.2) [m]
-    h_eps: float = 1e-7  # desingularisation thickness for u = hu / h [m], < h_min
+    h_eps: float = 1e-7  # desingularisation thickness for u = hu / h [m], >= 1e-9, < h_min
     u_eps: float = 1e-3  # regularises the friction direction u / |u| [m/s] ("regularised")
     friction_scheme: str = "regularised"  # basal friction as an explicit source with
     # u / max(|u|, u_eps) ("regularised", section 6.2), or "projected": after each stage a
@@ -326,9 +335,10 @@ class OutputConfig:
     """Snapshot times. ``output_times`` is the resolved, sorted union of ``times``, the multiples
     of ``interval`` up to t_end, t = 0 and t_end."""
 
-    interval: float | None = None  # a snapshot every interval seconds [s]
+    interval: float | None = None  # a snapshot every interval seconds, >= t_end / 1e6 [s]
     times: tuple[float, ...] = ()  # snapshots at these times too [s]
-    checkpoint_interval: float | None = None  # simulated seconds between checkpoints [s]
+    checkpoint_interval: float | None = None  # simulated seconds between checkpoints,
+    # >= t_end / 1e6 [s]
     output_times: tuple[float, ...] = ()
     precision: str | None = None  # fields.nc data type: "f8", "f4"; None: the run's precision
     significant_digits: int | None = None  # quantise fields.nc to this many decimal digits
@@ -507,7 +517,7 @@ def parse_override(text: str) -> tuple[str, Any]:
     if "\n" in raw or "\r" in raw:
         raise InputError(f"override {text!r}: the value must be on one line")
     try:
-        doc = tomllib.loads(f"v = {raw}")
+        doc = tomllib.loads(f"v = {raw}", parse_float=_toml_float)
     except tomllib.TOMLDecodeError:
         return key, raw  # a bare word such as `weno`: take it as a string
     except RecursionError:
@@ -558,7 +568,7 @@ def scene_from_text(
     """Validate a scene given as TOML text (``name`` is the default for the top-level name)."""
     where = source or "<text>"
     try:
-        data = tomllib.loads(text)
+        data = tomllib.loads(text, parse_float=_toml_float)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"scene file {where!r} is not valid TOML: {exc}") from None
     except RecursionError:
@@ -576,9 +586,9 @@ def scene_from_dict(
     """Validate a scene given as the nested dict a TOML file parses to."""
     if not isinstance(data, Mapping):
         raise InputError(f"a scene must be a table of sections, got {_type_name(data)}")
-    data = _deep_copy(data)
     label = label or (repr(source) if source else repr(name))
     try:
+        data = _deep_copy(data)
         _apply_overrides(data, overrides)
     except InputError as exc:
         raise InputError(f"scene {label}: {exc}") from None
@@ -828,8 +838,8 @@ def _read_flow(t: "_Table", material: Material, effects: EffectsConfig) -> FlowC
         except InputError as exc:
             why = (
                 f"flow.h0={h0!r}, flow.phi0={phi0!r}: {exc}; effects.friction="
-                f"{law!r} defines u0 only from a steady uniform flow (raise "
-                "flow.phi0 or change material.zeta_deg)"
+                f"{law!r} defines u0 only from a steady uniform flow (change flow.phi0 or "
+                "material.zeta_deg)"
             )
             return FlowConfig(h0=h0, phi0=phi0, nu=nu, no_steady=why)
         except (ArithmeticError, ValueError) as exc:
@@ -1228,6 +1238,20 @@ def _read_numerics(
                 "the stage limiter clips it and mass is then not conserved exactly"
             )
     _require(
+        n.cfl >= MIN_CFL,
+        "numerics.cfl",
+        n.cfl,
+        f"must be at least {MIN_CFL:g}: the steps grow as 1/cfl, and a smaller one takes more "
+        f"than {0.5 / MIN_CFL:.0f} times the steps of the default 0.5",
+    )
+    _require(
+        n.h_eps >= MIN_H_EPS,
+        "numerics.h_eps",
+        n.h_eps,
+        f"must be at least {MIN_H_EPS:g} m: velocities divide by h_eps^4, which below that "
+        "is 0 in f32 and gives NaN in dry cells",
+    )
+    _require(
         n.h_eps < n.h_min,
         "numerics.h_eps",
         n.h_eps,
@@ -1270,6 +1294,23 @@ def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) ->
     )
 
 
+def _interval_count(key: str, interval: float, t_end: float, what: str) -> int:
+    """How many multiples of ``interval`` lie in (0, t_end]; an InputError past
+    MAX_OUTPUT_TIMES. An interval so short that there would be more than that many is a typo
+    (1e-300 for 1e-3), and its multiples could not all be told apart in the output's times;
+    t_end / interval is compared as a float first, as it may overflow."""
+    ratio = t_end / interval * (1 + 1e-12)
+    _require(
+        ratio < MAX_OUTPUT_TIMES + 1,
+        key,
+        interval,
+        f"gives {f'{ratio:.4g}' if math.isfinite(ratio) else 'over 1e308'} {what} up to "
+        f"t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed (an interval of at least "
+        f"{t_end / MAX_OUTPUT_TIMES:.3g} s)",
+    )
+    return math.floor(ratio)
+
+
 def _read_output(t: "_Table", t_end: float) -> OutputConfig:
     interval = t.number("interval", None, positive=True)
     times = tuple(t.number_list("times", ()))
@@ -1286,16 +1327,12 @@ def _read_output(t: "_Table", t_end: float) -> OutputConfig:
         )
         times = tuple(v for v in times if v <= t_end * (1 + 1e-12))
     checkpoint = t.number("checkpoint_interval", None, positive=True)
+    if checkpoint is not None:
+        _interval_count("output.checkpoint_interval", checkpoint, t_end, "checkpoint times")
     # (time, priority): explicit times, 0 and t_end win over a nearby multiple of the interval
     cands = [(0.0, 0), (t_end, 0)] + [(min(v, t_end), 0) for v in times]
     if interval is not None:
-        n = int(math.floor(t_end / interval * (1 + 1e-12)))
-        _require(
-            n <= MAX_OUTPUT_TIMES,
-            "output.interval",
-            interval,
-            f"gives {n} snapshots up to t_end={t_end!r}; at most {MAX_OUTPUT_TIMES} allowed",
-        )
+        n = _interval_count("output.interval", interval, t_end, "snapshots")
         # %.12g turns 19 * 0.1 = 1.9000000000000001 into 1.9
         cands += [(min(float(f"{i * interval:.12g}"), t_end), 1) for i in range(n + 1)]
     cands.sort()
@@ -1443,6 +1480,7 @@ class _Table:
         full = self.full(key)
         if isinstance(v, bool) or not isinstance(v, numbers.Real):
             raise InputError(f"{full}={_show(v)}: expected a number, got {_type_name(v)}")
+        _check_underflow(full, v)
         f = float(v)
         if math.isnan(f) or (math.isinf(f) and not (allow_inf and f > 0)):
             raise InputError(f"{full}={_show(v)}: must be a finite number")
@@ -1482,6 +1520,7 @@ class _Table:
                 raise InputError(
                     f"{full}[{i}]={_show(x)}: expected a finite number, got {_type_name(x)}"
                 )
+            _check_underflow(f"{full}[{i}]", x)
             out.append(float(x))
         return out
 
@@ -1539,14 +1578,55 @@ def _apply_overrides(data: dict, overrides) -> None:
         if value is None:  # dict overrides only: remove the key
             node.pop(parts[-1], None)
         else:
-            node[parts[-1]] = _deep_copy(value)
+            node[parts[-1]] = _deep_copy(value, key, len(parts))
 
 
-def _deep_copy(v):
+class _Underflow(float):
+    """A number written non-zero whose double is 0.0 or subnormal (1e-400, 1e-310), as TOML
+    reads it. It keeps its text, so that the key reading it refuses it by name: taken as it is,
+    flow.nu = 1e-400 would be 0 and switch the viscosity off without a word."""
+
+    text: str
+
+    def __new__(cls, value: float, text: str):
+        obj = super().__new__(cls, value)
+        obj.text = text
+        return obj
+
+
+def _toml_float(text: str) -> float:
+    """tomllib's parse_float: the float of a TOML literal, an :class:`_Underflow` when a
+    non-zero literal (a digit 1-9 before its exponent) does not survive as a normal double."""
+    v = float(text)
+    if not math.isfinite(v) or abs(v) >= sys.float_info.min:
+        return v
+    if v == 0.0 and not re.search(r"[1-9]", re.split(r"[eE]", text)[0]):
+        return v  # written as zero: 0.0, -0e5
+    return _Underflow(v, text)
+
+
+def _check_underflow(key: str, v) -> None:
+    if isinstance(v, _Underflow):
+        raise InputError(
+            f"{key}={v.text}: smaller than the smallest normal double "
+            f"({sys.float_info.min:.3g}), it would be read as {float(v)!r}; write 0 for zero"
+        )
+
+
+def _deep_copy(v, where: str = "", depth: int = 0):
+    """A copy of nested tables and arrays, refused past MAX_NESTING levels (which the
+    recursion would otherwise meet as a RecursionError traceback); ``where``: the key path."""
+    if depth > MAX_NESTING:
+        raise InputError(
+            f"{where if len(where) <= 60 else where[:57] + '...'}: tables or arrays nest more than {MAX_NESTING} levels deep "
+            "(a scene needs at most 3, as in material.small.zeta1_deg)"
+        )
     if isinstance(v, Mapping):
-        return {k: _deep_copy(x) for k, x in v.items()}
+        return {
+            k: _deep_copy(x, f"{where}.{k}" if where else str(k), depth + 1) for k, x in v.items()
+        }
     if isinstance(v, (list, tuple)):
-        return [_deep_copy(x) for x in v]
+        return [_deep_copy(x, f"{where}[{i}]", depth + 1) for i, x in enumerate(v)]
     return v
 
 

@@ -52,9 +52,18 @@ class TimeInterval(Schedule):
     """Every ``interval`` seconds of simulated time: at t = k interval, k = 1, 2, ...
 
     The times are k * interval rounded to 12 significant digits (so 19 * 0.1 is 1.9, the time
-    a user wrote, not 1.9000000000000001), as the scene's output times are."""
+    a user wrote, not 1.9000000000000001), as the scene's output times are.
+
+    Asking whether a step is due costs the same however many multiples the step crosses (the
+    first multiple past t0 is computed, not searched for). The schedule holds at most
+    :data:`MAX_MULTIPLES` multiples: beyond that the 12-digit times of successive multiples
+    would no longer differ (the interval is lost in the time's rounding), so a time past
+    ``MAX_MULTIPLES * interval`` is an :class:`InputError`."""
 
     timed = True
+
+    #: the largest k; 12-digit times resolve successive multiples with 1000-fold room
+    MAX_MULTIPLES = 10**9
 
     def __init__(self, interval: float):
         if not (isinstance(interval, (int, float)) and math.isfinite(interval) and interval > 0):
@@ -66,21 +75,35 @@ class TimeInterval(Schedule):
     def _time(self, k: int) -> float:
         return float(f"{k * self.interval:.12g}")
 
-    def times_in(self, t0, t1):
-        k = max(1, int(math.floor(t0 / self.interval)))
-        while self._time(k) <= t0:
+    def _first_after(self, t: float) -> int:
+        """The first k >= 1 whose time is past t (a step or two from t / interval)."""
+        q = t / self.interval
+        if not q < self.MAX_MULTIPLES:
+            raise InputError(
+                f"{self!r}: t={t:g} s is {q:.3g} intervals; at most {self.MAX_MULTIPLES:.0e} "
+                "multiples are scheduled (the interval is too short for this time)"
+            )
+        k = max(1, math.floor(q))
+        while self._time(k) <= t:
             k += 1
+        return k
+
+    def times_in(self, t0, t1):
         out = []
+        k = self._first_after(t0)
         while self._time(k) <= t1:
             out.append(self._time(k))
             k += 1
         return out
 
     def due(self, t0, t1, steps):
-        return bool(self.times_in(t0, t1))
+        return self._time(self._first_after(t0)) <= t1
 
     def contains(self, t):
-        k = round(t / self.interval)
+        q = t / self.interval
+        if not q < self.MAX_MULTIPLES:
+            return False
+        k = round(q)
         return k >= 1 and self._time(k) == t
 
     def __repr__(self):

@@ -54,12 +54,41 @@ def froude_per_thickness(phi0: float, m: Material = TABLE1) -> float:
     disc = B * B - 4 * A * C
     root = (-B + math.sqrt(disc)) / (2 * A) if (A > 0 and disc >= 0) else float("nan")
     if not (root > 0):
-        star = phi0_star(m)
-        raise InputError(
-            f"no steady uniform flow at phi0={phi0}: it needs phi0 > phi0*={star:.4f} (4.8) "
-            f"at zeta={m.zeta_deg} deg (too many frictional large particles)"
-        )
+        raise InputError(f"no steady uniform flow at phi0={phi0}: {_why_no_steady(phi0, m)}")
     return root
+
+
+def _why_no_steady(phi0: float, m: Material) -> str:
+    """Why the balance (4.2) has no positive root, in words. With A and C of (4.5), (4.7) that
+    is A <= 0 or C >= 0: the slope is steeper than the mixture's dynamic friction angle (the
+    flow accelerates), or not steeper than its static one (it stops). phi0* (4.8) is named
+    only where raising phi0 to it helps (0 < phi0* < 1): at zeta = 80 deg it is -26.9, at
+    10 deg 1.99, numbers that mean nothing as concentrations."""
+    s, l = m.small, m.large
+    both = (
+        f"{s.zeta1_deg:g}, {s.zeta2_deg:g} deg small and {l.zeta1_deg:g}, {l.zeta2_deg:g} deg large"
+    )
+    slope = f"the slope zeta={m.zeta_deg:g} deg"
+    mu2 = phi0 * s.mu2 + (1 - phi0) * l.mu2
+    if m.tan_zeta >= mu2:
+        return (
+            f"{slope} is steeper than the friction can hold (its dynamic angle is "
+            f"{math.degrees(math.atan(mu2)):.4g} deg at this concentration; zeta1, zeta2 = "
+            f"{both}), so the flow accelerates without limit; a steady flow needs a gentler slope"
+            + ("" if m.tan_zeta >= max(s.mu2, l.mu2) else " or another concentration")
+        )
+    star = phi0_star(m) if l.mu1 != s.mu1 else math.nan
+    if s.mu1 < l.mu1 and 0 < star < 1:
+        return (
+            f"it needs phi0 > phi0*={star:.4f} (4.8) at zeta={m.zeta_deg} deg (too many "
+            "frictional large particles)"
+        )
+    mu1 = phi0 * s.mu1 + (1 - phi0) * l.mu1
+    return (
+        f"{slope} is gentler than the friction's static angle "
+        f"({math.degrees(math.atan(mu1)):.4g} deg at this concentration; zeta1, zeta2 = "
+        f"{both}), so the flow comes to rest; a steady flow needs a steeper slope"
+    )
 
 
 def froude(h0: float, phi0: float, m: Material = TABLE1) -> float:
