@@ -135,7 +135,7 @@ def test_only_steppers_that_keep_rest_bitwise_skip(ti_cpu):
     for over in (
         {"numerics.stepper": "ssprk10_4"},
         {"effects.friction": "pouliquen-mixture"},
-        {"numerics.friction_scheme": "regularised"},
+        {"numerics.friction_scheme": "regularised", "numerics.stepper": "ssprk3"},
     ):
         sc = load_scene("finite-release-deposit", {**DEPOSIT, **over})
         assert not Simulation(sc).op.skip_rest, over

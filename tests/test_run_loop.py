@@ -252,7 +252,7 @@ def test_set_parameters_changes_scene_and_operator(ti_cpu):
         ({"numerics.reconstruction": "minmod"}, "numerics.reconstruction"),
         ({"effects.segregation": False}, "segregation"),
         ({"material.transport": "bagnold"}, "material.transport"),
-        ({"numerics.friction_scheme": "projected"}, "numerics.friction_scheme"),
+        ({"numerics.friction_scheme": "regularised"}, "numerics.friction_scheme"),
     ):
         with pytest.raises(InputError, match=what):
             sim.set_parameters(change)
