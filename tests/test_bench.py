@@ -311,6 +311,7 @@ def test_front_position_interpolates_between_cell_centres():
 
 
 # ------------------------------------------------------------------------------- steppers
+@pytest.mark.slow
 def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
     """tiseg bench steppers restarts from a run's snapshots: each stepper against SSP-RK3 at a
     5x smaller Courant number on the same grid. The time errors must rank by order: forward

@@ -71,6 +71,7 @@ def reference(tmp_path_factory, ti_cpu):
     return out
 
 
+@pytest.mark.slow
 def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsys):
     """`python -m tiseg.cli run ...` is killed with SIGKILL as soon as its first checkpoint
     exists; the files it leaves are readable; `tiseg run --resume DIR` finishes the run, and

@@ -82,6 +82,7 @@ def test_central_phi_flux_smears_the_contact(ti_cpu):
     assert phi[outside].max() > 0.03
 
 
+@pytest.mark.slow
 def test_channel_speed_converges_to_the_cross_slope_solution(ti_cpu):
     """u(y) at t = 3 s (steady to 1e-3) against the cell averages of the boundary-value
     problem's solution: the relative L1 error falls with the grid at second order or better

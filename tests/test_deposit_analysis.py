@@ -215,6 +215,7 @@ def test_deposit_figure(deposit_run, tmp_path, capsys):
     assert err.count("\n") == 1 and "does not exist" in err, err
 
 
+@pytest.mark.slow
 def test_the_finite_release_deposit_scene_comes_to_rest(ti_cpu, tmp_path, capsys):
     """The finite-release-deposit scene at 75 cells/m: every cell is at rest by 90 s, and the
     deposit then keeps its h bit for bit. Before the mass flux had a floor where a cell

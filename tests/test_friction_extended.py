@@ -237,6 +237,7 @@ def _cut_off_flow(cfl=None):
     )
 
 
+@pytest.mark.slow
 def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
     """The flow drains and comes to rest, leaving a deposit of h_stop = 0.785 mm, where
     tan(zeta) = mu_D(h_stop, beta*): measured 0.9938 h_stop at 400 cells (0.9940 with steps

@@ -103,6 +103,7 @@ def _fc_noise_rate(n: int, nu: float, t_end: float = 0.24) -> float:
     return float(np.polyfit(np.array(ts)[late], np.log(np.array(rms)[late]), 1)[0])
 
 
+@pytest.mark.slow
 def test_critical_froude_noise_viscous_bounded_inviscid_grows(ti_cpu):
     """At F = Fc the inviscid model is ill posed (its growth rate is unbounded in k, (5.31)),
     the viscous one is not (sigma_Max u0/h0 = 7.31 1/s at nu = 1e-3).
@@ -176,6 +177,7 @@ def _coulomb_dam_break(
     }
 
 
+@pytest.mark.slow
 def test_coulomb_dam_break_on_slope_matches_exact_solution(ti_cpu):
     """T4 with SSP-RK3: relative L1 error of h 3.9e-3 (N = 200) and 3.3e-3 (N = 400) [1.0e-3
     at N = 800]; the reservoir slides at u = m t (0.2549 against 0.2545 m/s: the u_eps

@@ -75,6 +75,7 @@ def test_symlinks_inside_the_output_folder_are_not_followed(ti_cpu, tmp_path):
     assert target.read_text() == "keep me"
 
 
+@pytest.mark.slow
 def test_foreign_files_and_finished_runs_need_overwrite(ti_cpu, tmp_path, capsys):
     out = tmp_path / "run"
     out.mkdir()
@@ -142,6 +143,7 @@ def test_sweep_skips_a_run_another_process_holds(held_folder):
     assert rec["status"] == "busy" and f"pid {pid}" in rec["holder"]
 
 
+@pytest.mark.slow
 def test_resume_removes_stale_temporaries(ti_cpu, tmp_path):
     from tiseg import checkpoint
 
@@ -207,6 +209,7 @@ def test_a_run_that_cannot_advance_stops_with_a_reason(ti_cpu):
 
 
 # ------------------------------------------------------------------ write errors
+@pytest.mark.slow
 def test_a_full_disk_is_one_line_and_the_run_resumes(ti_cpu, tmp_path, monkeypatch):
     import errno
 
@@ -254,6 +257,7 @@ def test_fields_file_is_never_left_half_created(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------ checkpoints
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "damage, message",
     [

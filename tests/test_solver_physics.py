@@ -87,6 +87,7 @@ def test_uniform_flow_stays_uniform_to_round_off(ti_cpu, rec, opt):
     assert_kept_to_round_off(q0, sim.conserved())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("friction", ["pouliquen-mixture", "pouliquen-extended"])
 @pytest.mark.parametrize("stepper", ["rkc", "ssprk3"])
 def test_uniform_flow_stays_uniform_with_projected_friction(ti_cpu, friction, stepper):
@@ -159,6 +160,7 @@ def test_mass_conserved_in_periodic_domain(ti_cpu, opt):
     assert abs(sim.budget()["mass_in"]) == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("opt", COSTLY, ids=COSTLY_IDS)
 def test_inflow_and_outflow_exactly_accounted(ti_cpu, opt):
     """Fingers set-up (inflow at x = 0) and a dam break leaving through x = Lx: the change of
@@ -199,6 +201,7 @@ def test_inflow_and_outflow_exactly_accounted(ti_cpu, opt):
 
 
 # --------------------------------------------------------------------------------------- T2
+@pytest.mark.slow
 def test_dam_break_converges_to_ritter(ti_cpu):
     t_end = 0.1
     errs, fronts = [], []
@@ -284,6 +287,7 @@ def _transport_exact(x, t, L, u0, phi_mean=0.5, amp=0.25):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "rec,opt",
     [("minmod", FLUX_OPTIONS[0]), ("weno", FLUX_OPTIONS[0])]
@@ -338,6 +342,7 @@ def test_second_order_convergence_on_smooth_transport(ti_cpu, rec, opt):
 
 
 # ---------------------------------------------------------------------------- bounds, fronts
+@pytest.mark.slow
 @pytest.mark.parametrize("opt", COSTLY, ids=COSTLY_IDS)
 def test_small_fingers_run_forms_coarse_rich_front(ti_cpu, tmp_path, opt):
     """The paper's set-up at 100 cells per metre for 2 s: finite, conserving, h >= 0,

@@ -61,6 +61,7 @@ def test_second_order_on_a_smooth_1d_wave(ti_cpu):
     assert np.all(_rates(errs) > 1.85), errs
 
 
+@pytest.mark.slow
 def test_alternating_sweeps_make_2d_second_order(ti_cpu, monkeypatch):
     """A diagonal wave in a periodic square: with the sweep order alternating from step to
     step the error falls at second order; with x-then-y every step (Godunov splitting) the

@@ -92,6 +92,7 @@ def test_dry_bed_dam_break_stays_positive_and_conservative(ti_cpu, stepper):
     assert abs(x[h[0] >= 0.1].max() - c10) <= 2 * sc.dx
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stepper", ["ssprk4_2", "ssprk10_2", "ssprk10_4", "rkc"])
 def test_wet_bed_dam_break_converges_to_stoker_with_longer_steps(ti_cpu, stepper):
     """Stoker dam break: with the sum rule the error converges at first order or better (a

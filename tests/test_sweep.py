@@ -57,6 +57,7 @@ def tiny_sweep(tmp_path_factory):
     return out, lines, res
 
 
+@pytest.mark.slow
 def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
     out, lines, res = tiny_sweep
     lines = list(lines)

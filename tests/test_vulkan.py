@@ -24,6 +24,9 @@ from solver_helpers import child_env
 from tiseg.output import read_diagnostics
 from tiseg.viewer.app import vulkan_problem
 
+# software Vulkan runs several times slower than the CPU: the second, longer set (README)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 HERE = Path(__file__).resolve().parent
 VULKAN = vulkan_problem()

@@ -19,6 +19,14 @@ import weakref
 from . import backend
 
 
+_made = 0  # field trees made in this process (tests reset Taichi after a test that made one)
+
+
+def made() -> int:
+    """How many field trees this process has made so far."""
+    return _made
+
+
 class FieldTree:
     """Fields of one owner, allocated with :meth:`field` and :meth:`vector`, usable after
     :meth:`finalize`, freed by :meth:`destroy` (or with the owner, see :meth:`free_with`)."""
@@ -26,6 +34,8 @@ class FieldTree:
     def __init__(self):
         import taichi as ti
 
+        global _made
+        _made += 1
         self._ti = ti
         self._builder = ti.FieldsBuilder()
         self._tree = None
