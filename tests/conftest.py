@@ -1,8 +1,6 @@
 """Shared test set-up: Taichi on the CPU in f64, initialised once per test session."""
 
-import inspect
 import os
-import re
 
 import pytest
 
@@ -41,32 +39,24 @@ def _room_for_fields():
     yield
 
 
-_SPANS_TESTS = re.compile(r"scope\s*=\s*[\"'](module|class|package)[\"']")
 _trees_at_reset = [0]
 
 
 @pytest.fixture(autouse=True)
 def _fresh_runtime_per_test(request):
-    """Reset Taichi (0.1 s) before a test when the tests before it made simulations, so that
-    its kernels come from Taichi's offline cache instead of being compiled again (3 s for a
-    small fingers scene): the cache keys hold the fields' SNode ids, which only a reset starts
-    again from the same numbers. Not in files whose fixtures span tests (module or class
-    scope), whose simulations must outlive one test."""
+    """Reset Taichi (0.1 s) before a test when the tests before it made simulations and
+    nothing holds Taichi fields any more, so that its kernels come from Taichi's offline cache
+    instead of being compiled again (3 s for a small fingers scene): the cache keys hold the
+    fields' SNode ids, which only a reset starts again from the same numbers. A module-scoped
+    fixture that keeps a simulation or a renderer alive keeps the runtime too."""
+    import gc
+
     from tiseg import backend, field_tree
 
-    made = field_tree.made()
-    if backend.is_initialised() and made != _trees_at_reset[0] and not _spans_tests(request.module):
-        st = backend.state()
-        backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
-        _trees_at_reset[0] = field_tree.made()
+    if backend.is_initialised() and field_tree.made() != _trees_at_reset[0]:
+        gc.collect()  # the last test's simulations, if nothing else holds them
+        if field_tree.live() == 0:
+            st = backend.state()
+            backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
+            _trees_at_reset[0] = field_tree.made()
     yield
-
-
-_span_cache: dict = {}
-
-
-def _spans_tests(module) -> bool:
-    name = module.__name__
-    if name not in _span_cache:
-        _span_cache[name] = bool(_SPANS_TESTS.search(inspect.getsource(module)))
-    return _span_cache[name]

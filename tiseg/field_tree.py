@@ -20,11 +20,25 @@ from . import backend
 
 
 _made = 0  # field trees made in this process (tests reset Taichi after a test that made one)
+# what holds Taichi fields now: the live trees, and the objects with plain fields that
+# registered through track() (renderers, the viewer's window)
+_holders: weakref.WeakSet = weakref.WeakSet()
 
 
 def made() -> int:
     """How many field trees this process has made so far."""
     return _made
+
+
+def track(obj) -> None:
+    """Count ``obj`` as holding Taichi fields for as long as it lives (see :func:`live`)."""
+    _holders.add(obj)
+
+
+def live() -> int:
+    """How many field trees and tracked objects are alive: 0 means a Taichi reset invalidates
+    nothing anyone holds."""
+    return len(_holders)
 
 
 class FieldTree:
@@ -36,6 +50,7 @@ class FieldTree:
 
         global _made
         _made += 1
+        _holders.add(self)
         self._ti = ti
         self._builder = ti.FieldsBuilder()
         self._tree = None
@@ -65,6 +80,7 @@ class FieldTree:
         """Free the fields (a no-op when already freed, or when ``tiseg.init`` reset the
         runtime that held them: their tree went with it)."""
         tree, self._tree = self._tree, None
+        _holders.discard(self)
         if tree is not None and backend.is_initialised():
             if backend.state().generation == self._generation:
                 tree.destroy()

@@ -36,7 +36,7 @@ from functools import lru_cache
 import numpy as np
 import taichi as ti
 
-from .. import backend
+from .. import backend, field_tree
 from . import colours as C
 from .raster import (  # noqa: F401  (image_size and the constants are also used from here)
     DEFAULT_RELIEF,
@@ -68,6 +68,7 @@ class _ArraySource:
     def __init__(self, nx: int, ny: int):
         self.nx, self.ny = nx, ny
         self.f = ti.Vector.field(4, float, shape=(nx, ny))  # (h, phi, u, v) per cell
+        field_tree.track(self)
 
     def upload(self, h, phi=None, u=None, v=None) -> None:
         """Arrays shaped (ny, nx) like the output files; missing ones are zero."""
@@ -97,8 +98,10 @@ class _StateSource:
 
     def __init__(self, op):
         lay = op.lay
+        self.op = op  # keeps the operator, and so its field tree (tiseg.field_tree), alive
         self.q = op.q
         self.slot = ti.field(ti.i32, shape=())
+        field_tree.track(self)
         self.slot[None] = 0  # written, not trusted to start at 0 (Vulkan does not)
         self._slot = 0
         self.nx, self.ny = lay.nx, lay.ny
@@ -145,6 +148,7 @@ class _Painter:
         self.nx, self.ny = source.nx, source.ny
         # parameters in the simulation's float type, so h >= h_min decides exactly as the solver
         self.par = ti.field(float, shape=P_COUNT)
+        field_tree.track(self)
         self._np_fp = np.float64 if backend.state().precision == "f64" else np.float32
         self.lut = ti.Vector.field(3, ti.f32, shape=C.LUT_SIZE)
         self.lut.from_numpy(np.asarray(C.viridis_table(C.LUT_SIZE), dtype=np.float32))

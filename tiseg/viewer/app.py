@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tiseg import field_tree
 from tiseg.errors import TisegError
 
 OFFSCREEN_HINT = (
@@ -249,6 +250,7 @@ class Viewer:
         self.height = self.map_h + self.PANEL_H
         self.map_x0, self.map_y0 = 0, self.PANEL_H  # image y runs upwards: panel at bottom
         self.canvas_image = ti.Vector.field(3, ti.f32, shape=(self.width, self.height))
+        field_tree.track(self)  # plain fields and a window: no Taichi reset under it
         title = f"tiseg viewer - {self.scene.name} ({nx} x {ny} cells)"
         self.window = ti.ui.Window(
             title,
