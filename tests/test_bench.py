@@ -314,52 +314,59 @@ def test_front_position_interpolates_between_cell_centres():
 @pytest.mark.slow
 def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
     """tiseg bench steppers restarts from a run's snapshots: each stepper against SSP-RK3 at a
-    5x smaller Courant number on the same grid. The time errors must rank by order: forward
-    Euler (first order) well above RKC and SSP-RK3 (second/third order); everything finite;
-    the report names the run's stepper and whether it is on the front."""
+    5x smaller Courant number on the same grid. With a smooth friction source (the regularised
+    scheme, an SSP-RK3 run) the time errors must rank by order: forward Euler (first order)
+    well above SSP-RK3 (third order); everything finite; the report names the run's stepper and
+    whether it is on the front. The default numerics (RKC, projected friction) are measured
+    too: the projection is a first-order splitting, whose error at these long steps (40 cells
+    per metre) keeps the higher-order steppers from ranking by order (RKC 1.0e-2 against
+    6.9e-4 with the regularised source over the same span), so only RKC's own row is held to
+    the bound there."""
     from tiseg.cli import main
     from tiseg.errors import InputError
     from tiseg.bench import steppers
 
+    def make_run(out, *sets):
+        args = ["run", "fingers", "--set", "domain.resolution=40", "--set", "time.t_end=1.5"]
+        args += ["--set", "output.interval=0.5", "--set", "output.times=[]"]
+        for kv in sets:
+            args += ["--set", kv]
+        assert main(args + ["--out", str(out), "--no-progress"]) == 0
+        capsys.readouterr()
+
+    def bench(out, *names):
+        argv = ["bench", "steppers", str(out), "--times", "1.5", "--repeats", "1", "--json"]
+        assert main(argv + (["--steppers", *names] if names else [])) == 0
+        return json.loads(capsys.readouterr().out)
+
     run = tmp_path / "run"
-    assert (
-        main(
-            [
-                "run",
-                "fingers",
-                "--set",
-                "domain.resolution=40",
-                "--set",
-                "time.t_end=1.5",
-                "--set",
-                "output.interval=0.5",
-                "--set",
-                "output.times=[]",
-                "--out",
-                str(run),
-                "--no-progress",
-            ]
-        )
-        == 0
-    )
-    capsys.readouterr()
-    assert main(["bench", "steppers", str(run), "--times", "1.5", "--repeats", "1", "--json"]) == 0
-    rep = json.loads(capsys.readouterr().out)
+    make_run(run, 'numerics.friction_scheme="regularised"', 'numerics.stepper="ssprk3"')
+    ssp = ("ssprk3", "ssprk2", "ssprk4_2", "ssprk10_4", "euler")
+    rep = bench(run, *ssp)
     (start,) = rep["starts"]
     assert start["time"] == 1.5 and start["span"] > 0
     rows = {r["stepper"]: r for r in start["rows"]}
-    assert set(rows) == {"rkc", "ssprk3", "ssprk2", "ssprk4_2", "ssprk10_4", "euler"}
+    assert set(rows) == set(ssp)
     for r in rows.values():
         assert r["status"] == "ok" and r["steps"] > 0 and r["wall_s"] > 0
         assert 0 < r["error"] < 0.05, r
-    assert rows["euler"]["error"] > 3 * max(rows["rkc"]["error"], rows["ssprk3"]["error"]), rows
+    assert rows["euler"]["error"] > 3 * rows["ssprk3"]["error"], rows
     assert rows["ssprk3"]["evaluations"] == 3 * rows["ssprk3"]["steps"]
     assert rows["ssprk4_2"]["evaluations"] == 4 * rows["ssprk4_2"]["steps"]
     # the fourth-order method's time error is below the first-order one's
     assert rows["ssprk10_4"]["error"] < rows["euler"]["error"], rows
     assert any(r["pareto"] for r in rows.values())
+    assert rep["own_stepper"] == "ssprk3" and "t = 1.5 s: ssprk3" in rep["verdict"]
+    assert (run / "bench-steppers" / "steppers.md").read_text().count("| ssprk3 (run) |") == 1
+
+    default = tmp_path / "default"
+    make_run(default)
+    rep = bench(default, "rkc")
+    (row,) = rep["starts"][0]["rows"]
+    assert row["stepper"] == "rkc" and row["status"] == "ok"
+    assert 0 < row["error"] < 0.05, row
     assert rep["own_stepper"] == "rkc" and "t = 1.5 s: rkc" in rep["verdict"]
-    assert (run / "bench-steppers" / "steppers.md").read_text().count("| rkc (run) |") == 1
+    assert (default / "bench-steppers" / "steppers.md").read_text().count("| rkc (run) |") == 1
     with pytest.raises(InputError, match="no snapshot at that time"):
         steppers.measure(run, times=[0.7])
     with pytest.raises(InputError, match="no scene.toml"):
