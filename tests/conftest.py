@@ -53,10 +53,21 @@ def _fresh_runtime_per_test(request):
 
     from tiseg import backend, field_tree
 
-    if backend.is_initialised() and field_tree.made() != _trees_at_reset[0]:
-        gc.collect()  # the last test's simulations, if nothing else holds them
+    module = request.module.__name__
+    if (
+        backend.is_initialised()
+        and field_tree.made() != _trees_at_reset[0]
+        and module not in _held_by_fixtures
+    ):
+        if field_tree.live():
+            gc.collect()  # the last test's simulations, if only reference cycles hold them
         if field_tree.live() == 0:
             st = backend.state()
             backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
             _trees_at_reset[0] = field_tree.made()
+        else:  # a module-scoped fixture holds them: no reset before its file ends
+            _held_by_fixtures.add(module)
     yield
+
+
+_held_by_fixtures: set = set()
