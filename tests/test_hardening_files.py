@@ -321,6 +321,17 @@ def test_a_sweep_member_never_overwrites_a_foreign_file_and_is_not_retried(ti_cp
     assert (d / "scene.toml").read_text() == "keep\n"
 
 
+def test_sweep_overwrite_reaches_its_members(tmp_path, monkeypatch):
+    """run_sweep(overwrite=True) hands the permission on to the members it submits (each
+    member's spec), which may then replace files that tiseg did not write."""
+    import tiseg.sweep as S
+
+    seen = {}
+    monkeypatch.setattr(S, "_run_on_dask", lambda *a, **kw: seen.update(kw))
+    S.run_sweep(S.load_sweep("tiny"), tmp_path / "sw", echo=None, overwrite=True)
+    assert seen.get("overwrite") is True
+
+
 def test_another_sweep_into_the_same_out_is_refused(tmp_path):
     from tiseg.sweep import _write_outputs, check_sweep_folder, load_sweep, run_sweep
 

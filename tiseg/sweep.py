@@ -766,6 +766,7 @@ def run_sweep(
             arch,
             say,
             progress_interval,
+            overwrite=overwrite,
         )
     result = SweepResult(
         out, table, [records.get(r.name, {"name": r.name, "status": "missing"}) for r in sweep.runs]
