@@ -37,19 +37,6 @@ from .manifest import MANIFEST_NAME, Manifest, record
 from .netcdf import FieldsFileError, FieldsWriter
 
 DIAGNOSTICS = "diagnostics.csv"
-# what a run (and a sweep member, and the demo) writes into its folder
-RUN_FILES = (
-    "scene.toml",
-    "fields.nc",
-    DIAGNOSTICS,
-    DIAGNOSTICS + "-metadata.json",
-    _ckpt.CHECKPOINT_NAME,
-    "failure",
-    "fingers.json",
-    "done.json",
-    LOCK_NAME,
-    HOLDER_NAME,
-)
 # what a run folder writes there itself (listed in the manifest before the first of them)
 WRITES = (
     "scene.toml",
@@ -59,6 +46,9 @@ WRITES = (
     _ckpt.CHECKPOINT_NAME,
     "failure",
 )
+# what a run (and a sweep member, and the demo) writes into its folder: those, the finger
+# diagnostics and completion marker of a sweep member, and the lock
+RUN_FILES = WRITES + ("fingers.json", "done.json", LOCK_NAME, HOLDER_NAME)
 
 
 # tiseg's by name: the run lock is taken before anything in the folder can be checked, and the

@@ -46,6 +46,7 @@ from .raster import (  # noqa: F401  (image_size and the constants are also used
     PAPER_DX,
     _shade_strength,
     _spacing,
+    checked_fields,
     image_size,
 )
 
@@ -369,19 +370,8 @@ def render_fields(
     only. ``dx``, ``dy``: cell sizes [m], which set the slopes of the relief shading; by default
     the spacing of ``fields["x"]`` / ``fields["y"]`` when given, else the paper's 1/750 m.
     """
-    field = C.canonical_field(field)
-    h = np.asarray(fields["h"])
-    if h.ndim == 1:
-        h = h[None, :]
+    field, h, vrange = checked_fields(fields, field, vrange, h_min)
     ny, nx = h.shape
-    if field == "phi" and "phi" not in fields:
-        raise ValueError(
-            "field='phi' needs a 'phi' array (this run has no segregation); choose h, speed, u or v"
-        )
-    if field in ("u", "v", "speed") and "u" not in fields:
-        raise ValueError(f"field={field!r} needs a 'u' array")
-    if vrange is None and field != "phi":
-        vrange = C.default_range(field, data=fields, h_min=h_min)
     painter = _array_painter(nx, ny)
     painter.src.upload(h, fields.get("phi"), fields.get("u"), fields.get("v"))
     strength = _shade_strength(shade)

@@ -70,6 +70,25 @@ def _shade_strength(shade) -> float:
     return s
 
 
+def checked_fields(fields: dict, field: str, vrange, h_min: float):
+    """What both renderers settle first: the field's own name, h as a (ny, nx) array (a 1D
+    run is one row), and the colour range (default: the data range of the flowing cells;
+    none for phi). A ValueError names an array the field needs and ``fields`` lacks."""
+    field = C.canonical_field(field)
+    h = np.asarray(fields["h"])
+    if h.ndim == 1:
+        h = h[None, :]
+    if field == "phi" and "phi" not in fields:
+        raise ValueError(
+            "field='phi' needs a 'phi' array (this run has no segregation); choose h, speed, u or v"
+        )
+    if field in ("u", "v", "speed") and "u" not in fields:
+        raise ValueError(f"field={field!r} needs a 'u' array")
+    if vrange is None and field != "phi":
+        vrange = C.default_range(field, data=fields, h_min=h_min)
+    return field, h, vrange
+
+
 def render_fields_numpy(
     fields: dict,
     h_min: float,
@@ -84,17 +103,8 @@ def render_fields_numpy(
 ) -> np.ndarray:
     """:func:`tiseg.render.render_fields` without its colour bar, in NumPy (same arguments):
     uint8 (H, W, 3), row 0 at the top."""
-    field = C.canonical_field(field)
-    h = np.asarray(fields["h"])
-    ny, nx = (1, h.size) if h.ndim == 1 else h.shape
-    if field == "phi" and "phi" not in fields:
-        raise ValueError(
-            "field='phi' needs a 'phi' array (this run has no segregation); choose h, speed, u or v"
-        )
-    if field in ("u", "v", "speed") and "u" not in fields:
-        raise ValueError(f"field={field!r} needs a 'u' array")
-    if vrange is None and field != "phi":
-        vrange = C.default_range(field, data=fields, h_min=h_min)
+    field, h, vrange = checked_fields(fields, field, vrange, h_min)
+    ny, nx = h.shape
 
     def cells(name):  # (ny, nx) float64, NaN as 0 and a missing array as zeros, as uploaded
         a = fields.get(name)
