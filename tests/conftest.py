@@ -39,7 +39,8 @@ def _room_for_fields():
     yield
 
 
-_trees_at_reset = [0]
+_trees_at_reset = [0]  # field_tree.made() at the last reset
+_held_by_fixtures: set = set()  # test files whose module-scoped fixtures hold fields
 
 
 @pytest.fixture(autouse=True)
@@ -68,6 +69,3 @@ def _fresh_runtime_per_test(request):
         else:  # a module-scoped fixture holds them: no reset before its file ends
             _held_by_fixtures.add(module)
     yield
-
-
-_held_by_fixtures: set = set()
