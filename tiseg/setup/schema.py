@@ -42,7 +42,9 @@ class Key:
     the value, through the operator's configuration ("operator", whose compiled fields say
     which) or by the simulation itself ("simulation": stepper, stages, precision); a change of
     either needs a new Simulation. ``table``: the key is a sub-table declared by that
-    dataclass (``material.small``). ``kinds``: the ``initial.kind`` values that use the key.
+    dataclass (``material.small``). ``kinds``: the ``initial.kind`` values that use the key;
+    ``read_default``: the default those kinds read (a value, a callable of the scene read so
+    far, MISSING for a required key), where the field's own default is None for the others.
     ``write``: whether the writer writes the value (given the section's value and the scene);
     None values are never written (TOML has no null)."""
 
@@ -58,6 +60,7 @@ class Key:
     compiled: str | None = None
     table: type | None = None
     kinds: tuple[str, ...] = ()
+    read_default: Any = None
     write: Callable[[Any, Any], bool] | None = None
 
     def allowed(self) -> tuple[str, ...]:

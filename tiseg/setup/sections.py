@@ -28,7 +28,8 @@ from ..numerics.config import (
 from ..physics.friction import FRICTION_LAWS as LAWS
 from ..physics.segregation import TRANSPORTS as _TRANSPORTS
 from ..timestepping import STEPPERS as _STEPPERS
-from .schema import constant_field, key, key_fields, key_of, key_names
+from .schema import constant_field, key, key_fields, key_names, key_of
+from .table import MISSING
 
 OUTPUT_PRECISIONS = ("f8", "f4")
 PRECISIONS = ("f64", "f32")
@@ -328,8 +329,18 @@ class InflowConfig:
 
 
 # ---- initial state ------------------------------------------------------------------------------
-def _ini(doc: str, kinds: tuple[str, ...], **meta):
-    return field(default=None, metadata=key(doc, kinds=kinds, **meta))
+def _ini(doc: str, kinds: tuple[str, ...], read=MISSING, **meta):
+    """An initial-state key: None unless its kind is chosen; ``read``: the default that kind
+    reads (a value, a callable of the scene read so far, or MISSING: required)."""
+    return field(default=None, metadata=key(doc, kinds=kinds, read_default=read, **meta))
+
+
+def _h0(ctx):
+    return ctx.flow.h0
+
+
+def _phi0(ctx):
+    return ctx.flow.phi0
 
 
 _UNIFORM = ("uniform",)
@@ -360,34 +371,61 @@ class InitialConfig:
             "which initial state (the list above)", choices=INITIAL_KINDS, kinds=INITIAL_KINDS
         ),
     )
-    amplitude: float | None = _ini("uniform: relative perturbation amplitude, < 1", _UNIFORM)
-    k: float | None = _ini("uniform: downslope wavenumber in the scalings (5.1)", _UNIFORM)
-    ky: float | None = _ini("uniform: cross-slope wavenumber, (5.1) scalings", _UNIFORM)
+    amplitude: float | None = _ini(
+        "uniform: relative perturbation amplitude, < 1", _UNIFORM, 0.0, lo=0.0
+    )
+    k: float | None = _ini(
+        "uniform: downslope wavenumber in the scalings (5.1)", _UNIFORM, 0.0, nonneg=True
+    )
+    ky: float | None = _ini(
+        "uniform: cross-slope wavenumber, (5.1) scalings", _UNIFORM, 0.0, nonneg=True
+    )
     mode: str | None = _ini(
         "uniform: eigen (most unstable mode), h, phi or noise",
         _UNIFORM,
+        "eigen",
         choices=PERTURBATION_MODES,
     )
-    seed: int | None = _ini('uniform: random seed of mode = "noise"', _UNIFORM)
-    wavelengths: float | None = _ini("uniform: downslope wavelengths in Lx (sets Lx)", _UNIFORM)
+    seed: int | None = _ini('uniform: random seed of mode = "noise"', _UNIFORM, 0, lo=0)
+    wavelengths: float | None = _ini(
+        "uniform: downslope wavelengths in Lx (sets Lx)", _UNIFORM, None, positive=True
+    )
+    # a release block starts at x0 >= 0, a dam lies inside (0, Lx): validators.read_initial
     x0: float | None = _ini(
         "dam-break: dam position; release: block start [m]", ("dam-break", "release")
     )
-    h_left: float | None = _ini("dam-break: thickness upslope of x0 [m]", ("dam-break",))
-    h_right: float | None = _ini("dam-break: thickness downslope of x0 [m]", ("dam-break",))
-    x1: float | None = _ini("release: block end [m]", ("release",))
-    y0: float | None = _ini("release: block start across the slope [m]", ("release",))
-    y1: float | None = _ini("release: block end across the slope [m]", ("release",))
-    width: float | None = _ini("channel: width of the channel at y = Ly/2 [m]", ("channel",))
-    phi_channel: float | None = _ini(
-        "channel: concentration in the channel (default 1)", ("channel",)
+    h_left: float | None = _ini(
+        "dam-break: thickness upslope of x0 [m]", ("dam-break",), _h0, nonneg=True
     )
-    phi_levee: float | None = _ini("channel: concentration in the levees (default 0)", ("channel",))
+    h_right: float | None = _ini(
+        "dam-break: thickness downslope of x0 [m]", ("dam-break",), 0.0, nonneg=True
+    )
+    x1: float | None = _ini("release: block end [m]", ("release",))
+    y0: float | None = _ini("release: block start across the slope [m]", ("release",), 0.0, lo=0.0)
+    y1: float | None = _ini(
+        "release: block end across the slope [m]", ("release",), lambda ctx: ctx.domain.Ly
+    )
+    width: float | None = _ini(
+        "channel: width of the channel at y = Ly/2 [m]", ("channel",), positive=True
+    )
+    phi_channel: float | None = _ini(
+        "channel: concentration in the channel (default 1)", ("channel",), 1.0, lo=0.0, hi=1.0
+    )
+    phi_levee: float | None = _ini(
+        "channel: concentration in the levees (default 0)", ("channel",), 0.0, lo=0.0, hi=1.0
+    )
     h: float | None = _ini(
-        "release, channel: thickness [m] (default flow.h0)", ("release", "channel")
+        "release, channel: thickness [m] (default flow.h0)",
+        ("release", "channel"),
+        _h0,
+        positive=True,
     )
     phi: float | None = _ini(
-        "dam-break, release: concentration (default flow.phi0)", ("dam-break", "release")
+        "dam-break, release: concentration (default flow.phi0)",
+        ("dam-break", "release"),
+        _phi0,
+        lo=0.0,
+        hi=1.0,
     )
 
 

@@ -11,6 +11,7 @@ of each initial kind, the stepper's needs, the output times.
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 from ..errors import InputError
 from ..log import note
@@ -18,7 +19,7 @@ from ..material import Material, Species
 from ..numerics.config import STEP_RULES, SPLIT_CFL, noise_modes
 from ..physics.friction import FRICTION_LAWS as LAWS
 from ..steady import steady_state
-from .schema import DECLARED, field_named, key_fields, read_key, read_section
+from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section
 from .sections import (
     SPECIES_KEYS,
     BoundaryConfig,
@@ -141,8 +142,8 @@ def read_domain(t: Table, ini: Table, kind: str, flow: FlowConfig):
     uniform initial state (None for other kinds), since Lx and it determine each other."""
     k = wavelengths = None
     if kind == "uniform":
-        k = ini.number("k", 0.0, nonneg=True)
-        wavelengths = ini.number("wavelengths", None, positive=True)
+        k = _ini(ini, "k")
+        wavelengths = _ini(ini, "wavelengths")
     resolution = _dom(t, "resolution")
     if t.has("Lx"):
         Lx = _dom(t, "Lx")
@@ -336,6 +337,13 @@ def initial_kind(t: Table) -> str:
     return kind
 
 
+def _ini(t: Table, name: str, ctx=None):
+    """One initial-state key with the default its kind reads (see ``_ini`` of the sections)."""
+    f = field_named(InitialConfig, name)
+    d = key_of(f).read_default
+    return read_key(t, f, d(ctx) if callable(d) else d)
+
+
 def read_initial(
     t: Table,
     kind: str,
@@ -345,83 +353,76 @@ def read_initial(
     flow: FlowConfig,
     effects: EffectsConfig,
 ) -> InitialConfig:
-    """The fields of ``kind``; each kind's defaults and ranges are its own (a dam at x0 must
-    lie inside the domain, a release block starts at x0 >= 0)."""
+    """The keys of ``kind``, read as declared (with the defaults that kind reads), then the
+    rules that tie them to the domain and the flow."""
     if kind == "empty":
         return InitialConfig(kind="empty")
-    if kind == "uniform":
-        return _uniform(t, wavelengths, domain, boundary, flow, effects)
-    if kind == "dam-break":
-        x0 = t.number("x0")
-        require(0.0 < x0 < domain.Lx, "initial.x0", x0, f"must lie inside (0, Lx={domain.Lx!r})")
-        h_left = t.number("h_left", flow.h0, nonneg=True)
-        h_right = t.number("h_right", 0.0, nonneg=True)
-        require(
-            h_left > 0 or h_right > 0,
-            "initial.h_left",
-            h_left,
-            "h_left and h_right cannot both be 0 (nothing would move)",
-        )
-        phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
-        return InitialConfig(kind=kind, x0=x0, h_left=h_left, h_right=h_right, phi=phi)
-    if kind == "channel":
-        require(
-            not domain.is_1d,
-            "initial.kind",
-            kind,
-            "a channel lies across the slope: it needs a 2D domain (domain.ny > 1)",
-        )
-        width = t.number("width", positive=True)
-        require(
-            width < domain.Ly,
-            "initial.width",
-            width,
-            f"must be narrower than the chute, Ly={domain.Ly!r}",
-        )
-        phi_channel = t.number("phi_channel", 1.0, lo=0.0, hi=1.0)
-        phi_levee = t.number("phi_levee", 0.0, lo=0.0, hi=1.0)
-        h = t.number("h", flow.h0, positive=True)
-        return InitialConfig(
-            kind=kind, width=width, phi_channel=phi_channel, phi_levee=phi_levee, h=h
-        )
-    # release: a block of material at rest
-    x0 = t.number("x0", lo=0.0)
-    x1 = t.number("x1")
-    require(
-        x0 < x1 <= domain.Lx, "initial.x1", x1, f"need initial.x0={x0!r} < x1 <= Lx={domain.Lx!r}"
-    )
-    y0 = t.number("y0", 0.0, lo=0.0)
-    y1 = t.number("y1", domain.Ly)
-    require(
-        y0 < y1 <= domain.Ly * (1 + 1e-12),
-        "initial.y1",
-        y1,
-        f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}",
-    )
-    h = t.number("h", flow.h0, positive=True)
-    phi = t.number("phi", flow.phi0, lo=0.0, hi=1.0)
-    return InitialConfig(kind=kind, x0=x0, x1=x1, y0=y0, y1=y1, h=h, phi=phi)
-
-
-def _uniform(t, wavelengths, domain, boundary, flow, effects) -> InitialConfig:
-    if flow.no_steady:
+    if kind == "uniform" and flow.no_steady:
         raise InputError(f"initial.kind='uniform' needs the steady uniform flow: {flow.no_steady}")
-    if flow.u0 is None:
+    if kind == "uniform" and flow.u0 is None:
         raise InputError(
             "initial.kind='uniform' needs the steady velocity u0: give flow.u0 "
             f"(effects.friction={effects.friction!r} does not define one)"
         )
-    amplitude = t.number("amplitude", 0.0, lo=0.0)
+    require(
+        kind != "channel" or not domain.is_1d,
+        "initial.kind",
+        kind,
+        "a channel lies across the slope: it needs a 2D domain (domain.ny > 1)",
+    )
+    ctx = SimpleNamespace(flow=flow, domain=domain)
+    # wavelengths was read with the domain, which it sizes
+    names = [n for n in initial_keys()[kind] if n not in ("kind", "wavelengths")]
+    v = {n: _ini(t, n, ctx) for n in names}
+    if kind == "uniform":
+        _check_uniform(v, wavelengths, domain, boundary, flow, effects)
+        v["wavelengths"] = wavelengths
+    elif kind == "dam-break":
+        require(
+            0.0 < v["x0"] < domain.Lx,
+            "initial.x0",
+            v["x0"],
+            f"must lie inside (0, Lx={domain.Lx!r})",
+        )
+        require(
+            v["h_left"] > 0 or v["h_right"] > 0,
+            "initial.h_left",
+            v["h_left"],
+            "h_left and h_right cannot both be 0 (nothing would move)",
+        )
+    elif kind == "channel":
+        require(
+            v["width"] < domain.Ly,
+            "initial.width",
+            v["width"],
+            f"must be narrower than the chute, Ly={domain.Ly!r}",
+        )
+    else:  # release: a block of material at rest
+        x0, x1, y0, y1 = v["x0"], v["x1"], v["y0"], v["y1"]
+        require(x0 >= 0.0, "initial.x0", t.get("x0"), "must be >= 0")
+        require(
+            x0 < x1 <= domain.Lx,
+            "initial.x1",
+            x1,
+            f"need initial.x0={x0!r} < x1 <= Lx={domain.Lx!r}",
+        )
+        require(
+            y0 < y1 <= domain.Ly * (1 + 1e-12),
+            "initial.y1",
+            y1,
+            f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}",
+        )
+    return InitialConfig(kind=kind, **v)
+
+
+def _check_uniform(v, wavelengths, domain, boundary, flow, effects) -> None:
+    amplitude, k, ky, mode = v["amplitude"], v["k"], v["ky"], v["mode"]
     require(
         amplitude < 1.0,
         "initial.amplitude",
         amplitude,
         "relative amplitude must be < 1 (h must stay positive)",
     )
-    k = t.number("k", 0.0, nonneg=True)
-    ky = t.number("ky", 0.0, nonneg=True)
-    mode = read_key(t, field_named(InitialConfig, "mode"), "eigen")
-    seed = t.integer("seed", 0, lo=0)
     if domain.is_1d and ky != 0.0:
         raise InputError(
             f"initial.ky={ky!r}: a 1D run (domain.ny = 1) has no cross-slope wavenumber; use 0"
@@ -449,15 +450,6 @@ def _uniform(t, wavelengths, domain, boundary, flow, effects) -> InitialConfig:
                 f"initial.ky={ky!r}: domain.Ly={domain.Ly!r} holds {ny_waves:.6g} wavelengths; "
                 "a periodic domain needs a whole number (ky = 2 pi h0 n / Ly)"
             )
-    return InitialConfig(
-        kind="uniform",
-        amplitude=amplitude,
-        k=k,
-        ky=ky,
-        mode=mode,
-        seed=seed,
-        wavelengths=wavelengths,
-    )
 
 
 # ---- numerics -----------------------------------------------------------------------------------
