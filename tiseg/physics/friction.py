@@ -61,8 +61,24 @@ class Constant:
     hi: float | None = None
 
 
+class ConstantsByName:
+    """Attribute access to the laws' constants held in a ``constants`` field of (name, value)
+    pairs: ``fric.coulomb_mu``."""
+
+    constants: tuple[tuple[str, float], ...]
+
+    def __getattr__(self, name: str) -> float:
+        # only reached for names that are not fields (never while unpickling, where
+        # ``constants`` is not set yet and asking for it must not recurse)
+        if not name.startswith("_") and name != "constants":
+            for key, value in self.constants:
+                if key == name:
+                    return value
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+
 @dataclass(frozen=True)
-class FrictionParams:
+class FrictionParams(ConstantsByName):
     """The numbers the laws read: (3.7)'s constants of each species (Table 1; ``mu3`` the
     start coefficient of the extended law) and every registered law's :class:`Constant` by
     name (``fric.coulomb_mu``). Build it with :meth:`of`."""
@@ -78,15 +94,6 @@ class FrictionParams:
     L_l: float
     mu3_l: float
     constants: tuple[tuple[str, float], ...] = field(default=())
-
-    def __getattr__(self, name: str) -> float:
-        # only reached for names that are not fields: the laws' constants (never while
-        # unpickling, where ``constants`` is not set yet)
-        if not name.startswith("_") and name != "constants":
-            for key, value in self.constants:
-                if key == name:
-                    return value
-        raise AttributeError(name)
 
     @classmethod
     def of(cls, material, **given: float) -> "FrictionParams":

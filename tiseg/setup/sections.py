@@ -26,6 +26,7 @@ from ..numerics.config import (
     inflow_concentration,
 )
 from ..physics.friction import FRICTION_LAWS as LAWS
+from ..physics.friction import ConstantsByName
 from ..physics.segregation import TRANSPORTS as _TRANSPORTS
 from ..timestepping import STEPPERS as _STEPPERS
 from .schema import constant_field, key, key_fields, key_names, key_of
@@ -171,7 +172,7 @@ class FlowConfig:
 
 
 @dataclass(frozen=True)
-class EffectsConfig:
+class EffectsConfig(ConstantsByName):
     """Which physics is switched on; see the resolved properties on :class:`Scene`.
 
     ``constants``: the values of the friction laws' constants that live in this section
@@ -198,15 +199,6 @@ class EffectsConfig:
         ),
     )
     constants: tuple[tuple[str, float], ...] = ()
-
-    def __getattr__(self, name: str) -> float:
-        # only reached for names that are not fields: a law's constant (never while
-        # unpickling, where ``constants`` is not set yet)
-        if not name.startswith("_") and name != "constants":
-            for k, v in self.constants:
-                if k == name:
-                    return v
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
 def effects_fields() -> list:
