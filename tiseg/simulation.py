@@ -48,34 +48,18 @@ from .errors import InputError, RunInterrupted, TisegError
 from .guards import StateGuard, Violation
 from .initial import initial_state
 from .limits import check_memory
-from .numerics.config import config_from_scene
+from .numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
 from .schedules import IterationInterval, Schedule, SpecifiedTimes
+from .setup.schema import compiled_keys
+from .setup.sections import SECTIONS
 from .timestepping import stepper_for
 
 # Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
 # (the stencil's reach): the range stays exact (see TaichiOperator._combine).
 ACTIVE_MARGIN = 3
 
-# OperatorConfig fields the kernels are compiled for: set_parameters cannot change them
 MIN_STEP_FRACTION = 1e-9  # a step this much below the CFL limit: stiffness out of range
 GUARD_ORDER = -100  # the guard callback runs before everything else after a step
-
-COMPILED = {
-    "layout": "the grid or the segregation switch",
-    "dx": "the grid",
-    "dy": "the grid",
-    "Ly": "the domain",
-    "viscous": "effects.viscosity",
-    "feedback": "effects.mobility_feedback",
-    "friction": "effects.friction",
-    "friction_scheme": "numerics.friction_scheme",
-    "transport": "material.transport",
-    "reconstruction": "numerics.reconstruction",
-    "flux": "numerics.flux",
-    "phi_flux": "numerics.phi_flux",
-    "local_step_rate": 'numerics.step_rule (to or from "local")',
-    "bc": "the boundaries",
-}
 
 
 def step_limits(
@@ -276,9 +260,10 @@ class Simulation:
         if self.cfg.viscous and not cfg.viscous and scene.effects.viscosity:
             cfg = dataclasses.replace(cfg, viscous=True, nu=0.0)  # nu = 0: the same kernels
         what = sorted({v for k, v in COMPILED.items() if getattr(cfg, k) != getattr(self.cfg, k)})
-        for key in ("stepper", "max_stages", "precision"):
-            if getattr(scene.numerics, key) != getattr(old.numerics, key):
-                what.append(f"numerics.{key}")
+        for full in compiled_keys(SECTIONS, "simulation"):  # built by the simulation itself
+            section, key = full.split(".")
+            if getattr(getattr(scene, section), key) != getattr(getattr(old, section), key):
+                what.append(full)
         if what:
             why = (
                 "; the viscous kernels were left out because flow.nu was 0 when the "

@@ -15,11 +15,12 @@ run is 1D (``ny == 1``: one row, no ghosts, no v component, no cross-slope work)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from ..physics.friction import FRICTION_LAWS as _LAWS
+from ..physics.friction import FrictionParams  # the laws own it; imported from here before
 from ..physics.segregation import TRANSPORTS as _TRANSPORTS
 from ..timestepping import STEPPERS as _STEPPERS
 
@@ -145,61 +146,60 @@ class Layout:
         return (slice(self.gx, self.gx + self.nx), slice(self.gy, self.gy + self.ny))
 
 
-@dataclass(frozen=True)
-class FrictionParams:
-    mu1_s: float
-    mu2_s: float
-    beta_s: float
-    L_s: float
-    mu1_l: float
-    mu2_l: float
-    beta_l: float
-    L_l: float
-    coulomb_mu: float
-    # the extended law ("pouliquen-extended"): tan(zeta3) of each species, beta* and kappa
-    mu3_s: float | None = None
-    mu3_l: float | None = None
-    beta_star: float | None = None
-    kappa: float | None = None
+def compiled(what: str) -> dict:
+    """Field metadata: the kernels are compiled for this field's value, and ``what`` names
+    the scene keys that set it in the message of a refused change
+    (``Simulation.set_parameters``, :data:`COMPILED`)."""
+    return {"compiled": what}
 
 
 @dataclass(frozen=True)
 class OperatorConfig:
-    layout: Layout
-    dx: float
-    dy: float
-    Ly: float
+    """The operator's problem. The numerics' choices and numbers have no defaults here: the
+    scene declares them once (:class:`tiseg.setup.sections.NumericsConfig`), and a test that
+    builds a config by hand states the ones it means."""
+
+    layout: Layout = field(metadata=compiled("the grid or the segregation switch"))
+    dx: float = field(metadata=compiled("the grid"))
+    dy: float = field(metadata=compiled("the grid"))
+    Ly: float = field(metadata=compiled("the domain"))
     # physics switches
-    viscous: bool = False
-    feedback: bool = False  # friction depends on the local phi
-    friction: str = "pouliquen-mixture"
+    viscous: bool = field(default=False, metadata=compiled("effects.viscosity"))
+    # friction depends on the local phi
+    feedback: bool = field(default=False, metadata=compiled("effects.mobility_feedback"))
+    friction: str = field(default="pouliquen-mixture", metadata=compiled("effects.friction"))
     # physics numbers
     g: float = 9.81
     zeta: float = math.radians(27.0)
-    transport: str = "linear"  # G(phi): "linear" (2.17) or "bagnold" (2.18)
+    # G(phi): "linear" (2.17) or "bagnold" (2.18)
+    transport: str = field(default="linear", metadata=compiled("material.transport"))
     alpha: float = 1.0 / 7.0  # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
     nu: float = 0.0
     phi_ref: float = 0.8  # concentration used by the friction when feedback is off
     fric: FrictionParams | None = None
-    # numerics
-    reconstruction: str = "minmod"
-    theta: float = 1.5
-    flux: str = "kt"
-    phi_flux: str = "upwind"
+    # numerics: the scene's numerics.* keys of the same names
+    reconstruction: str = field(kw_only=True, metadata=compiled("numerics.reconstruction"))
+    theta: float = field(kw_only=True)
+    flux: str = field(kw_only=True, metadata=compiled("numerics.flux"))
+    phi_flux: str = field(kw_only=True, metadata=compiled("numerics.phi_flux"))
     weno_eps: float = 1e-6
     h_ref: float = 2e-3  # scales making the WENO smoothness indicators dimensionless
     u_ref: float = 0.2
-    h_min: float = 1e-4
-    h_eps: float = 1e-7
-    u_eps: float = 1e-3
-    friction_scheme: str = "regularised"
+    h_min: float = field(kw_only=True)
+    h_eps: float = field(kw_only=True)
+    u_eps: float = field(kw_only=True)
+    friction_scheme: str = field(kw_only=True, metadata=compiled("numerics.friction_scheme"))
     # the stability pass also finds the largest per-cell rate of step_rule "local"
-    local_step_rate: bool = False
+    local_step_rate: bool = field(
+        default=False, metadata=compiled('numerics.step_rule (to or from "local")')
+    )
     # the dimensionally split scheme (numerics.stepper "hancock", tiseg.numerics.split): no
     # stiff terms (viscosity, friction) allowed
     split: bool = False
     # boundaries: x_lo, x_hi, y_lo, y_hi
-    bc: tuple = ("outflow", "outflow", "periodic", "periodic")
+    bc: tuple = field(
+        default=("outflow", "outflow", "periodic", "periodic"), metadata=compiled("the boundaries")
+    )
     # inflow (6.8)-(6.9)
     inflow_h: float = 0.0
     inflow_u: float = 0.0
@@ -212,7 +212,7 @@ class OperatorConfig:
     inflow_stop: float = math.inf
 
     def __post_init__(self):
-        assert self.friction in FRICTION_LAWS, self.friction
+        assert self.friction in _LAWS, self.friction  # the registry now: user laws count
         assert self.transport in TRANSPORTS, self.transport
         assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
         assert self.flux in FLUXES, self.flux
@@ -259,25 +259,15 @@ class OperatorConfig:
         return ramp * self.inflow_h, self.inflow_u, self.inflow_phi
 
 
+# OperatorConfig fields the kernels are compiled for -> what the scene calls them
+COMPILED = {f.name: f.metadata["compiled"] for f in fields(OperatorConfig) if f.metadata}
+
+
 def config_from_scene(scene) -> OperatorConfig:
     """The operator's view of a :class:`tiseg.scene.Scene`."""
     m = scene.material
     lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
-    fric = FrictionParams(
-        m.small.mu1,
-        m.small.mu2,
-        m.small.beta,
-        m.small.L,
-        m.large.mu1,
-        m.large.mu2,
-        m.large.beta,
-        m.large.L,
-        float(scene.effects.coulomb_mu),
-        m.small.mu3,
-        m.large.mu3,
-        m.beta_star,
-        m.kappa,
-    )
+    fric = FrictionParams.of(m, **dict(scene.effects.constants))
     u_ref = scene.flow.u0 or math.sqrt(m.g * scene.flow.h0 * max(math.cos(m.zeta), 1e-3))
     kw = {}
     inflow = scene.inflow

@@ -2,9 +2,12 @@
 
 A law holds everything the solver needs of it:
 
+* ``constants``: the numbers of its own that a scene sets (:class:`Constant`: the scene key,
+  its default, its doc text and its checks); the scene reads them through the law, so a law
+  registered by user code brings its keys with it;
 * ``slots``: the names of its run-time numbers, stored in the operator's parameter field after
   :attr:`tiseg.physics.params.Params.COUNT` (a law without numbers has no slots), and
-  ``values``, which reads them from :class:`tiseg.numerics.config.FrictionParams`;
+  ``values``, which reads them from :class:`FrictionParams`;
 * ``taichi``: its Taichi functions ``mu(h, |u|, phi)`` and ``mu_start(h, phi)``, built for one
   operator's parameter field (so a law that is not chosen leaves no code in the kernels);
 * ``mu_np`` / ``mu_start_np``: their NumPy twins, written independently, for the reference
@@ -17,9 +20,9 @@ A law holds everything the solver needs of it:
   this law, and u0 is derived from it) and ``hysteresis`` (a static coefficient mu_start above
   the dynamic one, which the projected friction uses to decide whether a cell at rest starts).
 
-The scene's allowed ``effects.friction`` values are the keys of :data:`FRICTION_LAWS`. Adding a
-law is one class here plus its registry line (and its constants in ``FrictionParams`` if it has
-new ones). This module imports no Taichi: the Taichi functions are built from the ``ti`` module
+The scene's allowed ``effects.friction`` values are the keys of :data:`FRICTION_LAWS`, read
+when a scene is read. Adding a law is one class with its ``constants`` plus its registry line
+(``FRICTION_LAWS[law.name] = law`` from user code works the same). This module imports no Taichi: the Taichi functions are built from the ``ti`` module
 the operator passes in, so the scene can read the registry without starting Taichi.
 
 ``phi`` is the concentration the law weights with; ``Physics`` passes the local phi with
@@ -28,16 +31,109 @@ mobility feedback and ``flow.phi0`` without. Every ``h`` reaching a law is >= h_
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, field
+
 import numpy as np
 
+from ..material import DEFAULT_BETA_STAR, DEFAULT_KAPPA
 from ..material import pouliquen as _pouliquen_np  # (3.7), the NumPy closures' own
 from .params import Params
+
+DEFAULT_COULOMB_MU = math.tan(math.radians(20.0))
+
+
+@dataclass(frozen=True)
+class Constant:
+    """A number a friction law declares, once: the scene key ``<section>.<name>`` that sets
+    it, its default, the doc text of the scenes reference and its checks (inclusive bounds
+    ``lo``/``hi``, or ``positive``/``nonneg``), which the scene applies with the one-line
+    messages of every other key. ``section`` "effects" keeps the value with the effects;
+    "material" names a field of :class:`tiseg.material.Material` of the same name."""
+
+    name: str
+    default: float
+    doc: str
+    section: str = "effects"
+    positive: bool = False
+    nonneg: bool = False
+    lo: float | None = None
+    hi: float | None = None
+
+
+class ConstantsByName:
+    """Attribute access to the laws' constants held in a ``constants`` field of (name, value)
+    pairs: ``fric.coulomb_mu``."""
+
+    constants: tuple[tuple[str, float], ...]
+
+    def __getattr__(self, name: str) -> float:
+        # only reached for names that are not fields (never while unpickling, where
+        # ``constants`` is not set yet and asking for it must not recurse)
+        if not name.startswith("_") and name != "constants":
+            for key, value in self.constants:
+                if key == name:
+                    return value
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+
+@dataclass(frozen=True)
+class FrictionParams(ConstantsByName):
+    """The numbers the laws read: (3.7)'s constants of each species (Table 1; ``mu3`` the
+    start coefficient of the extended law) and every registered law's :class:`Constant` by
+    name (``fric.coulomb_mu``). Build it with :meth:`of`."""
+
+    mu1_s: float
+    mu2_s: float
+    beta_s: float
+    L_s: float
+    mu3_s: float
+    mu1_l: float
+    mu2_l: float
+    beta_l: float
+    L_l: float
+    mu3_l: float
+    constants: tuple[tuple[str, float], ...] = field(default=())
+
+    @classmethod
+    def of(cls, material, **given: float) -> "FrictionParams":
+        """The parameters of ``material``'s species and of every registered law's constants:
+        ``given`` by name, else the Material field of a "material" constant, else the
+        declared default."""
+        known = {c.name: c for law in FRICTION_LAWS.values() for c in law.constants}
+        unknown = sorted(set(given) - set(known))
+        if unknown:
+            raise TypeError(f"no registered friction law declares {unknown}")
+        consts = []
+        for name, c in known.items():
+            if name in given:
+                v = given[name]
+            elif c.section == "material":
+                v = getattr(material, name)
+            else:
+                v = c.default
+            consts.append((name, float(v)))
+        s, l = material.small, material.large
+        return cls(
+            mu1_s=s.mu1,
+            mu2_s=s.mu2,
+            beta_s=s.beta,
+            L_s=s.L,
+            mu3_s=s.mu3,
+            mu1_l=l.mu1,
+            mu2_l=l.mu2,
+            beta_l=l.beta,
+            L_l=l.L,
+            mu3_l=l.mu3,
+            constants=tuple(consts),
+        )
 
 
 class FrictionLaw:
     """No basal friction (``effects.friction = "none"``)."""
 
     name = "none"
+    constants: tuple[Constant, ...] = ()
     slots: tuple[str, ...] = ()
     weighted = False
     steady = False
@@ -79,6 +175,14 @@ class Coulomb(FrictionLaw):
     """A constant coefficient ``effects.coulomb_mu``, at any speed and thickness."""
 
     name = "coulomb"
+    constants = (
+        Constant(
+            "coulomb_mu",
+            DEFAULT_COULOMB_MU,
+            'constant friction coefficient for "coulomb"',
+            nonneg=True,
+        ),
+    )
     slots = ("mu",)
 
     def values(self, fric):
@@ -245,13 +349,34 @@ class PouliquenExtended(FrictionLaw):
     """
 
     name = "pouliquen-extended"
+    constants = (
+        Constant(
+            "beta_star",
+            DEFAULT_BETA_STAR,
+            'Froude number below which the extended law ("pouliquen-extended") leaves the '
+            "dynamic regime (3.7) for the intermediate one; 0.136 of Pouliquen & Forterre "
+            "(2002), as in Edwards & Gray (2015)",
+            section="material",
+            positive=True,
+        ),
+        Constant(
+            "kappa",
+            DEFAULT_KAPPA,
+            "exponent of the extended law's intermediate regime (Fr / beta*)^kappa, 1e-3 as "
+            "in Pouliquen & Forterre (2002)",
+            section="material",
+            positive=True,
+        ),
+    )
     slots = tuple(f"{k}_{s}" for s in "sl" for k in EXTENDED_SPECIES) + ("beta_star", "kappa")
     weighted = True
     steady = True  # in the dynamic regime: checked where u0 is derived (Fr >= beta*)
     hysteresis = True
 
     def values(self, fric):
-        missing = [k for k in ("mu3_s", "mu3_l", "beta_star", "kappa") if getattr(fric, k) is None]
+        missing = [
+            k for k in ("mu3_s", "mu3_l", "beta_star", "kappa") if getattr(fric, k, None) is None
+        ]
         if missing:
             raise ValueError(f"friction 'pouliquen-extended' needs FrictionParams {missing}")
         return (
