@@ -40,8 +40,8 @@ def demo(tmp_path_factory):
     return out, _run_demo(out, "--resolution", "250")
 
 
-# a coarse, short demo (a tenth of the 250 cells/m run's time) whose front has one finger at
-# its end (measured: 1 finger, 15 cm, at 6.5 s)
+# a coarse, short demo (a third of the 250 cells/m run's wall time, most of it the figures and
+# the movie) whose front has fingers at its end (measured: 6 fingers, 8.3 cm, at 6.5 s)
 COARSE = ("--resolution", "120", "--t-end", "6.5")
 
 
