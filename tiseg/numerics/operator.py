@@ -20,7 +20,10 @@ import taichi as ti
 from .. import backend
 from ..field_tree import FieldTree
 from ..physics.pointwise import Params, Physics, param_count, param_values
-from .config import BC_CODES, INFLOW, OUTFLOW, PERIODIC, WALL, OperatorConfig
+from .boundaries import BOUNDARIES
+from .config import OperatorConfig
+from .fluxes import FLUXES, PHI_FLUXES
+from .reconstruction import RECONSTRUCTIONS
 from .split import SplitSweeps
 
 MAX_TERMS = 6
@@ -78,17 +81,18 @@ class TaichiOperator(SplitSweeps):
         self.nx, self.ny, self.gx, self.gy = lay.nx, lay.ny, lay.gx, lay.gy
         self.is_1d, self.seg, self.visc = lay.is_1d, lay.segregation, cfg.viscous
         self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
-        # compile-time switches as plain ints/bools (ti.static does not take strings)
-        self.rec_first = cfg.reconstruction == "first-order"
-        self.rec_minmod = cfg.reconstruction == "minmod"
-        self.flux_cu = cfg.flux == "central-upwind"
-        self.phi_upwind = cfg.phi_flux == "upwind"
+        # the numerics components (tiseg.numerics.reconstruction, .fluxes, .boundaries): their
+        # Taichi functions are built once the fields exist (_compose)
+        self.rec = RECONSTRUCTIONS[cfg.reconstruction]
+        self.rec_first = not self.rec.slopes
+        self.num_flux = FLUXES[cfg.flux]
+        self.phi_flux = PHI_FLUXES[cfg.phi_flux]
         self.local_rate = bool(cfg.local_step_rate) and not self.is_1d
         # the split scheme (numerics.stepper "hancock", tiseg.numerics.split): sweeps instead
         # of evaluations of L, with their own edge fields and no stored slopes
         self.split = bool(cfg.split)
         self.bc = tuple(cfg.bc)
-        self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
+        self.bcs = tuple(BOUNDARIES[b] for b in cfg.bc)  # x_lo, x_hi, y_lo, y_hi
         # serial loops: forced (True/False), or chosen from the cells a launch covers; the
         # choice for the active range is made when the range is set (set_active)
         self.force_serial = None if serial is None else bool(serial)
@@ -152,9 +156,25 @@ class TaichiOperator(SplitSweeps):
         self._first_stage = False  # the next limited combination is a step's first stage
         ft.finalize()  # the fields exist from here on
         ft.free_with(self)
+        self._compose()
         self.set_active(self.gx, self.gx + self.nx)
         self.set_params(cfg)
         self.t = 0.0
+
+    def _compose(self) -> None:
+        """The numerics components' Taichi functions for this operator, fixed at construction:
+        the kernels call them through ``ti.static`` choices, so a component not chosen leaves
+        no code. ``_fill``: the ghost fillers of (x_lo, x_hi[, y_lo, y_hi]); ``_rec_slope``:
+        the reconstruction's slope (None at first order); ``_num_flux``: the numerical flux;
+        ``_phi_mod``: the h phi modifier (None when there is nothing to apply)."""
+        dims = (0,) if self.is_1d else (0, 1)
+        self._fill = tuple(
+            self.bcs[2 * d + side].taichi(ti, self, d, side) for d in dims for side in (0, 1)
+        )
+        self._rec_slope = self.rec.taichi(ti, self.par, self.lay, self.fp)
+        self._num_flux = self.num_flux.taichi(ti, self.phys)
+        self._phi_mod = self.phi_flux.taichi(ti, self.phys, self.lay) if self.seg else None
+        self._phi_modifies = self._phi_mod is not None  # (Taichi scope has no `is not`)
 
     # ------------------------------------------------------------------ parameters
     def set_params(self, cfg: OperatorConfig) -> None:
@@ -227,60 +247,19 @@ class TaichiOperator(SplitSweeps):
 
     # ------------------------------------------------------------------ kernels
     @ti.func
-    def _mirror(self, v, comp: ti.template()):
-        r = v
-        r[comp] = -v[comp]
-        return r
-
-    @ti.func
     def _ghosts(self, s):
-        """Ghost cells of slot s from the boundary conditions (two top-level loops)."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        lo, hi = ti.static(self.bcc[0], self.bcc[1])
+        """Ghost cells of slot s from the boundary conditions (two top-level loops): each
+        side's component (tiseg.numerics.boundaries) fills its cells, low side first."""
+        gx, gy = ti.static(self.gx, self.gy)
         ti.loop_config(serialize=True)  # 2 columns of cells: never worth a hand-off
         for k, j in ti.ndrange(gx, (0, self.NY)):
-            il, ih = gx - 1 - k, nx + gx + k
-            if ti.static(lo == PERIODIC):
-                self.q[s, il, j] = self.q[s, nx + gx - 1 - k, j]
-            elif ti.static(lo == OUTFLOW):
-                self.q[s, il, j] = self.q[s, gx, j]
-            elif ti.static(lo == WALL):
-                self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)
-            elif ti.static(lo == INFLOW):
-                if self.par[Params.IN_ON] > 0.5:
-                    v = ti.Vector.zero(self.fp, self.nc)
-                    if gy <= j < gy + ny:
-                        h = self.par[Params.IN_H]
-                        v[0] = h
-                        v[1] = h * self.par[Params.IN_U]
-                        if ti.static(self.seg):
-                            v[self.HPHI] = h * self.inflow_prof[j]
-                    self.q[s, il, j] = v
-                else:  # a stopped inflow is a wall: no material leaks upstream
-                    self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)
-            if ti.static(hi == PERIODIC):
-                self.q[s, ih, j] = self.q[s, gx + k, j]
-            elif ti.static(hi == OUTFLOW):
-                self.q[s, ih, j] = self.q[s, nx + gx - 1, j]
-            elif ti.static(hi == WALL):
-                self.q[s, ih, j] = self._mirror(self.q[s, nx + gx - 1 - k, j], 1)
+            self._fill[0](s, k, j)
+            self._fill[1](s, k, j)
         if ti.static(not self.is_1d):
-            blo, bhi = ti.static(self.bcc[2], self.bcc[3])
             ti.loop_config(serialize=True)  # 2 rows of cells
             for i, k in ti.ndrange((0, self.NX), gy):
-                jl, jh = gy - 1 - k, ny + gy + k
-                if ti.static(blo == PERIODIC):
-                    self.q[s, i, jl] = self.q[s, i, ny + gy - 1 - k]
-                elif ti.static(blo == OUTFLOW):
-                    self.q[s, i, jl] = self.q[s, i, gy]
-                elif ti.static(blo == WALL):
-                    self.q[s, i, jl] = self._mirror(self.q[s, i, gy + k], self.HV)
-                if ti.static(bhi == PERIODIC):
-                    self.q[s, i, jh] = self.q[s, i, gy + k]
-                elif ti.static(bhi == OUTFLOW):
-                    self.q[s, i, jh] = self.q[s, i, ny + gy - 1]
-                elif ti.static(bhi == WALL):
-                    self.q[s, i, jh] = self._mirror(self.q[s, i, ny + gy - 1 - k], self.HV)
+                self._fill[2](s, k, i)
+                self._fill[3](s, k, i)
 
     @ti.func
     def _primitive(self, q):
@@ -312,41 +291,13 @@ class TaichiOperator(SplitSweeps):
 
     @ti.func
     def _slope(self, wm, w0, wp):
-        """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2."""
+        """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2: the
+        reconstruction's slope, limited so that the edges keep h >= 0 and 0 <= phi <= 1."""
         dm = w0 - wm
         dp = wp - w0
         dc = 0.5 * (wp - wm)
-        s = dc
-        if ti.static(self.rec_minmod):
-            th = self.par[Params.THETA]
-            a = th * dm
-            b = dc
-            c = th * dp
-            pos = (a > 0) & (b > 0) & (c > 0)
-            neg = (a < 0) & (b < 0) & (c < 0)
-            mn = ti.min(ti.min(a, b), c)
-            mx = ti.max(ti.max(a, b), c)
-            s = ti.select(pos, mn, ti.select(neg, mx, 0.0))
-        else:  # WENO-type weighted slope with dimensionless smoothness indicators
-            eps = self.par[Params.WENO_EPS]
-            isc = ti.Vector.zero(self.fp, self.nc) + self.par[Params.INV_U_REF]
-            isc[0] = self.par[Params.INV_H_REF]
-            if ti.static(self.seg):
-                isc[self.HPHI] = 1.0
-            bm = dm * isc
-            bp = dp * isc
-            bc = dc * isc
-            # weights a_m = 1/4 P_m^-1, a_p = 1/4 P_p^-1, a_c = 1/2 P_c^-1 with P = (eps + b^2)^2;
-            # multiplying the weighted mean through by P_m P_p P_c leaves one division. P >=
-            # eps^2 = 1e-12 and |b| stays far below 1e9, so the products neither under- nor
-            # overflow, even in f32.
-            pm = (eps + bm * bm) * (eps + bm * bm)
-            pp = (eps + bp * bp) * (eps + bp * bp)
-            pc = (eps + bc * bc) * (eps + bc * bc)
-            wm = 0.25 * pp * pc
-            wp = 0.25 * pm * pc
-            wc = 0.5 * pm * pp
-            s = (wm * dm + wp * dp + wc * dc) / (wm + wp + wc)
+        # the reconstruction's slope (tiseg.numerics.reconstruction)
+        s = self._rec_slope(dm, dp, dc)
         # positivity of h and 0 <= phi <= 1 at the edges
         s[0] = ti.min(ti.max(s[0], -2.0 * w0[0]), 2.0 * w0[0])
         if ti.static(self.seg):
@@ -421,38 +372,12 @@ class TaichiOperator(SplitSweeps):
 
     @ti.func
     def _face_flux(self, wl, wr, d: ti.template()):
-        """Numerical flux between edge states wl | wr along d (numerics.flux, phi_flux).
-
-        ``kt``: Kurganov-Tadmor (2000) H = (f_l + f_r)/2 - a/2 (q_r - q_l), a the larger local
-        speed of the two sides. ``central-upwind``: Kurganov, Noelle & Petrova (2001),
-        H = (a+ f_l - a- f_r)/(a+ - a-) + a+ a-/(a+ - a-) (q_r - q_l) with the one-sided
-        speeds a+ = max(hi_l, hi_r, 0), a- = min(lo_l, lo_r, 0); it equals KT where the waves
-        run both ways at equal speed and dissipates less where the flow is one-sided.
-
-        ``phi_flux = "upwind"`` then replaces the h phi component by F_h (phi - G(phi)) with
-        phi taken from the upwind side of the numerical mass flux F_h (Larrouturou 1991, J.
-        Comput. Phys. 95, 59): where no mass crosses a face, no phi crosses it, so a contact
-        between fine and coarse material along the flow stays sharp."""
-        ph = self.phys
-        fl = ph.flux(wl, d)
-        fr = ph.flux(wr, d)
-        dq = ph.conserved(wr) - ph.conserved(wl)
-        F = 0.5 * (fl + fr)
-        if ti.static(self.flux_cu):
-            sl = ph.speed_range(wl, d)
-            sr = ph.speed_range(wr, d)
-            ap = ti.max(ti.max(sl[1], sr[1]), 0.0)
-            am = ti.min(ti.min(sl[0], sr[0]), 0.0)
-            den = ap - am
-            if den > 0:
-                inv = 1.0 / den
-                F = (ap * fl - am * fr) * inv + (ap * am * inv) * dq
-        else:
-            a = ti.max(ph.speed(wl, d), ph.speed(wr, d))
-            F -= 0.5 * a * dq
-        if ti.static(self.seg and self.phi_upwind):
-            p = ti.select(F[0] >= 0.0, wl[self.HPHI], wr[self.HPHI])
-            F[self.HPHI] = F[0] * ph.transported(p)
+        """Numerical flux between edge states wl | wr along d: the chosen numerical flux
+        (numerics.flux), then, with segregation, the h phi modifier (numerics.phi_flux); both
+        components of tiseg.numerics.fluxes."""
+        F = self._num_flux(wl, wr, d)
+        if ti.static(self._phi_modifies):
+            F = self._phi_mod(F, wl, wr)
         return F
 
     @ti.kernel
