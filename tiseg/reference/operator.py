@@ -18,6 +18,7 @@ The discretisation (identical in :mod:`tiseg.numerics.operator`):
      H = (a+ f(q_L) - a- f(q_R))/(a+ - a-) + a+ a- / (a+ - a-) (q_R - q_L), with
      a+ = max(u + c, u (1 - G'), 0) and a- = min(u - c, u (1 - G'), 0) over both edge states
      (H = (f_L + f_R)/2 if a+ = a- = 0).
+   * ``rusanov``, the local Lax-Friedrichs flux of Rusanov (1961): the formula of ``kt``.
 
    With ``numerics.phi_flux = "upwind"`` the h phi component becomes F_h (phi - G(phi)), F_h the
    mass component of H and phi that of the edge state upwind of F_h (Larrouturou 1991).
