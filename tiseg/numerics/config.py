@@ -23,12 +23,18 @@ from ..physics.friction import FRICTION_LAWS as _LAWS
 from ..physics.friction import FrictionParams  # the laws own it; imported from here before
 from ..physics.segregation import TRANSPORTS as _TRANSPORTS
 from ..timestepping import STEPPERS as _STEPPERS
+from .boundaries import BOUNDARIES as _BOUNDARIES
+from .fluxes import FLUXES as _FLUXES
+from .fluxes import PHI_FLUXES as _PHI_FLUXES
+from .reconstruction import RECONSTRUCTIONS as _RECONSTRUCTIONS
 
 FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registered laws (tiseg.physics.friction)
 TRANSPORTS = tuple(_TRANSPORTS)  # material.transport: G(phi) (tiseg.physics.segregation)
-RECONSTRUCTIONS = ("first-order", "minmod", "weno")
-FLUXES = ("kt", "central-upwind")  # numerics.flux: face flux of the whole system
-PHI_FLUXES = ("central", "upwind")  # numerics.phi_flux: the h phi component of that flux
+# numerics.reconstruction: the registered slopes (tiseg.numerics.reconstruction)
+RECONSTRUCTIONS = tuple(_RECONSTRUCTIONS)
+# numerics.flux: face flux of the whole system, the registered ones (tiseg.numerics.fluxes)
+FLUXES = tuple(_FLUXES)
+PHI_FLUXES = tuple(_PHI_FLUXES)  # numerics.phi_flux: the h phi component of that flux
 # numerics.friction_scheme: basal friction as an explicit source regularised by u_eps, or as a
 # projection after each stage that stops cells exactly (tiseg.physics.pointwise)
 FRICTION_SCHEMES = ("regularised", "projected")
@@ -41,8 +47,8 @@ SPLIT_STEPPERS = tuple(name for name, cls in _STEPPERS.items() if cls.split)
 # given error on the Stoker dam break (benchmarks/README.md section 7; the error of a fan
 # grows with cfl, a smooth wave's much less)
 SPLIT_CFL = 0.6
-BOUNDARIES = ("inflow", "outflow", "periodic", "wall")
-# their codes in the kernels (compile-time constants)
+BOUNDARIES = tuple(_BOUNDARIES)  # boundary.*: the registered conditions (.boundaries)
+# codes of the conditions (kept for callers that used them; the kernels take the components)
 INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 GHOST = 2

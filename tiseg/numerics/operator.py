@@ -1,18 +1,27 @@
 """The semi-discrete operator dq/dt = L(q, t) of (6.1)-(6.6) in Taichi kernels.
 
 Same discretisation as the NumPy reference (:mod:`tiseg.reference.operator`, whose docstring
-lists the steps): ghost cells, desingularised primitives, slopes (first order / minmod-theta /
-WENO-type), Kurganov-Tadmor or central-upwind fluxes with local speeds (optionally with the
-h phi flux upwinded by the mass flux), the viscous stress with harmonic face coefficients, and
-the friction source.
+lists the steps): ghost cells, desingularised primitives, slopes, numerical fluxes with local
+speeds (optionally with the h phi flux upwinded by the mass flux), the viscous stress with
+harmonic face coefficients, and the friction source.
 
-States live in one field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field
-passed as template, so buffers are slots selected by an integer). Time steppers
-(:mod:`tiseg.timestepping`) see only :meth:`rhs`, :meth:`combine` (with the stage limiter) and
-:meth:`stability`.
+The operator is composed, in the shape of the physics laws (:mod:`tiseg.physics`), of numerics
+components chosen by the scene and fixed at construction (:meth:`TaichiOperator._compose`): the
+reconstruction (:mod:`.reconstruction`), the numerical flux and the h phi modifier
+(:mod:`.fluxes`), a boundary condition per side (:mod:`.boundaries`); each returns the Taichi
+function its loops call, and has its NumPy twin in the reference. Around them:
+
+* :class:`.ranges.ActiveRange` (collaborator): the active x range and serial or parallel loops;
+* :class:`.reductions.StepReductions` (collaborator): the stability pass and the totals;
+* :class:`.slots.SlotAlgebra`: combinations of slots, fused stages, the stage limiter, budgets;
+* :class:`.rest.RestRules`: the projected friction's rest mask, face rules and projection;
+* :class:`.split.SplitSweeps`: the sweeps of the split scheme.
+
+The last three are parts of this class (they work on its fields and caches). States live in one
+field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field passed as template,
+so buffers are slots selected by an integer). Time steppers (:mod:`tiseg.timestepping`) see only
+:meth:`rhs`, :meth:`combine` / :meth:`stage` (with the stage limiter) and :meth:`stability`.
 """
-
-from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
@@ -20,46 +29,19 @@ import taichi as ti
 from .. import backend
 from ..field_tree import FieldTree
 from ..physics.pointwise import Params, Physics, param_count, param_values
-from .config import BC_CODES, INFLOW, OUTFLOW, PERIODIC, WALL, OperatorConfig
+from .boundaries import BOUNDARIES
+from .config import OperatorConfig
+from .fluxes import FLUXES, PHI_FLUXES
+from .reconstruction import RECONSTRUCTIONS
+from .ranges import SERIAL_CELLS, ActiveRange  # noqa: F401 (public name)
+from .reductions import NSTAB, StabilityNumbers, StepReductions  # noqa: F401 (public names)
+from .rest import HELD, REST, X_NEG, X_POS, Y_NEG, Y_POS, RestRules  # noqa: F401
+from .slots import MAX_TERMS, NBUDGET, SlotAlgebra  # noqa: F401 (public names)
 from .split import SplitSweeps
-
-MAX_TERMS = 6
-NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
-# bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
-REST = 1  # u = v = 0 exactly
-HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
-X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
-
-
-@dataclass
-class StabilityNumbers:
-    ax: float  # max |u| + c (or segregation speed) in x [m/s]
-    ay: float
-    rho_visc: float  # Gershgorin bound of the viscous Jacobian [1/s]
-    rho_fric: float  # friction stiffness [1/s]
-    max_speed: float  # max |u| [m/s]
-    rho_stiff: float  # Gershgorin bound of viscous + friction together: max over cells of the
-    # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
-    # step_rule "local" (2D): max over cells of a_x/dx + a_y/dy, each speed the largest of the
-    # cell and its two neighbours along that direction [1/s]; None where not computed
-    rate_local: float | None = None
-
-
-NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in order
-
-
-# Below this many cells a CPU launch runs its loops on the calling thread. Each parallel loop
-# costs a fixed ~80 us on the 2-core machines here (the thread pool's hand-off, measured with a
-# one-line kernel; a serialised loop costs ~1 us), and an evaluation has about ten of them: on
-# small grids that, not arithmetic, set the pace. Each kernel is compiled for both modes (a
-# template argument) and the choice is made per launch from the cells it covers (the active x
-# range), so a fingers run goes serial while its front is short and parallel once it is long.
-# The crossover measured on 2 threads (benchmarks/README.md section 7): 50-75k cells.
-SERIAL_CELLS = 60_000
 
 
 @ti.data_oriented
-class TaichiOperator(SplitSweeps):
+class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
     def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
         """``serial``: run every loop on the calling thread (True), never (False), or decide
         per launch (None, :meth:`serial_loops`); the results are the same bits either way."""
@@ -70,7 +52,6 @@ class TaichiOperator(SplitSweeps):
         self.lay = lay
         self.nslots = nslots
         self.fp = ti.f64 if st.precision == "f64" else ti.f32
-        self._stability = self._stability_f64 if st.precision == "f64" else self._stability_f32
         self.np_fp = np.float64 if st.precision == "f64" else np.float32
         nc, NX, NY = lay.nc, lay.NX, lay.NY
         # compile-time constants
@@ -78,23 +59,18 @@ class TaichiOperator(SplitSweeps):
         self.nx, self.ny, self.gx, self.gy = lay.nx, lay.ny, lay.gx, lay.gy
         self.is_1d, self.seg, self.visc = lay.is_1d, lay.segregation, cfg.viscous
         self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
-        # compile-time switches as plain ints/bools (ti.static does not take strings)
-        self.rec_first = cfg.reconstruction == "first-order"
-        self.rec_minmod = cfg.reconstruction == "minmod"
-        self.flux_cu = cfg.flux == "central-upwind"
-        self.phi_upwind = cfg.phi_flux == "upwind"
+        # the numerics components (tiseg.numerics.reconstruction, .fluxes, .boundaries): their
+        # Taichi functions are built once the fields exist (_compose)
+        self.rec = RECONSTRUCTIONS[cfg.reconstruction]
+        self.rec_first = not self.rec.slopes
+        self.num_flux = FLUXES[cfg.flux]
+        self.phi_flux = PHI_FLUXES[cfg.phi_flux]
         self.local_rate = bool(cfg.local_step_rate) and not self.is_1d
         # the split scheme (numerics.stepper "hancock", tiseg.numerics.split): sweeps instead
         # of evaluations of L, with their own edge fields and no stored slopes
         self.split = bool(cfg.split)
         self.bc = tuple(cfg.bc)
-        self.bcc = tuple(BC_CODES[b] for b in cfg.bc)
-        # serial loops: forced (True/False), or chosen from the cells a launch covers; the
-        # choice for the active range is made when the range is set (set_active)
-        self.force_serial = None if serial is None else bool(serial)
-        self._threads = st.threads or backend.available_cores()
-        self._on_cpu = st.arch == "cpu"
-        self._serial_whole = self._serial_for(NX * NY)
+        self.bcs = tuple(BOUNDARIES[b] for b in cfg.bc)  # x_lo, x_hi, y_lo, y_hi
         # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the effects),
         # in one field tree that is freed with the operator
         ft = self.field_tree = FieldTree()
@@ -111,24 +87,18 @@ class TaichiOperator(SplitSweeps):
             self.ee = ft.vector(nc, self.fp, (NX, NY))
             self.drain = ft.field(self.fp, (NX, NY))
         self.par = ft.field(self.fp, param_count(cfg))
-        # step_rule "local": each cell's wave speeds along x and y, for the stability pass
-        self.spd = ft.vector(2, self.fp, (NX, NY)) if self.local_rate else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
         self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
-        self.red = ft.field(self.fp, NSTAB)
-        # Active range [a, b) of x indices whose cells may change. Cells outside are dry films
-        # (h < h_min) far from any wet cell: their rhs is exactly zero, so skipping them is exact.
-        self.act = ft.field(ti.i32, 2)
-        self.rowsum = ft.field(ti.f64, (NX, 2))
+        # Active range [a, b) of x indices whose cells may change, the wet scan's range and the
+        # serial-or-parallel choice (tiseg.numerics.ranges); its fields, which the kernels
+        # read, under their old names. Serial loops: forced (True/False), or chosen from the
+        # cells a launch covers, for the active range when the range is set (set_active).
+        threads = st.threads or backend.available_cores()
+        self.ranges = ActiveRange(ft, lay, serial, threads, st.arch == "cpu")
+        self.act, self.wet, self.wrng = self.ranges.act, self.ranges.wet, self.ranges.wrng
         # rows reduced by one thread before one atomic (_stability, _wet_extent): a row in 2D,
         # 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
         self.rows_per_block = max(1, 256 // NY)
-        self.total = ft.field(ti.f64, 2)
-        # first and last x index of a wet cell, then of a live one (_wet_extent)
-        self.wet = ft.field(ti.i32, 4)
-        # the x range the wet scan covers (besides the halo): the wet cells and their margin,
-        # which contains the active range act and, with resting regions skipped, more
-        self.wrng = ft.field(ti.i32, 2)
         self._prepared = None  # (slot, t, active range) whose primitives are in w
         # (slot, active range) whose interior primitives a limited combine left in w (ghost
         # cells and slopes still to do)
@@ -150,11 +120,29 @@ class TaichiOperator(SplitSweeps):
         # the step before, so the mask is part of the run's state (checkpoints keep it).
         self.skip_rest = bool(self.phys.fr_projected and self.phys.law.hysteresis)
         self._first_stage = False  # the next limited combination is a step's first stage
+        # the stability pass and the conservation totals (tiseg.numerics.reductions)
+        self.reduce = StepReductions(self, ft)
         ft.finalize()  # the fields exist from here on
         ft.free_with(self)
+        self._compose()
         self.set_active(self.gx, self.gx + self.nx)
         self.set_params(cfg)
         self.t = 0.0
+
+    def _compose(self) -> None:
+        """The numerics components' Taichi functions for this operator, fixed at construction:
+        the kernels call them through ``ti.static`` choices, so a component not chosen leaves
+        no code. ``_fill``: the ghost fillers of (x_lo, x_hi[, y_lo, y_hi]); ``_rec_slope``:
+        the reconstruction's slope (None at first order); ``_num_flux``: the numerical flux;
+        ``_phi_mod``: the h phi modifier (None when there is nothing to apply)."""
+        dims = (0,) if self.is_1d else (0, 1)
+        self._fill = tuple(
+            self.bcs[2 * d + side].taichi(ti, self, d, side) for d in dims for side in (0, 1)
+        )
+        self._rec_slope = self.rec.taichi(ti, self.par, self.lay, self.fp)
+        self._num_flux = self.num_flux.taichi(ti, self.phys)
+        self._phi_mod = self.phi_flux.taichi(ti, self.phys, self.lay) if self.seg else None
+        self._phi_modifies = self._phi_mod is not None  # (Taichi scope has no `is not`)
 
     # ------------------------------------------------------------------ parameters
     def set_params(self, cfg: OperatorConfig) -> None:
@@ -227,60 +215,19 @@ class TaichiOperator(SplitSweeps):
 
     # ------------------------------------------------------------------ kernels
     @ti.func
-    def _mirror(self, v, comp: ti.template()):
-        r = v
-        r[comp] = -v[comp]
-        return r
-
-    @ti.func
     def _ghosts(self, s):
-        """Ghost cells of slot s from the boundary conditions (two top-level loops)."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        lo, hi = ti.static(self.bcc[0], self.bcc[1])
+        """Ghost cells of slot s from the boundary conditions (two top-level loops): each
+        side's component (tiseg.numerics.boundaries) fills its cells, low side first."""
+        gx, gy = ti.static(self.gx, self.gy)
         ti.loop_config(serialize=True)  # 2 columns of cells: never worth a hand-off
         for k, j in ti.ndrange(gx, (0, self.NY)):
-            il, ih = gx - 1 - k, nx + gx + k
-            if ti.static(lo == PERIODIC):
-                self.q[s, il, j] = self.q[s, nx + gx - 1 - k, j]
-            elif ti.static(lo == OUTFLOW):
-                self.q[s, il, j] = self.q[s, gx, j]
-            elif ti.static(lo == WALL):
-                self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)
-            elif ti.static(lo == INFLOW):
-                if self.par[Params.IN_ON] > 0.5:
-                    v = ti.Vector.zero(self.fp, self.nc)
-                    if gy <= j < gy + ny:
-                        h = self.par[Params.IN_H]
-                        v[0] = h
-                        v[1] = h * self.par[Params.IN_U]
-                        if ti.static(self.seg):
-                            v[self.HPHI] = h * self.inflow_prof[j]
-                    self.q[s, il, j] = v
-                else:  # a stopped inflow is a wall: no material leaks upstream
-                    self.q[s, il, j] = self._mirror(self.q[s, gx + k, j], 1)
-            if ti.static(hi == PERIODIC):
-                self.q[s, ih, j] = self.q[s, gx + k, j]
-            elif ti.static(hi == OUTFLOW):
-                self.q[s, ih, j] = self.q[s, nx + gx - 1, j]
-            elif ti.static(hi == WALL):
-                self.q[s, ih, j] = self._mirror(self.q[s, nx + gx - 1 - k, j], 1)
+            self._fill[0](s, k, j)
+            self._fill[1](s, k, j)
         if ti.static(not self.is_1d):
-            blo, bhi = ti.static(self.bcc[2], self.bcc[3])
             ti.loop_config(serialize=True)  # 2 rows of cells
             for i, k in ti.ndrange((0, self.NX), gy):
-                jl, jh = gy - 1 - k, ny + gy + k
-                if ti.static(blo == PERIODIC):
-                    self.q[s, i, jl] = self.q[s, i, ny + gy - 1 - k]
-                elif ti.static(blo == OUTFLOW):
-                    self.q[s, i, jl] = self.q[s, i, gy]
-                elif ti.static(blo == WALL):
-                    self.q[s, i, jl] = self._mirror(self.q[s, i, gy + k], self.HV)
-                if ti.static(bhi == PERIODIC):
-                    self.q[s, i, jh] = self.q[s, i, gy + k]
-                elif ti.static(bhi == OUTFLOW):
-                    self.q[s, i, jh] = self.q[s, i, ny + gy - 1]
-                elif ti.static(bhi == WALL):
-                    self.q[s, i, jh] = self._mirror(self.q[s, i, ny + gy - 1 - k], self.HV)
+                self._fill[2](s, k, i)
+                self._fill[3](s, k, i)
 
     @ti.func
     def _primitive(self, q):
@@ -312,41 +259,13 @@ class TaichiOperator(SplitSweeps):
 
     @ti.func
     def _slope(self, wm, w0, wp):
-        """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2."""
+        """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2: the
+        reconstruction's slope, limited so that the edges keep h >= 0 and 0 <= phi <= 1."""
         dm = w0 - wm
         dp = wp - w0
         dc = 0.5 * (wp - wm)
-        s = dc
-        if ti.static(self.rec_minmod):
-            th = self.par[Params.THETA]
-            a = th * dm
-            b = dc
-            c = th * dp
-            pos = (a > 0) & (b > 0) & (c > 0)
-            neg = (a < 0) & (b < 0) & (c < 0)
-            mn = ti.min(ti.min(a, b), c)
-            mx = ti.max(ti.max(a, b), c)
-            s = ti.select(pos, mn, ti.select(neg, mx, 0.0))
-        else:  # WENO-type weighted slope with dimensionless smoothness indicators
-            eps = self.par[Params.WENO_EPS]
-            isc = ti.Vector.zero(self.fp, self.nc) + self.par[Params.INV_U_REF]
-            isc[0] = self.par[Params.INV_H_REF]
-            if ti.static(self.seg):
-                isc[self.HPHI] = 1.0
-            bm = dm * isc
-            bp = dp * isc
-            bc = dc * isc
-            # weights a_m = 1/4 P_m^-1, a_p = 1/4 P_p^-1, a_c = 1/2 P_c^-1 with P = (eps + b^2)^2;
-            # multiplying the weighted mean through by P_m P_p P_c leaves one division. P >=
-            # eps^2 = 1e-12 and |b| stays far below 1e9, so the products neither under- nor
-            # overflow, even in f32.
-            pm = (eps + bm * bm) * (eps + bm * bm)
-            pp = (eps + bp * bp) * (eps + bp * bp)
-            pc = (eps + bc * bc) * (eps + bc * bc)
-            wm = 0.25 * pp * pc
-            wp = 0.25 * pm * pc
-            wc = 0.5 * pm * pp
-            s = (wm * dm + wp * dp + wc * dc) / (wm + wp + wc)
+        # the reconstruction's slope (tiseg.numerics.reconstruction)
+        s = self._rec_slope(dm, dp, dc)
         # positivity of h and 0 <= phi <= 1 at the edges
         s[0] = ti.min(ti.max(s[0], -2.0 * w0[0]), 2.0 * w0[0])
         if ti.static(self.seg):
@@ -421,38 +340,12 @@ class TaichiOperator(SplitSweeps):
 
     @ti.func
     def _face_flux(self, wl, wr, d: ti.template()):
-        """Numerical flux between edge states wl | wr along d (numerics.flux, phi_flux).
-
-        ``kt``: Kurganov-Tadmor (2000) H = (f_l + f_r)/2 - a/2 (q_r - q_l), a the larger local
-        speed of the two sides. ``central-upwind``: Kurganov, Noelle & Petrova (2001),
-        H = (a+ f_l - a- f_r)/(a+ - a-) + a+ a-/(a+ - a-) (q_r - q_l) with the one-sided
-        speeds a+ = max(hi_l, hi_r, 0), a- = min(lo_l, lo_r, 0); it equals KT where the waves
-        run both ways at equal speed and dissipates less where the flow is one-sided.
-
-        ``phi_flux = "upwind"`` then replaces the h phi component by F_h (phi - G(phi)) with
-        phi taken from the upwind side of the numerical mass flux F_h (Larrouturou 1991, J.
-        Comput. Phys. 95, 59): where no mass crosses a face, no phi crosses it, so a contact
-        between fine and coarse material along the flow stays sharp."""
-        ph = self.phys
-        fl = ph.flux(wl, d)
-        fr = ph.flux(wr, d)
-        dq = ph.conserved(wr) - ph.conserved(wl)
-        F = 0.5 * (fl + fr)
-        if ti.static(self.flux_cu):
-            sl = ph.speed_range(wl, d)
-            sr = ph.speed_range(wr, d)
-            ap = ti.max(ti.max(sl[1], sr[1]), 0.0)
-            am = ti.min(ti.min(sl[0], sr[0]), 0.0)
-            den = ap - am
-            if den > 0:
-                inv = 1.0 / den
-                F = (ap * fl - am * fr) * inv + (ap * am * inv) * dq
-        else:
-            a = ti.max(ph.speed(wl, d), ph.speed(wr, d))
-            F -= 0.5 * a * dq
-        if ti.static(self.seg and self.phi_upwind):
-            p = ti.select(F[0] >= 0.0, wl[self.HPHI], wr[self.HPHI])
-            F[self.HPHI] = F[0] * ph.transported(p)
+        """Numerical flux between edge states wl | wr along d: the chosen numerical flux
+        (numerics.flux), then, with segregation, the h phi modifier (numerics.phi_flux); both
+        components of tiseg.numerics.fluxes."""
+        F = self._num_flux(wl, wr, d)
+        if ti.static(self._phi_modifies):
+            F = self._phi_mod(F, wl, wr)
         return F
 
     @ti.kernel
@@ -462,100 +355,6 @@ class TaichiOperator(SplitSweeps):
         self._face_fluxes(serial)
         self._divergence(d, serial)
         self._boundary_rates(d)
-
-    @ti.func
-    def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
-        """With the projected friction scheme, the mass (and h phi) flux at a face next to a
-        cell at rest. "At rest" is read from the step's initial state (_mark_rest), not from
-        the stage's: a cell that the first stage stops must not switch its faces off for the
-        later ones. The rates of a step are then one smooth function, which RKC's stage
-        weights (of both signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a
-        thin cell next to a deposit below zero, and the limiter's clip then created mass.
-
-        * Between two cells at rest no mass crosses: the central schemes' dissipation
-          a/2 (h_r - h_l) would otherwise let a deposit's surface relax for ever. The
-          momentum flux stays (the pressure), and the friction projection decides whether
-          the cells start to move.
-        * Where the upwind cell moves towards its neighbour (u_n > 0 on the left, or < 0 on
-          the right, at the step's start) and the neighbour does not move against it, at
-          least F_h >= f_u - f_d^2 / f_u crosses, f_u = h_l max(u_l, 0) the upwind cell's own
-          flux and f_d = h_r max(u_r, 0) the downwind cell's the same way (edge states;
-          mirrored for a right-hand upwind cell), with h phi carried at the upwind cell's
-          phi. Into a cell at rest that is the upwind cell's whole flux; between cells of the
-          same flux it is zero; into a slow cell it falls short of f_u by f_d^2 / f_u only.
-          The central flux's dissipation a/2 (h_r - h_l), which at low Froude numbers is
-          most of its mass flux, would
-          otherwise draw mass back out of a thicker, slower or resting neighbour against the
-          flow: thin films flowing into a deposit, and short chains of slow cells, were held
-          in place by it and kept a speed of mm/s for ever while no mass moved. In a flow
-          whose flux does not collapse from one cell to the next the bound lies below the
-          central flux and changes nothing; the momentum flux stays the central one."""
-        out = F
-        if ti.static(self.phys.fr_projected):
-            r0 = ti.cast(self.rest[i0, j0], ti.i32)
-            r1 = ti.cast(self.rest[i1, j1], ti.i32)
-            if (r0 & REST) != 0 and (r1 & REST) != 0:
-                out[0] = 0.0
-                if ti.static(self.seg):
-                    out[self.HPHI] = 0.0
-            else:
-                # at least the flux by which the upwind cell outruns its neighbour
-                pos = ti.static(X_POS if d == 0 else Y_POS)
-                neg = ti.static(X_NEG if d == 0 else Y_NEG)
-                if (r0 & pos) != 0 and (r1 & neg) == 0:
-                    out = self._flux_floor(out, wl, wr, d, 1.0)
-                elif (r1 & neg) != 0 and (r0 & pos) == 0:
-                    out = self._flux_floor(out, wr, wl, d, -1.0)
-        return out
-
-    @ti.func
-    def _flux_floor(self, F, wu, wd, d: ti.template(), s: ti.template()):
-        """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
-        the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
-        the upwind edge state wu, f_d the same of the downwind one wd; h phi then moves at
-        the upwind cell's phi (_rest_face)."""
-        out = F
-        c = ti.static(1 if d == 0 else self.HV)
-        fu = wu[0] * ti.max(s * wu[c], 0.0)
-        fd = wd[0] * ti.max(s * wd[c], 0.0)
-        # f_u - f_d^2 / f_u > s F  <=>  f_u^2 - f_d^2 > s F f_u (f_u > 0): the division only
-        # where the floor applies, which in a flow is rare (a division on every face cost ~2 %)
-        if fu > 0.0 and fu * fu - fd * fd > s * out[0] * fu:
-            b = s * (fu - fd * fd / fu)
-            if s * b > s * out[0]:  # never false but at a tie of rounding
-                out[0] = b
-                if ti.static(self.seg):
-                    out[self.HPHI] = b * self.phys.transported(wu[self.HPHI])
-        return out
-
-    @ti.kernel
-    def _mark_rest(self, serial: ti.template()):
-        """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
-        (X_POS / X_NEG, Y_POS / Y_NEG), on the cells the faces near the active range read
-        (further out no face flux is computed). With a law with hysteresis the step's first
-        stage then adds HELD to the cells the static friction holds (_project)."""
-        lo = ti.max(self.act[0] - 4, 0)
-        hi = ti.min(self.act[1] + 4, self.NX)
-        ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((lo, hi), (0, self.NY)):
-            w = self.w[i, j]
-            r = w[1] == 0.0
-            if ti.static(not self.is_1d):
-                r = r and w[self.HV] == 0.0
-            flag = 0
-            if r:
-                flag = REST
-            else:
-                if w[1] > 0.0:
-                    flag |= X_POS
-                elif w[1] < 0.0:
-                    flag |= X_NEG
-                if ti.static(not self.is_1d):
-                    if w[self.HV] > 0.0:
-                        flag |= Y_POS
-                    elif w[self.HV] < 0.0:
-                        flag |= Y_NEG
-            self.rest[i, j] = ti.cast(flag, ti.i8)
 
     @ti.func
     def _x_face(self, i, j):
@@ -661,460 +460,6 @@ class TaichiOperator(SplitSweeps):
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
             self.q[d, i, j] = self._cell_rate(i, j)
 
-    @ti.func
-    def _limit(self, v):
-        """The stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
-        h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
-        v[0] = h
-        if h < self.par[Params.H_MIN]:
-            v[1] = 0.0
-            if ti.static(not self.is_1d):
-                v[self.HV] = 0.0
-        if ti.static(self.seg):
-            v[self.HPHI] = ti.min(ti.max(v[self.HPHI], 0.0), h)
-        return v
-
-    @ti.kernel
-    def _combine(
-        self,
-        d: ti.i32,
-        n: ti.template(),
-        rate: ti.template(),
-        limit: ti.template(),
-        c0: float,
-        c1: float,
-        c2: float,
-        c3: float,
-        c4: float,
-        c5: float,
-        s0: ti.i32,
-        s1: ti.i32,
-        s2: ti.i32,
-        s3: ti.i32,
-        s4: ti.i32,
-        s5: ti.i32,
-        tau: float,
-        rmask: ti.template(),
-        first: ti.template(),
-        serial: ti.template(),
-    ):
-        """slot d := sum of c_k * term k (k < n), then the stage limiter if ``limit``, on the
-        active x range widened by the 3 cells either side that the next evaluation's stencil
-        reads (see _combine_cells). Term k is slot s_k, except term ``rate`` (if >= 0): L of
-        the prepared state, computed in this launch (face fluxes first, their boundary rates
-        into the spare budget row) and used where it is computed, never stored: a fused stage
-        makes two passes over the grid fewer than _rates followed by a combination.
-
-        The coefficients come as kernel arguments: writing them into a field from Python
-        costs a launch each, which dominated small grids."""
-        cs = ti.Vector([c0, c1, c2, c3, c4, c5])
-        ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
-        if ti.static(rate >= 0):
-            self._face_fluxes(serial)
-            self._boundary_rates(self.nslots)
-        self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, first, serial)
-
-    @ti.func
-    def _combine_cells(
-        self,
-        d,
-        n: ti.template(),
-        rate: ti.template(),
-        limit: ti.template(),
-        cs,
-        ss,
-        tau,
-        rmask: ti.template(),
-        first: ti.template(),
-        serial: ti.template(),
-    ):
-        """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
-        L at the cell (_cell_rate); then the stage limiter if ``limit``, which also leaves the
-        result's primitives in w (the next evaluation is of slot d). The sum runs in the order
-        of the terms, so a fused stage gives the bits of _rates followed by _combine.
-
-        Cells: the active x range widened by the 3 cells either side that the next
-        evaluation's stencil reads. Why that is enough: the active range is fixed for the
-        whole step (set_active runs between steps), every rate is zero on the widened range
-        outside the active one (_cell_rate), and the first stage combines from slot 0, which
-        is valid everywhere. So within a step every slot is valid on the widened range, and
-        nothing beyond it is read. Cells further out are dry films that the step does not
-        change; skipping them saves two passes over the dry chute per stage.
-
-        A cell's rate reads the face fluxes and its own primitives only, so d may be the slot
-        the rate is of, or any of the sources: the update is element-wise.
-
-        With the projected friction scheme the limiter is followed by the friction projection
-        over ``tau``, the stage's share of the step (_project), and by _keep_rest; bit k of
-        ``rmask`` marks term k as a stored rate rather than a state; ``first``: this is the
-        step's first stage (its static-friction decisions are made here)."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        lo = ti.max(self.act[0] - 3, gx)
-        hi = ti.min(self.act[1] + 3, gx + nx)
-        ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
-            r = ti.Vector.zero(self.fp, self.nc)
-            # the speed of the state the stage starts from (the prepared one): the friction
-            # coefficient of the projection (Physics.project_friction)
-            spd0 = 0.0 * r[0]
-            if ti.static(limit and self.phys.fr_projected):
-                spd0 = self.phys.speed_mag(self.w[i, j])
-            if ti.static(rate >= 0):
-                r = self._cell_rate(i, j)
-            acc = ti.Vector.zero(self.fp, self.nc)
-            for k in ti.static(range(n)):
-                term = r if ti.static(k == rate) else self.q[ss[k], i, j]
-                if ti.static(k == 0):
-                    acc = cs[0] * term
-                else:
-                    acc += cs[k] * term
-            if ti.static(limit):
-                acc = self._limit(acc)
-                if ti.static(self.phys.fr_projected):
-                    acc = self._project(acc, tau, i, j, first, spd0)
-                    acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
-                self.w[i, j] = self._primitive(acc)
-            self.q[d, i, j] = acc
-        ti.loop_config(serialize=True)  # a handful of iterations
-        for b in range(NBUDGET):
-            acc = 0.0 * cs[0]
-            for k in ti.static(range(n)):
-                bk = self.bud[self.nslots, b] if ti.static(k == rate) else self.bud[ss[k], b]
-                if ti.static(k == 0):
-                    acc = cs[0] * bk
-                else:
-                    acc += cs[k] * bk
-            self.bud[d, b] = acc
-
-    @ti.func
-    def _project(self, acc, tau, i, j, first: ti.template(), spd0):
-        """The friction projection of a stage's result (Physics.project_friction, with the
-        coefficient at ``spd0``, the speed of the state the stage started from). With a law
-        with hysteresis the static friction decides once per step, on its first stage, which
-        of the cells at rest at the step's start it holds (Physics.holds, marked HELD in rest): a
-        held cell stays exactly at rest through all the step's stages, every other cell is
-        projected. Deciding per stage instead made the starts depend on the step length and
-        on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
-        out = acc
-        if ti.static(self.phys.law.hysteresis):
-            flag = ti.cast(self.rest[i, j], ti.i32)
-            if ti.static(first):
-                # nested, not `and`: Taichi's `and` evaluates both sides, and holds() (the start
-                # coefficient mu_S) on every moving cell cost ~5 % of a fingers step
-                if (flag & REST) != 0:
-                    if self.phys.holds(acc, tau) == 1:
-                        flag |= HELD
-                        self.rest[i, j] = ti.cast(flag, ti.i8)
-            if (flag & HELD) != 0:
-                out[1] = 0.0
-                if ti.static(not self.is_1d):
-                    out[self.HV] = 0.0
-            else:
-                out = self.phys.project_friction(acc, tau, spd0)
-        else:
-            out = self.phys.project_friction(acc, tau, spd0)
-        return out
-
-    @staticmethod
-    def _first_state(n: int, rate: int, rmask: int) -> int:
-        return next(k for k in range(n) if k != rate and not (rmask >> k) & 1)
-
-    @ti.func
-    def _keep_rest(
-        self, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
-    ):
-        """A cell at rest after the projection whose state terms all hold the same h and h phi
-        and whose rates of h and h phi are all zero (no mass crossed its faces: _x_face) keeps
-        that h and h phi bitwise: the stage weights of the states sum to 1, but their rounded
-        sum need not give the same bits, and a deposit must not creep by round-off."""
-        f = ti.static(self._first_state(n, rate, rmask))
-        out = acc
-        moving = acc[1] != 0.0
-        if ti.static(not self.is_1d):
-            moving = moving or acc[self.HV] != 0.0
-        # a moving cell (most of a flow) reads no term again: the test costs one branch there
-        if not moving:
-            ref = self.q[ss[f], i, j]
-            keep = 1
-            for k in ti.static(range(n)):
-                if ti.static(k == rate):
-                    if r[0] != 0.0:
-                        keep = 0
-                    if ti.static(self.seg):
-                        if r[self.HPHI] != 0.0:
-                            keep = 0
-                elif ti.static((rmask >> k) & 1):
-                    v = self.q[ss[k], i, j]
-                    if v[0] != 0.0:
-                        keep = 0
-                    if ti.static(self.seg):
-                        if v[self.HPHI] != 0.0:
-                            keep = 0
-                elif ti.static(k != f):
-                    v = self.q[ss[k], i, j]
-                    if v[0] != ref[0]:
-                        keep = 0
-                    if ti.static(self.seg):
-                        if v[self.HPHI] != ref[self.HPHI]:
-                            keep = 0
-            if keep == 1:
-                out[0] = ref[0]
-                if ti.static(self.seg):
-                    out[self.HPHI] = ref[self.HPHI]
-        return out
-
-    @ti.kernel
-    def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
-        """slot d := (1 - theta) slot a + theta slot b on every cell, ghosts included, and the
-        same for the budgets (no active range: a copy must be whole). Written a + theta (b - a),
-        which gives a's bits where b == a: a deposit at rest then has the same h in every
-        snapshot, as it has in the step states ((1 - theta) a + theta a can be an ulp off)."""
-        ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange(self.NX, self.NY):
-            qa = self.q[a, i, j]
-            self.q[d, i, j] = qa + theta * (self.q[b, i, j] - qa)
-        ti.loop_config(serialize=True)  # a handful of iterations
-        for k in range(NBUDGET):
-            self.bud[d, k] = self.bud[a, k] + theta * (self.bud[b, k] - self.bud[a, k])
-
-    @ti.func
-    def _boundary_rates(self, d):
-        """Net inflow rates through the domain's faces, summed in a fixed order."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        dx = self.par[Params.DX]
-        dy = self.par[Params.DY]
-        ti.loop_config(serialize=True)
-        for b in range(NBUDGET):
-            self.bud[d, b] = 0.0
-        # faces outside the active range were not computed this time: they carry no flux
-        wl = 1.0 if self.act[0] == gx else 0.0
-        wr = 1.0 if self.act[1] == gx + nx else 0.0
-        ti.loop_config(serialize=True)
-        for j in range(gy, gy + ny):
-            self.bud[d, 0] += (wl * self.fx[gx - 1, j][0] - wr * self.fx[gx + nx - 1, j][0]) * dy
-            if ti.static(self.seg):
-                self.bud[d, 1] += (
-                    wl * self.fx[gx - 1, j][self.HPHI] - wr * self.fx[gx + nx - 1, j][self.HPHI]
-                ) * dy
-        if ti.static(not self.is_1d):
-            ti.loop_config(serialize=True)
-            for i in range(self.act[0], self.act[1]):
-                self.bud[d, 2] += (self.fy[i, gy - 1][0] - self.fy[i, gy + ny - 1][0]) * dx
-                if ti.static(self.seg):
-                    self.bud[d, 3] += (
-                        self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]
-                    ) * dx
-
-    # The return type must follow the run's precision. A type built from ``float`` is fixed
-    # when this module is imported, i.e. before tiseg.init chooses the precision (Taichi's
-    # default is f32), which rounded every f64 run's step limits to f32. One kernel per
-    # precision, chosen in __init__; only the chosen one is ever compiled (Metal has no f64).
-    @ti.kernel
-    def _stability_f64(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f64):
-        return self._stability_body(serial)
-
-    @ti.kernel
-    def _stability_f32(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f32):
-        return self._stability_body(serial)
-
-    @ti.func
-    def _stability_body(self, serial: ti.template()):
-        """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
-        from the primitives of the current state. Blocks of rows run in parallel and reduce
-        locally, so there is one atomic per block (maxima are order independent:
-        deterministic); a block is one row in 2D and 256 cells of the row in 1D, where an
-        atomic per cell would serialise the threads on one address.
-
-        The friction Jacobian is local to a cell (a 2 x 2 block in (hu, hv) bounded by the
-        friction rate), so it adds to the diagonal of that cell's viscous rows: Gershgorin's
-        theorem bounds the spectrum of both terms together by the largest per-cell sum
-        (red[5]). The friction peaks in slow thin margins and levees, the viscosity in thick
-        fast channels, so the sum of the two maxima (red[2] + red[3]) overestimates it by up
-        to 2x, and the RKC stage count with it.
-
-        With step_rule "local" (2D) red[6] is the largest per-cell convective rate
-        max(a_x over i-1..i+1)/dx + max(a_y over j-1..j+1)/dy: the speeds of the faces of the
-        cell, which bound the forward-Euler step that keeps that cell's h >= 0 (see
-        tiseg.simulation.step_limits). Only such runs compute it."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        ti.loop_config(serialize=True)  # a handful of iterations
-        for k in range(NSTAB):
-            self.red[k] = 0.0
-        hmin = self.par[Params.H_MIN]
-        idx = self.par[Params.INV_DX]
-        idy = self.par[Params.INV_DY]
-        # include the first ghost layer in x so that an inflow into an empty chute sets a speed
-        lo = ti.max(self.act[0] - 1, gx - 1)
-        hi = ti.min(self.act[1] + 1, gx + nx + 1)
-        B = ti.static(self.rows_per_block)
-        if ti.static(self.local_rate):
-            # each cell's (a_x, a_y) once, neighbours and ghost rows included: the rate reads
-            # 5 speeds per cell, and recomputing them (a square root each) cost 10 % of a
-            # Stoker step on one thread
-            ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.NY)):
-                w = self.w[i, j]
-                self.spd[i, j] = ti.Vector([self.phys.speed(w, 0), self.phys.speed(w, 1)])
-        ti.loop_config(serialize=serial)
-        for blk in range((hi - lo + B - 1) // B):
-            m0 = 0.0
-            m1 = 0.0
-            m2 = 0.0
-            m3 = 0.0
-            m4 = 0.0
-            m5 = 0.0
-            m6 = 0.0
-            for r in range(B):
-                i = lo + blk * B + r
-                if i < hi:
-                    for j in range(gy, gy + ny):
-                        w = self.w[i, j]
-                        if ti.static(self.local_rate):
-                            sp = self.spd[i, j]
-                            m0 = ti.max(m0, sp[0])
-                            m1 = ti.max(m1, sp[1])
-                            axm = ti.max(
-                                ti.max(self.spd[i - 1, j][0], sp[0]), self.spd[i + 1, j][0]
-                            )
-                            aym = ti.max(
-                                ti.max(self.spd[i, j - 1][1], sp[1]), self.spd[i, j + 1][1]
-                            )
-                            m6 = ti.max(m6, axm * idx + aym * idy)
-                        else:
-                            m0 = ti.max(m0, self.phys.speed(w, 0))
-                            if ti.static(not self.is_1d):
-                                m1 = ti.max(m1, self.phys.speed(w, 1))
-                        m4 = ti.max(m4, self.phys.speed_mag(w))
-                        fr = self.phys.friction_rate(w)
-                        m3 = ti.max(m3, fr)
-                        rho = 0.0 * fr
-                        if ti.static(self.visc):
-                            h = w[0]
-                            if h >= hmin and gx <= i < gx + nx:
-                                hn = h  # (not read in 1D)
-                                hs = h
-                                if ti.static(not self.is_1d):
-                                    hn = self.w[i, j + 1][0]
-                                    hs = self.w[i, j - 1][0]
-                                rho = self.phys.visc_stiffness(
-                                    h,
-                                    self.w[i + 1, j][0],
-                                    self.w[i - 1, j][0],
-                                    hn,
-                                    hs,
-                                    idx,
-                                    idy,
-                                )
-                                m2 = ti.max(m2, rho)
-                        m5 = ti.max(m5, rho + fr)
-            ti.atomic_max(self.red[0], m0)
-            ti.atomic_max(self.red[1], m1)
-            ti.atomic_max(self.red[2], m2)
-            ti.atomic_max(self.red[3], m3)
-            ti.atomic_max(self.red[4], m4)
-            ti.atomic_max(self.red[5], m5)
-            ti.atomic_max(self.red[6], m6)
-        return ti.Vector([self.red[k] for k in ti.static(range(NSTAB))])
-
-    @ti.kernel
-    def _totals(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
-        """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
-        summed serially, then the rows serially): the same bits for any thread count."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        self.total[0] = 0.0
-        self.total[1] = 0.0
-        ti.loop_config(serialize=serial)
-        for i in range(gx, gx + nx):
-            a = ti.cast(0.0, ti.f64)
-            b = ti.cast(0.0, ti.f64)
-            for j in range(gy, gy + ny):
-                v = self.q[s, i, j]
-                a += ti.cast(v[0], ti.f64)
-                if ti.static(self.seg):
-                    b += ti.cast(v[self.HPHI], ti.f64)
-            self.rowsum[i, 0] = a
-            self.rowsum[i, 1] = b
-        ti.loop_config(serialize=True)
-        for i in range(gx, gx + nx):
-            self.total[0] += self.rowsum[i, 0]
-            self.total[1] += self.rowsum[i, 1]
-        return ti.Vector([self.total[0], self.total[1]])
-
-    @ti.kernel
-    def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(4, ti.i32):
-        """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
-        cell with h >= h_min, and of a live cell (see _quiescent), returned (one launch, no
-        field read-back).
-
-        Only the x range [wa - 3, wb + 3) around the wet range is scanned for wet cells: every
-        cell outside it is a dry film (the wet range is the wet extent plus a margin, and a
-        step writes nothing further out), and whatever could put wet cells there (set,
-        set_params) makes the ranges whole again. A fingers run's early steps then scan the
-        front, not the empty chute. Live cells are looked for on the range the last step
-        wrote, [a - 3, b + 3) around the active range: every cell beyond it was quiescent when
-        it was left out, and nothing has touched it since."""
-        self._ghosts(s)
-        self.wet[0] = self.NX
-        self.wet[1] = -1
-        self.wet[2] = self.NX
-        self.wet[3] = -1
-        hmin = self.par[Params.H_MIN]
-        lo = ti.max(self.wrng[0] - 3, 0)
-        hi = ti.min(self.wrng[1] + 3, self.NX)
-        # the live scan: interior cells only (their neighbours, ghosts included, are read)
-        llo = ti.max(self.act[0] - 3, self.gx)
-        lhi = ti.min(self.act[1] + 3, self.gx + self.nx)
-        B = ti.static(self.rows_per_block)
-        ti.loop_config(serialize=serial)
-        for blk in range((hi - lo + B - 1) // B):
-            first = self.NX
-            last = -1
-            lfirst = self.NX
-            llast = -1
-            for r in range(B):
-                i = lo + blk * B + r
-                if i < hi:
-                    scan_live = llo <= i < lhi
-                    for j in range(self.gy, self.gy + self.ny):
-                        if self.q[s, i, j][0] >= hmin:
-                            first = ti.min(first, i)
-                            last = ti.max(last, i)
-                        if ti.static(self.skip_rest):
-                            if scan_live:
-                                if self._quiescent(s, i, j, hmin) == 0:
-                                    lfirst = ti.min(lfirst, i)
-                                    llast = ti.max(llast, i)
-            if last >= 0:  # one atomic per block of rows (see _stability)
-                ti.atomic_min(self.wet[0], first)
-                ti.atomic_max(self.wet[1], last)
-            if llast >= 0:
-                ti.atomic_min(self.wet[2], lfirst)
-                ti.atomic_max(self.wet[3], llast)
-        return ti.Vector([self.wet[0], self.wet[1], self.wet[2], self.wet[3]])
-
-    @ti.func
-    def _quiescent(self, s, i, j, hmin):
-        """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
-        next one as well if nothing within the step's reach has changed: it was at rest at
-        the step's start, the static friction held it (HELD) or it is a dry film, and its four
-        neighbours were at rest too. No mass then crossed its faces (_rest_face), so
-        _keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
-        friction holds a cell does not depend on the step length (Physics.holds), so the same
-        data around the cell give the same answer in the next step: a cell further than the
-        next step's reach from every live cell keeps its bits without being computed. (Rest
-        mask of the last step: REST from its start, HELD from its first stage.)"""
-        r = ti.cast(self.rest[i, j], ti.i32)
-        q = 0
-        if (r & REST) != 0:
-            if (r & HELD) != 0 or self.q[s, i, j][0] < hmin:
-                nb = ti.cast(self.rest[i - 1, j], ti.i32) & ti.cast(self.rest[i + 1, j], ti.i32)
-                if ti.static(not self.is_1d):
-                    nb &= ti.cast(self.rest[i, j - 1], ti.i32)
-                    nb &= ti.cast(self.rest[i, j + 1], ti.i32)
-                if (nb & REST) != 0:
-                    q = 1
-        return q
-
     # ------------------------------------------------------------------ stepper interface
     def _prepare(self, slot: int, t: float) -> None:
         """Ghost cells, primitives and slopes of ``slot`` at time t, unless still current.
@@ -1167,100 +512,16 @@ class TaichiOperator(SplitSweeps):
         self._written(dst)
         self._rates(dst, self.serial_loops())
 
-    @staticmethod
-    def _terms(terms):
-        n = len(terms)
-        assert 1 <= n <= MAX_TERMS
-        cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
-        ss = [max(int(s), 0) for _, s in terms] + [0] * (MAX_TERMS - n)
-        return n, cs, ss
-
-    def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
-        """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
-        can touch (the active range and its stencil halo; all cells without an active range);
-        ``limit=True`` applies the stage limiter (:meth:`_limit`) in the same pass, and with
-        the projected friction scheme the friction projection over ``tau`` seconds (the
-        stage's share of the step). ``rates``: the slots among the terms that hold rates, not
-        states (for the exact rest of _keep_rest).
-
-        dst may be one of the sources: the update is element-wise.
-        """
-        n, cs, ss = self._terms(terms)
-        rmask = self._rate_mask(terms, rates)
-        first = self._first_of_step(limit)
-        self._combine(
-            dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
-        )
-        self._written(dst, primitives=bool(limit))
-
-    def _first_of_step(self, limit: bool) -> bool:
-        """Whether this limited combination is the step's first stage, where a law with
-        hysteresis decides which resting cells the static friction holds (_project): the
-        first one after the rest mask was computed for a new step."""
-        first = bool(limit) and self._first_stage and self.phys.law.hysteresis
-        if limit:
-            self._first_stage = False
-        return first
-
-    def stage(
-        self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
-    ) -> None:
-        """slot dst := sum(c * term) where a term's slot is a slot, or RATE (negative) for
-        L(slot src, t): :meth:`rhs` into a spare slot and then :meth:`combine`, with the same
-        bits, in one launch and without storing the rate. Exactly one term is the rate.
-        ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
-        stage is a convex combination of states and one Euler step of that length."""
-        self._no_operator()
-        rate = [k for k, (_, s) in enumerate(terms) if s < 0]
-        assert len(rate) == 1, terms
-        tau = terms[rate[0]][0] if tau is None else tau
-        self._prepare(src, t)
-        n, cs, ss = self._terms(terms)
-        rmask = self._rate_mask(terms, rates)
-        first = self._first_of_step(limit)
-        self._combine(
-            dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
-        )
-        self._written(dst, primitives=bool(limit))
-
-    @staticmethod
-    def _rate_mask(terms, rates) -> int:
-        return sum(1 << k for k, (_, s) in enumerate(terms) if s >= 0 and s in rates)
-
-    def blend(self, dst: int, a: int, b: int, theta: float) -> None:
-        """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
-        theta = 0 a copy of slot a. For snapshots between two step states (tiseg.callbacks)."""
-        self._written(dst)
-        self._blend(dst, a, b, float(theta), self.serial_loops(whole=True))
-
-    def budget(self, slot: int = 0) -> np.ndarray:
-        """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
-        return self.bud.to_numpy()[slot].astype(float)
-
-    def reset_budget(self, values=None) -> None:
-        b = self.bud.to_numpy()
-        b[0] = 0.0 if values is None else values
-        self.bud.from_numpy(b)
-
     def sums(self, slot: int = 0) -> tuple[float, float]:
         """(sum of h, sum of h phi) over interior cells, deterministic, in f64."""
-        t = self._totals(slot, self.serial_loops(whole=True))
-        return float(t[0]), float(t[1])
+        return self.reduce.totals(slot, self.serial_loops(whole=True))
 
     def set_active(self, a: int, b: int, wet: tuple[int, int] | None = None) -> None:
         """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted).
         ``wet``: the range [wa, wb) the next wet scan covers (_wet_extent), which holds [a, b);
-        by default [a, b) itself. It is wider where resting regions are left out."""
-        a = max(self.gx, int(a))
-        b = max(a, min(self.gx + self.nx, int(b)))
-        wa, wb = (a, b) if wet is None else wet
-        wa = min(max(self.gx, int(wa)), a)
-        wb = max(min(self.gx + self.nx, int(wb)), b)
-        if getattr(self, "wet_range", None) != (wa, wb):
-            self.wrng[0] = wa
-            self.wrng[1] = wb
-            self.wet_range = (wa, wb)
-        if getattr(self, "active", None) == (a, b):
+        by default [a, b) itself. It is wider where resting regions are left out
+        (ActiveRange.set)."""
+        if not self.ranges.set(a, b, wet):
             return  # each field write from Python is a kernel launch
         self._prepared = self._interior = None
         if getattr(self, "rest", None) is not None and self._first_stage:
@@ -1268,80 +529,31 @@ class TaichiOperator(SplitSweeps):
             # step has not begun: take it again on the new one (slot 0 is the same), or
             # cells the range now takes in would keep bits of an earlier step, or none
             self._rest_stale = True
-        self.act[0] = a
-        self.act[1] = b
-        self.active = (a, b)
-        # the cells a launch on this range covers: the range and the 3-cell halo of the stencil
-        self._serial_active = self._serial_for(min(b - a + 6, self.NX) * self.NY)
 
-    def _serial_for(self, cells: int) -> bool:
-        """Loops over ``cells`` cells on one thread? On a CPU with one thread, or at most
-        SERIAL_CELLS cells; never on a GPU; ``force_serial`` overrides."""
-        if self.force_serial is not None:
-            return self.force_serial
-        if not self._on_cpu:
-            return False
-        return self._threads == 1 or cells <= SERIAL_CELLS
+    @property
+    def active(self) -> tuple[int, int]:
+        """The active x range [a, b) (ActiveRange)."""
+        return self.ranges.active
+
+    @property
+    def wet_range(self) -> tuple[int, int]:
+        """The x range [wa, wb) the next wet scan covers (ActiveRange)."""
+        return self.ranges.wet_range
+
+    @property
+    def force_serial(self) -> bool | None:
+        return self.ranges.force_serial
 
     def serial_loops(self, whole: bool = False) -> bool:
-        """Whether the next launch runs its loops on one thread: a launch on the active range,
-        or on the whole grid (``whole``). Both modes give the same bits
-        (tests/test_determinism.py)."""
-        return self._serial_whole if whole else self._serial_active
-
-    def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
-        """(first, last) x index with a cell h >= h_min after filling ghosts, (NX, -1) if
-        none; then (first, last) x index of a live cell, one that may change in the next step
-        (_quiescent), found only where resting regions are skipped (else (NX, -1))."""
-        self._set_time(t)
-        if self.skip_rest and self._mask_inflow != self.inflow_on(t):
-            # the inflow stopped since the last step began: the inlet is a wall now, and the
-            # rest mask, taken with the inflow's ghost cells, says nothing of it
-            self._forget_rest()
-        w = self._wet_extent(slot, self.serial_loops())
-        return int(w[0]), int(w[1]), int(w[2]), int(w[3])
+        """Whether the next launch runs its loops on one thread (ActiveRange.serial_loops):
+        both modes give the same bits (tests/test_determinism.py)."""
+        return self.ranges.serial_loops(whole)
 
     def inflow_on(self, t: float) -> bool:
         """Whether an inflow runs at time t (until the scene's inflow stop time)."""
         return self.bc[0] == "inflow" and not t > self.cfg.inflow_stop
 
-    def _forget_rest(self) -> None:
-        """Clear the rest mask: every cell counts as live until a step has marked it again."""
-        if getattr(self, "rest", None) is not None:
-            self.rest.fill(0)
-        # whether an inflow ran when the mask was taken (None: no mask)
-        self._mask_inflow = None
-
-    def rest_state(self) -> dict[str, np.ndarray] | None:
-        """What the skipping of resting regions needs besides slot 0, for a checkpoint: the
-        rest mask of the last step and the active and wet ranges (None without skipping)."""
-        if not self.skip_rest:
-            return None
-        on = -1 if self._mask_inflow is None else int(self._mask_inflow)
-        return {
-            "rest_mask": self.rest.to_numpy(),
-            "ranges": np.array([*self.active, *self.wet_range, on], dtype=np.int64),
-        }
-
-    def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
-        """Inverse of :meth:`rest_state` (after slot 0 was set): the next step then skips
-        what the run it continues would have skipped, so a resumed run keeps its bits."""
-        if not self.skip_rest:
-            return
-        self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
-        a, b, wa, wb, on = (int(v) for v in ranges)
-        self.set_active(a, b, (wa, wb))
-        self._mask_inflow = None if on < 0 else bool(on)
-
     def stability(self, slot: int, t: float) -> StabilityNumbers:
+        """Wave speeds and stiffness bounds of ``slot`` at time t (StepReductions.stability)."""
         self._prepare(slot, t)
-        r = [float(v) for v in self._stability(self.serial_loops())]
-        return StabilityNumbers(
-            ax=r[0],
-            ay=r[1],
-            rho_visc=r[2],
-            rho_fric=r[3],
-            max_speed=r[4],
-            rho_stiff=r[5],
-            rate_local=r[6] if self.local_rate else None,
-        )
+        return self.reduce.stability(self.serial_loops())

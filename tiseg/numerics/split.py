@@ -47,7 +47,6 @@ Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sw
 import taichi as ti
 
 from ..physics.pointwise import Params
-from .config import INFLOW, PERIODIC, WALL
 
 
 @ti.data_oriented
@@ -150,19 +149,21 @@ class SplitSweeps:
         ghost cells hold the prescribed state, which is not evolved (keep = 1); a stopped
         inflow is a wall."""
         gx, nx = ti.static(self.gx, self.nx)
-        lo, hi = ti.static(self.bcc[0], self.bcc[1])
+        # the components' kinds as compile-time bools (ti.static takes no objects)
+        lo_mirrors, lo_prescribed = ti.static(self.bcs[0].mirrors, self.bcs[0].prescribed)
+        hi_mirrors = ti.static(self.bcs[1].mirrors)
         sgn = 1.0
         keep = 0
         if i < gx:
-            if ti.static(lo == WALL):
+            if ti.static(lo_mirrors):
                 sgn = -1.0
-            elif ti.static(lo == INFLOW):
+            elif ti.static(lo_prescribed):
                 if self.par[Params.IN_ON] > 0.5:
                     keep = 1
                 else:
                     sgn = -1.0
         elif i >= gx + nx:
-            if ti.static(hi == WALL):
+            if ti.static(hi_mirrors):
                 sgn = -1.0
         return sgn, keep
 
@@ -271,7 +272,7 @@ class SplitSweeps:
             self.drain[i, j] = th
         # across a periodic boundary the ghost cell is its image: the face there is one face
         # of two cells, so both must scale it by the same factor (else mass is made or lost)
-        if ti.static(self.bcc[2 * d] == PERIODIC):
+        if ti.static(self.bcs[2 * d].periodic):
             lo, hi = self._across(d)
             ti.loop_config(serialize=True)  # a column or a row of cells
             for k in range(lo, hi):

@@ -18,6 +18,7 @@ The discretisation (identical in :mod:`tiseg.numerics.operator`):
      H = (a+ f(q_L) - a- f(q_R))/(a+ - a-) + a+ a- / (a+ - a-) (q_R - q_L), with
      a+ = max(u + c, u (1 - G'), 0) and a- = min(u - c, u (1 - G'), 0) over both edge states
      (H = (f_L + f_R)/2 if a+ = a- = 0).
+   * ``rusanov``, the local Lax-Friedrichs flux of Rusanov (1961): the formula of ``kt``.
 
    With ``numerics.phi_flux = "upwind"`` the h phi component becomes F_h (phi - G(phi)), F_h the
    mass component of H and phi that of the edge state upwind of F_h (Larrouturou 1991).
@@ -36,7 +37,10 @@ import math
 
 import numpy as np
 
+from ..numerics.boundaries import BOUNDARIES
 from ..numerics.config import OperatorConfig
+from ..numerics.fluxes import FLUXES, PHI_FLUXES
+from ..numerics.reconstruction import RECONSTRUCTIONS, limit_edges_np
 from ..physics.friction import FRICTION_LAWS
 from ..physics.segregation import TRANSPORTS
 from ..physics.viscosity import VISCOSITY
@@ -58,58 +62,23 @@ class ReferenceOperator:
         self.projected = cfg.friction_projected
         self.law = FRICTION_LAWS[cfg.friction]
         self.transport = TRANSPORTS[cfg.transport]
+        # the numerics components, whose NumPy twins the steps below call
+        self.bcs = tuple(BOUNDARIES[b] for b in cfg.bc)
+        self.rec = RECONSTRUCTIONS[cfg.reconstruction]
+        self.num_flux = FLUXES[cfg.flux]
+        self.phi_flux = PHI_FLUXES[cfg.phi_flux]
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
-        c, lay = self.cfg, self.lay
-        g, n = lay.gx, lay.nx
-        # x direction first (over all rows), y second (over all columns, corners included)
-        lo, hi = c.bc[0], c.bc[1]
-        for k in range(g):
-            # ghost index on the low side: g-1-k mirrors interior g+k, periodic takes n+g-1-k
-            il, ih = g - 1 - k, n + g + k
-            if lo == "periodic":
-                q[:, il] = q[:, n + g - 1 - k]
-            elif lo == "outflow":
-                q[:, il] = q[:, g]
-            elif lo == "wall" or (lo == "inflow" and t > c.inflow_stop):
-                q[:, il] = q[:, g + k]
-                q[lay.HU, il] *= -1
-            elif lo == "inflow":
-                h, u, phi = c.inflow_state(t)
-                q[:, il] = 0.0
-                ys = slice(lay.gy, lay.gy + lay.ny)
-                q[lay.H, il, ys] = h
-                q[lay.HU, il, ys] = h * u
-                if lay.segregation:
-                    q[lay.HPHI, il, ys] = h * c.inflow_phi_profile(self.y)
-            if hi == "periodic":
-                q[:, ih] = q[:, g + k]
-            elif hi == "outflow":
-                q[:, ih] = q[:, n + g - 1]
-            elif hi == "wall":
-                q[:, ih] = q[:, n + g - 1 - k]
-                q[lay.HU, ih] *= -1
-        if lay.is_1d:
-            return
-        g, n = lay.gy, lay.ny
-        lo, hi = c.bc[2], c.bc[3]
-        for k in range(g):
-            jl, jh = g - 1 - k, n + g + k
-            if lo == "periodic":
-                q[:, :, jl] = q[:, :, n + g - 1 - k]
-            elif lo == "outflow":
-                q[:, :, jl] = q[:, :, g]
-            elif lo == "wall":
-                q[:, :, jl] = q[:, :, g + k]
-                q[lay.HV, :, jl] *= -1
-            if hi == "periodic":
-                q[:, :, jh] = q[:, :, g + k]
-            elif hi == "outflow":
-                q[:, :, jh] = q[:, :, n + g - 1]
-            elif hi == "wall":
-                q[:, :, jh] = q[:, :, n + g - 1 - k]
-                q[lay.HV, :, jh] *= -1
+        """Ghost cells from the boundary conditions' twins (tiseg.numerics.boundaries): x
+        first (over all rows), y second (over all columns, corners included), layer k of the
+        low side before that of the high side."""
+        lay = self.lay
+        for d in (0,) if lay.is_1d else (0, 1):
+            lo, hi = self.bcs[2 * d], self.bcs[2 * d + 1]
+            for k in range(lay.gx if d == 0 else lay.gy):
+                lo.fill_np(self, q, t, d, 0, k)
+                hi.fill_np(self, q, t, d, 1, k)
 
     # ------------------------------------------------------------------ pointwise physics
     def primitives(self, q: np.ndarray) -> np.ndarray:
@@ -197,39 +166,15 @@ class ReferenceOperator:
     def slopes(self, w: np.ndarray, axis: int) -> np.ndarray:
         """Undivided slopes (edge value = w +- slope/2) along axis 1 (x) or 2 (y); zero at the
         outermost ghost layer."""
-        c, lay = self.cfg, self.lay
         s = np.zeros_like(w)
-        if c.reconstruction == "first-order":
+        if not self.rec.slopes:
             return s
         wm = np.take(w, range(0, w.shape[axis] - 2), axis=axis)
         w0 = np.take(w, range(1, w.shape[axis] - 1), axis=axis)
         wp = np.take(w, range(2, w.shape[axis]), axis=axis)
         dm, dp, dc = w0 - wm, wp - w0, 0.5 * (wp - wm)
-        if c.reconstruction == "minmod":
-            th = c.theta
-            a, b, cc = th * dm, dc, th * dp
-            same = (np.sign(a) == np.sign(b)) & (np.sign(b) == np.sign(cc))
-            mag = np.minimum(np.minimum(np.abs(a), np.abs(b)), np.abs(cc))
-            inner = np.where(same, np.sign(b) * mag, 0.0)
-        else:  # WENO-type weighted slope (NUMERICS section 4)
-            scale = np.ones(lay.nc)
-            scale[0] = c.h_ref
-            scale[1:] = c.u_ref
-            if lay.segregation:
-                scale[lay.HPHI] = 1.0
-            shp = (-1,) + (1,) * (w.ndim - 1)
-            sc = scale.reshape(shp)
-            eps = c.weno_eps
-            am = 0.25 / (eps + (dm / sc) ** 2) ** 2
-            ap = 0.25 / (eps + (dp / sc) ** 2) ** 2
-            ac = 0.5 / (eps + (dc / sc) ** 2) ** 2
-            inner = (am * dm + ap * dp + ac * dc) / (am + ap + ac)
-        # keep edge values physical: h_edge >= 0, 0 <= phi_edge <= 1
-        inner[0] = np.clip(inner[0], -2.0 * w0[0], 2.0 * w0[0])
-        if lay.segregation:
-            p = w0[lay.HPHI]
-            lim = 2.0 * np.minimum(p, 1.0 - p)
-            inner[lay.HPHI] = np.clip(inner[lay.HPHI], -lim, lim)
+        inner = self.rec.slope_np(self.cfg, self.lay, dm, dp, dc)
+        limit_edges_np(self.lay, inner, w0)  # keep edge values physical
         idx = [slice(None)] * w.ndim
         idx[axis] = slice(1, w.shape[axis] - 1)
         s[tuple(idx)] = inner
@@ -299,26 +244,11 @@ class ReferenceOperator:
         return out
 
     def numerical_flux(self, wl: np.ndarray, wr: np.ndarray, direction: int) -> np.ndarray:
-        """The face flux of step 4 between edge states wl | wr (primitives) along direction."""
-        c, lay = self.cfg, self.lay
-        ql, qr = self.conserved(wl), self.conserved(wr)
-        fl, fr = self.flux(wl, direction), self.flux(wr, direction)
-        if c.flux == "central-upwind":
-            lo_l, hi_l = self.speed_range(wl, direction)
-            lo_r, hi_r = self.speed_range(wr, direction)
-            ap = np.maximum(np.maximum(hi_l, hi_r), 0.0)
-            am = np.minimum(np.minimum(lo_l, lo_r), 0.0)
-            den = ap - am
-            safe = np.where(den > 0, den, 1.0)
-            H = np.where(
-                den > 0, (ap * fl - am * fr) / safe + ap * am / safe * (qr - ql), 0.5 * (fl + fr)
-            )
-        else:
-            a = np.maximum(self.speed(wl, direction), self.speed(wr, direction))
-            H = 0.5 * (fl + fr) - 0.5 * a * (qr - ql)
-        if lay.segregation and c.phi_flux == "upwind":
-            p = np.where(H[lay.H] >= 0.0, wl[lay.HPHI], wr[lay.HPHI])
-            H[lay.HPHI] = H[lay.H] * (p - self.G(p))
+        """The face flux of step 4 between edge states wl | wr (primitives) along direction:
+        the numerical flux's twin, then (with segregation) the phi modifier's."""
+        H = self.num_flux.flux_np(self, wl, wr, direction)
+        if self.lay.segregation:
+            H = self.phi_flux.modify_np(self, H, wl, wr)
         return H
 
     def viscous_fluxes(self, w: np.ndarray):
