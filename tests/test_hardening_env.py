@@ -325,3 +325,34 @@ def test_numpy_pictures_match_the_kernel(ti_cpu):
                     b = render_fields_numpy(fields, 1e-3, **kw)
                     assert a.shape == b.shape, kw
                     assert np.abs(a.astype(int) - b).max() <= 1, kw
+
+
+def test_a_stale_cache_lock_is_removed_and_a_fresh_one_kept(tmp_path):
+    """A process killed while it held the kernel cache's lock left ticache.lock behind, and
+    every later process warned 'Lock ... failed' and compiled every kernel anew."""
+    import time
+
+    from tiseg.backend import STALE_LOCK_S, clear_stale_lock
+
+    lock = tmp_path / "ticache.lock"
+    lock.write_text("")
+    assert not clear_stale_lock(str(tmp_path))  # just taken: another process may hold it
+    assert lock.exists()
+    old = time.time() - STALE_LOCK_S - 60
+    os.utime(lock, (old, old))
+    assert clear_stale_lock(str(tmp_path))
+    assert not lock.exists()
+    assert not clear_stale_lock(str(tmp_path))  # no lock: nothing to do
+
+
+def test_a_run_after_a_killed_one_uses_the_kernel_cache(tmp_path):
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    lock = cache / "ticache.lock"
+    lock.write_text("")
+    old = os.path.getmtime(lock) - 3600
+    os.utime(lock, (old, old))
+    res = _python(TINY_TAICHI, _env(tmp_path, TI_OFFLINE_CACHE_FILE_PATH=str(cache)))
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "Lock" not in res.stderr, res.stderr[-2000:]
+    assert any(p.suffix == ".tic" for p in cache.iterdir())  # the kernel was cached

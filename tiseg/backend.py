@@ -116,6 +116,7 @@ def init(
         log_level=ti.WARN,
     )
     cache = cache_folder()
+    clear_stale_lock(cache)
     if cache != os.environ.get("TI_OFFLINE_CACHE_FILE_PATH"):
         kwargs["offline_cache_file_path"] = cache
     if threads and ti_arch == ti.cpu:
@@ -167,6 +168,31 @@ def cache_folder() -> str:
         f"no folder for Taichi's kernel cache can be written (tried {', '.join(tried)}): "
         "set TI_OFFLINE_CACHE_FILE_PATH to a writable folder"
     )
+
+
+# Taichi holds its cache's lock file for the moment it reads or writes the cache's index; a
+# process killed meanwhile (SIGKILL, a batch system's time limit) leaves it behind, and from then
+# on every process finds the cache locked: it warns, and compiles every kernel anew (a tiny
+# fingers run then takes 12 s instead of 2.5 s). A lock this old has no living holder.
+STALE_LOCK_S = 600.0
+
+
+def clear_stale_lock(folder: str, now: float | None = None) -> bool:
+    """Remove the kernel cache's lock file when it is older than STALE_LOCK_S; True if removed."""
+    import time
+
+    lock = os.path.join(folder, "ticache.lock")
+    try:
+        age = (time.time() if now is None else now) - os.stat(lock).st_mtime
+        if age <= STALE_LOCK_S:
+            return False
+        os.unlink(lock)
+    except OSError:  # no lock (the usual case), or it went meanwhile, or it is not ours to remove
+        return False
+    from .log import debug
+
+    debug(f"removed the stale lock of Taichi's kernel cache ({age:.0f} s old): {lock}")
+    return True
 
 
 def _owned_folder(folder: str) -> bool:
