@@ -95,6 +95,11 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         # cells a launch covers, for the active range when the range is set (set_active).
         threads = st.threads or backend.available_cores()
         self.ranges = ActiveRange(ft, lay, serial, threads, st.arch == "cpu")
+        # loops over a strip of cells (ghost columns and rows: a few thousand cells) run on one
+        # CPU thread, where a hand-off costs more than the work; on a GPU one thread would
+        # walk the strip alone (1 ms a launch at 750 cells/m on an H200, most of a step), so
+        # there they run in parallel. Each iteration writes its own cells: the same bits.
+        self.strip_serial = st.arch == "cpu"
         self.act, self.wet, self.wrng = self.ranges.act, self.ranges.wet, self.ranges.wrng
         # rows reduced by one thread before one atomic (_stability, _wet_extent): a row in 2D,
         # 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
@@ -219,12 +224,12 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         """Ghost cells of slot s from the boundary conditions (two top-level loops): each
         side's component (tiseg.numerics.boundaries) fills its cells, low side first."""
         gx, gy = ti.static(self.gx, self.gy)
-        ti.loop_config(serialize=True)  # 2 columns of cells: never worth a hand-off
+        ti.loop_config(serialize=self.strip_serial)  # 2 columns of cells
         for k, j in ti.ndrange(gx, (0, self.NY)):
             self._fill[0](s, k, j)
             self._fill[1](s, k, j)
         if ti.static(not self.is_1d):
-            ti.loop_config(serialize=True)  # 2 rows of cells
+            ti.loop_config(serialize=self.strip_serial)  # 2 rows of cells
             for i, k in ti.ndrange((0, self.NX), gy):
                 self._fill[2](s, k, i)
                 self._fill[3](s, k, i)
@@ -304,7 +309,7 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         [a - 3, b + 3), every row); the interior ones are those _combine_cells wrote."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         a, b = self.act[0], self.act[1]
-        ti.loop_config(serialize=True)  # 2 x 2 columns
+        ti.loop_config(serialize=self.strip_serial)  # 2 x 2 columns
         for k, j in ti.ndrange(gx, self.NY):
             il = gx - 1 - k
             ih = gx + nx + k

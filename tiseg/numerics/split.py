@@ -274,7 +274,7 @@ class SplitSweeps:
         # of two cells, so both must scale it by the same factor (else mass is made or lost)
         if ti.static(self.bcs[2 * d].periodic):
             lo, hi = self._across(d)
-            ti.loop_config(serialize=True)  # a column or a row of cells
+            ti.loop_config(serialize=self.strip_serial)  # a column or a row of cells
             for k in range(lo, hi):
                 self._periodic_image(d, k)
 
