@@ -453,8 +453,9 @@ class NumericsConfig:
     flux: str = field(
         default="kt",
         metadata=key(
-            '"kt" (Kurganov-Tadmor 2000, as in section 6.2) or "central-upwind" (Kurganov, '
-            "Noelle & Petrova 2001)",
+            '"kt" (Kurganov-Tadmor 2000, as in section 6.2), "central-upwind" (Kurganov, '
+            'Noelle & Petrova 2001) or "rusanov" (local Lax-Friedrichs: on these edge states '
+            'the same as "kt")',
             choices=lambda: FLUXES,
             compiled="operator",
         ),
