@@ -88,6 +88,22 @@ def test_transport_solution_is_the_characteristics_solution():
     assert p.score({"phi": exact}, sc)[1] == 0.0
 
 
+def test_transport_solution_agrees_with_an_independent_root_finder():
+    """The registry's bisection against scipy's brentq on phi = phi_init(x - u0 (1 - G') t)."""
+    from scipy.optimize import brentq
+
+    L, u0, mean, amp = 0.1, 0.2, 0.5, 0.25
+    t = load_problem("transport").end(quick=False)
+    speed = lambda p: u0 * (1.0 / 7.0 + 12.0 * p / 7.0)  # noqa: E731
+    init = lambda s: mean + amp * np.cos(2 * np.pi * s / L)  # noqa: E731
+    x = np.linspace(0.0, L, 37)
+    want = [
+        brentq(lambda p: p - init(xi - speed(p) * t), mean - amp, mean + amp, xtol=1e-15)  # noqa: B023
+        for xi in x
+    ]
+    assert np.allclose(accuracy.transport_exact(x, t, L, u0, mean, amp), want, rtol=0, atol=1e-13)
+
+
 def test_dam_break_solution_is_stoker_on_a_wet_bed():
     from tiseg.exact_dambreak import cell_averages, stoker
 
