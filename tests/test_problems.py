@@ -133,7 +133,10 @@ def _refused(data, match):
 def test_bad_problem_files_are_refused_with_one_line():
     d = _good()
     d["exact"]["name"] = "riter"
-    _refused(d, r"unknown exact solution 'riter' \(did you mean 'ritter'|dam-break")
+    _refused(d, r"unknown exact solution 'riter'; known: .*dam-break.*finest-run")
+    d = _good()
+    d["exact"]["name"] = "dam-brake"
+    _refused(d, r"unknown exact solution 'dam-brake' \(did you mean 'dam-break'\?\)")
     d = _good()
     d["score"]["name"] = "relative-l2"
     _refused(d, r"unknown score 'relative-l2' \(did you mean 'relative-l1'\?\)")
@@ -167,11 +170,19 @@ def test_bad_problem_files_are_refused_with_one_line():
     d = _good("fingers")
     del d["scene"]["end"]
     _refused(d, r"scene.snapshot_at_end needs scene.end")
+    d = _good()
+    d["scene"]["set"]["numerics.h_mni"] = 1e-7
+    msg = _refused(d, r"its scene: .*h_mni")
+    assert "h_min" in msg  # the scene reader's close-match hint comes through
 
 
 def test_unknown_or_unreadable_problem_files(tmp_path):
     with pytest.raises(InputError, match=r"unknown built-in problem 'riter' \(did you mean"):
         load_problem("riter")
+    bad = tmp_path / "mine.toml"
+    bad.write_text((PROBLEM_DIR / "ritter.toml").read_text().replace('"relative-l1"', '"nope"'))
+    with pytest.raises(InputError, match=r"^problem file '.*mine.toml': unknown score 'nope'"):
+        load_problem(bad)
     bad = tmp_path / "x.toml"
     bad.write_text("title = [")
     with pytest.raises(InputError, match="is not valid TOML"):

@@ -148,7 +148,8 @@ def load_problem(name_or_path) -> Problem:
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"problem file {where!r} is not valid TOML: {exc}") from None
     # errors name a built-in problem by its name, any other file by its path
-    return problem_from_dict(data, path.stem, source=None if builtin else where)
+    label = repr(path.stem) if builtin else None
+    return problem_from_dict(data, path.stem, source=where, label=label)
 
 
 def builtin_problems() -> dict[str, Problem]:
@@ -157,9 +158,12 @@ def builtin_problems() -> dict[str, Problem]:
     return {p.name: p for p in sorted(probs, key=lambda p: (p.order, p.name))}
 
 
-def problem_from_dict(data: dict, name: str, source: str | None = None) -> Problem:
-    """Validate the table a problem file parses to; InputError with one line otherwise."""
-    where = f"problem file {source or name!r}"
+def problem_from_dict(
+    data: dict, name: str, source: str | None = None, label: str | None = None
+) -> Problem:
+    """Validate the table a problem file parses to; InputError with one line otherwise (naming
+    the file as ``label``, else its path ``source``, else ``name``)."""
+    where = f"problem file {label or repr(source or name)}"
 
     def fail(msg: str):
         raise InputError(f"{where}: {msg}")
@@ -201,7 +205,7 @@ def problem_from_dict(data: dict, name: str, source: str | None = None) -> Probl
     exact = _named(data, "exact", SOLUTIONS, table, fail)
     score = _named(data, "score", SCORES, table, fail)
     _check_parts(record, exact, score, scene, fail)
-    return Problem(
+    problem = Problem(
         name=name,
         title=data["title"],
         error_label=data["error_label"],
@@ -215,6 +219,15 @@ def problem_from_dict(data: dict, name: str, source: str | None = None) -> Probl
         order=order,
         source=source,
     )
+    # the scene must load as the study builds it (its own one-line error, named as this file's)
+    for quick in (False, True):
+        try:
+            problem.build(
+                (problem.quick_resolutions if quick else problem.resolutions)[0], {}, quick
+            )
+        except InputError as exc:
+            fail(f"its scene: {exc}")
+    return problem
 
 
 def _hint(name, known) -> str:
