@@ -40,6 +40,7 @@ from pathlib import Path
 
 from ..data import PROBLEM_DIR, SCENE_DIR, builtin_file, builtin_names
 from ..errors import InputError
+from ..scene import load_scene, scene_from_dict
 from .scores import CUTS, RECORDS, SCORES, VALUES
 from .solutions import FINER_RUN, SOLUTIONS
 
@@ -97,8 +98,6 @@ class Problem:
 
     def build(self, res, numerics: dict | None = None, quick: bool = False):
         """The scene at resolution ``res`` with the numerics section's keys ``numerics``."""
-        from ..scene import load_scene, scene_from_dict
-
         over = self.overrides(res, quick)
         over.update({f"numerics.{k}": v for k, v in (numerics or {}).items()})
         if "builtin" in self.scene:
