@@ -1,5 +1,5 @@
-"""What the wheel must hold: the tiseg package with its built-in scenes and sweeps, and no other
-top-level package (the source checkout's ``viewer`` alias stays out)."""
+"""What the wheel must hold: the tiseg package with its built-in scenes, sweeps and problems,
+and no other top-level package (the source checkout's ``viewer`` alias stays out)."""
 
 import sys
 import zipfile
@@ -13,10 +13,11 @@ for need in (
     "tiseg/data/scenes/fingers.toml",
     "tiseg/data/scenes/channel.toml",
     "tiseg/data/sweeps/grid-study.toml",
+    "tiseg/data/problems/ritter.toml",
     "tiseg/viewer/app.py",
 ):
     if need not in names:
         problems.append(f"missing {need}")
 if problems:
     sys.exit("wheel check failed: " + "; ".join(problems))
-print(f"wheel ok: {len(names)} files, scenes and sweeps included")
+print(f"wheel ok: {len(names)} files, scenes, sweeps and problems included")

@@ -6,9 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
 
-from tiseg.exact_dambreak import cell_averages, ritter
+from tiseg.problems import load_problem
 from tiseg.scene import load_scene, scene_from_dict
 from tiseg.simulation import Simulation
 
@@ -203,19 +202,16 @@ def test_inflow_and_outflow_exactly_accounted(ti_cpu, opt):
 # --------------------------------------------------------------------------------------- T2
 @pytest.mark.slow
 def test_dam_break_converges_to_ritter(ti_cpu):
-    t_end = 0.1
+    ritter = load_problem("ritter")  # tiseg/data/problems/ritter.toml, as the bench runs it
+    t_end = ritter.end(quick=False)
     errs, fronts = [], []
     for n in (100, 200, 400):
-        sc = load_scene(
-            "dam-break",
-            {"domain.nx": n, "time.t_end": t_end, "numerics.h_min": 1e-7, "numerics.h_eps": 1e-9},
-        )
+        sc = ritter.build(n)
         sim = Simulation(sc)
-        sim.advance(t_end)
-        h = sim.fields()["h"][0]
+        raw = ritter.run(sim)
+        h = raw["h"]
         x, _ = sc.domain.cell_centres()
-        exact = cell_averages(lambda p: ritter(p, t_end, 0.002, 0.1)[0], x, sc.dx)
-        errs.append(np.sum(np.abs(h - exact)) / np.sum(exact))
+        errs.append(ritter.score(raw, sc)[1])
         assert h.min() >= 0.0
         # positions of the h = theta h_L contours, x0 + (2 c0 - sqrt(9 theta g h_L)) t
         pos = []
@@ -271,22 +267,6 @@ def test_linear_growth_rate_matches_theory(ti_cpu, h0, nu, k, nx):
 
 
 # -------------------------------------------------------------------------------------- T6b
-def _transport_exact(x, t, L, u0, phi_mean=0.5, amp=0.25):
-    """phi_t + (u0 (phi - G(phi)))_x = 0 with phi(x, 0) = phi_mean + amp cos(2 pi x / L),
-    solved along characteristics: phi = phi_init(x - u0 (1 - G'(phi)) t)."""
-    speed = lambda p: u0 * (1.0 / 7.0 + 12.0 * p / 7.0)
-    init = lambda s: phi_mean + amp * np.cos(2 * np.pi * s / L)
-    out = np.empty_like(x)
-    for i, xi in enumerate(x.ravel()):
-        out.ravel()[i] = brentq(
-            lambda p: p - init(xi - speed(p) * t),  # noqa: B023 (called here)
-            phi_mean - amp - 1e-9,
-            phi_mean + amp + 1e-9,
-            xtol=1e-15,
-        )
-    return out
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "rec,opt",
@@ -298,45 +278,13 @@ def _transport_exact(x, t, L, u0, phi_mean=0.5, amp=0.25):
 def test_second_order_convergence_on_smooth_transport(ti_cpu, rec, opt):
     """T6b: with a friction that exactly balances gravity (mu = tan zeta) h and u stay uniform
     and phi solves the large-particle transport equation (6.3); smooth data, t = t_break / 2."""
-    L, u0, h0 = 0.1, 0.2, 0.002
-    t_b = 7 * L / (12 * u0 * 0.25 * 2 * math.pi)
-    t_end = 0.5 * t_b
+    transport = load_problem("transport")  # tiseg/data/problems/transport.toml
     errs = []
     for n in (50, 100, 200):
-        d = {
-            "flow": {"h0": h0, "phi0": 0.5, "nu": 0.0, "u0": u0},
-            "effects": {
-                "friction": "coulomb",
-                "coulomb_mu": math.tan(math.radians(27.0)),
-                "viscosity": False,
-                "mobility_feedback": False,
-            },
-            "domain": {"nx": n, "ny": 1},
-            "boundary": dict(PERIODIC),
-            "initial": {
-                "kind": "uniform",
-                "amplitude": 0.25,
-                "mode": "phi",
-                "k": 2 * math.pi * h0 / L,
-                "wavelengths": 1,
-            },
-            "numerics": {
-                "reconstruction": rec,
-                "stepper": "rkc",
-                "flux": opt[0],
-                "phi_flux": opt[1],
-            },
-            "time": {"t_end": t_end},
-        }
-        sc = scene_from_dict(d, name="t6b")
+        num = {"reconstruction": rec, "stepper": "rkc", "flux": opt[0], "phi_flux": opt[1]}
+        sc = transport.build(n, num)
         sim = Simulation(sc)
-        sim.advance(t_end)
-        phi = sim.fields()["phi"][0]
-        x, _ = sc.domain.cell_centres()
-        gauss = np.array([-math.sqrt(3 / 5), 0.0, math.sqrt(3 / 5)]) * 0.5 * sc.dx
-        wts = np.array([5, 8, 5]) / 18
-        exact = sum(w * _transport_exact(x + g, t_end, L, u0) for g, w in zip(gauss, wts))
-        errs.append(np.mean(np.abs(phi - exact)))
+        errs.append(transport.score(transport.run(sim), sc)[1])  # mean |phi - phi_exact|
     orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
     assert orders[-1] > 1.8, (errs, orders)
 

@@ -1,6 +1,6 @@
 """The wheel as a user installs it: built from this tree, unpacked away from it, it finds its
-built-in scenes and sweeps through importlib.resources (no assets/ folder beside it), holds no
-top-level package but tiseg, and runs from there. (.ci/run also installs it into a fresh venv
+built-in scenes, sweeps and problems through importlib.resources (no assets/ folder beside
+it), holds no top-level package but tiseg, and runs from there. (.ci/run also installs it into a fresh venv
 with its dependencies and runs scenes with it.)"""
 
 import json
@@ -16,10 +16,12 @@ PROBE = """
 import json, tiseg
 from tiseg.scene import list_builtin_scenes, load_scene
 from tiseg.sweep import list_builtin_sweeps, load_sweep
+from tiseg.problems import builtin_problems
 sc = load_scene("fingers")
 print(json.dumps({"file": tiseg.__file__, "scenes": list_builtin_scenes(),
                   "sweeps": list_builtin_sweeps(), "fingers_nx": sc.domain.nx,
-                  "grid_runs": len(load_sweep("grid-study").runs)}))
+                  "grid_runs": len(load_sweep("grid-study").runs),
+                  "problems": list(builtin_problems())}))
 """
 
 
@@ -64,3 +66,4 @@ def test_wheel_finds_its_scenes_and_sweeps_outside_the_tree(tmp_path):
     assert {"fingers", "channel", "dam-break", "finite-release"} <= set(got["scenes"])
     assert {"grid-study", "nu-study", "width-study", "tiny"} <= set(got["sweeps"])
     assert got["fingers_nx"] == 1125 and got["grid_runs"] == 12
+    assert {"transport", "ritter", "growth", "fingers", "channel"} <= set(got["problems"])

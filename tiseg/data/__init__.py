@@ -1,7 +1,8 @@
 """Files shipped inside the package, read through importlib.resources so that an installed
 wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.toml``, see
-:func:`tiseg.scene.list_builtin_scenes`) and sweeps (``sweeps/*.toml``, see
-:func:`tiseg.sweep.load_sweep`).
+:func:`tiseg.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
+:func:`tiseg.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
+:func:`tiseg.problems.load_problem`).
 
 Up to version 0.1.0 they lived in ``assets/scenes`` and ``assets/sweeps`` beside the package;
 :func:`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.
@@ -15,6 +16,7 @@ from pathlib import Path, PurePath
 # A wheel installs packages as plain folders, so these are real paths (pathlib.Path).
 SCENE_DIR = Path(str(resources.files(__name__) / "scenes"))
 SWEEP_DIR = Path(str(resources.files(__name__) / "sweeps"))
+PROBLEM_DIR = Path(str(resources.files(__name__) / "problems"))
 LEGACY_DIRS = {"scenes": SCENE_DIR, "sweeps": SWEEP_DIR}
 
 
