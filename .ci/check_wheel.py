@@ -14,7 +14,7 @@ for need in (
     "tiseg/data/scenes/channel.toml",
     "tiseg/data/sweeps/grid-study.toml",
     "tiseg/data/problems/ritter.toml",
-    "tiseg/viewer/app.py",
+    "tiseg/apps/viewer/app.py",
 ):
     if need not in names:
         problems.append(f"missing {need}")

@@ -49,10 +49,10 @@ COLUMNS = (
 
 
 def run_one(label: str, res: int, t_end: float) -> dict:
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
-    from tiseg.steady_channel import channel_profile
-    from tiseg.bench.accuracy import _channel_cells
+    from tiseg.setup.scene import load_scene
+    from tiseg.run.simulation import Simulation
+    from tiseg.post.problems.steady_channel import channel_profile
+    from tiseg.apps.bench.accuracy import _channel_cells
 
     sc = load_scene(
         "channel",
@@ -157,7 +157,7 @@ def main(argv=None) -> int:
     ap.add_argument("--t-end", type=float, default=3.0)
     a = ap.parse_args(argv)
     import tiseg
-    from tiseg.bench import machine_info, machine_line
+    from tiseg.apps.bench import machine_info, machine_line
 
     tiseg.init("cpu", "f64", threads=1)
     out = Path(a.out)

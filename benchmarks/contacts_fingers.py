@@ -31,7 +31,7 @@ REF_RES = 750
 
 def label(num: dict) -> str:
     """The option's name as in tiseg bench accuracy (scheme_label)."""
-    from tiseg.bench.accuracy import scheme_label
+    from tiseg.apps.bench.accuracy import scheme_label
 
     base = scheme_label(
         {

@@ -7,7 +7,7 @@ resolution ladder, with the two codes alternating (issue 14).
 
 Problem (Stoker): x in [0, 2] m, y in [0, 0.25] m, nx x nx/8 cells, dam at x = 1 m, h_l = 1 m,
 h_r = 0.1 m at rest, g = 9.81, flat bed; outflow in x, walls in y; t = 0.14 s. Error: the mean
-|h - h_exact| over the cells, h_exact the exact solution's cell averages (tiseg.exact_dambreak).
+|h - h_exact| over the cells, h_exact the exact solution's cell averages (tiseg.model.exact_dambreak).
 The dry case (Ritter, h_r = 0) runs with ``--case ritter``; PyClaw's Roe solver is run on it too
 and its result recorded as it comes (NaN or negative h).
 
@@ -57,7 +57,7 @@ BASE = {"theta": 1.5, "flux": "kt", "step_rule": "max", "cfl": 0.25, "precision"
 SUM = {"step_rule": "sum", "cfl": 0.5}
 SHARP = {"reconstruction": "minmod", "theta": 2.0, "flux": "central-upwind", **SUM}
 LOCAL = {**SHARP, "step_rule": "local"}
-# the split MUSCL-Hancock sweeps (tiseg.numerics.split): each sweep's own Courant number
+# the split MUSCL-Hancock sweeps (tiseg.solver.numerics.split): each sweep's own Courant number
 HANCOCK = {**SHARP, "stepper": "hancock", "step_rule": "max", "cfl": 0.9}
 
 
@@ -109,7 +109,7 @@ COLUMNS = ("case", "code", "combo", "threads", *SOLVE_FIELDS, "startup_s", "repe
 
 
 def exact_h(case: str, x: np.ndarray, dx: float) -> np.ndarray:
-    from tiseg.exact_dambreak import cell_averages, ritter, stoker
+    from tiseg.model.exact_dambreak import cell_averages, ritter, stoker
 
     if case == "ritter":
         f = lambda p: ritter(p, T_END, HL, X0)[0]  # noqa: E731
@@ -121,8 +121,8 @@ def exact_h(case: str, x: np.ndarray, dx: float) -> np.ndarray:
 # ---- one solve of each code --------------------------------------------------------------------
 def tiseg_build(case: str, combo: str, nx: int, threads: int):
     """(scene, Simulation) of the problem on nx x nx/8 cells with the combo's numerics."""
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
+    from tiseg.setup.scene import load_scene
+    from tiseg.run.simulation import Simulation
 
     over = {
         "domain.Lx": LX,

@@ -50,8 +50,8 @@ def _machine() -> str:
 
 
 def _fingers(law, scheme, resolution, t_end):
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
+    from tiseg.setup.scene import load_scene
+    from tiseg.run.simulation import Simulation
 
     sc = load_scene(
         "fingers",
@@ -157,8 +157,8 @@ def per_step(a) -> None:
 
 def rest_skipping(a) -> None:
     """Part 2: the deposit scene with and without skipping the regions held at rest."""
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
+    from tiseg.setup.scene import load_scene
+    from tiseg.run.simulation import Simulation
 
     sc = load_scene(
         "finite-release-deposit",

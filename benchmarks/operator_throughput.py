@@ -4,12 +4,12 @@
 
 is the same as ``tiseg bench throughput --json [--nx ...] [--ny ...]``: every precision in its
 own process, each effect switched off in turn, the NumPy reference and a memory-bandwidth bound
-measured in the same run (see :mod:`tiseg.bench.throughput` and benchmarks/README.md).
+measured in the same run (see :mod:`tiseg.apps.bench.throughput` and benchmarks/README.md).
 """
 
 import sys
 
-from tiseg.cli import main
+from tiseg.apps.cli import main
 
 if __name__ == "__main__":
     sys.exit(main(["bench", "throughput", "--json", *sys.argv[1:]]))

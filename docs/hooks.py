@@ -1,7 +1,7 @@
 """MkDocs hooks: the pages generated at build time (nothing generated is kept in the tree).
 
-* ``reference/scenes.md`` from the scene schema (:mod:`tiseg.scene_reference`);
-* ``reference/cli.md`` from the argparse parser (:mod:`tiseg.cli_reference`);
+* ``reference/scenes.md`` from the scene schema (:mod:`tiseg.setup.reference`);
+* ``reference/cli.md`` from the argparse parser (:mod:`tiseg.apps.cli_reference`);
 * ``gallery.md``: every script in ``examples/`` run with its ``GALLERY`` arguments, its
   docstring, code and printed output, and a picture of the run where it writes one;
 * ``verification.md`` and ``benchmarks.md`` from the README's sections and
@@ -116,7 +116,7 @@ def _gallery() -> tuple[str, list[tuple[str, bytes]]]:
                     [
                         sys.executable,
                         "-c",
-                        "import sys; from tiseg.cli import main; sys.exit(main())",
+                        "import sys; from tiseg.apps.cli import main; sys.exit(main())",
                         "render",
                         str(run),
                         "--panels",
@@ -148,7 +148,8 @@ def _gallery() -> tuple[str, list[tuple[str, bytes]]]:
 
 def on_files(files, config):
     sys.path.insert(0, str(ROOT))
-    from tiseg import cli_reference, scene_reference
+    from tiseg.apps import cli_reference
+    from tiseg.setup import reference as scene_reference
 
     def add(path: str, content):
         files.append(File.generated(config, path, content=content))

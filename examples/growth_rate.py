@@ -11,8 +11,8 @@ sigma_R from (5.20)-(5.21).
 import argparse
 
 import tiseg
-from tiseg.problems import load_problem
-from tiseg.simulation import Simulation
+from tiseg.post.problems import load_problem
+from tiseg.run.simulation import Simulation
 
 
 GALLERY = ["--cells", "32"]  # the docs gallery run

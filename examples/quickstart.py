@@ -10,7 +10,7 @@ that came through the inflow.
 import argparse
 
 import tiseg
-from tiseg.simulation import Simulation
+from tiseg.run.simulation import Simulation
 
 
 GALLERY = ["--resolution", "80", "--t-end", "2.0", "--out", "{out}"]  # the docs gallery run

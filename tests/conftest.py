@@ -26,13 +26,13 @@ def ti_cpu():
 @pytest.fixture(scope="module", autouse=True)
 def _room_for_fields():
     """Start a test file with a fresh Taichi runtime only if the last ones left most of its
-    field trees taken. Simulations free theirs when collected (tiseg.field_tree); renderers
+    field trees taken. Simulations free theirs when collected (tiseg.solver.field_tree); renderers
     and viewer windows still hold plain fields until the runtime is reset."""
     import gc
 
     from tiseg import backend
 
-    gc.collect()  # simulations of the last file free their field trees (tiseg.field_tree)
+    gc.collect()  # simulations of the last file free their field trees (tiseg.solver.field_tree)
     if backend.is_initialised() and backend.field_trees() > backend.MAX_FIELD_TREES // 2:
         st = backend.state()
         backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
@@ -52,7 +52,8 @@ def _fresh_runtime_per_test(request):
     fixture that keeps a simulation or a renderer alive keeps the runtime too."""
     import gc
 
-    from tiseg import backend, field_tree
+    from tiseg import backend
+    from tiseg.solver import field_tree
 
     module = request.module.__name__
     if (

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from tiseg.material import TABLE1
-from tiseg.numerics.config import FrictionParams, Layout, OperatorConfig
+from tiseg.model.material import TABLE1
+from tiseg.solver.numerics.config import FrictionParams, Layout, OperatorConfig
 
 
 def table1_friction(m=TABLE1, coulomb_mu=0.36):
@@ -15,8 +15,8 @@ def table1_friction(m=TABLE1, coulomb_mu=0.36):
 def rates_equal_reference(cfg, q):
     """The Taichi rates of q against the NumPy reference's, to 1e-12 of each component's
     largest rate; returns (op, ref, Taichi rates) for further stages (slots 0..2 in use)."""
-    from tiseg.numerics.operator import TaichiOperator
-    from tiseg.reference import ReferenceOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
+    from tiseg.solver.reference import ReferenceOperator
 
     op = TaichiOperator(cfg, nslots=3)
     ref = ReferenceOperator(cfg)
@@ -132,7 +132,7 @@ def coulomb_scene(
     """A 1D monodisperse layer (h0 = 2 mm) with Coulomb friction mu on a slope zeta [deg]: no
     viscosity, no segregation, minmod slopes, and a tiny h_min (the O(h_min) stall of a front
     tip is not what these cases test)."""
-    from tiseg.scene import scene_from_dict
+    from tiseg.setup.scene import scene_from_dict
 
     return scene_from_dict(
         {
@@ -163,7 +163,7 @@ def coulomb_scene(
 
 def exit_code(argv) -> int:
     """tiseg's main(argv), with argparse's SystemExit(2) turned into its exit code."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     try:
         return main(argv)

@@ -2,7 +2,7 @@
 exit status 2 with exactly one line on stderr that starts with "tiseg" and names the problem;
 never a traceback, never a run, and nothing is silently ignored.
 
-The cases go through the command-line entry point (``tiseg.cli.main``) and, for the scene
+The cases go through the command-line entry point (``tiseg.apps.cli.main``) and, for the scene
 files, through ``load_scene`` too. None of them gets as far as building a simulation, so the
 whole file runs in a few seconds.
 """
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.scene import load_scene
+from tiseg.setup.scene import load_scene
 
 from solver_helpers import MINIMAL_SCENE, exit_code as _call
 
@@ -124,8 +124,8 @@ BAD_ARGS = [
 def _imported():
     """Import every command (and Taichi) once before the cases: Taichi announces itself on
     stderr at its first import under pytest's capture, which is not a message of ours."""
-    import tiseg.simulation  # noqa: F401  (the kernels' modules: Taichi logs when it meets them)
-    from tiseg.cli import build_parser
+    import tiseg.run.simulation  # noqa: F401  (the kernels' modules: Taichi logs when it meets them)
+    from tiseg.apps.cli import build_parser
 
     build_parser()
 
@@ -160,7 +160,7 @@ def folders(tmp_path_factory):
     for name in ("fields.nc", "diagnostics.csv"):
         (edited / name).write_bytes((run / name).read_bytes())
     (edited / "scene.toml").write_text(load_scene("fingers", ["flow.nu=0.02"]).to_toml())
-    from tiseg.checkpoint import FORMAT, VERSION, write_npz_atomic
+    from tiseg.run.checkpoint import FORMAT, VERSION, write_npz_atomic
 
     write_npz_atomic(
         edited / "checkpoint.npz",

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from tiseg.bench import accuracy, throughput
+from tiseg.apps.bench import accuracy, throughput
 
 
 # ------------------------------------------------------------------------------- Pareto front
@@ -232,9 +232,9 @@ def test_estimate_predicts_a_small_fingers_run(ti_cpu, tmp_path, capsys):
     """`tiseg estimate` on a small fingers run against the real run in this process: steps and
     operator evaluations within a factor 1.5. (Wall time is compared in the benchmark report,
     not here: a shared machine's load makes a timed assertion flaky.)"""
-    from tiseg.cli import main
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
+    from tiseg.apps.cli import main
+    from tiseg.setup.scene import load_scene
+    from tiseg.run.simulation import Simulation
 
     sets = ["domain.resolution=40", "time.t_end=1.5", "output.times=[]", "output.interval=0.5"]
     assert main(["estimate", "fingers", *sum((["--set", s] for s in sets), []), "--json"]) == 0
@@ -249,9 +249,9 @@ def test_estimate_predicts_a_small_fingers_run(ti_cpu, tmp_path, capsys):
 def test_predicted_steps_of_a_uniform_flow_match_the_run(ti_cpu):
     """Constant speeds: the model's CFL and RKC stage rule give the run's own step and stage
     counts (one trimmed step per output interval)."""
-    from tiseg.estimate import predict_steps
-    from tiseg.scene import load_scene
-    from tiseg.simulation import Simulation
+    from tiseg.apps.estimate import predict_steps
+    from tiseg.setup.scene import load_scene
+    from tiseg.run.simulation import Simulation
 
     sc = load_scene("uniform-flow", {"time.t_end": 0.05, "output.interval": 0.01})
     p = predict_steps(sc)
@@ -267,8 +267,8 @@ def test_predicted_steps_of_a_uniform_flow_match_the_run(ti_cpu):
 
 
 def test_run_estimate_flag_prints_and_does_not_run(tmp_path, capsys, monkeypatch):
-    import tiseg.estimate as E
-    from tiseg.cli import main
+    import tiseg.apps.estimate as E
+    from tiseg.apps.cli import main
 
     def fake(scene, **kw):
         return E.Estimate(
@@ -322,9 +322,9 @@ def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
     per metre) keeps the higher-order steppers from ranking by order (RKC 1.0e-2 against
     6.9e-4 with the regularised source over the same span), so only RKC's own row is held to
     the bound there."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
     from tiseg.errors import InputError
-    from tiseg.bench import steppers
+    from tiseg.apps.bench import steppers
 
     def make_run(out, *sets):
         args = ["run", "fingers", "--set", "domain.resolution=40", "--set", "time.t_end=1.5"]

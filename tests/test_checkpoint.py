@@ -15,12 +15,12 @@ import netCDF4
 import numpy as np
 import pytest
 
-from tiseg import checkpoint
-from tiseg.cli import main
+from tiseg.run import checkpoint
+from tiseg.apps.cli import main
 from tiseg.output import read_diagnostics
-from tiseg.scene import load_scene
-from tiseg.schedules import IterationInterval
-from tiseg.simulation import Simulation
+from tiseg.setup.scene import load_scene
+from tiseg.run.schedules import IterationInterval
+from tiseg.run.simulation import Simulation
 
 # A small 2D fingers run (24 x 8 cells, inflow, segregation, viscosity, RKC): output every
 # 0.1 s, a checkpoint also every 0.05 s of simulated time.
@@ -73,12 +73,12 @@ def reference(tmp_path_factory, ti_cpu):
 
 @pytest.mark.slow
 def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsys):
-    """`python -m tiseg.cli run ...` is killed with SIGKILL as soon as its first checkpoint
+    """`python -m tiseg.apps.cli run ...` is killed with SIGKILL as soon as its first checkpoint
     exists; the files it leaves are readable; `tiseg run --resume DIR` finishes the run, and
     the result is bitwise the uninterrupted run's."""
     out = tmp_path / "killed"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
+        [sys.executable, "-m", "tiseg.apps.cli"] + _cli_args(out),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
@@ -111,7 +111,7 @@ def test_a_signal_stops_at_a_step_with_a_checkpoint(tmp_path, reference, capsys,
     exit 128 + the signal; the resumed run is bitwise the uninterrupted one."""
     out = tmp_path / "stopped"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "tiseg.cli"] + _cli_args(out),
+        [sys.executable, "-m", "tiseg.apps.cli"] + _cli_args(out),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,

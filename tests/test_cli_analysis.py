@@ -5,11 +5,11 @@ import math
 
 import pytest
 
-from tiseg.cli import main
-from tiseg.stability import dispersion1d as d1
-from tiseg.stability import dispersion2d as d2
-from tiseg.stability.base import base_state
-from tiseg.steady import steady_state
+from tiseg.apps.cli import main
+from tiseg.model.stability import dispersion1d as d1
+from tiseg.model.stability import dispersion2d as d2
+from tiseg.model.stability.base import base_state
+from tiseg.model.steady import steady_state
 
 from solver_helpers import exit_code
 

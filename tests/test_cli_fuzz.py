@@ -8,7 +8,7 @@ import shutil
 
 import pytest
 
-from tiseg.cli import build_parser, main
+from tiseg.apps.cli import build_parser, main
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import subprocess
 import sys
 
 from tiseg import __version__
-from tiseg.cli import main
+from tiseg.apps.cli import main
 
 
 def test_version(capsys):
@@ -53,7 +53,7 @@ def test_quiet_hides_notes_and_keeps_results(ti_cpu, tmp_path, capsys):
 def test_no_progress_bar_into_a_redirected_stderr(tmp_path):
     """tqdm switches itself off when stderr is not a terminal (here: a pipe)."""
     p = subprocess.run(
-        [sys.executable, "-m", "tiseg.cli"]
+        [sys.executable, "-m", "tiseg.apps.cli"]
         + [a for a in RUN if a != "--no-progress"]
         + ["--out", str(tmp_path / "r")],
         capture_output=True,

@@ -1,13 +1,13 @@
 """Sharp contacts: the ``channel`` scene, a straight fine channel between coarse levees whose
 exact concentration never changes (no mass crosses the contacts), and whose steady speed
-profile u(y) solves the cross-slope boundary-value problem of :mod:`tiseg.steady_channel`."""
+profile u(y) solves the cross-slope boundary-value problem of :mod:`tiseg.post.problems.steady_channel`."""
 
 import numpy as np
 import pytest
 
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
-from tiseg.steady_channel import channel_profile
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
+from tiseg.post.problems.steady_channel import channel_profile
 
 
 def channel(res=250, t_end=1.0, **over):
@@ -108,7 +108,7 @@ def test_channel_profile_balances_friction_and_viscosity():
     constant."""
     import math
 
-    from tiseg.steady import velocity
+    from tiseg.model.steady import velocity
 
     sc = channel(**{"domain.Ly": 2.0, "initial.width": 1.0})  # centres 0.5 m from contacts
     prof = channel_profile(sc)

@@ -1,8 +1,8 @@
 """The main job (`tiseg demo`) at 250 cells per metre: its printed numbers are its own
 diagnostics, and the headline wavelength holds still once fingers have formed.
 
-The headline count (2D channels, tiseg.analysis.channels) is checked against an independent
-measure, the spectral wavelength of phi (tiseg.analysis.spectrum), which detects no channels.
+The headline count (2D channels, tiseg.post.analysis.channels) is checked against an independent
+measure, the spectral wavelength of phi (tiseg.post.analysis.spectrum), which detects no channels.
 Once fingers have formed (t >= 6.5 s) the wavelength Ly / count must be defined at every output
 time, vary by at most a factor 1.5, and agree with the spectral wavelength within a third.
 (Measured on 2026-12-01: 7 fingers at every output time from 6.0 s to 7.5 s, Lambda = 7.1 cm

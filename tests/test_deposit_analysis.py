@@ -1,4 +1,4 @@
-"""The deposit report of `tiseg fingers` (tiseg.analysis.deposit), on fields files whose
+"""The deposit report of `tiseg fingers` (tiseg.post.analysis.deposit), on fields files whose
 answers are known by construction, and on a real run that comes to rest."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from tiseg.analysis.deposit import deposit_metrics, settle_index, stop_index
-from tiseg.analysis.fingers import analyse_run
-from tiseg.cli import main
+from tiseg.post.analysis.deposit import deposit_metrics, settle_index, stop_index
+from tiseg.post.analysis.fingers import analyse_run
+from tiseg.apps.cli import main
 
 
 def test_stop_index_is_the_first_time_from_which_the_flow_stays_at_rest():
@@ -38,7 +38,7 @@ def deposit_run(tmp_path_factory):
     (channels: phi = 0.9, h = 1 mm) and columns 0..24 in rows 10..19 (levees: phi = 0.1,
     h = 3 mm)."""
     from tiseg.output import FieldsWriter
-    from tiseg.scene import load_scene
+    from tiseg.setup.scene import load_scene
 
     scene = load_scene("fingers", {"domain.resolution": 40})
     x, y = scene.domain.cell_centres()
@@ -90,7 +90,7 @@ def creeping_run(tmp_path_factory):
     at 2 s, then at rest but for the cell (row 5, column 10) of 0.2 mm moving at 1e-3 m/s
     at t = 3 and 4 s, where h also changes by 1e-6 m in column 29."""
     from tiseg.output import FieldsWriter
-    from tiseg.scene import load_scene
+    from tiseg.setup.scene import load_scene
 
     scene = load_scene("fingers", {"domain.resolution": 40})
     x, y = scene.domain.cell_centres()

@@ -7,10 +7,10 @@ budget is a serial loop), and the only atomics are max/min (wave speeds, stiffne
 range) and integer counts (the guard), which do not depend on the order of the threads. So
 the result cannot depend on how Taichi splits the loops among threads.
 
-Each run is its own process (`python -m tiseg.cli run ... --threads N`, i.e.
+Each run is its own process (`python -m tiseg.apps.cli run ... --threads N`, i.e.
 ``tiseg.init(threads=N)`` -> Taichi's ``cpu_max_num_threads``); the runs are started together
 so that they share the machine's cores. Grids this small run their loops on one thread
-(tiseg.numerics.operator.SERIAL_CELLS), so the last test compares those serial loops with the
+(tiseg.solver.numerics.operator.SERIAL_CELLS), so the last test compares those serial loops with the
 same kernels' parallel loops directly.
 """
 
@@ -52,7 +52,7 @@ def runs(tmp_path_factory):
         cmd = [
             sys.executable,
             "-m",
-            "tiseg.cli",
+            "tiseg.apps.cli",
             "run",
             "fingers",
             "--out",
@@ -115,7 +115,7 @@ def test_thread_count_does_not_change_the_result(runs, precision):
 
 def test_in_process_run_matches_the_subprocess(runs, ti_cpu, tmp_path):
     """The same scene run here (Taichi's default thread count, f64) gives the same bits too."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     args = ["run", "fingers", "--out", str(tmp_path / "here"), "--no-progress"]
     for s in SETS:
@@ -130,8 +130,8 @@ def test_serial_and_parallel_loops_give_the_same_bits(ti_cpu, rec):
     with parallel loops must give bitwise the same rates, stability numbers, wet range,
     totals and steps, on a 2D wet/dry state with every effect on and an inflow."""
     from solver_helpers import make_config, random_state
-    from tiseg.numerics.operator import TaichiOperator
-    from tiseg.timestepping import make_stepper
+    from tiseg.solver.numerics.operator import TaichiOperator
+    from tiseg.solver.timestepping import make_stepper
 
     rng = np.random.default_rng(7)
     cfg = make_config(40, 11, reconstruction=rec, bc=("inflow", "outflow", "wall", "periodic"))

@@ -4,9 +4,10 @@ the command-line reference."""
 
 import pytest
 
-from tiseg import cli_reference, scene_reference
-from tiseg.cli import COMMAND_MODULES
-from tiseg.scene import SECTION_KEYS
+from tiseg.apps import cli_reference
+from tiseg.setup import reference as scene_reference
+from tiseg.apps.cli import COMMAND_MODULES
+from tiseg.setup.scene import SECTION_KEYS
 
 
 def test_every_scene_key_is_described():

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_config, random_state
-from tiseg.physics.pointwise import Params, slot_bases
+from tiseg.model.physics.pointwise import Params, slot_bases
 
 
 def _rhs(cfg, q, poison=(), value=math.nan):
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     op = TaichiOperator(cfg, nslots=2)
     for idx in poison:

@@ -9,8 +9,8 @@ import json
 import numpy as np
 import pytest
 
-from tiseg.analysis.fingers import analyse_run, finger_metrics, front_speed, periodic_runs
-from tiseg.cli import main
+from tiseg.post.analysis.fingers import analyse_run, finger_metrics, front_speed, periodic_runs
+from tiseg.apps.cli import main
 
 PHI0 = 0.8
 H_MIN = 1e-4
@@ -318,7 +318,7 @@ def run_dir(tmp_path_factory):
     """A tiny fields.nc of the fingers scene at 40 cells/m (60 x 20 cells, dx = dy = 2.5 cm):
     t = 1, 2: uniform coarse head; t = 3: two fingers (rows 2..7 and 12..17)."""
     from tiseg.output import FieldsWriter
-    from tiseg.scene import load_scene
+    from tiseg.setup.scene import load_scene
 
     scene = load_scene("fingers", {"domain.resolution": 40})
     x, y = scene.domain.cell_centres()

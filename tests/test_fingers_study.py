@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tiseg.analysis import analyse_run
+from tiseg.post.analysis import analyse_run
 from tiseg.output import read_fields
-from tiseg.simulation import Simulation
+from tiseg.run.simulation import Simulation
 
 RESOLUTION = 200  # cells per metre
 LY = 0.15  # m

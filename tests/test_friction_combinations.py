@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
-from tiseg.timestepping import STEPPERS
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
+from tiseg.solver.timestepping import STEPPERS
 
 ZETA, MU, U_EPS = 21.0, 0.47, 1e-3
 

@@ -21,10 +21,10 @@ from solver_helpers import (
     rates_equal_reference,
 )
 from tiseg.errors import InputError
-from tiseg.material import Material
-from tiseg.physics.friction import FRICTION_LAWS, h_stop
-from tiseg.scene import scene_from_dict
-from tiseg.simulation import Simulation
+from tiseg.model.material import Material
+from tiseg.model.physics.friction import FRICTION_LAWS, h_stop
+from tiseg.setup.scene import scene_from_dict
+from tiseg.run.simulation import Simulation
 
 EXT = FRICTION_LAWS["pouliquen-extended"]
 
@@ -188,8 +188,8 @@ def test_a_layer_just_past_h_start_accelerates_as_the_law_says(ti_cpu, stepper):
 
     from scipy.integrate import solve_ivp
 
-    from tiseg.numerics.config import config_from_scene
-    from tiseg.physics.friction import FRICTION_LAWS
+    from tiseg.solver.numerics.config import config_from_scene
+    from tiseg.model.physics.friction import FRICTION_LAWS
 
     sc = _layer_scene(22.0).with_overrides({"numerics.stepper": stepper, "numerics.cfl": 0.5})
     h = 1.02 * _start_thickness(sc.material)
@@ -323,7 +323,7 @@ def test_rest_faces_are_those_of_the_step_start(ti_cpu):
     release at 125 cells/m broke the mass balance after 252 s when the later RKC stage switched
     those faces off: RKC's stage weights of both signs (2.08, -1, -1.58 at 2 stages) then drove
     the thin cell's h below zero, and the limiter's clip created mass."""
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     cfg = make_config(
         12,

@@ -26,7 +26,7 @@ from solver_helpers import (
     rates_equal_reference,
     table1_friction,
 )
-from tiseg.simulation import Simulation
+from tiseg.run.simulation import Simulation
 
 G = 9.81
 

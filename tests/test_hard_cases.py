@@ -4,7 +4,7 @@ what the physics says, where schemes usually break.
 Every case asserts: no NaN/Inf, h >= 0, 0 <= phi <= 1 on wet cells (exactly: the clamps of the
 operator leave no round-off outside), conservation (periodic: round-off; inflow/outflow: the
 change of ``sim.totals()`` equals the boundary budget ``sim.budget()``), and its expected
-outcome. Most runs use ``check_every=1``, so the guard (tiseg.guards) also checked every single
+outcome. Most runs use ``check_every=1``, so the guard (tiseg.run.guards) also checked every single
 step. The measured numbers quoted in the docstrings are f64 on the CPU.
 
 Measured worst violations over the whole file: h < 0 never (min h = 0 exactly at dry cells),
@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from tiseg.scene import load_scene, scene_from_dict
-from tiseg.simulation import Simulation, SimulationError
-from tiseg.steady import steady_state
+from tiseg.setup.scene import load_scene, scene_from_dict
+from tiseg.run.simulation import Simulation, SimulationError
+from tiseg.model.steady import steady_state
 
 from solver_helpers import OPEN, PERIODIC, coulomb_scene
 
@@ -300,8 +300,8 @@ def test_dam_break_onto_thin_film(ti_cpu, film):
 def _linear_prediction_run(nu, nx, k, mode, periods, h0=0.002):
     """Fourier coefficient of h from the solver against exp(A t) of the linearised system
     (5.21) applied to the initial perturbation (amplitude 1e-6, so it stays linear)."""
-    from tiseg.stability.base import base_state
-    from tiseg.stability.dispersion1d import matrix
+    from tiseg.model.stability.base import base_state
+    from tiseg.model.stability.dispersion1d import matrix
 
     sc = load_scene(
         "uniform-flow",
@@ -349,7 +349,7 @@ def test_stiff_viscosity_many_rkc_stages_follow_linear_theory(ti_cpu):
 def test_tiny_viscosity_growth_rate(ti_cpu):
     """nu = 1e-6 (R = 9300, nearly inviscid, viscous kernels still on): the most unstable mode
     at k = 0.2399 grows at the linear rate 4.936 1/s (measured 4.930, 0.13 %); 2 stages/step."""
-    from tiseg.initial import eigenmode
+    from tiseg.setup.initial import eigenmode
 
     sc = load_scene("uniform-flow", {"flow.nu": 1e-6, "domain.nx": 64})
     lam, _ = eigenmode(sc)
@@ -740,7 +740,7 @@ def test_guard_names_time_step_cell_and_field(guarded_sim, tmp_path, comp, value
     assert str(tmp_path / "failure") in msg
     v = info.value.violation
     assert (v.i, v.j, v.field) == (5, 2, field)
-    from tiseg import checkpoint
+    from tiseg.run import checkpoint
 
     good = checkpoint.load(tmp_path / "failure" / "last_good.npz")
     bad = checkpoint.load(tmp_path / "failure" / "offending.npz")
@@ -755,7 +755,7 @@ def test_guard_stops_a_run_that_produces_nan(ti_cpu, tmp_path):
     with a SimulationError at the next check (NaN in the state, or the mass the h >= 0 clamp
     silently removes with it), and the failure folder holds both states; fields.nc keeps the
     good snapshots only."""
-    from tiseg.physics.pointwise import Params
+    from tiseg.model.physics.pointwise import Params
 
     sc = load_scene(
         "fingers",
@@ -792,7 +792,7 @@ def test_guard_overhead_is_small(guarded_sim):
     """One guard check (scan + copy of the last good state) costs less than one RKC step, so
     checking every 10 steps (the default) adds well under 10 %: measured 0.15-0.54 ms per
     check against 3-4 ms per step on this 16 x 4 grid (0.5-1.3 % at the default interval)."""
-    from tiseg.guards import measure_overhead
+    from tiseg.run.guards import measure_overhead
 
     sim = guarded_sim
     sim.reset()

@@ -9,11 +9,11 @@ import sys
 import numpy as np
 import pytest
 
-from tiseg.cli import main
+from tiseg.apps.cli import main
 from tiseg.errors import InputError
-from tiseg.paths import RunLock, safe_name
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
+from tiseg.output.paths import RunLock, safe_name
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
 
 TINY = {
     "domain.resolution": 40,
@@ -94,7 +94,7 @@ def test_foreign_files_and_finished_runs_need_overwrite(ti_cpu, tmp_path, capsys
 
 HOLD = """
 import sys, time
-from tiseg.paths import RunLock
+from tiseg.output.paths import RunLock
 lock = RunLock(sys.argv[1]).acquire()
 print("held", flush=True)
 time.sleep(60)
@@ -134,7 +134,7 @@ def test_a_killed_holder_releases_the_lock(tmp_path):
 
 
 def test_sweep_skips_a_run_another_process_holds(held_folder):
-    from tiseg.sweep import execute_run
+    from tiseg.apps.sweep import execute_run
 
     d, pid = held_folder
     rec = execute_run(
@@ -145,7 +145,7 @@ def test_sweep_skips_a_run_another_process_holds(held_folder):
 
 @pytest.mark.slow
 def test_resume_removes_stale_temporaries(ti_cpu, tmp_path):
-    from tiseg import checkpoint
+    from tiseg.run import checkpoint
 
     out = tmp_path / "run"
     sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
@@ -161,7 +161,7 @@ def test_resume_removes_stale_temporaries(ti_cpu, tmp_path):
 
 # ------------------------------------------------------------------ limits before work
 def test_a_grid_that_cannot_fit_in_memory_is_refused_with_the_numbers(ti_cpu, monkeypatch):
-    import tiseg.limits as L
+    import tiseg.run.limits as L
 
     monkeypatch.setattr(L, "memory_available", lambda: 10_000)
     with pytest.raises(InputError, match=r"needs about .* GB of memory .* available"):
@@ -172,7 +172,7 @@ def test_output_larger_than_the_free_disk_gives_a_note(ti_cpu, tmp_path, monkeyp
     import collections
     import logging
 
-    import tiseg.limits as L
+    import tiseg.run.limits as L
 
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(L.shutil, "disk_usage", lambda p: usage(1, 1, 10))
@@ -195,7 +195,7 @@ def test_parameters_out_of_range_are_input_errors(over, match):
 
 
 def test_a_run_that_cannot_advance_stops_with_a_reason(ti_cpu):
-    from tiseg.simulation import SimulationError
+    from tiseg.run.simulation import SimulationError
 
     sim = Simulation(tiny())
     sim.stepper.plan = lambda *a, **k: (1e-30, 2)  # as an overflowing stiffness would
@@ -216,7 +216,7 @@ def test_a_full_disk_is_one_line_and_the_run_resumes(ti_cpu, tmp_path, monkeypat
     import netCDF4
 
     from tiseg.output.netcdf import FieldsWriter
-    from tiseg.output.run_folder import OutputError
+    from tiseg.run.run_folder import OutputError
 
     sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
     whole = Simulation(sc)
@@ -271,7 +271,7 @@ def test_fields_file_is_never_left_half_created(tmp_path, monkeypatch):
 def test_damaged_checkpoints_are_refused_each_with_its_message(
     ti_cpu, tmp_path, capsys, damage, message
 ):
-    from tiseg import checkpoint
+    from tiseg.run import checkpoint
 
     out = tmp_path / "run"
     sc = load_scene("fingers", {**TINY, "time.t_end": 0.2, "output.interval": 0.05})
@@ -299,7 +299,7 @@ def test_running_out_of_field_trees_is_an_error_not_a_crash(ti_cpu, monkeypatch)
 def test_a_sweep_task_takes_its_workers_thread_count():
     import distributed
 
-    from tiseg.sweep import _worker_threads
+    from tiseg.apps.sweep import _worker_threads
 
     assert _worker_threads() == 0  # not inside a worker
     with (
@@ -316,7 +316,7 @@ def test_a_sweep_retries_a_transient_failure_once(tmp_path, monkeypatch):
     keeps failing is reported as failed after its retry."""
     import distributed
 
-    from tiseg import sweep as S
+    from tiseg.apps import sweep as S
 
     tally = tmp_path / "calls"
     tally.mkdir()
@@ -359,7 +359,7 @@ def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch
 
     import distributed
 
-    from tiseg import sweep as S
+    from tiseg.apps import sweep as S
 
     started = tmp_path / "started"
     started.mkdir()

@@ -138,7 +138,7 @@ def test_movie_that_cannot_be_finished_is_an_error(tmp_path, monkeypatch):
     noticed: "wrote", exit status 0 and an unplayable file."""
     import numpy as np
 
-    from tiseg.render.movie import MovieWriter
+    from tiseg.post.render.movie import MovieWriter
 
     _limit_ffmpeg_file_size(monkeypatch, 2000)
     path = tmp_path / "m.mp4"
@@ -155,7 +155,7 @@ def test_render_to_an_unwritable_place_is_one_line(ti_cpu, fake_run, tmp_path, k
     """A path under a regular file cannot be made; /dev/full takes no byte (ENOSPC): one line
     each, no traceback, and /dev/full is left alone. (Not --panels /dev/full: matplotlib
     adds .png to a name without a suffix.)"""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     blocked = tmp_path / "file"
     blocked.write_text("")
@@ -174,7 +174,7 @@ def test_render_to_an_unwritable_place_is_one_line(ti_cpu, fake_run, tmp_path, k
 def test_run_movie_that_cannot_be_written(ti_cpu, tmp_path, monkeypatch, capsys):
     """`tiseg run --movie` on a disk that fills up: one line and exit status 2, no movie left;
     the run's own files are kept."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     _limit_ffmpeg_file_size(monkeypatch, 2000)
     movie = tmp_path / "m.mp4"
@@ -193,7 +193,7 @@ STEADY = ["steady", "--h0", "0.005", "--phi0", "0.5", "--json"]
 def _cli(argv, **kw):
     """``tiseg ARGV`` in a child process, started as the installed ``tiseg`` script starts it."""
     code = f"import sys; sys.argv = {['tiseg', *argv]!r}\n" + kw.pop("before", "")
-    code += "from tiseg.cli import main\nsys.exit(main())\n"
+    code += "from tiseg.apps.cli import main\nsys.exit(main())\n"
     if "stdout" not in kw:
         kw["capture_output"] = True
     return subprocess.run([sys.executable, "-c", code], text=True, timeout=120, **kw)
@@ -214,7 +214,7 @@ def test_ctrl_c_while_importing(tmp_path):
 
 
 def test_deleted_working_folder_is_one_line(tmp_path, monkeypatch, capsys):
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     gone = tmp_path / "gone"
     gone.mkdir()
@@ -249,7 +249,7 @@ def test_closed_stdout_is_quiet():
 def test_render_does_not_write_through_links(fake_run, tmp_path, kind, capsys):
     """A link at an output (the default RUN/phi.mp4, a frames folder, ...) pointing outside:
     one line, and the file (or folder) it points to is left as it was."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     outside = tmp_path / "outside"
     outside.mkdir()
@@ -270,7 +270,7 @@ def test_render_does_not_write_through_links(fake_run, tmp_path, kind, capsys):
 
 
 def test_frames_do_not_write_through_links(ti_cpu, fake_run, tmp_path):
-    from tiseg.render.movie import render_run
+    from tiseg.post.render.movie import render_run
 
     victim = tmp_path / "precious"
     victim.write_text("keep me")
@@ -285,7 +285,7 @@ def test_frames_do_not_write_through_links(ti_cpu, fake_run, tmp_path):
 def test_render_panels_needs_no_taichi(fake_run, tmp_path, monkeypatch):
     """`tiseg render --panels` drew its pictures with the Taichi kernel: it started Taichi
     (seconds, a cache folder, and the abort without HOME) for a matplotlib figure."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     def no_taichi(*args, **kw):
         raise AssertionError("render --panels used Taichi")
@@ -301,8 +301,8 @@ def test_numpy_pictures_match_the_kernel(ti_cpu):
     and without relief shading, up- and down-scaled, 2D and 1D, empty cells and a NaN phi."""
     import numpy as np
 
-    from tiseg.render import render_fields
-    from tiseg.render.raster import render_fields_numpy
+    from tiseg.post.render import render_fields
+    from tiseg.post.render.raster import render_fields_numpy
 
     rng = np.random.default_rng(3)
     for ny, nx in ((7, 13), (1, 20)):

@@ -14,13 +14,13 @@ import netCDF4
 import numpy as np
 import pytest
 
-from tiseg import checkpoint
-from tiseg.cli import main
+from tiseg.run import checkpoint
+from tiseg.apps.cli import main
 from tiseg.errors import InputError
 from tiseg.output.netcdf import FieldsWriter, read_fields
-from tiseg.paths import HOLDER_NAME
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
+from tiseg.output.paths import HOLDER_NAME
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
 
 SETS = {
     "domain.resolution": 40,
@@ -257,7 +257,7 @@ def test_a_signal_during_cleanup_leaves_no_holder_file(ti_cpu, tmp_path, monkeyp
 
 HOLD_AND_WRITE = """
 import sys, netCDF4
-from tiseg.paths import RunLock
+from tiseg.output.paths import RunLock
 lock = RunLock(sys.argv[1]).acquire()
 ds = netCDF4.Dataset(sys.argv[1] + "/fields.nc", "a")
 print("held", flush=True)
@@ -297,7 +297,7 @@ def test_a_damaged_checkpoint_is_called_damaged_not_a_broken_mass_balance(runs, 
 
 # ------------------------------------------------------------------ 1 and 5: sweeps
 def test_a_sweep_member_whose_fields_are_gone_is_not_finished(tmp_path):
-    from tiseg.sweep import DONE_MARKER, MARKER_VERSION, read_marker
+    from tiseg.apps.sweep import DONE_MARKER, MARKER_VERSION, read_marker
 
     (tmp_path / DONE_MARKER).write_text(json.dumps({"marker_version": MARKER_VERSION}))
     assert read_marker(tmp_path) is None
@@ -310,7 +310,7 @@ def _spec(d, sc, **more) -> dict:
 
 
 def test_a_sweep_member_never_overwrites_a_foreign_file_and_is_not_retried(ti_cpu, tmp_path):
-    from tiseg.sweep import execute_run
+    from tiseg.apps.sweep import execute_run
 
     d = tmp_path / "member"
     d.mkdir()
@@ -324,7 +324,7 @@ def test_a_sweep_member_never_overwrites_a_foreign_file_and_is_not_retried(ti_cp
 def test_sweep_overwrite_reaches_its_members(tmp_path, monkeypatch):
     """run_sweep(overwrite=True) hands the permission on to the members it submits (each
     member's spec), which may then replace files that tiseg did not write."""
-    import tiseg.sweep as S
+    import tiseg.apps.sweep as S
 
     seen = {}
     monkeypatch.setattr(S, "_run_on_dask", lambda *a, **kw: seen.update(kw))
@@ -333,7 +333,7 @@ def test_sweep_overwrite_reaches_its_members(tmp_path, monkeypatch):
 
 
 def test_another_sweep_into_the_same_out_is_refused(tmp_path):
-    from tiseg.sweep import _write_outputs, check_sweep_folder, load_sweep, run_sweep
+    from tiseg.apps.sweep import _write_outputs, check_sweep_folder, load_sweep, run_sweep
 
     first = load_sweep("tiny")
     out = tmp_path / "sw"

@@ -15,8 +15,8 @@ import sys
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.scene import load_scene
-from tiseg.schedules import TimeInterval
+from tiseg.setup.scene import load_scene
+from tiseg.run.schedules import TimeInterval
 
 from solver_helpers import exit_code as _call
 
@@ -25,8 +25,8 @@ from solver_helpers import exit_code as _call
 def _imported():
     """Import the commands (and Taichi) once: Taichi announces itself on stderr at its first
     import, which is not a message of ours."""
-    import tiseg.simulation  # noqa: F401
-    from tiseg.cli import build_parser
+    import tiseg.run.simulation  # noqa: F401
+    from tiseg.apps.cli import build_parser
 
     build_parser()
 
@@ -141,7 +141,7 @@ def _cgroup_tree(tmp_path, own: str, files: dict[str, str]) -> tuple:
 
 def _v2_files() -> dict[str, str]:
     """A job's own cgroup allows 3 GiB (1 used), its parent 10 GiB (9.5 used): 0.5 GiB left."""
-    from tiseg.limits import GB
+    from tiseg.run.limits import GB
 
     return {
         "memory.current": "123",  # the root has no memory.max
@@ -153,7 +153,7 @@ def _v2_files() -> dict[str, str]:
 
 
 def test_cgroup_v2_reads_the_least_room_from_the_process_up(tmp_path):
-    import tiseg.limits as L
+    import tiseg.run.limits as L
 
     files = _v2_files()
     root, me = _cgroup_tree(tmp_path, "0::/batch/job7\n", files)
@@ -164,7 +164,7 @@ def test_cgroup_v2_reads_the_least_room_from_the_process_up(tmp_path):
 
 
 def test_cgroup_v1_memory_controller_and_no_limit(tmp_path):
-    import tiseg.limits as L
+    import tiseg.run.limits as L
 
     unlimited = "9223372036854771712"
     files = {
@@ -183,7 +183,7 @@ def test_cgroup_v1_memory_controller_and_no_limit(tmp_path):
 
 
 def test_memory_available_is_the_cgroup_limit_when_it_is_lower(tmp_path):
-    import tiseg.limits as L
+    import tiseg.run.limits as L
 
     meminfo = tmp_path / "meminfo"
     meminfo.write_text("MemTotal:  67108864 kB\nMemAvailable:  33554432 kB\n")  # 32 GiB
@@ -195,8 +195,8 @@ def test_memory_available_is_the_cgroup_limit_when_it_is_lower(tmp_path):
 
 
 def test_a_grid_past_the_cgroup_limit_is_refused(ti_cpu, tmp_path, monkeypatch):
-    import tiseg.limits as L
-    from tiseg.simulation import Simulation
+    import tiseg.run.limits as L
+    from tiseg.run.simulation import Simulation
 
     meminfo = tmp_path / "meminfo"
     meminfo.write_text("MemAvailable:  33554432 kB\n")
@@ -211,9 +211,9 @@ def test_a_grid_past_the_cgroup_limit_is_refused(ti_cpu, tmp_path, monkeypatch):
 
 _PEAK = """
 import os, sys
-import tiseg, tiseg.limits as L
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
+import tiseg, tiseg.run.limits as L
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
 tiseg.init("cpu", sys.argv[1])
 sc = load_scene("fingers", ["domain.resolution=300", "time.t_end=0.01", "output.times=[0.005]"])
 rss = lambda: int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
@@ -326,7 +326,7 @@ def test_the_bounds_leave_small_honest_values_alone(setting, value):
 
 
 def test_the_estimate_prints_huge_counts_readably():
-    from tiseg.estimate import Estimate
+    from tiseg.apps.estimate import Estimate
 
     calibration = {
         "arch": "cpu",
@@ -363,8 +363,8 @@ def test_the_estimate_prints_huge_counts_readably():
     ],
 )
 def test_no_steady_state_says_why_in_words(zeta, phi0, words):
-    from tiseg.material import Material
-    from tiseg.steady import phi0_star, steady_state
+    from tiseg.model.material import Material
+    from tiseg.model.steady import phi0_star, steady_state
 
     with pytest.raises(InputError) as info:
         steady_state(0.002, phi0, Material(zeta_deg=zeta))

@@ -9,8 +9,8 @@ import pytest
 
 from solver_helpers import exit_code
 from tiseg.errors import InputError
-from tiseg.numerics.config import NOISE_MIN_WAVELENGTH, inflow_noise, noise_modes
-from tiseg.scene import load_scene
+from tiseg.solver.numerics.config import NOISE_MIN_WAVELENGTH, inflow_noise, noise_modes
+from tiseg.setup.scene import load_scene
 
 
 def test_profile_has_unit_rms_zero_mean_and_is_periodic():
@@ -54,7 +54,7 @@ def test_scene_keys_defaults_and_concentration():
     d = n.inflow.concentration(y, 0.5) - s.inflow.concentration(y, 0.5)
     np.testing.assert_allclose(d, 1e-3 * 0.8 * inflow_noise(y, 0.5, 4), atol=1e-15)
     # the resolved scene keeps them (a sweep's reuse check compares resolved scenes)
-    from tiseg.scene import scene_from_text
+    from tiseg.setup.scene import scene_from_text
 
     back = scene_from_text(n.to_toml())
     assert back.inflow.noise == 1e-3 and back.inflow.seed == 4

@@ -1,4 +1,4 @@
-"""The numerics components (tiseg.numerics.reconstruction, .fluxes, .boundaries) one by one:
+"""The numerics components (tiseg.solver.numerics.reconstruction, .fluxes, .boundaries) one by one:
 each component's Taichi function against its NumPy twin, on its own, in a kernel that calls
 only that function; the registries behind the scene's choices; and the Rusanov flux, added as
 one class, as a solver: conservative, positive on a dry bed, first order on Stoker's dam break.
@@ -8,18 +8,18 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_config, random_state
-from tiseg.exact_dambreak import cell_averages, stoker
-from tiseg.numerics import config
-from tiseg.numerics.boundaries import BOUNDARIES
-from tiseg.numerics.fluxes import FLUXES, PHI_FLUXES
-from tiseg.numerics.reconstruction import RECONSTRUCTIONS
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
+from tiseg.model.exact_dambreak import cell_averages, stoker
+from tiseg.solver.numerics import config
+from tiseg.solver.numerics.boundaries import BOUNDARIES
+from tiseg.solver.numerics.fluxes import FLUXES, PHI_FLUXES
+from tiseg.solver.numerics.reconstruction import RECONSTRUCTIONS
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
 
 
 def _operator(cfg):
-    from tiseg.numerics.operator import TaichiOperator
-    from tiseg.reference import ReferenceOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
+    from tiseg.solver.reference import ReferenceOperator
 
     return TaichiOperator(cfg, nslots=3), ReferenceOperator(cfg)
 
@@ -29,7 +29,7 @@ def _run_pairwise(op, fn, a, b, d=None):
     a, b shaped (nc, n). Returns the results shaped (nc, n)."""
     import taichi as ti
 
-    from tiseg.field_tree import FieldTree
+    from tiseg.solver.field_tree import FieldTree
 
     nc, n = a.shape
     ft = FieldTree()

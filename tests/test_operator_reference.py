@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from solver_helpers import local_rate_twin, make_config, random_state
-from tiseg.reference import ReferenceOperator
+from tiseg.solver.reference import ReferenceOperator
 
 RECONSTRUCTIONS = ("first-order", "minmod", "weno")
 BOUNDARIES = [
@@ -21,7 +21,7 @@ BOUNDARIES = [
 
 
 def _compare(cfg, q, t=0.05):
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     op = TaichiOperator(cfg, nslots=2)
     ref = ReferenceOperator(cfg)
@@ -82,7 +82,7 @@ def test_taichi_matches_reference_effects(ti_cpu, effects):
 
 def test_inflow_noise_reaches_the_inflow_cells_as_in_the_reference(ti_cpu):
     """inflow.noise: the Taichi operator's inflow ghost cells carry the same random profile as
-    the reference (both from tiseg.numerics.config.inflow_concentration), and it changes the
+    the reference (both from tiseg.solver.numerics.config.inflow_concentration), and it changes the
     rates: the inflow column's h phi rate differs from the run without noise."""
     rng = np.random.default_rng(4)
     cfg = make_config(
@@ -194,7 +194,7 @@ def test_local_step_rate_matches_reference(ti_cpu, bc, state):
     the largest max(a_x over i-1..i+1) / dx + max(a_y over j-1..j+1) / dy, with the reference's
     ghost cells, primitives and characteristic speeds (segregation speed included); the x and y
     maxima, which it now reads from the same stored speeds, stay those of the reference."""
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     rng = np.random.default_rng(4)
     cfg = make_config(14, 9, bc=bc, local_step_rate=True)

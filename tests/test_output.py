@@ -23,7 +23,7 @@ from tiseg.output import (
     write_json_atomic,
     write_text_atomic,
 )
-from tiseg.scene import load_scene
+from tiseg.setup.scene import load_scene
 
 NX, NY = 7, 4
 X = (np.arange(NX) + 0.5) * 0.01
@@ -261,7 +261,7 @@ def test_scene_output_precision_reaches_the_file(ti_cpu, tmp_path):
     """output.precision and output.significant_digits of a scene set the stored type and the
     quantisation of fields.nc; a bad value is a one-line InputError."""
     from tiseg.errors import InputError
-    from tiseg.simulation import Simulation
+    from tiseg.run.simulation import Simulation
 
     sc = load_scene(
         "channel",

@@ -25,13 +25,13 @@ SCRIPT = r"""
 import json, sys, tempfile
 sys.path.insert(0, sys.argv[1])
 import numpy as np
-import tiseg, tiseg.simulation, tiseg.numerics.operator, tiseg.reference.operator, tiseg.cli
+import tiseg, tiseg.run.simulation, tiseg.solver.numerics.operator, tiseg.solver.reference.operator, tiseg.apps.cli
 from solver_helpers import PERIODIC, make_config, random_state
 
 precision = sys.argv[2]
 tiseg.init("cpu", precision)
-from tiseg.numerics.operator import TaichiOperator
-from tiseg.reference.operator import ReferenceOperator
+from tiseg.solver.numerics.operator import TaichiOperator
+from tiseg.solver.reference.operator import ReferenceOperator
 
 out = {"ops": []}
 rng = np.random.default_rng(7)
@@ -58,7 +58,7 @@ for nx, ny in ((24, 1), (16, 8)):
 
 # a whole run through the command line: every max_speed in diagnostics.csv
 d = tempfile.mkdtemp()
-rc = tiseg.cli.main(["run", "uniform-flow", "--out", d, "--no-progress", "--precision", precision,
+rc = tiseg.apps.cli.main(["run", "uniform-flow", "--out", d, "--no-progress", "--precision", precision,
                      "--set", "time.t_end=0.02", "--set", "initial.amplitude=1e-3"])
 from tiseg.output import read_diagnostics
 out["rc"] = rc

@@ -8,10 +8,10 @@ import tomllib
 import numpy as np
 import pytest
 
-from tiseg.bench import accuracy
+from tiseg.apps.bench import accuracy
 from tiseg.data import PROBLEM_DIR
 from tiseg.errors import InputError
-from tiseg.problems import (
+from tiseg.post.problems import (
     RECORDS,
     SCORES,
     SOLUTIONS,
@@ -19,7 +19,7 @@ from tiseg.problems import (
     list_builtin_problems,
     load_problem,
 )
-from tiseg.problems.reader import problem_from_dict
+from tiseg.post.problems.reader import problem_from_dict
 
 STUDY = ["transport", "ritter", "growth", "fingers", "fingers-late", "channel", "channel-speed"]
 
@@ -105,7 +105,7 @@ def test_transport_solution_agrees_with_an_independent_root_finder():
 
 
 def test_dam_break_solution_is_stoker_on_a_wet_bed():
-    from tiseg.exact_dambreak import cell_averages, stoker
+    from tiseg.model.exact_dambreak import cell_averages, stoker
 
     p = load_problem("ritter")
     sc = p.build(120)
@@ -195,7 +195,7 @@ def test_unknown_or_unreadable_problem_files(tmp_path):
 def test_a_new_problem_file_runs_and_scores(ti_cpu, tmp_path):
     """Stoker's wet-bed dam break, declared only as a file on the registered solution: it
     loads, runs and scores, and its error falls as the grid is refined."""
-    from tiseg.simulation import Simulation
+    from tiseg.run.simulation import Simulation
 
     text = (PROBLEM_DIR / "ritter.toml").read_text()
     text = text.replace(

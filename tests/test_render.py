@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tiseg.render import colours as C
+from tiseg.post.render import colours as C
 
 H_MIN = 1e-4
 
@@ -34,7 +34,7 @@ def strips():
 
 
 def test_known_colours_and_size(ti_cpu, strips):
-    from tiseg.render import render_fields
+    from tiseg.post.render import render_fields
 
     img = render_fields(strips, H_MIN, field="phi", shade=False, scale=3)
     assert img.dtype == np.uint8 and img.shape == (4 * 3, 8 * 3, 3)
@@ -54,7 +54,7 @@ def test_known_colours_and_size(ti_cpu, strips):
 
 
 def test_thin_film_below_h_min_is_turquoise(ti_cpu, strips):
-    from tiseg.render import render_fields
+    from tiseg.post.render import render_fields
 
     f = dict(strips)
     f["h"] = strips["h"].copy()
@@ -65,7 +65,7 @@ def test_thin_film_below_h_min_is_turquoise(ti_cpu, strips):
 
 def test_orientation_x_right_y_up(ti_cpu):
     """Figure 12's orientation: x downslope to the right, y up (row 0 is y = Ly)."""
-    from tiseg.render import render_fields
+    from tiseg.post.render import render_fields
 
     ny, nx = 3, 5
     h = np.full((ny, nx), 2e-3)
@@ -77,7 +77,7 @@ def test_orientation_x_right_y_up(ti_cpu):
 
 
 def test_shading_changes_brightness_only_where_h_varies(ti_cpu):
-    from tiseg.render import render_fields
+    from tiseg.post.render import render_fields
 
     ny, nx = 20, 30
     h = np.full((ny, nx), 2e-3)
@@ -107,7 +107,7 @@ def test_shading_changes_brightness_only_where_h_varies(ti_cpu):
 
 @pytest.mark.parametrize("field", ["h", "speed", "|u|", "u", "v"])
 def test_mapped_fields_have_a_colourbar(ti_cpu, strips, field):
-    from tiseg.render import render_fields
+    from tiseg.post.render import render_fields
 
     phi_img = render_fields(strips, H_MIN, field="phi", scale=10)
     img = render_fields(strips, H_MIN, field=field, scale=10)
@@ -125,7 +125,7 @@ def test_mapped_fields_have_a_colourbar(ti_cpu, strips, field):
 
 
 def test_h_map_values(ti_cpu, strips):
-    from tiseg.render import render_fields
+    from tiseg.post.render import render_fields
 
     f = dict(strips)
     f["h"] = strips["h"].copy()
@@ -141,7 +141,7 @@ def test_h_map_values(ti_cpu, strips):
 
 
 def test_annotate_adds_caption_strip(ti_cpu, strips):
-    from tiseg.render import annotate, render_fields
+    from tiseg.post.render import annotate, render_fields
 
     img = render_fields(strips, H_MIN, scale=60)  # 480 x 240
     out = annotate(img, 1.9, dx=1e-3 / 60)
@@ -154,7 +154,7 @@ def test_annotate_adds_caption_strip(ti_cpu, strips):
 
 
 def test_nice_scale_bar_lengths():
-    from tiseg.render.frame import format_length, nice_length
+    from tiseg.post.render.frame import format_length, nice_length
 
     assert nice_length(0.3) == 0.2 and nice_length(0.07) == pytest.approx(0.05)
     assert nice_length(1.0) == 1.0
@@ -167,7 +167,7 @@ def test_nice_scale_bar_lengths():
 def tiny(ti_cpu, tmp_path_factory):
     """The brief's tiny run (fingers at 40 cells per metre to t = 0.4 s, snapshots every 0.2 s),
     kept as a simulation too (one build shared by the tests: each build compiles kernels)."""
-    from tiseg.simulation import Simulation
+    from tiseg.run.simulation import Simulation
 
     out = tmp_path_factory.mktemp("tiny_run")
     sim = Simulation.from_scene(
@@ -185,7 +185,7 @@ def tiny_run(tiny):
 
 def test_frame_renderer_matches_render_fields(tiny):
     """Rendering from the Taichi state in place gives the same picture as the NumPy path."""
-    from tiseg.render import FrameRenderer, render_fields
+    from tiseg.post.render import FrameRenderer, render_fields
 
     sim = tiny[0]
     fr = FrameRenderer(sim, scale=2)
@@ -221,7 +221,7 @@ def _decode(path):
 
 
 def test_movie_writer_pads_to_even_and_decodes(tmp_path):
-    from tiseg.render.movie import FrameFolderWriter, MovieWriter
+    from tiseg.post.render.movie import FrameFolderWriter, MovieWriter
 
     rng = np.random.default_rng(0)
     frames = [np.full((21, 33, 3), 40 * k, dtype=np.uint8) for k in range(4)]
@@ -248,7 +248,7 @@ def test_movie_writer_pads_to_even_and_decodes(tmp_path):
 
 
 def test_render_run_outputs(tiny_run, tmp_path):
-    from tiseg.render import render_run
+    from tiseg.post.render import render_run
 
     res = render_run(
         tiny_run,
@@ -267,7 +267,7 @@ def test_render_run_outputs(tiny_run, tmp_path):
 
 
 def test_cli_render(tiny_run, tmp_path, capsys):
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     rc = main(
         [
@@ -307,7 +307,7 @@ def test_cli_render(tiny_run, tmp_path, capsys):
 
 
 def test_plot_panels(tiny_run, tmp_path):
-    from tiseg.render import plot_panels
+    from tiseg.post.render import plot_panels
 
     fig = plot_panels(tiny_run, [0.2, 0.4], "phi", tmp_path / "fig12.png")
     assert len([a for a in fig.axes if a.get_title()]) == 2
@@ -316,7 +316,7 @@ def test_plot_panels(tiny_run, tmp_path):
 
 
 def test_cli_run_movie(ti_cpu, tmp_path, capsys):
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     movie = tmp_path / "run.mp4"
     from tiseg import backend
@@ -358,7 +358,7 @@ def test_text_is_drawn_where_asked_with_pillow():
     asked for; widths add up."""
     import numpy as np
 
-    from tiseg.render.frame import draw_text, text_width
+    from tiseg.post.render.frame import draw_text, text_width
 
     img = np.zeros((60, 200, 3), np.uint8)
     end = draw_text(img, "t = 7.50 s", 20, 40, colour=(1.0, 1.0, 1.0), size=14)

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from tiseg import checkpoint
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
+from tiseg.run import checkpoint
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
 
 # the finite release that comes to rest, on a coarse grid: 75 x 25 cells, at rest by ~60 s
 DEPOSIT = {"domain.resolution": 50, "time.t_end": 120.0, "output.times": []}

@@ -13,13 +13,19 @@ import netCDF4
 import numpy as np
 import pytest
 
-from tiseg.callbacks import Callback
-from tiseg.cli import main
+from tiseg.run.callbacks import Callback
+from tiseg.apps.cli import main
 from tiseg.errors import InputError
 from tiseg.output import read_diagnostics
-from tiseg.scene import load_scene
-from tiseg.schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
-from tiseg.simulation import Simulation
+from tiseg.setup.scene import load_scene
+from tiseg.run.schedules import (
+    AnyOf,
+    IterationInterval,
+    SpecifiedTimes,
+    TimeInterval,
+    WallTimeInterval,
+)
+from tiseg.run.simulation import Simulation
 
 # a small 2D fingers run: inflow, segregation, viscosity, WENO, RKC (24 x 8 cells)
 SMALL = {
@@ -236,7 +242,7 @@ def test_cli_t_end_override_runs_and_notes(ti_cpu, tmp_path, capsys):
 
 # ------------------------------------------------------------------ mutators
 def test_set_parameters_changes_scene_and_operator(ti_cpu):
-    from tiseg.physics.pointwise import Params, slot_bases
+    from tiseg.model.physics.pointwise import Params, slot_bases
 
     sim = Simulation(small())
     sim.set_parameters({"flow.nu": 0.02, "material.zeta_deg": 28.0})
@@ -303,7 +309,9 @@ def test_other_precision_is_an_error_not_a_reinitialisation(ti_cpu):
 
 
 def test_estimate_command_does_not_import_run_command():
-    code = "import sys, tiseg.commands.estimate; print('tiseg.commands.run' in sys.modules)"
+    code = (
+        "import sys, tiseg.apps.commands.estimate; print('tiseg.apps.commands.run' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -326,9 +334,9 @@ def test_diagnostics_state_their_units(ti_cpu, tmp_path):
 def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
     """With checks only at snapshots (check_every=0) and a checkpoint after every step, a NaN
     made mid-run stops the run before the checkpoint could save it."""
-    from tiseg import checkpoint
-    from tiseg.physics.pointwise import Params
-    from tiseg.simulation import SimulationError
+    from tiseg.run import checkpoint
+    from tiseg.model.physics.pointwise import Params
+    from tiseg.run.simulation import SimulationError
 
     sim = Simulation(small(**{"output.interval": None}), check_every=0)
 
@@ -346,7 +354,7 @@ def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
 
 def test_bad_callbacks_are_refused_before_the_folder_is_touched(ti_cpu, tmp_path):
     sim = Simulation(small())
-    with pytest.raises(InputError, match="not a tiseg.callbacks.Callback"):
+    with pytest.raises(InputError, match="not a tiseg.run.callbacks.Callback"):
         sim.run(out_dir=tmp_path / "r", progress=False, callbacks=[print])
     assert not (tmp_path / "r").exists()
     sim.run(out_dir=tmp_path / "r", progress=False, t_end=0.1)  # nothing left locked

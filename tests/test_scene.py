@@ -9,8 +9,8 @@ import pytest
 
 import tiseg
 from tiseg.errors import InputError
-from tiseg.material import Material
-from tiseg.scene import (
+from tiseg.model.material import Material
+from tiseg.setup.scene import (
     SCENE_DIR,
     Scene,
     list_builtin_scenes,
@@ -19,7 +19,7 @@ from tiseg.scene import (
     scene_from_text,
     scene_to_dict,
 )
-from tiseg.steady import steady_state
+from tiseg.model.steady import steady_state
 
 from solver_helpers import MINIMAL_SCENE
 
@@ -44,7 +44,7 @@ def test_scenes_are_package_data():
 
 
 def test_sweeps_are_package_data_and_named():
-    from tiseg.sweep import list_builtin_sweeps, load_sweep
+    from tiseg.apps.sweep import list_builtin_sweeps, load_sweep
 
     assert {"grid-study", "nu-study", "width-study", "tiny"} <= set(list_builtin_sweeps())
     assert load_sweep("assets/sweeps/tiny.toml").name == load_sweep("tiny").name

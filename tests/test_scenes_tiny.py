@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from tiseg.scene import list_builtin_scenes, load_scene
-from tiseg.simulation import Simulation
+from tiseg.setup.scene import list_builtin_scenes, load_scene
+from tiseg.run.simulation import Simulation
 
 SCENES = list_builtin_scenes()
 T_INFLOW = 1.0  # [s] of an inflow scene: the front is well inside even a short chute

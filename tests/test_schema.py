@@ -13,10 +13,10 @@ import pickle
 import numpy as np
 import pytest
 
-from tiseg import scene as S
+from tiseg.setup import scene as S
 from tiseg.errors import InputError
-from tiseg.numerics.config import COMPILED, OperatorConfig, config_from_scene
-from tiseg.physics.friction import FRICTION_LAWS, Constant, FrictionLaw, FrictionParams
+from tiseg.solver.numerics.config import COMPILED, OperatorConfig, config_from_scene
+from tiseg.model.physics.friction import FRICTION_LAWS, Constant, FrictionLaw, FrictionParams
 from tiseg.setup import reference, sections
 from tiseg.setup.schema import compiled_keys, key_fields, key_of
 from tiseg.setup.sections import SECTIONS, NumericsConfig, section_keys
@@ -64,7 +64,7 @@ def test_a_registered_law_and_its_constant_are_read_from_a_scene(plateau):
     assert sc.friction_constants["plateau_mu"] == 0.7
     cfg = config_from_scene(sc)  # the operator sees it through the chosen law
     assert cfg.fric.plateau_mu == 0.7 and plateau.values(cfg.fric) == [0.7]
-    from tiseg.physics.pointwise import param_values
+    from tiseg.model.physics.pointwise import param_values
 
     assert param_values(cfg)[-1] == 0.7
     # the law's default when the key is left out, and the resolved TOML round trip
@@ -94,7 +94,7 @@ def test_an_unregistered_law_and_its_constant_are_unknown():
 def test_a_registered_law_reaches_the_reference_operator(plateau):
     """The user's constant acts as the friction coefficient: its rates are those of a Coulomb
     law of the same coefficient."""
-    from tiseg.reference import ReferenceOperator
+    from tiseg.solver.reference import ReferenceOperator
 
     q = None
     rates = []
@@ -165,7 +165,7 @@ def test_initial_keys_come_from_the_kinds_each_field_declares():
 def test_compiled_lists_come_from_the_declarations():
     """The simulation refuses changes of what the kernels were compiled for: the operator's
     fields marked compiled, and the scene keys the simulation builds itself."""
-    from tiseg import simulation
+    from tiseg.run import simulation
 
     marked = {f.name for f in dataclasses.fields(OperatorConfig) if "compiled" in f.metadata}
     assert simulation.COMPILED is COMPILED and set(COMPILED) == marked

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from tiseg.problems import load_problem
-from tiseg.scene import load_scene, scene_from_dict
-from tiseg.simulation import Simulation
+from tiseg.post.problems import load_problem
+from tiseg.setup.scene import load_scene, scene_from_dict
+from tiseg.run.simulation import Simulation
 
 from solver_helpers import PERIODIC
 
@@ -241,7 +241,7 @@ def test_dam_break_converges_to_ritter(ti_cpu):
     ],
 )  # beyond cutoff, decaying
 def test_linear_growth_rate_matches_theory(ti_cpu, h0, nu, k, nx):
-    from tiseg.initial import eigenmode
+    from tiseg.setup.initial import eigenmode
 
     sc = load_scene(
         "uniform-flow",

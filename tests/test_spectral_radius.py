@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_config, random_state
-from tiseg.reference import ReferenceOperator
+from tiseg.solver.reference import ReferenceOperator
 
 
 def _viscous_jacobian(cfg, q, friction=False):
@@ -47,7 +47,7 @@ def _viscous_jacobian(cfg, q, friction=False):
 
 @pytest.mark.parametrize("ny,wet_dry", [(1, False), (1, True), (6, False), (6, True)])
 def test_gershgorin_bounds_viscous_spectrum(ti_cpu, ny, wet_dry):
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     cfg = make_config(
         8, ny, bc=("periodic",) * 4, friction="none", nu=0.01, dx=0.002, dy=0.0025, Ly=ny * 0.0025
@@ -71,7 +71,7 @@ def test_gershgorin_bounds_viscous_and_friction_spectrum(ti_cpu, ny):
     """Slow margins (|u| below and just above u_eps: the stiffest friction) beside fast thick
     cells (the stiffest viscosity): the per-cell sum bounds the joint spectrum and is clearly
     below the sum of the two separate maxima, which it replaces in the stage count."""
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     cfg = make_config(10, ny, bc=("periodic",) * 4, nu=0.01, dx=0.0015, dy=0.0015, Ly=ny * 0.0015)
     lay = cfg.layout

@@ -1,13 +1,13 @@
-"""The split scheme's sweeps (tiseg.numerics.split) equal their NumPy twin
-(tiseg.reference.split) to round-off: the predictor, its dry-edge fallback, the face fluxes,
+"""The split scheme's sweeps (tiseg.solver.numerics.split) equal their NumPy twin
+(tiseg.solver.reference.split) to round-off: the predictor, its dry-edge fallback, the face fluxes,
 the draining-time scaling, the source at mid-step, the limiter and the boundary budget."""
 
 import numpy as np
 import pytest
 
 from solver_helpers import make_config, random_state
-from tiseg.reference import ReferenceOperator
-from tiseg.reference.split import hancock_sweep
+from tiseg.solver.reference import ReferenceOperator
+from tiseg.solver.reference.split import hancock_sweep
 
 BOUNDARIES = [
     ("inflow", "outflow", "periodic", "periodic"),
@@ -28,7 +28,7 @@ def _split_config(nx, ny, **kw):
 def _sweeps(cfg, q, dirs, t=0.05, dt=DT):
     """Both implementations through the same sweeps: (taichi state, reference state,
     taichi budget, reference budget totals)."""
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     op = TaichiOperator(cfg, nslots=2)
     ref = ReferenceOperator(cfg)
@@ -103,7 +103,7 @@ def test_sweeps_from_a_stability_pass_on_a_partial_active_range_match_reference(
     primitives of the stability pass (no ghosts or primitives recomputed), and the active
     range covers only the wet part of the chute (the budget then books no x faces). Walls on
     a slope: the ghost cells' mirrored source."""
-    from tiseg.numerics.operator import TaichiOperator
+    from tiseg.solver.numerics.operator import TaichiOperator
 
     rng = np.random.default_rng(11)
     cfg = _split_config(20, 6, reconstruction="minmod", bc=BOUNDARIES[1], flux="central-upwind")

@@ -1,4 +1,4 @@
-"""The split MUSCL-Hancock scheme (numerics.stepper = "hancock", tiseg.numerics.split) as a
+"""The split MUSCL-Hancock scheme (numerics.stepper = "hancock", tiseg.solver.numerics.split) as a
 solver: order of accuracy on smooth flows in 1D and 2D (the alternating sweep order is what
 makes 2D second order), positivity and conservation on dry beds at Courant numbers up to 1,
 the exact Stoker and Ritter solutions, phi at 0 and 1, a resumed run's bits, and the scene's
@@ -11,10 +11,10 @@ import pytest
 
 from test_step_rules import _column_collapse, dam_break_2d
 from tiseg.errors import InputError
-from tiseg.exact_dambreak import cell_averages, ritter, stoker
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation
-from tiseg.timestepping.split import Hancock
+from tiseg.model.exact_dambreak import cell_averages, ritter, stoker
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation
+from tiseg.solver.timestepping.split import Hancock
 
 
 def _smooth(n, ny, cfl, t_end=0.05):
@@ -290,7 +290,7 @@ def test_a_resumed_run_sweeps_as_the_uninterrupted_one(ti_cpu, tmp_path):
     """The sweep order alternates with the step's index, which a checkpoint carries: a run
     saved after an odd number of steps and restored into a fresh simulation ends on the bits
     of the run that never stopped (and would not with the order restarted at x first)."""
-    from tiseg import checkpoint
+    from tiseg.run import checkpoint
 
     _, sim = _column_collapse(32, "max", "hancock")  # waves along x and y: order matters
     start, ck = tmp_path / "start.npz", tmp_path / "ck.npz"

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.material import TABLE1, Material
-from tiseg.stability import asymptotics as asy
-from tiseg.stability import dispersion1d as d1
-from tiseg.stability import dispersion2d as d2
-from tiseg.stability.base import base_state, base_state_from_froude
+from tiseg.model.material import TABLE1, Material
+from tiseg.model.stability import asymptotics as asy
+from tiseg.model.stability import dispersion1d as d1
+from tiseg.model.stability import dispersion2d as d2
+from tiseg.model.stability.base import base_state, base_state_from_froude
 
 PHI0 = 0.8
 FC = 7.0 / (6.0 * 0.6)  # 1/|G'(0.8)| with G = (6/7) phi (1 - phi), (5.27)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.material import TABLE1, Material
-from tiseg.steady import critical_froude, froude, phi0_star, steady_state, velocity
+from tiseg.model.material import TABLE1, Material
+from tiseg.model.steady import critical_froude, froude, phi0_star, steady_state, velocity
 
 T = math.tan
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from solver_helpers import local_rate_twin
-from tiseg.exact_dambreak import cell_averages, ritter, stoker, stoker_star
-from tiseg.scene import load_scene
-from tiseg.simulation import Simulation, step_limits
+from tiseg.model.exact_dambreak import cell_averages, ritter, stoker, stoker_star
+from tiseg.setup.scene import load_scene
+from tiseg.run.simulation import Simulation, step_limits
 
 SSP_STEPPERS = ("ssprk2", "ssprk3", "ssprk4_2", "ssprk10_2", "ssprk10_4")
 

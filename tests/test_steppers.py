@@ -4,9 +4,9 @@
 import numpy as np
 import pytest
 
-from tiseg.timestepping import make_stepper
-from tiseg.timestepping.base import RATE
-from tiseg.timestepping.rkc import rkc_coefficients, stages_for
+from tiseg.solver.timestepping import make_stepper
+from tiseg.solver.timestepping.base import RATE
+from tiseg.solver.timestepping.rkc import rkc_coefficients, stages_for
 
 
 class ArrayOperator:

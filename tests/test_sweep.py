@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from tiseg.errors import InputError
-from tiseg.sweep import (
+from tiseg.apps.sweep import (
     DONE_MARKER,
     _run_names,
     load_sweep,
@@ -159,7 +159,7 @@ def test_fingers_figures_from_sweep_results(tiny_sweep, tmp_path):
     studies are absent, so their figures (12-16, whose panels the render tests cover) are left
     out with a note, and the summary table still lists every run."""
     import shutil
-    from tiseg.figures.fingers import make_all
+    from tiseg.apps.figures.fingers import make_all
 
     out, _, _ = tiny_sweep
     runs = tmp_path / "runs"
@@ -248,7 +248,7 @@ def test_unknown_scene_key_names_the_key_and_nothing_runs(tmp_path):
 
 
 def test_file_errors_and_cli_exit_status(tmp_path, capsys):
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     with pytest.raises(InputError, match="not found"):
         load_sweep(tmp_path / "missing.toml")
@@ -265,7 +265,7 @@ def test_file_errors_and_cli_exit_status(tmp_path, capsys):
 
 
 def test_check_lists_runs_and_grid_override(capsys, tmp_path):
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     assert (
         main(
@@ -363,7 +363,7 @@ def test_reused_run_with_old_diagnostics_is_analysed_again(tiny_sweep, tmp_path)
     """A finished run whose fingers.json predates the current definitions (analysis_version)
     is analysed again from its fields.nc when the sweep is re-run; nothing is simulated."""
     import shutil
-    from tiseg.analysis.fingers import ANALYSIS_VERSION
+    from tiseg.post.analysis.fingers import ANALYSIS_VERSION
 
     src, _, _ = tiny_sweep
     out = tmp_path / "tiny"
@@ -390,7 +390,7 @@ def test_reused_run_with_old_diagnostics_is_analysed_again(tiny_sweep, tmp_path)
 def test_figure_series_are_ensemble_means_with_sd():
     """The error bars of figures 16-17: runs grouped by the study value, mean and sample sd
     over the seeds, runs without the metric (no fingers) left out and counted."""
-    from tiseg.figures.fingers import StudyRun, _series
+    from tiseg.apps.figures.fingers import StudyRun, _series
 
     data = {(0.01, 1): 0.05, (0.01, 2): 0.06, (0.01, 3): 0.07, (0.02, 1): 0.1, (0.02, 2): None}
     runs = [

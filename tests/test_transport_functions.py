@@ -1,4 +1,4 @@
-"""The transport functions G(phi) of tiseg.physics.segregation: (2.17) and (2.18) against their
+"""The transport functions G(phi) of tiseg.model.physics.segregation: (2.17) and (2.18) against their
 definition (2.16) and the paper's statements. The solver with each function against the exact
 solution of the large-particle transport equation: tests/test_hard_cases.py (NUMERICS T6)."""
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from tiseg.material import Material
-from tiseg.physics.segregation import TRANSPORTS
-from tiseg.steady import critical_froude
+from tiseg.model.material import Material
+from tiseg.model.physics.segregation import TRANSPORTS
+from tiseg.model.steady import critical_froude
 
 PHI = np.linspace(0.0, 1.0, 201)
 

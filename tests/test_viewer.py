@@ -16,7 +16,7 @@ import pytest
 
 from solver_helpers import child_env
 
-from tiseg.viewer.app import display_problem, vulkan_problem
+from tiseg.apps.viewer.app import display_problem, vulkan_problem
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"domain.resolution": 40, "time.t_end": 0.3, "output.times": []}
@@ -28,7 +28,7 @@ needs_vulkan = pytest.mark.skipif(VULKAN is not None, reason=f"no Vulkan: {VULKA
 
 def test_no_display_one_line_exit_2(monkeypatch, capsys):
     """Without a display: one line naming the off-screen path, exit status 2, no traceback."""
-    from tiseg.cli import main
+    from tiseg.apps.cli import main
 
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
@@ -41,7 +41,7 @@ def test_no_display_one_line_exit_2(monkeypatch, capsys):
     env.pop("DISPLAY", None)
     env.pop("WAYLAND_DISPLAY", None)
     # the package's module anywhere, and the source checkout's `python -m viewer` alias
-    for module, cwd in (("tiseg.viewer", ROOT / "tests"), ("viewer", ROOT)):
+    for module, cwd in (("tiseg.apps.viewer", ROOT / "tests"), ("viewer", ROOT)):
         p = subprocess.run(
             [sys.executable, "-m", module, "fingers"],
             cwd=cwd,
@@ -57,8 +57,8 @@ def test_no_display_one_line_exit_2(monkeypatch, capsys):
 
 def test_no_vulkan_one_line_exit_2(monkeypatch, capsys):
     """With a display but no Vulkan the viewer refuses before any window exists."""
-    import tiseg.viewer.app as app
-    from tiseg.cli import main
+    import tiseg.apps.viewer.app as app
+    from tiseg.apps.cli import main
 
     monkeypatch.setenv("DISPLAY", ":97")
     monkeypatch.setattr(app, "_x_display_opens", lambda name: True)
@@ -72,10 +72,10 @@ def test_no_vulkan_one_line_exit_2(monkeypatch, capsys):
 def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
     import imageio.v2 as iio2
 
-    from tiseg.physics.pointwise import Params, slot_bases
-    from tiseg.render import colours as C
-    from tiseg.render import render_fields
-    from tiseg.viewer.app import Viewer
+    from tiseg.model.physics.pointwise import Params, slot_bases
+    from tiseg.post.render import colours as C
+    from tiseg.post.render import render_fields
+    from tiseg.apps.viewer.app import Viewer
 
     v = Viewer("fingers", TINY, show_window=False, save_dir=tmp_path)
     try:
@@ -161,7 +161,7 @@ def test_live_window_under_xvfb(tmp_path):
         "-screen 0 1280x1024x24",
         sys.executable,
         "-m",
-        "tiseg.viewer",
+        "tiseg.apps.viewer",
         "fingers",
         *TINY_ARGS,
         "--frames",

@@ -22,7 +22,7 @@ import pytest
 from solver_helpers import child_env
 
 from tiseg.output import read_diagnostics
-from tiseg.viewer.app import vulkan_problem
+from tiseg.apps.viewer.app import vulkan_problem
 
 # software Vulkan runs several times slower than the CPU: the second, longer set (README)
 pytestmark = pytest.mark.slow
@@ -74,8 +74,8 @@ import numpy as np
 import tiseg
 tiseg.init(sys.argv[2], "f32")
 from solver_helpers import make_config, random_state
-from tiseg.numerics.operator import TaichiOperator
-from tiseg.reference import ReferenceOperator
+from tiseg.solver.numerics.operator import TaichiOperator
+from tiseg.solver.reference import ReferenceOperator
 rng = np.random.default_rng(5)
 out = []
 for rec in ("first-order", "minmod", "weno"):
@@ -135,7 +135,7 @@ def test_fingers_run_on_vulkan_matches_the_cpu(tmp_path):
             cmd = [
                 sys.executable,
                 "-m",
-                "tiseg.cli",
+                "tiseg.apps.cli",
                 "run",
                 "fingers",
                 "--arch",
@@ -200,7 +200,7 @@ def test_gpu_and_auto_never_pick_vulkan():
         [
             sys.executable,
             "-m",
-            "tiseg.cli",
+            "tiseg.apps.cli",
             "run",
             "fingers",
             "--arch",
@@ -223,7 +223,7 @@ def test_f64_on_a_device_without_it_is_one_line(tmp_path):
     an f64 run in one line that says to use --precision f32; f32 still runs."""
     code = (
         "import sys; import tiseg.backend as b; b._f64_works = lambda ti: False; "
-        "from tiseg.cli import main; sys.exit(main(sys.argv[1:]))"
+        "from tiseg.apps.cli import main; sys.exit(main(sys.argv[1:]))"
     )
     base = [
         sys.executable,
@@ -288,7 +288,7 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
         [
             sys.executable,
             "-m",
-            "tiseg.cli",
+            "tiseg.apps.cli",
             "bench",
             "gpu",
             "--arch",
@@ -328,7 +328,7 @@ def test_vulkan_without_a_driver_is_one_line(tmp_path):
         [
             sys.executable,
             "-m",
-            "tiseg.cli",
+            "tiseg.apps.cli",
             "run",
             "fingers",
             "--arch",
@@ -360,7 +360,7 @@ def test_vulkan_without_a_driver_is_one_line(tmp_path):
 def test_gpu_check_viewer_row_without_vulkan_times_the_loop(monkeypatch):
     """Where GGUI cannot start (no Vulkan driver), the viewer row of the GPU check times the
     same loop without a window and says so (needs no Vulkan)."""
-    from tiseg.bench.gpu import viewer_speed
+    from tiseg.apps.bench.gpu import viewer_speed
 
     monkeypatch.setenv("VK_ICD_FILENAMES", "/nonexistent/no-such-driver.json")
     row = viewer_speed("cpu", "f64", 40, 3, 2)
@@ -371,12 +371,12 @@ def test_gpu_check_viewer_row_without_vulkan_times_the_loop(monkeypatch):
 def test_gpu_check_without_a_gpu_is_one_line():
     """`tiseg bench gpu` (CUDA or Metal by default) on a machine without one stops at once with
     one line that names the alternatives, instead of a table of failures."""
-    from tiseg.bench import available_backends
+    from tiseg.apps.bench import available_backends
 
     if "gpu" in available_backends():
         pytest.skip("this machine has a CUDA or Metal GPU")
     p = subprocess.run(
-        [sys.executable, "-m", "tiseg.cli", "bench", "gpu", "--quick"],
+        [sys.executable, "-m", "tiseg.apps.cli", "bench", "gpu", "--quick"],
         env=child_env(),
         capture_output=True,
         text=True,

@@ -14,9 +14,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 PROBE = """
 import json, tiseg
-from tiseg.scene import list_builtin_scenes, load_scene
-from tiseg.sweep import list_builtin_sweeps, load_sweep
-from tiseg.problems import builtin_problems
+from tiseg.setup.scene import list_builtin_scenes, load_scene
+from tiseg.apps.sweep import list_builtin_sweeps, load_sweep
+from tiseg.post.problems import builtin_problems
 sc = load_scene("fingers")
 print(json.dumps({"file": tiseg.__file__, "scenes": list_builtin_scenes(),
                   "sweeps": list_builtin_sweeps(), "fingers_nx": sc.domain.nx,

@@ -5,10 +5,12 @@ its steady uniform states (section 4), its linear stability (section 5, appendic
 simulations (section 6) with a Kurganov-Tadmor scheme in Taichi on CPU or GPU.
 """
 
+from . import _aliases
+from ._version import __version__
 from .backend import init
 from .errors import InputError, TisegError
 
-__version__ = "0.1.0"
+_aliases.install()  # the module paths of before the layer folders keep working
 
 __all__ = [
     "init",
@@ -29,21 +31,21 @@ def __getattr__(name):
     if name in ("material", "steady"):
         import importlib
 
-        return importlib.import_module(f".{name}", __name__)
+        return importlib.import_module(f".model.{name}", __name__)
     if name in ("TABLE1", "Material", "Species"):
-        from . import material
+        from .model import material
 
         return getattr(material, name)
     if name in ("SteadyState", "steady_state"):
-        from . import steady
+        from .model import steady
 
         return getattr(steady, name)
     if name in ("Simulation",):
-        from .simulation import Simulation
+        from .run.simulation import Simulation
 
         return Simulation
     if name in ("load_scene", "Scene"):
-        from . import scene
+        from .setup import scene
 
         return getattr(scene, name)
     raise AttributeError(name)

@@ -1,7 +1,7 @@
-"""Alias of :mod:`tiseg.viewer` in a source checkout, so that ``python -m viewer SCENE`` keeps
-working from the repository root. The package itself is ``tiseg.viewer`` (installed with tiseg);
+"""Alias of :mod:`tiseg.apps.viewer` in a source checkout, so that ``python -m viewer SCENE`` keeps
+working from the repository root. The package itself is ``tiseg.apps.viewer`` (installed with tiseg);
 this folder is not part of the wheel."""
 
-from tiseg.viewer import DisplayUnavailable, Viewer, display_problem, vulkan_problem
+from tiseg.apps.viewer import DisplayUnavailable, Viewer, display_problem, vulkan_problem
 
 __all__ = ["Viewer", "DisplayUnavailable", "display_problem", "vulkan_problem"]

@@ -2,6 +2,6 @@
 
 import sys
 
-from tiseg.viewer.app import main
+from tiseg.apps.viewer.app import main
 
 sys.exit(main())

@@ -1,8 +1,8 @@
 """Files shipped inside the package, read through importlib.resources so that an installed
 wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.toml``, see
-:func:`tiseg.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
-:func:`tiseg.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
-:func:`tiseg.problems.load_problem`).
+:func:`tiseg.setup.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
+:func:`tiseg.apps.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
+:func:`tiseg.post.problems.load_problem`).
 
 Up to version 0.1.0 they lived in ``assets/scenes`` and ``assets/sweeps`` beside the package;
 :func:`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.

@@ -16,7 +16,7 @@ HDF5 metadata and data to disk: if the process is killed later, the file still o
 snapshot written before the kill (the run is then restartable from the last snapshot).
 
 :meth:`FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
-(:mod:`tiseg.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
+(:mod:`tiseg.run.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
 after it (and a record left half-written by the kill) by copying the kept records into a new
 file that replaces the old one atomically, so the file on disk is always either the old or the
 new complete file.
@@ -115,7 +115,7 @@ class FieldsWriter:
         return ds
 
     def _define(self, ds, x, y, attrs: dict) -> None:
-        from .. import __version__
+        from .._version import __version__
 
         now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
         ds.setncattr("Conventions", "CF-1.8")
@@ -249,7 +249,7 @@ class FieldsWriter:
         self.shape = (ds.dimensions["y"].size, ds.dimensions["x"].size)
         self.count = keep
         self._last_t = float(kept[-1]) if keep else -math.inf
-        from .. import __version__
+        from .._version import __version__
 
         now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
         history = str(getattr(ds, "history", ""))
@@ -409,7 +409,7 @@ def written_times(times) -> np.ndarray:
 def unreadable_message(path, exc: BaseException) -> str:
     """Why ``path`` could not be read, in one line: the run that is writing it (the HDF5
     library refuses to open a file another process writes), or a damaged file."""
-    from ..paths import RunLock
+    from .paths import RunLock
 
     holder = RunLock(Path(path).parent).busy() if Path(path).parent.is_dir() else None
     if holder is not None:

@@ -10,5 +10,5 @@
 * :mod:`.reading` and :mod:`.writing`: a scene from TOML text, dicts and overrides, and back;
 * :mod:`.reference`: the scenes reference page of the documentation.
 
-:mod:`tiseg.scene` keeps the public names (``load_scene``, ``Scene``, ``scene_to_dict``, ...).
+:mod:`tiseg.setup.scene` keeps the public names (``load_scene``, ``Scene``, ``scene_to_dict``, ...).
 """

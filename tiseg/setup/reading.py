@@ -16,7 +16,7 @@ from typing import Mapping
 
 from ..data import SCENE_DIR, builtin_file, builtin_names
 from ..errors import InputError
-from ..paths import check_name, safe_name
+from ..output.paths import check_name, safe_name
 from .overrides import apply_overrides
 from .resolved import Scene
 from .schema import read_section

@@ -1,6 +1,6 @@
 """The resolved scene: every section validated, every default filled in, one frozen value.
 
-Build it with :func:`tiseg.scene.load_scene`; its properties are the switches and numbers the
+Build it with :func:`tiseg.setup.scene.load_scene`; its properties are the switches and numbers the
 run derives from the sections (``viscous``, ``feedback``, ``dx``, the Reynolds number (5.7)).
 """
 
@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 
 import tomli_w
 
-from ..material import Material
-from ..physics.friction import FRICTION_LAWS as LAWS
+from ..model.material import Material
+from ..model.physics.friction import FRICTION_LAWS as LAWS
 from .overrides import apply_overrides
 from .sections import (
     BoundaryConfig,

@@ -176,7 +176,7 @@ def read_section(cls, t: Table, defaults: Mapping[str, Any] | None = None, skip=
 
 
 def constant_field(c) -> dataclasses.Field:
-    """A friction law's :class:`tiseg.physics.friction.Constant` as the field of a number key,
+    """A friction law's :class:`tiseg.model.physics.friction.Constant` as the field of a number key,
     so that it is read, written and documented like the section's own keys."""
     f = dataclasses.field(
         default=c.default,

@@ -15,10 +15,10 @@ from types import SimpleNamespace
 
 from ..errors import InputError
 from ..log import note
-from ..material import Material, Species
-from ..numerics.config import STEP_RULES, SPLIT_CFL, noise_modes
-from ..physics.friction import FRICTION_LAWS as LAWS
-from ..steady import steady_state
+from ..model.material import Material, Species
+from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, noise_modes
+from ..model.physics.friction import FRICTION_LAWS as LAWS
+from ..model.steady import steady_state
 from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section
 from .sections import (
     SPECIES_KEYS,
@@ -537,7 +537,7 @@ def _check_friction_scheme(n: NumericsConfig, effects: EffectsConfig) -> None:
 
 
 def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) -> None:
-    """What the split stepper needs (tiseg.numerics.split): no stiff terms, which its single
+    """What the split stepper needs (tiseg.solver.numerics.split): no stiff terms, which its single
     explicit sweep per direction cannot take. (Any step rule is stable with it: "max" is
     each sweep's own Courant number, "sum" and "local" give shorter steps.)"""
     why = f"numerics.stepper={n.stepper!r} (dimensionally split sweeps) has no stiff terms"

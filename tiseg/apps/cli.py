@@ -1,0 +1,159 @@
+"""`tiseg` command line: one sub-command per module in :mod:`tiseg.apps.commands`.
+
+User mistakes (:class:`tiseg.errors.TisegError`) end in one line on stderr and exit status 2;
+anything else is a bug and shows its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+from ..errors import RunInterrupted, TisegError
+
+# Sub-command modules, each with ``register(subparsers)``; imported lazily so that
+# `tiseg steady` does not pay for importing Taichi.
+COMMAND_MODULES = [
+    "steady",
+    "stability",
+    "figures",
+    "run",
+    "fingers",
+    "render",
+    "view",
+    "demo",
+    "sweep",
+    "bench",
+    "estimate",
+]
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse's own errors: one line (no usage block), exit 2
+        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="tiseg",
+        description=(
+            "tiseg: segregation-induced finger formation in granular avalanches "
+            "(Baker, Johnson & Gray 2016). Run `tiseg COMMAND --help` for each command."
+        ),
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    from .._version import __version__
+
+    parser.add_argument("--version", action="version", version=f"tiseg {__version__}")
+    _verbosity_options(parser, 0)
+    for name in COMMAND_MODULES:
+        try:
+            mod = importlib.import_module(f"tiseg.apps.commands.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"tiseg.apps.commands.{name}":
+                continue  # command not built yet
+            raise
+        mod.register(sub)
+    for p in _subparsers(parser):  # -q / -v also after the command's name
+        _verbosity_options(p, argparse.SUPPRESS)
+    return parser
+
+
+def _verbosity_options(p, default) -> None:
+    g = p.add_argument_group("messages")
+    g.add_argument(
+        "-q",
+        "--quiet",
+        dest="quiet",
+        action="store_true",
+        default=default,
+        help="only results and errors: no notes, progress lines or bars",
+    )
+    g.add_argument(
+        "-v",
+        "--verbose",
+        dest="verbose",
+        action="count",
+        default=default,
+        help="more detail on stderr",
+    )
+
+
+def _subparsers(parser):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for p in action.choices.values():
+                yield p
+                yield from _subparsers(p)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The command line; its exit status. Ctrl-C at any time after ``import tiseg`` (which
+    imports nothing heavy, so that this handler is in place before the slow imports) ends in
+    one line and status 130, a reader that closes the pipe early (``| head``) in silence."""
+    try:
+        _usable_std_streams()
+        try:
+            os.getcwd()  # Taichi and relative paths need it
+        except OSError:
+            sys.stderr.write(
+                "tiseg: error: the current folder no longer exists (or cannot be read); "
+                "cd into one that does\n"
+            )
+            return 2
+        status = _main(argv)
+        sys.stdout.flush()  # a closed pipe shows here, not as a traceback at exit
+        return status
+    except KeyboardInterrupt:
+        sys.stderr.write("tiseg: interrupted\n")
+        return 130
+    except BrokenPipeError:
+        # as Python's documentation of SIGPIPE advises: stdout to /dev/null, so that the
+        # interpreter's own flush at exit raises nothing again, and exit status 1
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        return 1
+
+
+def _usable_std_streams() -> None:
+    """Put /dev/null on a standard descriptor that is closed (``tiseg ... >&-``): output then
+    goes nowhere instead of failing, and no file opened later takes descriptor 1 or 2 (which
+    would receive what is meant for stdout or stderr, from tiseg, Taichi or ffmpeg)."""
+    for fd, name in ((0, "stdin"), (1, "stdout"), (2, "stderr")):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+        if getattr(sys, name) is None:  # Python found the descriptor closed at start-up
+            setattr(sys, name, open(fd, "r" if fd == 0 else "w", closefd=False))
+
+
+def _main(argv: list[str] | None) -> int:
+    from ..log import configure
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    configure(-1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0)), 1))
+    try:
+        result = args.func(args)
+    except RunInterrupted as exc:
+        sys.stderr.write(f"tiseg {args.command}: {exc}\n")
+        return exc.exit_code
+    except TisegError as exc:
+        sys.stderr.write(f"tiseg {args.command}: error: {exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("tiseg: interrupted\n")
+        return 130
+    return int(result or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

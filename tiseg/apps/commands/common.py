@@ -1,0 +1,143 @@
+"""Small helpers shared by the sub-commands."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from ...backend import ARCHS
+from ...errors import InputError
+from ...model.material import Material
+from ...model.physics.segregation import TRANSPORTS
+from ...output.diagnostics import json_clean
+
+
+def add_material_options(p) -> None:
+    """Options overriding Table 1 (the defaults)."""
+    g = p.add_argument_group("material (Table 1 by default)")
+    g.add_argument("--zeta", type=float, default=None, metavar="DEG", help="slope angle [deg] (27)")
+    g.add_argument("--alpha", type=float, default=None, help="shear-profile slip alpha (1/7)")
+    g.add_argument(
+        "--transport",
+        choices=TRANSPORTS,
+        default=None,
+        help="transport function G: linear (2.17), the paper's, or bagnold (2.18) (linear)",
+    )
+
+
+def material_from_args(args) -> Material:
+    m = Material()
+    changes = {}
+    if getattr(args, "zeta", None) is not None:
+        changes["zeta_deg"] = args.zeta
+    if getattr(args, "alpha", None) is not None:
+        changes["alpha"] = args.alpha
+    if getattr(args, "transport", None) is not None:
+        changes["transport"] = args.transport
+    return m.with_(**changes) if changes else m
+
+
+def print_json(obj) -> None:
+    json.dump(json_clean(obj), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+
+
+def positive(name: str, value: float) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"--{name}={value!r} must be a positive number")
+    return value
+
+
+def check_threads(threads: int) -> None:
+    """The --threads option of every command that runs kernels."""
+    from ...backend import threads_problem
+
+    if threads < 0:
+        raise InputError(f"--threads={threads}: must be >= 0 (0 = all cores)")
+    problem = threads_problem(threads, "--threads")
+    if problem:
+        raise InputError(problem)
+
+
+def stdout_for_json(as_json: bool):
+    """Context for the work before a command prints JSON: Taichi greets on stdout when it
+    starts, so anything printed meanwhile goes to stderr and stdout carries the JSON alone."""
+    return contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext()
+
+
+def add_scene_arguments(p, scene_optional: bool = False) -> None:
+    """SCENE, --set, --arch, --precision, --threads: how every command that runs a scene picks it."""
+    p.add_argument(
+        "scene",
+        nargs="?" if scene_optional else None,
+        default=None,
+        help="built-in scene name (e.g. fingers) or path to a TOML file",
+    )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="override a scene value, e.g. --set domain.resolution=250 (repeatable)",
+    )
+    p.add_argument(
+        "--arch",
+        choices=ARCHS,
+        default="cpu",
+        help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
+        "(software Vulkan where there is no GPU; default cpu)",
+    )
+    p.add_argument(
+        "--precision",
+        choices=("f32", "f64"),
+        default=None,
+        help="floating-point precision (default: the scene's numerics.precision)",
+    )
+    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+
+
+def load_scene_args(args):
+    """The scene named by SCENE, --set and --precision."""
+    from ...setup.scene import load_scene
+
+    overrides = list(args.overrides)
+    if args.precision:
+        overrides.append(f"numerics.precision={args.precision}")
+    return load_scene(args.scene, overrides)
+
+
+def check_output_folder(out: Path, what: str = "--out") -> None:
+    """Refuse an output folder that cannot be created or written, before any work is done."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what}={str(out)!r} is a file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=out, prefix=".tiseg-write-test.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(
+            f"{what}={str(out)!r}: cannot write there ({exc.strerror or exc})"
+        ) from None
+
+
+def check_figure_path(path: str, what: str = "--plot") -> Path:
+    """A figure file name whose suffix matplotlib can write, in a folder that can be made."""
+    from matplotlib.figure import Figure
+
+    p = Path(path)
+    kinds = Figure().canvas.get_supported_filetypes()
+    suffix = p.suffix.lower().lstrip(".")
+    if suffix not in kinds:
+        raise InputError(
+            f"{what}={path!r}: give a file name ending in one of "
+            f".{', .'.join(sorted(kinds))} (e.g. .png or .pdf)"
+        )
+    check_output_folder(p.parent if str(p.parent) else Path("."), what)
+    return p

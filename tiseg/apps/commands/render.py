@@ -1,0 +1,124 @@
+"""`tiseg render RUN_DIR`: movies, PNG frames, GIFs and paper-style panels of a finished run."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .common import print_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "render",
+        help="render a run's snapshots to mp4 / GIF / PNG frames / panels",
+        description="Render the snapshots in RUN_DIR/fields.nc (written by "
+        "`tiseg run`) with the experiment-like colours of figure 12 "
+        "(white fines, brown coarse grains, turquoise empty chute) or "
+        "a viridis map of h, |u|, u or v. Needs no display or Vulkan.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="run folder (or its fields.nc)")
+    p.add_argument("--field", default="phi", help="phi (default), h, speed (or |u|), u or v")
+    p.add_argument("--movie", default=None, metavar="OUT.mp4", help="write an mp4 movie")
+    p.add_argument("--gif", default=None, metavar="OUT.gif", help="write an animated GIF")
+    p.add_argument("--frames", default=None, metavar="DIR", help="write PNG frames into DIR")
+    p.add_argument(
+        "--panels",
+        default=None,
+        metavar="OUT.png",
+        help="write a paper-style figure with one panel per time (see --times)",
+    )
+    p.add_argument(
+        "--times",
+        type=float,
+        nargs="+",
+        default=None,
+        metavar="T",
+        help="panel times [s] (default: five snapshots evenly spread)",
+    )
+    p.add_argument("--fps", type=float, default=10.0, help="movie frames per second (10)")
+    p.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="pixels per cell (default 1, more for grids under 600 cells wide)",
+    )
+    p.add_argument(
+        "--max-frames",
+        type=int,
+        default=None,
+        metavar="N",
+        help="at most N frames, evenly spread over the run",
+    )
+    p.add_argument("--vmin", type=float, default=None, help="colour range minimum (SI units)")
+    p.add_argument("--vmax", type=float, default=None, help="colour range maximum (SI units)")
+    p.add_argument("--no-shade", action="store_true", help="no relief shading")
+    p.add_argument("--no-annotate", action="store_true", help="no time stamp / scale bar")
+    p.add_argument("--json", action="store_true", help="print a JSON summary")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ...errors import InputError
+    from ...post.render.colours import canonical_field
+    from ...output.netcdf import reading
+    from ...post.render.movie import refuse_link, render_run
+
+    try:
+        field = canonical_field(args.field)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    if args.scale is not None and not (args.scale > 0 and math.isfinite(args.scale)):
+        raise InputError(f"--scale={args.scale!r} must be a positive number")
+    if (args.vmin is None) != (args.vmax is None):
+        raise InputError("give both --vmin and --vmax, or neither")
+    vrange = None
+    if args.vmin is not None:
+        if not args.vmax > args.vmin:
+            raise InputError(f"--vmax={args.vmax} must be above --vmin={args.vmin}")
+        vrange = (args.vmin, args.vmax)
+    movie = args.movie
+    if movie is None and args.gif is None and args.frames is None and args.panels is None:
+        movie = str(Path(args.run_dir) / f"{field}.mp4")  # a sensible default
+    for target in (movie, args.gif, args.frames, args.panels):  # before anything is written
+        if target is not None:
+            refuse_link(Path(target))
+    summary = {"field": field, "outputs": []}
+    with reading(args.run_dir):  # a damaged data block: one line, not a traceback
+        if movie is not None or args.gif is not None or args.frames is not None:
+            res = render_run(
+                args.run_dir,
+                field=field,
+                movie=movie,
+                frames=args.frames,
+                gif=args.gif,
+                fps=args.fps,
+                max_frames=args.max_frames,
+                shade=not args.no_shade,
+                scale=args.scale,
+                vrange=vrange,
+                annotate=not args.no_annotate,
+            )
+            summary.update(res)
+        if args.panels is not None:
+            from ...post.render.panels import plot_panels
+
+            plot_panels(
+                args.run_dir,
+                args.times,
+                field,
+                args.panels,
+                shade=not args.no_shade,
+                vrange=vrange,
+                scale=args.scale or 1.0,
+            )
+            summary["outputs"] = list(summary["outputs"]) + [args.panels]
+    if args.json:
+        print_json(summary)
+    else:
+        if "frames" in summary:
+            h, w = summary["size"]
+            print(f"rendered {summary['frames']} frames of {field} ({w} x {h} px)")
+        for out in summary["outputs"]:
+            print(f"wrote {out}")
+    return 0

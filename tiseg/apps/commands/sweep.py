@@ -1,0 +1,154 @@
+"""`tiseg sweep SWEEP.toml`: run a parameter sweep on Dask and collect one table.
+
+The sweep file format is described in :mod:`tiseg.apps.sweep`; built-in sweeps are in ``tiseg/data/sweeps/``
+(``tiseg sweep grid-study``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ...backend import ARCHS
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="run a grid of scene overrides on Dask; writes DIR/sweep.csv",
+        description="Run every combination of a sweep file's [grid] overrides (applied to its "
+        "base scene together with the [set] overrides) as independent tasks on Dask, "
+        "each into its own run folder, and collect the finger metrics and run costs "
+        "into DIR/sweep.csv (and DIR/sweep.json). Finished runs (folders with "
+        "done.json) are reused, so an interrupted sweep resumes where it stopped. "
+        "Every combination is validated before anything runs.",
+    )
+    p.add_argument(
+        "sweep",
+        metavar="SWEEP.toml",
+        help="sweep file, or the name of a built-in sweep (grid-study, width-study, "
+        "nu-study, finite-release, monodisperse, tiny)",
+    )
+    p.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="output folder (default: runs/sweeps/<sweep name>)",
+    )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="add a fixed override to every run, e.g. --set time.t_end=5 (repeatable)",
+    )
+    p.add_argument(
+        "--grid",
+        dest="grid",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=[V1,V2,...]",
+        help="replace (or add) a grid axis, e.g. --grid 'domain.resolution=[250,375]' (repeatable)",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="address of an existing Dask scheduler (e.g. tcp://host:8786); default: "
+        "start a local cluster of worker processes",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local worker processes, i.e. runs at the same time (default: CPU "
+        "cores, at most the number of runs)",
+    )
+    p.add_argument(
+        "--threads-per-task",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Taichi CPU threads per run (default: cores / workers locally; all "
+        "cores on a remote cluster; 0 = all cores)",
+    )
+    p.add_argument(
+        "--arch", choices=ARCHS, default="cpu", help="Taichi backend of each run (default cpu)"
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an --out folder that holds another sweep, replacing its table and "
+        "the runs it shares folder names with, and files in run folders that tiseg did not "
+        "write",
+    )
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="validate the sweep file and list its runs, run nothing",
+    )
+    p.add_argument(
+        "--progress-interval",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="seconds between progress lines of one running run (default 30)",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print a JSON summary (folders, counts, one entry per run) on stdout; "
+        "progress goes to stderr as always",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ...errors import InputError
+    from ...setup.scene import parse_override
+    from ..sweep import load_sweep, read_marker, run_sweep
+
+    extra = dict(parse_override(text) for text in args.overrides)
+    grid = {}
+    for text in args.grid:
+        key, values = parse_override(text)
+        if not isinstance(values, list):
+            raise InputError(f"--grid {text!r}: give a list of values, e.g. {key}=[1, 2]")
+        grid[key] = values
+    sweep = load_sweep(args.sweep, extra_overrides=extra, grid_overrides=grid)
+    out = Path(args.out) if args.out else Path("runs") / "sweeps" / sweep.name
+    if args.check:
+        print(f"sweep {sweep.name!r}: base scene {sweep.scene}, {len(sweep.runs)} runs, valid")
+        for r in sweep.runs:
+            done = read_marker(out / r.name, r.scene) is not None
+            print(
+                f"  {r.name}: {r.scene.domain.nx} x {r.scene.domain.ny} cells, t_end "
+                f"{r.scene.t_end:g} s{' (finished)' if done else ''}"
+            )
+        return 0
+    from ...log import info
+
+    result = run_sweep(
+        sweep,
+        out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        threads_per_task=args.threads_per_task,
+        arch=args.arch,
+        echo=info,
+        progress_interval=args.progress_interval,
+        overwrite=args.overwrite,
+    )
+    if args.json:
+        from .common import print_json
+
+        print_json(result.as_dict())
+    if result.count("busy"):
+        from ...log import note
+
+        note(
+            f"{result.count('busy')} run(s) were skipped because another process runs them; "
+            "the sweep is not complete: run it again later"
+        )
+    return 1 if result.count("failed") or result.count("busy") else 0

@@ -1,0 +1,289 @@
+"""Pointwise terms of (6.1)-(6.6) for one primitive state w = (h, u[, v][, phi]).
+
+Every switch of the scene (segregation, 1D, friction law, mobility feedback) is a compile-time
+constant read through ``ti.static``: a switched-off effect leaves no code in the kernels.
+Run-time numbers (slope, friction constants, inflow, ...) live in one small parameter field so
+they can change without recompiling.
+"""
+
+import taichi as ti
+
+from .friction import FRICTION_LAWS
+from .params import Params
+from .segregation import TRANSPORTS
+from .viscosity import VISCOSITY
+
+__all__ = ["Physics", "Params", "param_count", "slot_bases"]
+
+
+def slot_bases(cfg) -> dict[str, int]:
+    """Where each component's numbers start in the parameter field: after the common slots
+    (:attr:`Params.COUNT`) come the transport function's (only with segregation), the
+    viscosity's (only with it), then the friction law's; ``"end"`` is the field's length. A
+    component that is off has no slots."""
+    bases = {}
+    b = Params.COUNT
+    if cfg.layout.segregation:
+        bases["transport"] = b
+        b += len(TRANSPORTS[cfg.transport].slots)
+    if cfg.viscous:
+        bases["viscosity"] = b
+        b += len(VISCOSITY.slots)
+    bases["friction"] = b
+    bases["end"] = b + len(FRICTION_LAWS[cfg.friction].slots)
+    return bases
+
+
+def param_count(cfg) -> int:
+    """Slots of the parameter field: the common ones and the components'."""
+    return slot_bases(cfg)["end"]
+
+
+def param_values(cfg) -> list[float]:
+    """The components' numbers, in the order of :func:`slot_bases` (from Params.COUNT on)."""
+    vals = []
+    if cfg.layout.segregation:
+        vals += TRANSPORTS[cfg.transport].values(cfg.alpha)
+    if cfg.viscous:
+        vals += VISCOSITY.values(cfg.nu)
+    if cfg.fric is not None:
+        vals += FRICTION_LAWS[cfg.friction].values(cfg.fric)
+    return vals
+
+
+@ti.data_oriented
+class Physics:
+    def __init__(self, cfg, par):
+        """cfg: the OperatorConfig; par: the operator's parameter field, of
+        :func:`param_count` slots (the components' from Params.COUNT on, :func:`slot_bases`)."""
+        lay = cfg.layout
+        self.par = par
+        self.nc = lay.nc
+        self.is_1d = lay.is_1d
+        self.seg = lay.segregation
+        self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
+        bases = slot_bases(cfg)
+        # the transport function G(phi) as a component (only with segregation)
+        if self.seg:
+            self._G, self._dG = TRANSPORTS[cfg.transport].taichi(ti, par, bases["transport"])
+        # the viscosity (6.2) as a component (only with it): face coefficient, stresses and
+        # the cell's stiffness bound
+        self.visc = cfg.viscous
+        if self.visc:
+            fns = VISCOSITY.taichi(ti, par, bases["viscosity"], Params.H_MIN, not self.is_1d)
+            self.face_K, self.normal_stress, self.shear_stress, self.visc_stiffness = fns
+        # the friction law as a component: its Taichi functions read its own slots
+        self.law = FRICTION_LAWS[cfg.friction]
+        self.fr_none = cfg.friction == "none"
+        # SPIR-V (Vulkan) has no 64-bit pow: the extended law's power is then taken in f32
+        f32_pow = par.dtype == ti.f64 and ti.lang.impl.current_cfg().arch == ti.vulkan
+        self._mu, self._mu_start = self.law.taichi(ti, par, bases["friction"], f32_pow)
+        # compile-time switches as bools (ti.static does not take strings)
+        self.feedback = cfg.feedback and lay.segregation and self.law.weighted
+        # friction as a projection after each stage (project_friction) instead of a source
+        self.fr_projected = cfg.friction_projected
+        self.fr_source = not self.fr_none and not self.fr_projected
+
+    @ti.func
+    def vel(self, w, d: ti.template()):
+        """Velocity component along direction d (0 = x, 1 = y)."""
+        r = w[1]
+        if ti.static(d == 1):
+            r = w[self.HV]
+        return r
+
+    @ti.func
+    def G(self, phi):
+        """The scene's transport function, (2.17) or (2.18) (tiseg.model.physics.segregation)."""
+        return self._G(phi)
+
+    @ti.func
+    def dG(self, phi):
+        return self._dG(phi)
+
+    @ti.func
+    def conserved(self, w):
+        q = w
+        for c in ti.static(range(1, self.nc)):
+            q[c] = w[c] * w[0]
+        return q
+
+    @ti.func
+    def flux(self, w, d: ti.template()):
+        """Physical flux of (6.1)-(6.3) along d: mass, momentum with slope-normal pressure
+        (1/2) g cos(zeta) h^2, and the large-particle transport h u (phi - G(phi))."""
+        h = w[0]
+        vn = self.vel(w, d)
+        f = ti.Vector.zero(float, self.nc)
+        f[0] = h * vn
+        f[1] = h * w[1] * vn
+        if ti.static(not self.is_1d):
+            f[self.HV] = h * w[self.HV] * vn
+        if ti.static(d == 0):
+            f[1] += 0.5 * self.par[Params.G_COS] * h * h
+        else:
+            f[self.HV] += 0.5 * self.par[Params.G_COS] * h * h
+        if ti.static(self.seg):
+            phi = w[self.HPHI]
+            f[self.HPHI] = h * vn * (phi - self.G(phi))
+        return f
+
+    @ti.func
+    def speed(self, w, d: ti.template()):
+        """Local characteristic speed: max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) (5.25)-(5.26)."""
+        vn = self.vel(w, d)
+        a = ti.abs(vn) + ti.sqrt(self.par[Params.G_COS] * w[0])
+        if ti.static(self.seg):
+            a = ti.max(a, ti.abs(vn * (1.0 - self.dG(w[self.HPHI]))))
+        return a
+
+    @ti.func
+    def speed_range(self, w, d: ti.template()):
+        """Smallest and largest characteristic speed along d, (u - c, u + c) widened to take in
+        the segregation speed u (1 - G'(phi)) (5.26): the one-sided local speeds of the
+        central-upwind flux."""
+        vn = self.vel(w, d)
+        c = ti.sqrt(self.par[Params.G_COS] * w[0])
+        lo = vn - c
+        hi = vn + c
+        if ti.static(self.seg):
+            s = vn * (1.0 - self.dG(w[self.HPHI]))
+            lo = ti.min(lo, s)
+            hi = ti.max(hi, s)
+        return ti.Vector([lo, hi])
+
+    @ti.func
+    def transported(self, phi):
+        """phi - G(phi): the large-particle flux per unit mass flux, h u (phi - G) / (h u).
+        Non-decreasing in phi for every transport function (1 - G' >= alpha with (2.17),
+        >= 0 with (2.18)), so upwinding phi by the sign of the mass flux is upwinding this
+        flux."""
+        return phi - self.G(phi)
+
+    @ti.func
+    def _weight(self, phi):
+        """The concentration a mixture law weights with: the local phi with mobility
+        feedback, else flow.phi0."""
+        ph = self.par[Params.PHI_REF]
+        if ti.static(self.feedback):
+            ph = phi
+        return ph
+
+    @ti.func
+    def mu_b(self, h, spd, phi):
+        """Basal friction coefficient of the scene's law at thickness h and speed spd
+        (tiseg.model.physics.friction); phi weights a mixture (3.4) with mobility feedback, else
+        flow.phi0 does."""
+        return self._mu(h, spd, self._weight(phi))
+
+    @ti.func
+    def mu_start(self, h, phi):
+        """The largest coefficient at rest: mu_S(h) of a law with hysteresis, else mu_b at
+        zero speed."""
+        return self._mu_start(h, self._weight(phi))
+
+    @ti.func
+    def speed_mag(self, w):
+        """|(w[1], w[HV])|: the speed of a primitive state, |h u| of a conserved one."""
+        s = ti.abs(w[1])
+        if ti.static(not self.is_1d):
+            s = ti.sqrt(w[1] * w[1] + w[self.HV] * w[self.HV])
+        return s
+
+    @ti.func
+    def source(self, w):
+        """g h S of (6.4): gravity along the slope and basal friction opposing the motion, with
+        u/|u| regularised as u / max(|u|, u_eps); zero in films thinner than h_min. With the
+        projected friction scheme the friction is left to project_friction."""
+        h = w[0]
+        s = ti.Vector.zero(float, self.nc)
+        if h >= self.par[Params.H_MIN]:
+            s[1] = h * self.par[Params.G_SIN]
+            if ti.static(self.fr_source):
+                spd = self.speed_mag(w)
+                phi = self.par[Params.PHI_REF]
+                if ti.static(self.seg):
+                    phi = w[self.HPHI]
+                mu = self.mu_b(ti.max(h, self.par[Params.H_MIN]), spd, phi)
+                inv = 1.0 / ti.max(spd, self.par[Params.U_EPS])
+                s[1] = h * (self.par[Params.G_SIN] - self.par[Params.G_COS] * mu * w[1] * inv)
+                if ti.static(not self.is_1d):
+                    s[self.HV] = -h * self.par[Params.G_COS] * mu * w[self.HV] * inv
+        return s
+
+    @ti.func
+    def friction_rate(self, w):
+        """Stiffness of the friction term, g cos(zeta) mu_b / max(|u|, u_eps) [1/s]; zero when
+        the friction is projected (it is then no part of the explicit stages)."""
+        r = 0.0 * w[0]
+        if ti.static(self.fr_source):
+            h = w[0]
+            if h >= self.par[Params.H_MIN]:
+                spd = self.speed_mag(w)
+                phi = self.par[Params.PHI_REF]
+                if ti.static(self.seg):
+                    phi = w[self.HPHI]
+                r = (
+                    self.par[Params.G_COS]
+                    * self.mu_b(h, spd, phi)
+                    / ti.max(spd, self.par[Params.U_EPS])
+                )
+        return r
+
+    @ti.func
+    def _phi_of(self, q, h):
+        phi = self.par[Params.PHI_REF]
+        if ti.static(self.seg):
+            phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
+        return phi
+
+    @ti.func
+    def project_friction(self, q, tau, spd0):
+        """Basal friction over the time tau as a projection of the conserved state q (friction
+        scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
+        et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h. Where
+        |h u| <= I the friction can cancel the momentum and the cell stops exactly (u = 0);
+        otherwise the momentum shrinks by I along its own direction. This needs no
+        regularisation of u / |u| and is no stiff term for the stepper; it never reverses the
+        flow and leaves h and h phi alone.
+
+        mu_b is the scene's law at ``spd0``, the cell's speed in the state the stage started
+        from: the coefficient lags by one stage. A steady uniform flow, whose gravity impulse
+        per stage equals I at its own speed, is then kept to round-off. Taken at the speed of
+        q, which is the speed before friction, a law whose coefficient grows with the speed
+        (3.7) gave an impulse too large by O(tau): it slowed steady flows and stopped a layer
+        it could not hold when the step was long. Whether a law with hysteresis holds a cell
+        at rest is decided once per step, by :meth:`holds`; a cell it holds is not projected
+        (the operator keeps it at rest)."""
+        r = q
+        h = q[0]
+        if h >= self.par[Params.H_MIN] and tau > 0:
+            m = self.speed_mag(q)  # |h u| of the conserved state
+            phi = self._phi_of(q, h)
+            imp = tau * self.par[Params.G_COS] * self.mu_b(h, spd0, phi) * h
+            f = 0.0 * h
+            if m > imp:
+                f = 1.0 - imp / m
+            r[1] = f * q[1]
+            if ti.static(not self.is_1d):
+                r[self.HV] = f * q[self.HV]
+        return r
+
+    @ti.func
+    def holds(self, q, tau):
+        """1 where the static friction holds a cell that was at rest at the step's start (a
+        law with hysteresis), else 0. Called on the step's first stage, which is one Euler
+        step of length tau from the step's initial state Y0 for every stepper, so the
+        stage's momentum is tau f(Y0), f the force per unit area of gravity, pressure and
+        stress on the resting cell: the cell is held where |f(Y0)| <= g cos(zeta) mu_S(h) h,
+        a test of the initial state alone, whatever the step length, the stepper or its
+        stage count. A held cell stays exactly at rest for the whole step; one that is not
+        held starts and feels the friction of project_friction (at rest, the law's
+        coefficient at zero speed: mu_S(h) for the extended law)."""
+        r = 0
+        h = q[0]
+        if h >= self.par[Params.H_MIN] and tau > 0:
+            m = self.speed_mag(q)  # |h u| of the conserved state
+            if m <= tau * self.par[Params.G_COS] * self.mu_start(h, self._phi_of(q, h)) * h:
+                r = 1
+        return r

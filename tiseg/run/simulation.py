@@ -1,0 +1,881 @@
+"""The run loop: a scene, its Taichi operator, a stepper, and callbacks on schedules.
+
+Each step measures the wave speeds and stiffness of the current state, asks the stepper for
+(dt, stages) from the convective CFL and the spectral radius, and advances. Nothing but the end
+of the run shortens a step: output, checkpoints, movies and the viewer are callbacks
+(:mod:`tiseg.run.callbacks`) on schedules (:mod:`tiseg.run.schedules`) that observe the steps, and a
+snapshot at an output time is interpolated between the two step states around it. Two runs
+that differ only in what they write therefore take the same steps and end in the same bits.
+Only ``t_end`` is landed on exactly; when less than two steps are left, the rest is split into
+two equal steps, so no sliver step is taken.
+
+Guards (:mod:`tiseg.run.guards`, the callback ``"guard"``): every ``check_every`` steps (default
+10) and on every step that makes a snapshot the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and
+the mass balance; a breach stops the run with a :class:`SimulationError` naming time, step,
+cell and field, and (with an output folder) saves ``failure/last_good.npz`` and
+``failure/offending.npz``.
+
+Checkpoints (:mod:`tiseg.run.checkpoint`, :mod:`tiseg.run.run_folder`): with an output folder,
+``checkpoint.npz`` holds a step state, written after every step that crossed an output time,
+per ``output.checkpoint_interval`` and per ``checkpoint_wall`` seconds;
+:meth:`Simulation.resume` continues a killed run bit for bit.
+
+The Python API::
+
+    sim = Simulation.from_scene("fingers", {"domain.resolution": 250, "time.t_end": 2})
+    sim.add_callback(lambda snap: print(snap.t, snap.fields()["h"].max()),
+                     TimeInterval(0.5), snapshot=True)
+    sim.run(out_dir="runs/f250")
+
+with the explicit mutators :meth:`Simulation.set_parameters`, :meth:`Simulation.set_state`
+and :meth:`Simulation.reset`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import backend
+from . import checkpoint as _ckpt
+from .callbacks import Callback, ProgressBar, Snapshot
+from ..errors import InputError, RunInterrupted, TisegError
+from .guards import StateGuard, Violation
+from ..setup.initial import initial_state
+from .limits import check_memory
+from ..solver.numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
+from .schedules import IterationInterval, Schedule, SpecifiedTimes
+from ..setup.schema import compiled_keys
+from ..setup.sections import SECTIONS
+from ..solver.timestepping import stepper_for
+
+# Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
+# (the stencil's reach): the range stays exact (see TaichiOperator._combine).
+ACTIVE_MARGIN = 3
+
+MIN_STEP_FRACTION = 1e-9  # a step this much below the CFL limit: stiffness out of range
+GUARD_ORDER = -100  # the guard callback runs before everything else after a step
+
+
+def step_limits(
+    ax: float, ay: float, rho_stiff: float, scene, rate_local: float | None = None
+) -> tuple[float, float]:
+    """(dt_cfl, rho): the rules every step is planned with, shared with tiseg.apps.estimate.
+
+    dt_cfl is the forward-Euler step of the KT positivity proof (Kurganov & Petrova 2007,
+    section 3) at the Courant number C = numerics.cfl, infinite when nothing moves:
+
+    * step_rule "max": dt = C min(dx / a_x, dy / a_y), positive for C <= 1/4 in 2D (1/2 in 1D);
+    * step_rule "sum": dt = C / (a_x/dx + a_y/dy), positive for C <= 1/2. The proof writes the
+      cell average as a convex mix of its four edge values; weighting the x and y pairs by
+      their shares of a_x/dx + a_y/dy instead of 1/2 each gives this bound, which equals the
+      1D one where a single direction carries the waves and is never below the max rule's.
+    * step_rule "local": dt = C / max over cells of (A/dx + B/dy), positive for C <= 1/2,
+      with A and B the largest speeds among the cell and its two neighbours along x and along
+      y (``rate_local``, from the stability pass): the same proof with the weights chosen
+      cell by cell, each cell needing only the speeds of its own four faces. The global
+      maxima of a_x and a_y need not meet in one cell (a dam break's fastest x wave runs
+      where the flow is shallow, its fastest y wave where it is deep), so this step is
+      never below the sum rule's and is 1.17x it on the Stoker dam break. Without
+      ``rate_local`` (tiseg.apps.estimate) it falls back to the sum rule, an upper bound on the
+      steps. 1D: all three rules are dt = C dx / a_x.
+
+    SSP steppers multiply it by their SSP coefficient. rho is the spectral radius the steppers
+    plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy),
+    a Gershgorin bound of the convective Jacobian, whose rows are cells: with the local rule
+    2 rate_local bounds it (NUMERICS finding 6)."""
+    rx = ax / scene.dx
+    ry = ay / scene.dy if not scene.is_1d else 0.0
+    rule = scene.numerics.step_rule
+    if rule == "local" and rate_local is not None:  # (the operator gives none in 1D)
+        rate = conv = min(rate_local, rx + ry)  # (the bound can only be tighter)
+    else:
+        rate = rx + ry if rule in ("sum", "local") else max(rx, ry)
+        conv = rx + ry
+    dt_cfl = scene.numerics.cfl / rate if rate > 0 else math.inf
+    return dt_cfl, rho_stiff + 2.0 * conv
+
+
+@dataclass
+class StepInfo:
+    t: float
+    dt: float
+    stages: int
+    rhs_evals: int
+
+
+@dataclass
+class StepPlan:
+    """The next step: ``dt``, ``stages``, the stability numbers it was planned from, and the
+    time it ends at (``t_next``, exactly the stop time when it lands there)."""
+
+    dt: float
+    stages: int
+    stability: object
+    t_next: float
+    dt_cfl: float = math.inf  # the convective limit it was planned from
+    lands: bool = False  # it ends exactly on the stop time
+
+
+class SimulationError(TisegError):
+    """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
+
+    ``violation``: the :class:`tiseg.run.guards.Violation` (None for a collapsed step with no
+    broken bound); ``files``: paths of the saved last-good and offending states (may be empty).
+    """
+
+    def __init__(self, message: str, violation: Violation | None = None, files=()):
+        super().__init__(message)
+        self.violation = violation
+        self.files = tuple(files)
+
+
+@dataclass
+class RunStats:
+    steps: int = 0
+    stages: int = 0  # operator evaluations
+    wall: float = 0.0  # cumulative wall time of run() calls (resumed runs continue it)
+    history: list = field(default_factory=list)
+
+
+class Simulation:
+    """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``.
+
+    Taichi is initialised on first use (``arch`` default cpu, the scene's precision). Once it
+    is, a simulation asking for another precision, arch or thread count is an
+    :class:`InputError`: switching means ``tiseg.init(...)``, which invalidates every
+    existing simulation, so it is never done behind the caller's back."""
+
+    def __init__(
+        self,
+        scene,
+        arch: str | None = None,
+        precision: str | None = None,
+        threads: int = 0,
+        active_region: bool = True,
+        check_every: int = 10,
+        mass_tol: float | None = None,
+        skip_rest: bool = True,
+    ):
+        """``active_region``: work only on the x range that can change (exact); ``skip_rest``:
+        leave out of it the regions held at rest (projected friction with a law with
+        hysteresis and a stepper that keeps rest bit for bit, every one but SSPRK(10,4);
+        exact for the same steps: False only to compare); ``check_every``: guard check every that
+        many steps (0: only on steps that make a snapshot); ``mass_tol``: relative
+        mass-balance tolerance of the guard (tiseg.run.guards)."""
+        from ..solver.numerics.operator import TaichiOperator
+
+        self.scene = scene
+        prec = precision or scene.numerics.precision
+        problem = backend.conflict(arch, prec, threads)
+        if problem:
+            raise InputError(problem)
+        if not backend.is_initialised():
+            backend.init(arch or "cpu", prec, threads)
+        backend.check_field_room()
+        self.backend = backend.state()
+        self.cfg = config_from_scene(scene)
+        self.layout = self.cfg.layout
+        self.stepper = stepper_for(scene.numerics, is_1d=scene.is_1d)
+        # two slots beyond the stepper's: the state before a step that crosses a snapshot
+        # time, and the snapshot interpolated from it and the state after the step
+        nstep = max(self.stepper.slots, 2)
+        self.PREV, self.SNAP = nstep, nstep + 1
+        if self.backend.arch == "cpu":  # before Taichi tries the allocation
+            check_memory(self.layout, nstep + 2, self.backend.precision)
+        self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
+        # Work only on the x range that can change (the wet region and a margin): exact,
+        # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
+        self.active_region = active_region and scene.boundary.x_lo != "periodic"
+        # and leave out the regions held at rest (TaichiOperator._quiescent): exact as well
+        # (for steppers that keep a resting cell's bits)
+        self.op.skip_rest = (
+            self.op.skip_rest and bool(skip_rest) and self.active_region and self.stepper.keeps_rest
+        )
+        self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
+        self.callbacks: dict[str, Callback] = {}
+        self.check_every = check_every  # registers the guard callback
+        self.failure_dir: Path | None = None  # where a guard failure saves its states
+        self._io_counts = (0, 0)  # (snapshots, diagnostics rows) written
+        self._wall0: float | None = None  # perf_counter() at wall time 0 during run()
+        self.reset()
+
+    @classmethod
+    def resume(cls, run_dir, arch: str | None = None, threads: int = 0, **kwargs) -> "Simulation":
+        """The simulation of a killed run folder at its last checkpoint; continue it with
+        ``sim.run(out_dir=run_dir)`` (which appends to its fields.nc and diagnostics.csv)."""
+        scene, ck = _ckpt.open_run_dir(run_dir)
+        sim = cls(scene, arch=arch, precision=ck["precision"], threads=threads, **kwargs)
+        _ckpt.restore(sim, ck)
+        sim._resume = {
+            "dir": Path(run_dir).resolve(),
+            **{k: ck[k] for k in ("snapshots", "diag_rows", "wall")},
+        }
+        return sim
+
+    @classmethod
+    def from_scene(cls, scene, overrides=None, **kwargs) -> "Simulation":
+        """Build from a Scene, a built-in scene name or a TOML path, with ``section.key`` overrides."""
+        from ..setup.scene import Scene, load_scene
+
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene, overrides)
+        elif overrides:
+            scene = scene.with_overrides(overrides)
+        return cls(scene, **kwargs)
+
+    # ------------------------------------------------------------------ mutators
+    def reset(self) -> None:
+        """Back to the initial state of the scene (with the parameters as set) at t = 0."""
+        q0 = initial_state(self.scene, self.layout)
+        self.op.set(0, q0)
+        self.op.reset_budget()
+        self.t = 0.0
+        self._last_stages = 8
+        self.stats = RunStats()
+        self.last_step: StepInfo | None = None
+        self.last_stability = None
+        self.initial_totals = self.totals()
+        self._resume = None
+        self.guard.keep(self.checkpoint_meta())
+
+    def set_parameters(self, changes: dict | None = None, *, scene=None) -> None:
+        """Change run-time parameters: ``section.key`` overrides of the scene (e.g.
+        ``{"flow.nu": 0.02, "material.zeta_deg": 28, "inflow.h": 0.003}``), or a whole
+        ``scene`` to take the values of. The scene and the operator change together; the state
+        and the time stay. What the kernels were compiled for (grid, effects, boundaries,
+        reconstruction, stepper, precision) cannot change: that is an :class:`InputError`
+        naming it (build a new Simulation instead)."""
+        if scene is None:
+            if not changes:
+                return
+            scene = self.scene.with_overrides(changes)
+        old = self.scene
+        cfg = config_from_scene(scene)
+        if self.cfg.viscous and not cfg.viscous and scene.effects.viscosity:
+            cfg = dataclasses.replace(cfg, viscous=True, nu=0.0)  # nu = 0: the same kernels
+        what = sorted({v for k, v in COMPILED.items() if getattr(cfg, k) != getattr(self.cfg, k)})
+        for full in compiled_keys(SECTIONS, "simulation"):  # built by the simulation itself
+            section, key = full.split(".")
+            if getattr(getattr(scene, section), key) != getattr(getattr(old, section), key):
+                what.append(full)
+        if what:
+            why = (
+                "; the viscous kernels were left out because flow.nu was 0 when the "
+                "simulation was built"
+                if "effects.viscosity" in what and not self.cfg.viscous and old.effects.viscosity
+                else ""
+            )
+            raise InputError(
+                f"set_parameters: this changes {', '.join(what)}, which the "
+                f"simulation was compiled for{why}; build a new Simulation for that"
+            )
+        self.scene = scene
+        self.cfg = cfg
+        self.op.set_params(cfg)
+        self.guard.set_params()  # h_min of the phi rule
+
+    def set_state(self, h, u=None, v=None, phi=None) -> None:
+        """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
+        (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
+        afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
+        lay = self.layout
+        shape = (lay.ny, lay.nx)
+
+        def arr(name, a, default):
+            if a is None:
+                return np.full(shape, float(default))
+            a = np.asarray(a, dtype=float)
+            if a.shape != shape:
+                raise InputError(
+                    f"set_state: {name} has shape {a.shape}, expected {shape} (ny, nx)"
+                )
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"set_state: {name} holds NaN or Inf")
+            return a
+
+        h = arr("h", h, 0.0)
+        if np.any(h < 0):
+            raise InputError(f"set_state: h must be >= 0 (min {h.min():.3g})")
+        if v is not None and lay.is_1d:
+            raise InputError("set_state: a 1D simulation has no v")
+        if phi is not None and not lay.segregation:
+            raise InputError("set_state: this scene has no segregation, so no phi")
+        u = arr("u", u, 0.0)
+        q = np.zeros((lay.nc, lay.nx, lay.ny))
+        q[lay.H], q[lay.HU] = h.T, (h * u).T
+        if not lay.is_1d:
+            q[lay.HV] = (h * arr("v", v, 0.0)).T
+        if lay.segregation:
+            phi = arr("phi", phi, self.scene.flow.phi0)
+            if np.any((phi < 0) | (phi > 1)):
+                raise InputError("set_state: phi must lie in [0, 1]")
+            q[lay.HPHI] = (h * phi).T
+        self.set_conserved(q)
+        self.op.reset_budget()
+        self.initial_totals = self.totals()
+        self.guard.keep(self.checkpoint_meta())
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as :meth:`fields`)."""
+        return self.fields()
+
+    # ------------------------------------------------------------------ callbacks
+    def add_callback(
+        self,
+        func,
+        schedule: Schedule | None = None,
+        name: str | None = None,
+        snapshot: bool = False,
+        order: int = 0,
+    ) -> Callback:
+        """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.run.callbacks`),
+        or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
+        if isinstance(func, Callback):
+            cb = func
+        elif schedule is None:
+            raise InputError(
+                "add_callback: give a schedule (e.g. IterationInterval(10) or "
+                "TimeInterval(0.1) from tiseg.run.schedules)"
+            )
+        else:
+            cb = Callback(func, schedule, name, snapshot, order)
+        self.callbacks[cb.name] = cb
+        return cb
+
+    def remove_callback(self, name: str) -> None:
+        self.callbacks.pop(name, None)
+
+    @property
+    def check_every(self) -> int:
+        """Steps between guard checks (0: only on steps that make a snapshot)."""
+        return self._check_every
+
+    @check_every.setter
+    def check_every(self, n: int) -> None:
+        if not (isinstance(n, int) and n >= 0):
+            raise InputError(f"check_every={n!r} must be an integer >= 0")
+        self._check_every = n
+        self.callbacks.pop("guard", None)
+        if n:
+            # before the step's snapshots (negative order): nothing is written unchecked
+            self.callbacks["guard"] = Callback(
+                lambda sim: sim._guard(), IterationInterval(n), name="guard", order=GUARD_ORDER
+            )
+
+    # ------------------------------------------------------------------ state
+    def checkpoint_meta(self) -> dict:
+        """The numbers besides slot 0 and the budget that a checkpoint needs (tiseg.run.checkpoint)."""
+        snaps, rows = self._io_counts
+        return {
+            "t": self.t,
+            "steps": self.stats.steps,
+            "stages": self.stats.stages,
+            "last_stages": self._last_stages,
+            "wall": self.stats.wall,
+            "initial_mass": self.initial_totals["mass"],
+            "initial_small_mass": self.initial_totals["small_mass"],
+            "snapshots": snaps,
+            "diag_rows": rows,
+        }
+
+    def restore_meta(self, ck: dict) -> None:
+        """Inverse of :meth:`checkpoint_meta` (after slot 0 and the budget were restored)."""
+        self.t = float(ck["t"])
+        self.stats = RunStats(
+            steps=int(ck["steps"]), stages=int(ck["stages"]), wall=float(ck["wall"])
+        )
+        self._last_stages = int(ck["last_stages"])
+        self.initial_totals = {
+            "mass": float(ck["initial"][0]),
+            "small_mass": float(ck["initial"][1]),
+        }
+        self._io_counts = (int(ck.get("snapshots", 0)), int(ck.get("diag_rows", 0)))
+        self.guard.keep(self.checkpoint_meta())
+
+    def conserved(self, slot: int = 0) -> np.ndarray:
+        """Interior conserved variables (nc, nx, ny)."""
+        ix, iy = self.layout.interior()
+        return self.op.get(slot)[:, ix, iy]
+
+    def set_conserved(self, q_interior: np.ndarray) -> None:
+        full = self.op.get(0)
+        ix, iy = self.layout.interior()
+        full[:, ix, iy] = q_interior
+        self.op.set(0, full)
+
+    def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
+        """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.
+
+        Velocities and phi are hu/h etc. where h > 0 and 0 on the empty chute."""
+        lay = self.layout
+        q = self.conserved(slot)
+        h = q[lay.H]
+        safe = np.where(h > 0, h, 1.0)
+        out = {"h": h.T.copy(), "u": np.where(h > 0, q[lay.HU] / safe, 0.0).T.copy()}
+        if not lay.is_1d:
+            out["v"] = np.where(h > 0, q[lay.HV] / safe, 0.0).T.copy()
+        if lay.segregation:
+            out["phi"] = np.clip(np.where(h > 0, q[lay.HPHI] / safe, 0.0), 0.0, 1.0).T.copy()
+        return out
+
+    def totals(self, slot: int = 0) -> dict[str, float]:
+        """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
+        fixed order on the device: deterministic for any thread count."""
+        lay = self.layout
+        sh, shphi = self.op.sums(slot)
+        cell = self.scene.dx * (self.scene.dy if not lay.is_1d else 1.0)
+        return {"mass": sh * cell, "small_mass": shphi * cell if lay.segregation else float("nan")}
+
+    def budget(self, slot: int = 0) -> dict[str, float]:
+        """Mass and small-particle mass that entered through the boundaries since the start."""
+        b = self.op.budget(slot)
+        scale = 1.0 if not self.layout.is_1d else 1.0 / self.scene.dy
+        return {
+            "mass_in": float((b[0] + b[2]) * scale),
+            "small_mass_in": float((b[1] + b[3]) * scale),
+        }
+
+    def wall_time(self) -> float:
+        """Cumulative wall time of the run [s] (continues across resumes)."""
+        if self._wall0 is None:
+            return self.stats.wall
+        return _time.perf_counter() - self._wall0
+
+    # ------------------------------------------------------------------ stepping
+    def _stop_time(self, t_stop: float | None) -> float:
+        """Where the next step must not go past: t_stop, else the scene's t_end while it is
+        ahead, else nowhere (a viewer running on)."""
+        if t_stop is not None:
+            return float(t_stop)
+        t_end = self.scene.t_end
+        return t_end if self.t < t_end - 1e-12 * max(1.0, t_end) else math.inf
+
+    def plan(self, t_stop: float | None = None, stages: int | None = None) -> StepPlan:
+        """The next step from the current state (sets the operator's active range for it).
+
+        ``t_stop``: a time the step must land on rather than pass (default the scene's
+        t_end); ``stages``: a fixed stage count (benchmarks), else the stiffness decides.
+        Plan once per step: a second plan finds the rest mask the first one took (without
+        the static friction's hold) and computes resting regions it could skip (correct,
+        only slower)."""
+        sc = self.scene
+        if self.active_region:
+            extent = self.op.wet_extent(0, self.t)
+            self._set_active(extent, self._last_stages)
+        if self.active_region and self.op.active[0] == self.op.active[1]:
+            # nothing can change (every cell is a dry film or held at rest, far from any
+            # other): no stability limit, the step goes to the stop time at no cost
+            from ..solver.numerics.operator import StabilityNumbers
+
+            stab = StabilityNumbers(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        else:
+            stab = self.op.stability(0, self.t)
+        ax, ay = stab.ax, (stab.ay if not self.layout.is_1d else 0.0)
+        rate_local = stab.rate_local
+        a_in = self._inflow_speed()
+        if a_in > ax:  # the inlet's face speed, which the stability pass does not see
+            ax = a_in
+            if rate_local is not None:
+                rate_local = max(rate_local, a_in / sc.dx + ay / sc.dy)
+        dt_cfl, rho = step_limits(ax, ay, stab.rho_stiff, sc, rate_local)
+        stop = self._stop_time(t_stop)
+        remaining = max(stop - self.t, 0.0)
+        if not math.isfinite(dt_cfl) and rho == 0:  # nothing moves and nothing is stiff
+            dt_cfl = remaining if math.isfinite(remaining) else 1.0
+        dt, s = self.stepper.plan(dt_cfl, rho, math.inf, stages)
+        t_next = self.t + dt
+        if remaining <= dt * (1.0 + 1e-9):  # the last step lands on the stop
+            dt, s = self.stepper.plan(dt_cfl, rho, remaining, stages)
+            if remaining - dt <= 1e-9 * remaining:  # (an RKC stage cap may trim it)
+                dt, t_next = remaining, stop
+            else:
+                t_next = self.t + dt
+        elif remaining < 2.0 * dt:  # two equal steps rather than a sliver
+            dt, s = self.stepper.plan(dt_cfl, rho, 0.5 * remaining, stages)
+            t_next = self.t + dt
+        self.last_stability = stab
+        if self.active_region and s > self._last_stages:
+            self._set_active(extent, s)  # wet cells spread at most one cell per stage
+        self._last_stages = s
+        return StepPlan(dt, s, stab, t_next, dt_cfl, t_next == stop)
+
+    def _inflow_speed(self) -> float:
+        """Wave speed of the full (un-ramped) inflow state: an empty chute being filled must
+        not be allowed one huge step just because nothing inside moves yet."""
+        c = self.cfg
+        if not self.op.inflow_on(self.t):
+            return 0.0
+        a = abs(c.inflow_u) + math.sqrt(c.g_cos * c.inflow_h)
+        if c.segregation:
+            phi = c.inflow_phi
+            a = max(a, abs(c.inflow_u * (1.0 - (1.0 - c.alpha) * (1.0 - 2.0 * phi))))
+        return a
+
+    def _set_active(self, extent: tuple[int, int, int, int], stages: int) -> None:
+        """The x range the next step of ``stages`` stages works on, from the wet and the live
+        extent (TaichiOperator.wet_extent). Wet cells spread at most one cell per stage, so
+        cells further than ``stages`` + ACTIVE_MARGIN from every wet one are dry films that
+        stay so. Where resting regions are skipped (a law with hysteresis, projected
+        friction), a change travels at most 2 cells per stage (the stencil's reach), so cells
+        further than 2 ``stages`` + ACTIVE_MARGIN from every live one keep their bits; the
+        step works on the intersection of the two ranges, which is empty when nothing moves."""
+        lay = self.layout
+        first, last, lfirst, llast = extent
+        pad = stages + ACTIVE_MARGIN
+        inflow = self.scene.boundary.x_lo == "inflow"
+        if last < 0:  # nothing wet: only an inflow can wet cells
+            a, b = lay.gx, (lay.gx + pad if inflow else lay.gx)
+        else:
+            a = lay.gx if inflow else first - pad
+            b = last + 1 + pad
+        wet = (a, b)
+        if self.op.skip_rest:
+            lpad = 2 * stages + ACTIVE_MARGIN
+            # an inflow that still runs changes the inlet's ghost cells: never skipped
+            inlet = self.op.inflow_on(self.t)
+            if llast < 0:
+                la, lb = (lay.gx, lay.gx + lpad) if inlet else (a, a)
+            else:
+                la = lay.gx if inlet else lfirst - lpad
+                lb = llast + 1 + lpad
+            a, b = max(a, la), min(b, lb)  # (set_active makes an empty range of b < a)
+        self.op.set_active(a, b, wet)
+
+    def step(self, t_stop: float | None = None, stages: int | None = None) -> StepInfo:
+        """One time step, then the callbacks that fell due. ``t_stop``: land there instead of
+        passing it (default the scene's t_end, nothing once it is passed); ``stages``: a fixed
+        stage count (benchmarks)."""
+        self.op.check_alive()
+        if t_stop is not None and not float(t_stop) > self.t:
+            raise InputError(
+                f"step(t_stop={t_stop!r}): the simulation is already at "
+                f"t={self.t!r} s; give a later stop time"
+            )
+        p = self.plan(t_stop, stages)
+        dt, s = p.dt, p.stages
+        if not (dt > 0 and math.isfinite(dt)):
+            # usually a NaN in the state: name it if the guard finds one
+            self._guard(full=False)
+            self._fail(
+                None,
+                f"time step collapsed to dt={dt!r} at t={self.t:.9g} s (step {self.stats.steps})",
+            )
+        t0, t1 = self.t, p.t_next
+        self._check_progress(p)
+        pending = self._pending_snapshots(t0, t1)
+        if any(tk < t1 for tk, _ in pending):
+            self.op.blend(self.PREV, 0, 0, 0.0)  # keep the state before the step
+        self.stepper.index = self.stats.steps  # (a split step's sweep order follows it)
+        self.stepper.step(self.op, t0, dt, s)
+        self.t = t1
+        self.stats.steps += 1
+        self.stats.stages += s
+        self.last_step = StepInfo(t1, dt, s, s)
+        self._after_step(t0, t1, pending)
+        return self.last_step
+
+    def _check_progress(self, p: StepPlan) -> None:
+        """Stop a run that cannot get anywhere: a step too small to move the clock, or one
+        shorter than MIN_STEP_FRACTION of the convective limit (RKC's stage cap or an
+        explicit stepper's stability limit under a stiffness out of range, a huge flow.nu
+        say): the message says which term."""
+        stab = p.stability
+        small = (
+            math.isfinite(p.dt_cfl) and p.dt < MIN_STEP_FRACTION * p.dt_cfl and not p.lands
+        )  # a last step may be short: what was left
+        if p.t_next > self.t and not small:
+            return
+        why = (
+            f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
+            if p.t_next <= self.t
+            else f"dt={p.dt:.3g} s is {p.dt / p.dt_cfl:.2g} of the convective limit "
+            f"{p.dt_cfl:.3g} s"
+        )
+        self._fail(
+            None,
+            f"{why} (step {self.stats.steps}); the stiffness is out of range: "
+            f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
+            f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters",
+        )
+
+    def advance(self, t_target: float, on_step=None) -> None:
+        """Step until t == t_target exactly (the last step lands there)."""
+        while self.t < t_target - 1e-12 * max(1.0, t_target):
+            info = self.step(t_target)
+            if on_step is not None:
+                on_step(info)
+
+    def _pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
+        """(time, snapshot callbacks) for every scheduled snapshot time in (t0, t1], in order."""
+        by_time: dict[float, list[Callback]] = {}
+        for cb in self.callbacks.values():
+            if cb.snapshot:
+                for tk in cb.schedule.times_in(t0, t1):
+                    by_time.setdefault(tk, []).append(cb)
+        return sorted(by_time.items(), key=lambda item: item[0])
+
+    def _snapshot(self, tk: float, t0: float, t1: float) -> Snapshot:
+        """The state at tk in (t0, t1]: slot 0 when tk is the step's end, else interpolated
+        linearly from the state before the step (slot PREV) into slot SNAP."""
+        if t1 - tk <= 1e-12 * max(1.0, abs(t1)):
+            return Snapshot(self, tk, 0, self.stats.steps, 1.0)
+        theta = (tk - t0) / (t1 - t0)
+        self.op.blend(self.SNAP, self.PREV, 0, theta)
+        return Snapshot(self, tk, self.SNAP, self.stats.steps, theta)
+
+    def _after_step(self, t0: float, t1: float, pending) -> None:
+        """The callbacks of the step: those due with a negative order (the guard), the
+        snapshots at the scheduled times the step crossed, then the other callbacks due, in
+        increasing order (the checkpoint last)."""
+        steps = self.stats.steps
+        due = sorted(
+            (
+                cb
+                for cb in self.callbacks.values()
+                if not cb.snapshot and cb.schedule.due(t0, t1, steps)
+            ),
+            key=lambda c: c.order,
+        )  # every schedule is asked (wall clocks)
+        before = [cb for cb in due if cb.order < 0]
+        if (pending or any(cb.checked for cb in due)) and "guard" not in (cb.name for cb in before):
+            self._guard()  # nothing is saved from an unchecked state
+        for cb in before:
+            cb(self)
+        for tk, cbs in pending:
+            snap = self._snapshot(tk, t0, t1)
+            for cb in cbs:
+                cb(snap)
+        for cb in due:
+            if cb.order >= 0:
+                cb(self)
+
+    def _initial_snapshots(self) -> None:
+        """Snapshot callbacks whose schedule holds the current time get the current state."""
+        snap = Snapshot(self, self.t, 0, self.stats.steps, 1.0)
+        for cb in list(self.callbacks.values()):
+            if cb.snapshot and cb.schedule.contains(self.t):
+                cb(snap)
+
+    def check_state(self) -> None:
+        """Stop with a :class:`SimulationError` naming time, step, cell and field when the state
+        holds NaN/Inf, h < 0, phi outside [0, 1] on a wet cell, or breaks the mass balance."""
+        self._guard()
+
+    def _guard(self, full: bool = True) -> None:
+        """One guard check (tiseg.run.guards); on success the state becomes the last good one."""
+        v = self.guard.scan(self.t, self.stats.steps)
+        if v is None and full:
+            v = self.guard.check_mass(
+                self.totals(), self.initial_totals, self.budget(), self.t, self.stats.steps
+            )
+        if v is not None:
+            self._fail(v, v.message())
+        if full:
+            self.guard.keep(self.checkpoint_meta())
+
+    def _fail(self, violation: Violation | None, message: str):
+        """Raise SimulationError; with a failure folder, save the last good and this state."""
+        files = []
+        if self.failure_dir is not None:
+            try:
+                files = self._save_failure(message)
+            except OSError as exc:
+                message += f" (could not save the failure states: {exc})"
+        if files:
+            good = self.guard.good_meta or {}
+            message += (
+                f"; last good state (t={good.get('t', float('nan')):.9g} s, step "
+                f"{good.get('steps', '?')}) and the offending state saved in "
+                f"{files[0].parent}/"
+            )
+        raise SimulationError(message, violation, files)
+
+    def _save_failure(self, message: str) -> list[Path]:
+        d = Path(self.failure_dir)
+        files = []
+        good = self.guard.last_good()
+        if good is not None:
+            q, bud, meta = good
+            files.append(
+                _ckpt.write_npz_atomic(
+                    d / "last_good.npz",
+                    _ckpt.state_arrays(self, q=q, budget=bud, meta=meta, reason=message),
+                )
+            )
+        files.append(
+            _ckpt.write_npz_atomic(
+                d / "offending.npz", _ckpt.state_arrays(self, reason=message, **self.fields())
+            )
+        )
+        return files
+
+    # ------------------------------------------------------------------ the loop
+    def output_times(self, t_end: float | None = None) -> list[float]:
+        """The scene's output times up to t_end (default the scene's), t_end included."""
+        t_end = self.scene.t_end if t_end is None else float(t_end)
+        times = [min(t, t_end) for t in self.scene.output_times if t <= t_end * (1 + 1e-12)]
+        if not times or times[-1] < t_end - 1e-12 * max(1.0, t_end):
+            times.append(t_end)  # an earlier end than the scene's is a snapshot too
+        return sorted(set(times))
+
+    def run(
+        self,
+        out_dir=None,
+        progress: bool = True,
+        t_end: float | None = None,
+        on_output=None,
+        checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
+        callbacks=(),
+        overwrite: bool = False,
+        signals: bool = False,
+    ) -> RunStats:
+        """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
+
+        * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
+          per step), checkpoint.npz (:mod:`tiseg.run.run_folder`); a simulation made by
+          :meth:`resume` appends to its run folder;
+        * ``on_output(snap)``: a snapshot callback at the output times (e.g. a movie frame);
+        * ``callbacks``: more :class:`tiseg.run.callbacks.Callback` objects;
+        * ``progress``: a progress bar.
+
+        ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
+        output times and per ``output.checkpoint_interval``). None of this changes the steps.
+        A fresh run refuses an ``out_dir`` that holds other files or another run unless
+        ``overwrite`` (:mod:`tiseg.run.run_folder`). ``signals``: SIGTERM and SIGINT stop
+        the run at the end of the current step, with a checkpoint when there is a folder, by
+        raising :class:`RunInterrupted` (the command line exits 143 / 130)."""
+        from .run_folder import RunFolder
+
+        t_end = self.scene.t_end if t_end is None else float(t_end)
+        if not (math.isfinite(t_end) and t_end >= 0):
+            raise InputError(f"run(t_end={t_end!r}): give a finite time >= 0")
+        times = self.output_times(t_end)
+        # everything that can be refused is checked before the folder is touched
+        extra = []
+        if on_output is not None:
+            extra.append(
+                Callback(on_output, SpecifiedTimes(times), name="on_output", snapshot=True)
+            )
+        for cb in callbacks:
+            if not isinstance(cb, Callback):
+                raise InputError(
+                    f"run(callbacks=...): {cb!r} is not a tiseg.run.callbacks.Callback "
+                    "(wrap a function as Callback(func, schedule))"
+                )
+            extra.append(cb)
+        if checkpoint_wall is not None and not (checkpoint_wall >= 0):
+            raise InputError(f"checkpoint_wall={checkpoint_wall!r} must be a number >= 0")
+        resume = self._resume
+        if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
+            resume = None  # continuing elsewhere: a fresh set of files
+        saved, failure_dir = dict(self.callbacks), self.failure_dir
+        folder = bar = stop = None
+        try:
+            if out_dir is not None:
+                folder = RunFolder(self, out_dir, resume, overwrite)
+                self._resume = None  # the files are open: what resume knew is used
+                extra = list(folder.callbacks(times, checkpoint_wall)) + extra
+            if progress:
+                bar = ProgressBar(t_end, self.scene.name, self.t)
+                extra.append(Callback(bar, IterationInterval(1), name="progress"))
+            if signals:
+                stop = _SignalStop(self, folder, t_end)
+                extra.append(
+                    Callback(stop, IterationInterval(1), name="signals", order=1000, checked=True)
+                )
+            for cb in extra:
+                self.callbacks[f"run:{cb.name}"] = cb
+            for cb in self.callbacks.values():
+                cb.schedule.start()
+            self._wall0 = _time.perf_counter() - self.stats.wall
+            self._guard()
+            if resume is None:
+                self._initial_snapshots()
+                if folder is not None:
+                    folder.start()
+            while self.t < t_end - 1e-12 * max(1.0, t_end):
+                self.step(t_end)
+            if folder is not None:
+                folder.finish()
+                if folder.checkpoint_path.is_file():  # stopped before the scene's end:
+                    self._resume = folder.resume_info()  # a later run() there continues it
+        finally:
+            if stop is not None:
+                stop.restore()
+            if self._wall0 is not None:
+                self.stats.wall = self.wall_time()
+            self._wall0 = None
+            self.callbacks = saved
+            self.failure_dir = failure_dir
+            if bar is not None:
+                bar.close()
+            if folder is not None:
+                folder.close()
+        return self.stats
+
+
+class _SignalStop:
+    """SIGTERM / SIGINT handlers that let the current step finish; as the last callback of
+    that step it writes a checkpoint (with a run folder) and raises RunInterrupted."""
+
+    def __init__(self, sim, folder, t_end: float):
+        import signal
+        import threading
+
+        self.sim, self.folder, self.signum, self.t_end = sim, folder, None, t_end
+        self.old = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGTERM, signal.SIGINT):
+                self.old[sig] = signal.signal(sig, self._handle)
+
+    def _handle(self, signum, frame):
+        import signal
+
+        if self.signum is not None:  # a second signal: stop now, mid-step
+            raise RunInterrupted(
+                f"stopped at once by a second {signal.Signals(signum).name}; "
+                "the last checkpoint (if any) is kept",
+                signum,
+            )
+        self.signum = signum
+
+    def __call__(self, sim) -> None:
+        if self.signum is None or sim.t >= self.t_end - 1e-12 * max(1.0, self.t_end):
+            return  # the last step: the run simply finishes
+        import signal
+
+        name = signal.Signals(self.signum).name
+        where = f"at t = {sim.t:.6g} s (step {sim.stats.steps})"
+        if self.folder is None:
+            raise RunInterrupted(f"stopped by {name} {where}; nothing was being saved", self.signum)
+        self.folder.save_checkpoint(sim)
+        raise RunInterrupted(
+            f"stopped by {name} {where}; checkpoint written: continue with "
+            f"`tiseg run --resume {self.folder.path}`",
+            self.signum,
+        )
+
+    def restore(self) -> None:
+        import signal
+
+        for sig, handler in self.old.items():
+            signal.signal(sig, handler)
+        self.old = {}
+
+
+__all__ = [
+    "Simulation",
+    "SimulationError",
+    "RunInterrupted",
+    "StepInfo",
+    "StepPlan",
+    "RunStats",
+    "step_limits",
+    "ACTIVE_MARGIN",
+]

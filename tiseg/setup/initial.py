@@ -1,0 +1,123 @@
+"""Initial states of a scene as conserved arrays (nc, NX, NY) with ghost cells.
+
+* empty slope (6.7);
+* the steady uniform flow of section 4 with an optional small perturbation: the most unstable
+  linear mode of (5.20)-(5.21) (or its 2D analogue, appendix B), a single field, or noise; the
+  perturbation is set as exact cell averages (the sinc factor of a cell average of e^{ikx});
+* dam break (h_left | h_right, at rest), e.g. the Ritter problem;
+* release of a finite block of material at rest;
+* a straight channel between levees, at rest (the sharp-contact verification case).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..solver.numerics.config import Layout
+
+
+def _cell_avg_wave(k: float, d: float, centres: np.ndarray) -> np.ndarray:
+    """Cell averages of exp(i k x) over cells of width d centred at ``centres``."""
+    return np.exp(1j * k * centres) * np.sinc(k * d / (2 * np.pi))  # np.sinc(x) = sin(pi x)/(pi x)
+
+
+def eigenmode(scene) -> tuple[complex, np.ndarray]:
+    """Most unstable eigenvalue (dimensionless) and eigenvector (H, U[, V], Phi) normalised to
+    H = 1 for the scene's perturbation wavenumbers (k, ky) in the scalings (5.1)."""
+    from ..model.stability.base import base_state
+
+    ini, fl = scene.initial, scene.flow
+    bs = base_state(fl.h0, fl.phi0, fl.nu if scene.viscous else 0.0, scene.material)
+    if scene.is_1d or not ini.ky:
+        from ..model.stability.dispersion1d import matrix
+
+        A = matrix(bs, np.array([ini.k]))[0]
+    else:
+        from ..model.stability.dispersion2d import matrix
+
+        A = matrix(bs, np.array([ini.k]), np.array([ini.ky]))[0]
+    lam, vec = np.linalg.eig(A)
+    i = int(np.argmax(lam.real))
+    v = vec[:, i]
+    if abs(v[0]) == 0:
+        raise InputError(
+            "the most unstable mode has no thickness component; use initial.mode='phi'"
+        )
+    return complex(lam[i]), v / v[0]
+
+
+def channel_fraction(y, dy: float, Ly: float, width: float) -> np.ndarray:
+    """Fraction of each cell [y - dy/2, y + dy/2] inside the channel |y - Ly/2| <= width/2:
+    1 inside, 0 outside, the covered fraction in a cell the contact cuts (exact cell
+    averages)."""
+    lo = np.maximum(y - 0.5 * dy, 0.5 * (Ly - width))
+    hi = np.minimum(y + 0.5 * dy, 0.5 * (Ly + width))
+    return np.clip((hi - lo) / dy, 0.0, 1.0)
+
+
+def initial_state(scene, lay: Layout) -> np.ndarray:
+    q = np.zeros((lay.nc, lay.NX, lay.NY))
+    ix, iy = lay.interior()
+    x, y = scene.domain.cell_centres()
+    X, Y = np.meshgrid(x, y, indexing="ij")  # (nx, ny)
+    ini, fl = scene.initial, scene.flow
+    h = np.zeros_like(X)
+    u = np.zeros_like(X)
+    v = np.zeros_like(X)
+    phi = np.zeros_like(X)
+    if ini.kind == "empty":
+        pass
+    elif ini.kind == "uniform":
+        if fl.u0 is None:
+            raise InputError(
+                "initial.kind='uniform' needs a steady velocity: give flow.u0 or use "
+                "the pouliquen-mixture friction"
+            )
+        h[:], u[:], phi[:] = fl.h0, fl.u0, fl.phi0
+        eps = ini.amplitude or 0.0
+        if eps:
+            kx, ky = scene.perturbation_wavenumbers  # SI [1/m]
+            wave = _cell_avg_wave(kx, scene.dx, X) * (
+                1.0 if scene.is_1d else _cell_avg_wave(ky, scene.dy, Y)
+            )
+            if ini.mode == "eigen":
+                _, W = eigenmode(scene)
+                H, U = W[0], W[1]
+                V = W[2] if len(W) == 4 else 0.0
+                P = W[-1]
+                h = fl.h0 * (1 + eps * np.real(H * wave))
+                u = fl.u0 * (1 + eps * np.real(U * wave))
+                v = fl.u0 * eps * np.real(V * wave)
+                phi = fl.phi0 + eps * np.real(P * wave)
+            elif ini.mode == "h":
+                h = fl.h0 * (1 + eps * np.real(wave))
+            elif ini.mode == "phi":
+                phi = fl.phi0 + eps * np.real(wave)
+            elif ini.mode == "noise":
+                rng = np.random.default_rng(ini.seed or 0)
+                phi = fl.phi0 + eps * (rng.random(X.shape) - 0.5)
+    elif ini.kind == "dam-break":
+        h[:] = np.where(X < ini.x0, ini.h_left, ini.h_right or 0.0)
+        phi[:] = ini.phi if ini.phi is not None else fl.phi0
+    elif ini.kind == "release":
+        inside = (X >= ini.x0) & (X <= ini.x1)
+        if not scene.is_1d:
+            inside &= (Y >= ini.y0) & (Y <= ini.y1)
+        h[:] = np.where(inside, ini.h, 0.0)
+        phi[:] = ini.phi if ini.phi is not None else fl.phi0
+    elif ini.kind == "channel":
+        h[:] = ini.h
+        phi[:] = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * channel_fraction(
+            Y, scene.dy, scene.domain.Ly, ini.width
+        )
+    else:  # pragma: no cover - the scene validator allows only the kinds above
+        raise InputError(f"initial.kind={ini.kind!r} is not known")
+    phi = np.clip(phi, 0.0, 1.0)
+    q[lay.H][ix, iy] = h
+    q[lay.HU][ix, iy] = h * u
+    if not lay.is_1d:
+        q[lay.HV][ix, iy] = h * v
+    if lay.segregation:
+        q[lay.HPHI][ix, iy] = h * phi
+    return q

@@ -1,0 +1,322 @@
+"""Everything the semi-discrete operator needs, as plain numbers and switches.
+
+:class:`OperatorConfig` is shared by the Taichi operator (:mod:`tiseg.solver.numerics.operator`) and the
+NumPy reference (:mod:`tiseg.solver.reference.operator`) so both see exactly the same problem. Switches
+(``segregation``, ``viscous``, ``feedback``, ``friction``, ``reconstruction``, ``flux``,
+``phi_flux``, 1D/2D, boundaries)
+are compile-time choices of the Taichi kernels; numbers (slope, nu, inflow state, ...) are
+run-time parameters.
+
+The array layout (:class:`Layout`) is the same for both: cell-centred conserved variables
+``q = (h, hu[, hv][, h*phi])`` with ``G = 2`` ghost cells on each side in x, and in y unless the
+run is 1D (``ny == 1``: one row, no ghosts, no v component, no cross-slope work).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from ...model.physics.friction import FRICTION_LAWS as _LAWS
+from ...model.physics.friction import FrictionParams  # the laws own it; imported from here before
+from ...model.physics.segregation import TRANSPORTS as _TRANSPORTS
+from ..timestepping import STEPPERS as _STEPPERS
+from .boundaries import BOUNDARIES as _BOUNDARIES
+from .fluxes import FLUXES as _FLUXES
+from .fluxes import PHI_FLUXES as _PHI_FLUXES
+from .reconstruction import RECONSTRUCTIONS as _RECONSTRUCTIONS
+
+FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registered laws (tiseg.model.physics.friction)
+TRANSPORTS = tuple(_TRANSPORTS)  # material.transport: G(phi) (tiseg.model.physics.segregation)
+# numerics.reconstruction: the registered slopes (tiseg.solver.numerics.reconstruction)
+RECONSTRUCTIONS = tuple(_RECONSTRUCTIONS)
+# numerics.flux: face flux of the whole system, the registered ones (tiseg.solver.numerics.fluxes)
+FLUXES = tuple(_FLUXES)
+PHI_FLUXES = tuple(_PHI_FLUXES)  # numerics.phi_flux: the h phi component of that flux
+# numerics.friction_scheme: basal friction as an explicit source regularised by u_eps, or as a
+# projection after each stage that stops cells exactly (tiseg.model.physics.pointwise)
+FRICTION_SCHEMES = ("regularised", "projected")
+# numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
+STEP_RULES = {"max": 0.25, "sum": 0.5, "local": 0.5}
+# numerics.stepper values that advance by dimensionally split sweeps (tiseg.solver.numerics.split):
+# the registered steppers that say so
+SPLIT_STEPPERS = tuple(name for name, cls in _STEPPERS.items() if cls.split)
+# their default Courant number per sweep: stable up to 1, and 0.6 did the least work for a
+# given error on the Stoker dam break (benchmarks/README.md section 7; the error of a fan
+# grows with cfl, a smooth wave's much less)
+SPLIT_CFL = 0.6
+BOUNDARIES = tuple(_BOUNDARIES)  # boundary.*: the registered conditions (.boundaries)
+# codes of the conditions (kept for callers that used them; the kernels take the components)
+INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
+BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
+GHOST = 2
+NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
+
+
+def inflow_noise(y, Ly: float, seed: int) -> np.ndarray:
+    """Unit-RMS random cross-slope profile r(y) of the inflow noise (``inflow.noise``).
+
+    r(y) = sqrt(2 / N) sum_{n=1..N} cos(2 pi n y / Ly + theta_n), with N = floor(Ly / 2 cm)
+    (at least 1) and phases theta_n drawn uniformly from numpy's PCG64 generator seeded with
+    ``seed``. Periodic across Ly, band-limited, of mean 0 and RMS 1 over [0, Ly], and the same
+    function of y on every grid: a seed names one physical realisation, so a grid study with
+    seeds compares the same perturbations at every resolution. Its values never exceed
+    sqrt(2 N) in magnitude. Why a spectrum rather than a value per cell: white noise per cell
+    would put less and less of its variance into the resolved, physically unstable
+    wavelengths (~5 cm) as the grid is refined.
+    """
+    y = np.asarray(y, dtype=float)
+    n_modes = noise_modes(Ly)
+    theta = np.random.default_rng(int(seed)).uniform(0.0, 2.0 * np.pi, n_modes)
+    n = np.arange(1, n_modes + 1)
+    arg = 2.0 * np.pi * np.multiply.outer(y, n) / Ly + theta
+    return math.sqrt(2.0 / n_modes) * np.cos(arg).sum(axis=-1)
+
+
+def noise_modes(Ly: float) -> int:
+    """Number N of Fourier modes of :func:`inflow_noise` across Ly."""
+    return max(1, int(math.floor(Ly / NOISE_MIN_WAVELENGTH + 1e-9)))
+
+
+def inflow_concentration(
+    y, Ly: float, phi: float, delta: float, modes: int, noise: float = 0.0, seed: int = 0
+) -> np.ndarray:
+    """Inflow concentration at cross-slope positions y [m]: (6.9) plus the optional noise,
+
+    phi(0, y) = phi + delta sin(2 pi modes y / Ly) + noise phi r(y)   (r: :func:`inflow_noise`),
+
+    clipped to [0, 1] (the scene keeps it inside; the clip only guards round-off). The one
+    definition used by the Taichi operator (as a field filled once), the NumPy reference and
+    the scene."""
+    y = np.asarray(y, dtype=float)
+    k = 2.0 * math.pi * modes / Ly  # k y in this order, as the kernels once had it: the f64
+    out = phi + delta * np.sin(k * y)  # profile is bitwise the one computed there before
+    if noise:
+        out = out + noise * phi * inflow_noise(y, Ly, seed)
+    return np.clip(out, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Array layout: component indices and index ranges of interior cells."""
+
+    nx: int
+    ny: int
+    segregation: bool
+
+    @property
+    def is_1d(self) -> bool:
+        return self.ny == 1
+
+    @property
+    def gx(self) -> int:
+        return GHOST
+
+    @property
+    def gy(self) -> int:
+        return 0 if self.is_1d else GHOST
+
+    @property
+    def NX(self) -> int:
+        return self.nx + 2 * self.gx
+
+    @property
+    def NY(self) -> int:
+        return self.ny + 2 * self.gy
+
+    # component indices of q (and of the primitive vector w = (h, u[, v][, phi]))
+    @property
+    def H(self) -> int:
+        return 0
+
+    @property
+    def HU(self) -> int:
+        return 1
+
+    @property
+    def HV(self) -> int:
+        return -1 if self.is_1d else 2
+
+    @property
+    def HPHI(self) -> int:
+        return (2 if self.is_1d else 3) if self.segregation else -1
+
+    @property
+    def nc(self) -> int:
+        return 2 + (0 if self.is_1d else 1) + (1 if self.segregation else 0)
+
+    def interior(self):
+        """Slices of the interior cells in an (NX, NY) array."""
+        return (slice(self.gx, self.gx + self.nx), slice(self.gy, self.gy + self.ny))
+
+
+def compiled(what: str) -> dict:
+    """Field metadata: the kernels are compiled for this field's value, and ``what`` names
+    the scene keys that set it in the message of a refused change
+    (``Simulation.set_parameters``, :data:`COMPILED`)."""
+    return {"compiled": what}
+
+
+@dataclass(frozen=True)
+class OperatorConfig:
+    """The operator's problem. The numerics' choices and numbers have no defaults here: the
+    scene declares them once (:class:`tiseg.setup.sections.NumericsConfig`), and a test that
+    builds a config by hand states the ones it means."""
+
+    layout: Layout = field(metadata=compiled("the grid or the segregation switch"))
+    dx: float = field(metadata=compiled("the grid"))
+    dy: float = field(metadata=compiled("the grid"))
+    Ly: float = field(metadata=compiled("the domain"))
+    # physics switches
+    viscous: bool = field(default=False, metadata=compiled("effects.viscosity"))
+    # friction depends on the local phi
+    feedback: bool = field(default=False, metadata=compiled("effects.mobility_feedback"))
+    friction: str = field(default="pouliquen-mixture", metadata=compiled("effects.friction"))
+    # physics numbers
+    g: float = 9.81
+    zeta: float = math.radians(27.0)
+    # G(phi): "linear" (2.17) or "bagnold" (2.18)
+    transport: str = field(default="linear", metadata=compiled("material.transport"))
+    alpha: float = 1.0 / 7.0  # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
+    nu: float = 0.0
+    phi_ref: float = 0.8  # concentration used by the friction when feedback is off
+    fric: FrictionParams | None = None
+    # numerics: the scene's numerics.* keys of the same names
+    reconstruction: str = field(kw_only=True, metadata=compiled("numerics.reconstruction"))
+    theta: float = field(kw_only=True)
+    flux: str = field(kw_only=True, metadata=compiled("numerics.flux"))
+    phi_flux: str = field(kw_only=True, metadata=compiled("numerics.phi_flux"))
+    weno_eps: float = 1e-6
+    h_ref: float = 2e-3  # scales making the WENO smoothness indicators dimensionless
+    u_ref: float = 0.2
+    h_min: float = field(kw_only=True)
+    h_eps: float = field(kw_only=True)
+    u_eps: float = field(kw_only=True)
+    friction_scheme: str = field(kw_only=True, metadata=compiled("numerics.friction_scheme"))
+    # the stability pass also finds the largest per-cell rate of step_rule "local"
+    local_step_rate: bool = field(
+        default=False, metadata=compiled('numerics.step_rule (to or from "local")')
+    )
+    # the dimensionally split scheme (numerics.stepper "hancock", tiseg.solver.numerics.split): no
+    # stiff terms (viscosity, friction) allowed
+    split: bool = False
+    # boundaries: x_lo, x_hi, y_lo, y_hi
+    bc: tuple = field(
+        default=("outflow", "outflow", "periodic", "periodic"), metadata=compiled("the boundaries")
+    )
+    # inflow (6.8)-(6.9)
+    inflow_h: float = 0.0
+    inflow_u: float = 0.0
+    inflow_phi: float = 0.0
+    inflow_ramp: float = 10.0
+    inflow_delta: float = 0.0
+    inflow_modes: int = 1
+    inflow_noise: float = 0.0  # relative amplitude of the random profile (inflow.noise)
+    inflow_seed: int = 0
+    inflow_stop: float = math.inf
+
+    def __post_init__(self):
+        assert self.friction in _LAWS, self.friction  # the registry now: user laws count
+        assert self.transport in TRANSPORTS, self.transport
+        assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
+        assert self.flux in FLUXES, self.flux
+        assert self.phi_flux in PHI_FLUXES, self.phi_flux
+        assert self.friction_scheme in FRICTION_SCHEMES, self.friction_scheme
+        for b in self.bc:
+            assert b in BOUNDARIES, b
+        assert not (self.split and (self.viscous or self.friction != "none")), "split: stiff"
+
+    @property
+    def friction_projected(self) -> bool:
+        """Friction as a projection after each stage: the projected scheme, and a law."""
+        return self.friction_scheme == "projected" and self.friction != "none"
+
+    @property
+    def g_cos(self) -> float:
+        return self.g * math.cos(self.zeta)
+
+    @property
+    def g_sin(self) -> float:
+        return self.g * math.sin(self.zeta)
+
+    @property
+    def segregation(self) -> bool:
+        return self.layout.segregation
+
+    def inflow_phi_profile(self, y) -> np.ndarray:
+        """Inflow concentration (6.9) + noise at cross-slope positions y [m]."""
+        return inflow_concentration(
+            y,
+            self.Ly,
+            self.inflow_phi,
+            self.inflow_delta,
+            self.inflow_modes,
+            self.inflow_noise,
+            self.inflow_seed,
+        )
+
+    def inflow_state(self, t: float) -> tuple[float, float, float]:
+        """(h, u, phi) of the inflow (6.8) at time t; h = 0 once the inflow has stopped."""
+        if t > self.inflow_stop:
+            return 0.0, 0.0, self.inflow_phi
+        ramp = 1.0 if self.inflow_ramp <= 0 else -math.expm1(-self.inflow_ramp * t)
+        return ramp * self.inflow_h, self.inflow_u, self.inflow_phi
+
+
+# OperatorConfig fields the kernels are compiled for -> what the scene calls them
+COMPILED = {f.name: f.metadata["compiled"] for f in fields(OperatorConfig) if f.metadata}
+
+
+def config_from_scene(scene) -> OperatorConfig:
+    """The operator's view of a :class:`tiseg.setup.scene.Scene`."""
+    m = scene.material
+    lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
+    fric = FrictionParams.of(m, **dict(scene.effects.constants))
+    u_ref = scene.flow.u0 or math.sqrt(m.g * scene.flow.h0 * max(math.cos(m.zeta), 1e-3))
+    kw = {}
+    inflow = scene.inflow
+    if inflow is not None:
+        kw = dict(
+            inflow_h=inflow.h,
+            inflow_u=inflow.u,
+            inflow_phi=inflow.phi,
+            inflow_ramp=inflow.ramp_rate,
+            inflow_delta=inflow.perturbation,
+            inflow_modes=inflow.modes,
+            inflow_noise=inflow.noise,
+            inflow_seed=inflow.seed,
+            inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time,
+        )
+    num = scene.numerics
+    return OperatorConfig(
+        layout=lay,
+        dx=scene.domain.dx,
+        dy=scene.domain.dy,
+        Ly=scene.domain.Ly,
+        viscous=bool(scene.viscous),
+        feedback=bool(scene.feedback),
+        friction=scene.effects.friction,
+        g=m.g,
+        zeta=m.zeta,
+        transport=m.transport,
+        alpha=m.alpha,
+        nu=scene.flow.nu if scene.viscous else 0.0,
+        phi_ref=scene.flow.phi0,
+        fric=fric,
+        reconstruction=num.reconstruction,
+        theta=num.theta,
+        flux=num.flux,
+        phi_flux=num.phi_flux,
+        h_ref=scene.flow.h0,
+        u_ref=u_ref,
+        h_min=num.h_min,
+        h_eps=num.h_eps,
+        u_eps=num.u_eps,
+        friction_scheme=num.friction_scheme,
+        local_step_rate=num.step_rule == "local" and not lay.is_1d,
+        split=num.stepper in SPLIT_STEPPERS,
+        bc=scene.boundary.as_tuple(),
+        **kw,
+    )

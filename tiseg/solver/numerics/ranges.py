@@ -1,0 +1,79 @@
+"""The active x range of the operator and the choice of serial or parallel loops.
+
+A collaborator of :class:`tiseg.solver.numerics.operator.TaichiOperator`. The active range [a, b) holds
+the x indices whose cells may change: cells outside are dry films (h < h_min) far from any wet
+cell, whose rate is exactly zero, so skipping them is exact. The wet range [wa, wb), which
+contains it, is what the next wet scan covers (wider where resting regions are left out). The
+ranges live in small integer fields that the kernels read (``act``, ``wrng``; ``wet`` receives
+the scan's result), and on the host as tuples (``active``, ``wet_range``), so a range that does
+not change costs no field write (each is a kernel launch).
+
+Serial loops: below :data:`SERIAL_CELLS` cells a CPU launch runs its loops on the calling thread.
+Each parallel loop costs a fixed ~80 us on the 2-core machines here (the thread pool's hand-off,
+measured with a one-line kernel; a serialised loop costs ~1 us), and an evaluation has about ten
+of them: on small grids that, not arithmetic, set the pace. Each kernel is compiled for both
+modes (a template argument) and the choice is made per launch from the cells it covers (the
+active x range), so a fingers run goes serial while its front is short and parallel once it is
+long. The crossover measured on 2 threads (benchmarks/README.md section 7): 50-75k cells.
+"""
+
+import taichi as ti
+
+SERIAL_CELLS = 60_000
+
+
+class ActiveRange:
+    def __init__(self, ft, lay, serial: bool | None, threads: int, on_cpu: bool):
+        """Fields in the field tree ``ft`` (before it is finalised); ``serial``: run every loop
+        on the calling thread (True), never (False), or decide per launch (None)."""
+        self.gx, self.nx, self.NX, self.NY = lay.gx, lay.nx, lay.NX, lay.NY
+        self.force_serial = None if serial is None else bool(serial)
+        self._threads = threads
+        self._on_cpu = on_cpu
+        self._serial_whole = self.serial_for(lay.NX * lay.NY)
+        self.act = ft.field(ti.i32, 2)
+        # first and last x index of a wet cell, then of a live one (the operator's wet scan)
+        self.wet = ft.field(ti.i32, 4)
+        # the x range the wet scan covers (besides the halo): the wet cells and their margin,
+        # which contains the active range act and, with resting regions skipped, more
+        self.wrng = ft.field(ti.i32, 2)
+        self.active = None
+        self.wet_range = None
+        self._serial_active = self._serial_whole
+
+    def set(self, a: int, b: int, wet: tuple[int, int] | None = None) -> bool:
+        """Set the active range to the interior x indices [a, b) (clamped to the interior) and
+        the wet range to ``wet`` (by default [a, b), widened to hold it); True where the
+        active range changed."""
+        a = max(self.gx, int(a))
+        b = max(a, min(self.gx + self.nx, int(b)))
+        wa, wb = (a, b) if wet is None else wet
+        wa = min(max(self.gx, int(wa)), a)
+        wb = max(min(self.gx + self.nx, int(wb)), b)
+        if self.wet_range != (wa, wb):
+            self.wrng[0] = wa
+            self.wrng[1] = wb
+            self.wet_range = (wa, wb)
+        if self.active == (a, b):
+            return False
+        self.act[0] = a
+        self.act[1] = b
+        self.active = (a, b)
+        # the cells a launch on this range covers: the range and the 3-cell halo of the stencil
+        self._serial_active = self.serial_for(min(b - a + 6, self.NX) * self.NY)
+        return True
+
+    def serial_for(self, cells: int) -> bool:
+        """Loops over ``cells`` cells on one thread? On a CPU with one thread, or at most
+        SERIAL_CELLS cells; never on a GPU; ``force_serial`` overrides."""
+        if self.force_serial is not None:
+            return self.force_serial
+        if not self._on_cpu:
+            return False
+        return self._threads == 1 or cells <= SERIAL_CELLS
+
+    def serial_loops(self, whole: bool = False) -> bool:
+        """Whether the next launch runs its loops on one thread: a launch on the active range,
+        or on the whole grid (``whole``). Both modes give the same bits
+        (tests/test_determinism.py)."""
+        return self._serial_whole if whole else self._serial_active

@@ -1,0 +1,211 @@
+"""Step-size reductions of the operator: the stability pass and the conservation totals.
+
+A collaborator of :class:`tiseg.solver.numerics.operator.TaichiOperator` with fields of its own (the
+reduced numbers ``red``, the per-cell speeds ``spd`` of step_rule "local", the row sums of the
+totals) and read-only views of the operator's (primitives ``w``, states ``q``, parameters,
+active range) and its pointwise physics. It holds no reference to the operator, so the
+operator's fields are freed with it as before.
+
+* :meth:`StepReductions.stability`: max wave speeds and stiffness bounds of the prepared state
+  (:class:`StabilityNumbers`), from which the time steppers and
+  :func:`tiseg.run.simulation.step_limits` take the step and the RKC stage count;
+* :meth:`StepReductions.totals`: sums of h and h phi in a fixed order (the same bits for any
+  thread count).
+"""
+
+from dataclasses import dataclass
+
+import taichi as ti
+
+from ...model.physics.params import Params
+
+
+@dataclass
+class StabilityNumbers:
+    ax: float  # max |u| + c (or segregation speed) in x [m/s]
+    ay: float
+    rho_visc: float  # Gershgorin bound of the viscous Jacobian [1/s]
+    rho_fric: float  # friction stiffness [1/s]
+    max_speed: float  # max |u| [m/s]
+    rho_stiff: float  # Gershgorin bound of viscous + friction together: max over cells of the
+    # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
+    # step_rule "local" (2D): max over cells of a_x/dx + a_y/dy, each speed the largest of the
+    # cell and its two neighbours along that direction [1/s]; None where not computed
+    rate_local: float | None = None
+
+
+NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in order
+
+
+@ti.data_oriented
+class StepReductions:
+    def __init__(self, op, ft):
+        """Views of ``op``'s fields and compile-time constants (no reference to ``op``
+        itself); this collaborator's own fields are allocated in ``op``'s field tree ``ft``
+        (before it is finalised)."""
+        self.fp, self.nc = op.fp, op.nc
+        self.NX, self.NY = op.NX, op.NY
+        self.nx, self.ny, self.gx, self.gy = op.nx, op.ny, op.gx, op.gy
+        self.is_1d, self.seg, self.visc, self.HPHI = op.is_1d, op.seg, op.visc, op.HPHI
+        self.local_rate = op.local_rate
+        self.rows_per_block = op.rows_per_block
+        self.q, self.w, self.par, self.act, self.phys = op.q, op.w, op.par, op.act, op.phys
+        # step_rule "local": each cell's wave speeds along x and y, for the stability pass
+        self.spd = ft.vector(2, self.fp, (op.NX, op.NY)) if self.local_rate else None
+        self.red = ft.field(self.fp, NSTAB)
+        self.rowsum = ft.field(ti.f64, (op.NX, 2))
+        self.total = ft.field(ti.f64, 2)
+        self._stability = self._stability_f64 if self.fp == ti.f64 else self._stability_f32
+
+    def stability(self, serial: bool) -> StabilityNumbers:
+        """The numbers of the prepared primitives (the caller prepares them)."""
+        r = [float(v) for v in self._stability(serial)]
+        return StabilityNumbers(
+            ax=r[0],
+            ay=r[1],
+            rho_visc=r[2],
+            rho_fric=r[3],
+            max_speed=r[4],
+            rho_stiff=r[5],
+            rate_local=r[6] if self.local_rate else None,
+        )
+
+    def totals(self, slot: int, serial: bool) -> tuple[float, float]:
+        """(sum of h, sum of h phi) over interior cells of ``slot``, deterministic, in f64."""
+        t = self._totals(slot, serial)
+        return float(t[0]), float(t[1])
+
+    # The return type must follow the run's precision. A type built from ``float`` is fixed
+    # when this module is imported, i.e. before tiseg.init chooses the precision (Taichi's
+    # default is f32), which rounded every f64 run's step limits to f32. One kernel per
+    # precision, chosen in __init__; only the chosen one is ever compiled (Metal has no f64).
+    @ti.kernel
+    def _stability_f64(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f64):
+        return self._stability_body(serial)
+
+    @ti.kernel
+    def _stability_f32(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f32):
+        return self._stability_body(serial)
+
+    @ti.func
+    def _stability_body(self, serial: ti.template()):
+        """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
+        from the primitives of the current state. Blocks of rows run in parallel and reduce
+        locally, so there is one atomic per block (maxima are order independent:
+        deterministic); a block is one row in 2D and 256 cells of the row in 1D, where an
+        atomic per cell would serialise the threads on one address.
+
+        The friction Jacobian is local to a cell (a 2 x 2 block in (hu, hv) bounded by the
+        friction rate), so it adds to the diagonal of that cell's viscous rows: Gershgorin's
+        theorem bounds the spectrum of both terms together by the largest per-cell sum
+        (red[5]). The friction peaks in slow thin margins and levees, the viscosity in thick
+        fast channels, so the sum of the two maxima (red[2] + red[3]) overestimates it by up
+        to 2x, and the RKC stage count with it.
+
+        With step_rule "local" (2D) red[6] is the largest per-cell convective rate
+        max(a_x over i-1..i+1)/dx + max(a_y over j-1..j+1)/dy: the speeds of the faces of the
+        cell, which bound the forward-Euler step that keeps that cell's h >= 0 (see
+        tiseg.run.simulation.step_limits). Only such runs compute it."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        ti.loop_config(serialize=True)  # a handful of iterations
+        for k in range(NSTAB):
+            self.red[k] = 0.0
+        hmin = self.par[Params.H_MIN]
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
+        # include the first ghost layer in x so that an inflow into an empty chute sets a speed
+        lo = ti.max(self.act[0] - 1, gx - 1)
+        hi = ti.min(self.act[1] + 1, gx + nx + 1)
+        B = ti.static(self.rows_per_block)
+        if ti.static(self.local_rate):
+            # each cell's (a_x, a_y) once, neighbours and ghost rows included: the rate reads
+            # 5 speeds per cell, and recomputing them (a square root each) cost 10 % of a
+            # Stoker step on one thread
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.NY)):
+                w = self.w[i, j]
+                self.spd[i, j] = ti.Vector([self.phys.speed(w, 0), self.phys.speed(w, 1)])
+        ti.loop_config(serialize=serial)
+        for blk in range((hi - lo + B - 1) // B):
+            m0 = 0.0
+            m1 = 0.0
+            m2 = 0.0
+            m3 = 0.0
+            m4 = 0.0
+            m5 = 0.0
+            m6 = 0.0
+            for r in range(B):
+                i = lo + blk * B + r
+                if i < hi:
+                    for j in range(gy, gy + ny):
+                        w = self.w[i, j]
+                        if ti.static(self.local_rate):
+                            sp = self.spd[i, j]
+                            m0 = ti.max(m0, sp[0])
+                            m1 = ti.max(m1, sp[1])
+                            axm = ti.max(
+                                ti.max(self.spd[i - 1, j][0], sp[0]), self.spd[i + 1, j][0]
+                            )
+                            aym = ti.max(
+                                ti.max(self.spd[i, j - 1][1], sp[1]), self.spd[i, j + 1][1]
+                            )
+                            m6 = ti.max(m6, axm * idx + aym * idy)
+                        else:
+                            m0 = ti.max(m0, self.phys.speed(w, 0))
+                            if ti.static(not self.is_1d):
+                                m1 = ti.max(m1, self.phys.speed(w, 1))
+                        m4 = ti.max(m4, self.phys.speed_mag(w))
+                        fr = self.phys.friction_rate(w)
+                        m3 = ti.max(m3, fr)
+                        rho = 0.0 * fr
+                        if ti.static(self.visc):
+                            h = w[0]
+                            if h >= hmin and gx <= i < gx + nx:
+                                hn = h  # (not read in 1D)
+                                hs = h
+                                if ti.static(not self.is_1d):
+                                    hn = self.w[i, j + 1][0]
+                                    hs = self.w[i, j - 1][0]
+                                rho = self.phys.visc_stiffness(
+                                    h,
+                                    self.w[i + 1, j][0],
+                                    self.w[i - 1, j][0],
+                                    hn,
+                                    hs,
+                                    idx,
+                                    idy,
+                                )
+                                m2 = ti.max(m2, rho)
+                        m5 = ti.max(m5, rho + fr)
+            ti.atomic_max(self.red[0], m0)
+            ti.atomic_max(self.red[1], m1)
+            ti.atomic_max(self.red[2], m2)
+            ti.atomic_max(self.red[3], m3)
+            ti.atomic_max(self.red[4], m4)
+            ti.atomic_max(self.red[5], m5)
+            ti.atomic_max(self.red[6], m6)
+        return ti.Vector([self.red[k] for k in ti.static(range(NSTAB))])
+
+    @ti.kernel
+    def _totals(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
+        """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
+        summed serially, then the rows serially): the same bits for any thread count."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        self.total[0] = 0.0
+        self.total[1] = 0.0
+        ti.loop_config(serialize=serial)
+        for i in range(gx, gx + nx):
+            a = ti.cast(0.0, ti.f64)
+            b = ti.cast(0.0, ti.f64)
+            for j in range(gy, gy + ny):
+                v = self.q[s, i, j]
+                a += ti.cast(v[0], ti.f64)
+                if ti.static(self.seg):
+                    b += ti.cast(v[self.HPHI], ti.f64)
+            self.rowsum[i, 0] = a
+            self.rowsum[i, 1] = b
+        ti.loop_config(serialize=True)
+        for i in range(gx, gx + nx):
+            self.total[0] += self.rowsum[i, 0]
+            self.total[1] += self.rowsum[i, 1]
+        return ti.Vector([self.total[0], self.total[1]])

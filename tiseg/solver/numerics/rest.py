@@ -1,0 +1,318 @@
+"""The projected friction's rest machinery (``numerics.friction_scheme = "projected"``).
+
+Shallow-water codes that bring material to rest apply friction as a projection after the
+explicit update (Mangeney et al., Bouchut et al.): if the friction impulse can cancel the
+momentum, the cell stops exactly; otherwise the momentum shrinks along its direction. Around
+that projection (:class:`tiseg.model.physics.pointwise.Physics`) this module keeps a deposit at rest
+bitwise:
+
+* the rest mask of a step's start (``rest``: REST where u = v = 0, else the signs of u and v;
+  HELD where a law with hysteresis holds the cell for the whole step), :meth:`RestRules._mark_rest`;
+* the face rules (:meth:`RestRules._rest_face`): no mass between two cells at rest, and at least
+  the upwind cell's outrunning flux where it moves into a slower neighbour;
+* the projection of a limited stage (:meth:`RestRules._project`) and the exact rest of
+  :meth:`RestRules._keep_rest`;
+* the skipping of quiescent regions (:meth:`RestRules._quiescent`, the wet scan
+  :meth:`RestRules.wet_extent`) and the mask as part of a checkpoint (:meth:`RestRules.rest_state`).
+
+A part of :class:`tiseg.solver.numerics.operator.TaichiOperator`, whose fields and caches it works on.
+"""
+
+import numpy as np
+import taichi as ti
+
+from ...model.physics.params import Params
+
+# bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
+REST = 1  # u = v = 0 exactly
+HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
+X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
+
+
+@ti.data_oriented
+class RestRules:
+    @ti.kernel
+    def _mark_rest(self, serial: ti.template()):
+        """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
+        (X_POS / X_NEG, Y_POS / Y_NEG), on the cells the faces near the active range read
+        (further out no face flux is computed). With a law with hysteresis the step's first
+        stage then adds HELD to the cells the static friction holds (_project)."""
+        lo = ti.max(self.act[0] - 4, 0)
+        hi = ti.min(self.act[1] + 4, self.NX)
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((lo, hi), (0, self.NY)):
+            w = self.w[i, j]
+            r = w[1] == 0.0
+            if ti.static(not self.is_1d):
+                r = r and w[self.HV] == 0.0
+            flag = 0
+            if r:
+                flag = REST
+            else:
+                if w[1] > 0.0:
+                    flag |= X_POS
+                elif w[1] < 0.0:
+                    flag |= X_NEG
+                if ti.static(not self.is_1d):
+                    if w[self.HV] > 0.0:
+                        flag |= Y_POS
+                    elif w[self.HV] < 0.0:
+                        flag |= Y_NEG
+            self.rest[i, j] = ti.cast(flag, ti.i8)
+
+    @ti.func
+    def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
+        """With the projected friction scheme, the mass (and h phi) flux at a face next to a
+        cell at rest. "At rest" is read from the step's initial state (_mark_rest), not from
+        the stage's: a cell that the first stage stops must not switch its faces off for the
+        later ones. The rates of a step are then one smooth function, which RKC's stage
+        weights (of both signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a
+        thin cell next to a deposit below zero, and the limiter's clip then created mass.
+
+        * Between two cells at rest no mass crosses: the central schemes' dissipation
+          a/2 (h_r - h_l) would otherwise let a deposit's surface relax for ever. The
+          momentum flux stays (the pressure), and the friction projection decides whether
+          the cells start to move.
+        * Where the upwind cell moves towards its neighbour (u_n > 0 on the left, or < 0 on
+          the right, at the step's start) and the neighbour does not move against it, at
+          least F_h >= f_u - f_d^2 / f_u crosses, f_u = h_l max(u_l, 0) the upwind cell's own
+          flux and f_d = h_r max(u_r, 0) the downwind cell's the same way (edge states;
+          mirrored for a right-hand upwind cell), with h phi carried at the upwind cell's
+          phi. Into a cell at rest that is the upwind cell's whole flux; between cells of the
+          same flux it is zero; into a slow cell it falls short of f_u by f_d^2 / f_u only.
+          The central flux's dissipation a/2 (h_r - h_l), which at low Froude numbers is
+          most of its mass flux, would
+          otherwise draw mass back out of a thicker, slower or resting neighbour against the
+          flow: thin films flowing into a deposit, and short chains of slow cells, were held
+          in place by it and kept a speed of mm/s for ever while no mass moved. In a flow
+          whose flux does not collapse from one cell to the next the bound lies below the
+          central flux and changes nothing; the momentum flux stays the central one."""
+        out = F
+        if ti.static(self.phys.fr_projected):
+            r0 = ti.cast(self.rest[i0, j0], ti.i32)
+            r1 = ti.cast(self.rest[i1, j1], ti.i32)
+            if (r0 & REST) != 0 and (r1 & REST) != 0:
+                out[0] = 0.0
+                if ti.static(self.seg):
+                    out[self.HPHI] = 0.0
+            else:
+                # at least the flux by which the upwind cell outruns its neighbour
+                pos = ti.static(X_POS if d == 0 else Y_POS)
+                neg = ti.static(X_NEG if d == 0 else Y_NEG)
+                if (r0 & pos) != 0 and (r1 & neg) == 0:
+                    out = self._flux_floor(out, wl, wr, d, 1.0)
+                elif (r1 & neg) != 0 and (r0 & pos) == 0:
+                    out = self._flux_floor(out, wr, wl, d, -1.0)
+        return out
+
+    @ti.func
+    def _flux_floor(self, F, wu, wd, d: ti.template(), s: ti.template()):
+        """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
+        the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
+        the upwind edge state wu, f_d the same of the downwind one wd; h phi then moves at
+        the upwind cell's phi (_rest_face)."""
+        out = F
+        c = ti.static(1 if d == 0 else self.HV)
+        fu = wu[0] * ti.max(s * wu[c], 0.0)
+        fd = wd[0] * ti.max(s * wd[c], 0.0)
+        # f_u - f_d^2 / f_u > s F  <=>  f_u^2 - f_d^2 > s F f_u (f_u > 0): the division only
+        # where the floor applies, which in a flow is rare (a division on every face cost ~2 %)
+        if fu > 0.0 and fu * fu - fd * fd > s * out[0] * fu:
+            b = s * (fu - fd * fd / fu)
+            if s * b > s * out[0]:  # never false but at a tie of rounding
+                out[0] = b
+                if ti.static(self.seg):
+                    out[self.HPHI] = b * self.phys.transported(wu[self.HPHI])
+        return out
+
+    @ti.func
+    def _project(self, acc, tau, i, j, first: ti.template(), spd0):
+        """The friction projection of a stage's result (Physics.project_friction, with the
+        coefficient at ``spd0``, the speed of the state the stage started from). With a law
+        with hysteresis the static friction decides once per step, on its first stage, which
+        of the cells at rest at the step's start it holds (Physics.holds, marked HELD in rest): a
+        held cell stays exactly at rest through all the step's stages, every other cell is
+        projected. Deciding per stage instead made the starts depend on the step length and
+        on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
+        out = acc
+        if ti.static(self.phys.law.hysteresis):
+            flag = ti.cast(self.rest[i, j], ti.i32)
+            if ti.static(first):
+                # nested, not `and`: Taichi's `and` evaluates both sides, and holds() (the start
+                # coefficient mu_S) on every moving cell cost ~5 % of a fingers step
+                if (flag & REST) != 0:
+                    if self.phys.holds(acc, tau) == 1:
+                        flag |= HELD
+                        self.rest[i, j] = ti.cast(flag, ti.i8)
+            if (flag & HELD) != 0:
+                out[1] = 0.0
+                if ti.static(not self.is_1d):
+                    out[self.HV] = 0.0
+            else:
+                out = self.phys.project_friction(acc, tau, spd0)
+        else:
+            out = self.phys.project_friction(acc, tau, spd0)
+        return out
+
+    @staticmethod
+    def _first_state(n: int, rate: int, rmask: int) -> int:
+        return next(k for k in range(n) if k != rate and not (rmask >> k) & 1)
+
+    @ti.func
+    def _keep_rest(
+        self, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
+    ):
+        """A cell at rest after the projection whose state terms all hold the same h and h phi
+        and whose rates of h and h phi are all zero (no mass crossed its faces: _x_face) keeps
+        that h and h phi bitwise: the stage weights of the states sum to 1, but their rounded
+        sum need not give the same bits, and a deposit must not creep by round-off."""
+        f = ti.static(self._first_state(n, rate, rmask))
+        out = acc
+        moving = acc[1] != 0.0
+        if ti.static(not self.is_1d):
+            moving = moving or acc[self.HV] != 0.0
+        # a moving cell (most of a flow) reads no term again: the test costs one branch there
+        if not moving:
+            ref = self.q[ss[f], i, j]
+            keep = 1
+            for k in ti.static(range(n)):
+                if ti.static(k == rate):
+                    if r[0] != 0.0:
+                        keep = 0
+                    if ti.static(self.seg):
+                        if r[self.HPHI] != 0.0:
+                            keep = 0
+                elif ti.static((rmask >> k) & 1):
+                    v = self.q[ss[k], i, j]
+                    if v[0] != 0.0:
+                        keep = 0
+                    if ti.static(self.seg):
+                        if v[self.HPHI] != 0.0:
+                            keep = 0
+                elif ti.static(k != f):
+                    v = self.q[ss[k], i, j]
+                    if v[0] != ref[0]:
+                        keep = 0
+                    if ti.static(self.seg):
+                        if v[self.HPHI] != ref[self.HPHI]:
+                            keep = 0
+            if keep == 1:
+                out[0] = ref[0]
+                if ti.static(self.seg):
+                    out[self.HPHI] = ref[self.HPHI]
+        return out
+
+    def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
+        """(first, last) x index with a cell h >= h_min after filling ghosts, (NX, -1) if
+        none; then (first, last) x index of a live cell, one that may change in the next step
+        (_quiescent), found only where resting regions are skipped (else (NX, -1))."""
+        self._set_time(t)
+        if self.skip_rest and self._mask_inflow != self.inflow_on(t):
+            # the inflow stopped since the last step began: the inlet is a wall now, and the
+            # rest mask, taken with the inflow's ghost cells, says nothing of it
+            self._forget_rest()
+        w = self._wet_extent(slot, self.serial_loops())
+        return int(w[0]), int(w[1]), int(w[2]), int(w[3])
+
+    @ti.kernel
+    def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(4, ti.i32):
+        """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
+        cell with h >= h_min, and of a live cell (see _quiescent), returned (one launch, no
+        field read-back).
+
+        Only the x range [wa - 3, wb + 3) around the wet range is scanned for wet cells: every
+        cell outside it is a dry film (the wet range is the wet extent plus a margin, and a
+        step writes nothing further out), and whatever could put wet cells there (set,
+        set_params) makes the ranges whole again. A fingers run's early steps then scan the
+        front, not the empty chute. Live cells are looked for on the range the last step
+        wrote, [a - 3, b + 3) around the active range: every cell beyond it was quiescent when
+        it was left out, and nothing has touched it since."""
+        self._ghosts(s)
+        self.wet[0] = self.NX
+        self.wet[1] = -1
+        self.wet[2] = self.NX
+        self.wet[3] = -1
+        hmin = self.par[Params.H_MIN]
+        lo = ti.max(self.wrng[0] - 3, 0)
+        hi = ti.min(self.wrng[1] + 3, self.NX)
+        # the live scan: interior cells only (their neighbours, ghosts included, are read)
+        llo = ti.max(self.act[0] - 3, self.gx)
+        lhi = ti.min(self.act[1] + 3, self.gx + self.nx)
+        B = ti.static(self.rows_per_block)
+        ti.loop_config(serialize=serial)
+        for blk in range((hi - lo + B - 1) // B):
+            first = self.NX
+            last = -1
+            lfirst = self.NX
+            llast = -1
+            for r in range(B):
+                i = lo + blk * B + r
+                if i < hi:
+                    scan_live = llo <= i < lhi
+                    for j in range(self.gy, self.gy + self.ny):
+                        if self.q[s, i, j][0] >= hmin:
+                            first = ti.min(first, i)
+                            last = ti.max(last, i)
+                        if ti.static(self.skip_rest):
+                            if scan_live:
+                                if self._quiescent(s, i, j, hmin) == 0:
+                                    lfirst = ti.min(lfirst, i)
+                                    llast = ti.max(llast, i)
+            if last >= 0:  # one atomic per block of rows (see _stability)
+                ti.atomic_min(self.wet[0], first)
+                ti.atomic_max(self.wet[1], last)
+            if llast >= 0:
+                ti.atomic_min(self.wet[2], lfirst)
+                ti.atomic_max(self.wet[3], llast)
+        return ti.Vector([self.wet[0], self.wet[1], self.wet[2], self.wet[3]])
+
+    @ti.func
+    def _quiescent(self, s, i, j, hmin):
+        """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
+        next one as well if nothing within the step's reach has changed: it was at rest at
+        the step's start, the static friction held it (HELD) or it is a dry film, and its four
+        neighbours were at rest too. No mass then crossed its faces (_rest_face), so
+        _keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
+        friction holds a cell does not depend on the step length (Physics.holds), so the same
+        data around the cell give the same answer in the next step: a cell further than the
+        next step's reach from every live cell keeps its bits without being computed. (Rest
+        mask of the last step: REST from its start, HELD from its first stage.)"""
+        r = ti.cast(self.rest[i, j], ti.i32)
+        q = 0
+        if (r & REST) != 0:
+            if (r & HELD) != 0 or self.q[s, i, j][0] < hmin:
+                nb = ti.cast(self.rest[i - 1, j], ti.i32) & ti.cast(self.rest[i + 1, j], ti.i32)
+                if ti.static(not self.is_1d):
+                    nb &= ti.cast(self.rest[i, j - 1], ti.i32)
+                    nb &= ti.cast(self.rest[i, j + 1], ti.i32)
+                if (nb & REST) != 0:
+                    q = 1
+        return q
+
+    def _forget_rest(self) -> None:
+        """Clear the rest mask: every cell counts as live until a step has marked it again."""
+        if getattr(self, "rest", None) is not None:
+            self.rest.fill(0)
+        # whether an inflow ran when the mask was taken (None: no mask)
+        self._mask_inflow = None
+
+    def rest_state(self) -> dict[str, np.ndarray] | None:
+        """What the skipping of resting regions needs besides slot 0, for a checkpoint: the
+        rest mask of the last step and the active and wet ranges (None without skipping)."""
+        if not self.skip_rest:
+            return None
+        on = -1 if self._mask_inflow is None else int(self._mask_inflow)
+        return {
+            "rest_mask": self.rest.to_numpy(),
+            "ranges": np.array([*self.active, *self.wet_range, on], dtype=np.int64),
+        }
+
+    def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
+        """Inverse of :meth:`rest_state` (after slot 0 was set): the next step then skips
+        what the run it continues would have skipped, so a resumed run keeps its bits."""
+        if not self.skip_rest:
+            return
+        self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
+        a, b, wa, wb, on = (int(v) for v in ranges)
+        self.set_active(a, b, (wa, wb))
+        self._mask_inflow = None if on < 0 else bool(on)

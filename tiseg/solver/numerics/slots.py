@@ -1,0 +1,268 @@
+"""Slot algebra of the operator: linear combinations of its state slots, with the stage
+limiter, fused stages and the boundary budgets that follow the states.
+
+States live in one field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field
+passed as template, so buffers are slots selected by an integer). The time steppers
+(:mod:`tiseg.solver.timestepping`) build their stages from :meth:`SlotAlgebra.combine` (slot dst := sum of
+c * slot), :meth:`SlotAlgebra.stage` (the same with one term the rate L of a slot, computed in
+the same launch) and :meth:`SlotAlgebra.blend` (snapshots between two step states). Each
+applies the same combination to the boundary budgets (``bud``), so slot 0 accumulates exactly
+the time integral of the inflow the scheme uses.
+
+A part of :class:`tiseg.solver.numerics.operator.TaichiOperator`, whose fields and caches it works on
+(as :class:`tiseg.solver.numerics.split.SplitSweeps` is); the friction projection of a limited stage
+is :class:`tiseg.solver.numerics.rest.RestRules`'.
+"""
+
+import numpy as np
+import taichi as ti
+
+from ...model.physics.params import Params
+
+MAX_TERMS = 6
+NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
+
+
+@ti.data_oriented
+class SlotAlgebra:
+    def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
+        """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
+        can touch (the active range and its stencil halo; all cells without an active range);
+        ``limit=True`` applies the stage limiter (:meth:`_limit`) in the same pass, and with
+        the projected friction scheme the friction projection over ``tau`` seconds (the
+        stage's share of the step). ``rates``: the slots among the terms that hold rates, not
+        states (for the exact rest of _keep_rest).
+
+        dst may be one of the sources: the update is element-wise.
+        """
+        n, cs, ss = self._terms(terms)
+        rmask = self._rate_mask(terms, rates)
+        first = self._first_of_step(limit)
+        self._combine(
+            dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
+        )
+        self._written(dst, primitives=bool(limit))
+
+    def stage(
+        self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
+    ) -> None:
+        """slot dst := sum(c * term) where a term's slot is a slot, or RATE (negative) for
+        L(slot src, t): :meth:`rhs` into a spare slot and then :meth:`combine`, with the same
+        bits, in one launch and without storing the rate. Exactly one term is the rate.
+        ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
+        stage is a convex combination of states and one Euler step of that length."""
+        self._no_operator()
+        rate = [k for k, (_, s) in enumerate(terms) if s < 0]
+        assert len(rate) == 1, terms
+        tau = terms[rate[0]][0] if tau is None else tau
+        self._prepare(src, t)
+        n, cs, ss = self._terms(terms)
+        rmask = self._rate_mask(terms, rates)
+        first = self._first_of_step(limit)
+        self._combine(
+            dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
+        )
+        self._written(dst, primitives=bool(limit))
+
+    def _first_of_step(self, limit: bool) -> bool:
+        """Whether this limited combination is the step's first stage, where a law with
+        hysteresis decides which resting cells the static friction holds (_project): the
+        first one after the rest mask was computed for a new step."""
+        first = bool(limit) and self._first_stage and self.phys.law.hysteresis
+        if limit:
+            self._first_stage = False
+        return first
+
+    @staticmethod
+    def _rate_mask(terms, rates) -> int:
+        return sum(1 << k for k, (_, s) in enumerate(terms) if s >= 0 and s in rates)
+
+    @staticmethod
+    def _terms(terms):
+        n = len(terms)
+        assert 1 <= n <= MAX_TERMS
+        cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
+        ss = [max(int(s), 0) for _, s in terms] + [0] * (MAX_TERMS - n)
+        return n, cs, ss
+
+    def blend(self, dst: int, a: int, b: int, theta: float) -> None:
+        """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
+        theta = 0 a copy of slot a. For snapshots between two step states (tiseg.run.callbacks)."""
+        self._written(dst)
+        self._blend(dst, a, b, float(theta), self.serial_loops(whole=True))
+
+    def budget(self, slot: int = 0) -> np.ndarray:
+        """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
+        return self.bud.to_numpy()[slot].astype(float)
+
+    def reset_budget(self, values=None) -> None:
+        b = self.bud.to_numpy()
+        b[0] = 0.0 if values is None else values
+        self.bud.from_numpy(b)
+
+    @ti.kernel
+    def _combine(
+        self,
+        d: ti.i32,
+        n: ti.template(),
+        rate: ti.template(),
+        limit: ti.template(),
+        c0: float,
+        c1: float,
+        c2: float,
+        c3: float,
+        c4: float,
+        c5: float,
+        s0: ti.i32,
+        s1: ti.i32,
+        s2: ti.i32,
+        s3: ti.i32,
+        s4: ti.i32,
+        s5: ti.i32,
+        tau: float,
+        rmask: ti.template(),
+        first: ti.template(),
+        serial: ti.template(),
+    ):
+        """slot d := sum of c_k * term k (k < n), then the stage limiter if ``limit``, on the
+        active x range widened by the 3 cells either side that the next evaluation's stencil
+        reads (see _combine_cells). Term k is slot s_k, except term ``rate`` (if >= 0): L of
+        the prepared state, computed in this launch (face fluxes first, their boundary rates
+        into the spare budget row) and used where it is computed, never stored: a fused stage
+        makes two passes over the grid fewer than _rates followed by a combination.
+
+        The coefficients come as kernel arguments: writing them into a field from Python
+        costs a launch each, which dominated small grids."""
+        cs = ti.Vector([c0, c1, c2, c3, c4, c5])
+        ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
+        if ti.static(rate >= 0):
+            self._face_fluxes(serial)
+            self._boundary_rates(self.nslots)
+        self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, first, serial)
+
+    @ti.func
+    def _combine_cells(
+        self,
+        d,
+        n: ti.template(),
+        rate: ti.template(),
+        limit: ti.template(),
+        cs,
+        ss,
+        tau,
+        rmask: ti.template(),
+        first: ti.template(),
+        serial: ti.template(),
+    ):
+        """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
+        L at the cell (_cell_rate); then the stage limiter if ``limit``, which also leaves the
+        result's primitives in w (the next evaluation is of slot d). The sum runs in the order
+        of the terms, so a fused stage gives the bits of _rates followed by _combine.
+
+        Cells: the active x range widened by the 3 cells either side that the next
+        evaluation's stencil reads. Why that is enough: the active range is fixed for the
+        whole step (set_active runs between steps), every rate is zero on the widened range
+        outside the active one (_cell_rate), and the first stage combines from slot 0, which
+        is valid everywhere. So within a step every slot is valid on the widened range, and
+        nothing beyond it is read. Cells further out are dry films that the step does not
+        change; skipping them saves two passes over the dry chute per stage.
+
+        A cell's rate reads the face fluxes and its own primitives only, so d may be the slot
+        the rate is of, or any of the sources: the update is element-wise.
+
+        With the projected friction scheme the limiter is followed by the friction projection
+        over ``tau``, the stage's share of the step (_project), and by _keep_rest; bit k of
+        ``rmask`` marks term k as a stored rate rather than a state; ``first``: this is the
+        step's first stage (its static-friction decisions are made here)."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        lo = ti.max(self.act[0] - 3, gx)
+        hi = ti.min(self.act[1] + 3, gx + nx)
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
+            r = ti.Vector.zero(self.fp, self.nc)
+            # the speed of the state the stage starts from (the prepared one): the friction
+            # coefficient of the projection (Physics.project_friction)
+            spd0 = 0.0 * r[0]
+            if ti.static(limit and self.phys.fr_projected):
+                spd0 = self.phys.speed_mag(self.w[i, j])
+            if ti.static(rate >= 0):
+                r = self._cell_rate(i, j)
+            acc = ti.Vector.zero(self.fp, self.nc)
+            for k in ti.static(range(n)):
+                term = r if ti.static(k == rate) else self.q[ss[k], i, j]
+                if ti.static(k == 0):
+                    acc = cs[0] * term
+                else:
+                    acc += cs[k] * term
+            if ti.static(limit):
+                acc = self._limit(acc)
+                if ti.static(self.phys.fr_projected):
+                    acc = self._project(acc, tau, i, j, first, spd0)
+                    acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
+                self.w[i, j] = self._primitive(acc)
+            self.q[d, i, j] = acc
+        ti.loop_config(serialize=True)  # a handful of iterations
+        for b in range(NBUDGET):
+            acc = 0.0 * cs[0]
+            for k in ti.static(range(n)):
+                bk = self.bud[self.nslots, b] if ti.static(k == rate) else self.bud[ss[k], b]
+                if ti.static(k == 0):
+                    acc = cs[0] * bk
+                else:
+                    acc += cs[k] * bk
+            self.bud[d, b] = acc
+
+    @ti.func
+    def _limit(self, v):
+        """The stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
+        h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
+        v[0] = h
+        if h < self.par[Params.H_MIN]:
+            v[1] = 0.0
+            if ti.static(not self.is_1d):
+                v[self.HV] = 0.0
+        if ti.static(self.seg):
+            v[self.HPHI] = ti.min(ti.max(v[self.HPHI], 0.0), h)
+        return v
+
+    @ti.kernel
+    def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
+        """slot d := (1 - theta) slot a + theta slot b on every cell, ghosts included, and the
+        same for the budgets (no active range: a copy must be whole). Written a + theta (b - a),
+        which gives a's bits where b == a: a deposit at rest then has the same h in every
+        snapshot, as it has in the step states ((1 - theta) a + theta a can be an ulp off)."""
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange(self.NX, self.NY):
+            qa = self.q[a, i, j]
+            self.q[d, i, j] = qa + theta * (self.q[b, i, j] - qa)
+        ti.loop_config(serialize=True)  # a handful of iterations
+        for k in range(NBUDGET):
+            self.bud[d, k] = self.bud[a, k] + theta * (self.bud[b, k] - self.bud[a, k])
+
+    @ti.func
+    def _boundary_rates(self, d):
+        """Net inflow rates through the domain's faces, summed in a fixed order."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        dx = self.par[Params.DX]
+        dy = self.par[Params.DY]
+        ti.loop_config(serialize=True)
+        for b in range(NBUDGET):
+            self.bud[d, b] = 0.0
+        # faces outside the active range were not computed this time: they carry no flux
+        wl = 1.0 if self.act[0] == gx else 0.0
+        wr = 1.0 if self.act[1] == gx + nx else 0.0
+        ti.loop_config(serialize=True)
+        for j in range(gy, gy + ny):
+            self.bud[d, 0] += (wl * self.fx[gx - 1, j][0] - wr * self.fx[gx + nx - 1, j][0]) * dy
+            if ti.static(self.seg):
+                self.bud[d, 1] += (
+                    wl * self.fx[gx - 1, j][self.HPHI] - wr * self.fx[gx + nx - 1, j][self.HPHI]
+                ) * dy
+        if ti.static(not self.is_1d):
+            ti.loop_config(serialize=True)
+            for i in range(self.act[0], self.act[1]):
+                self.bud[d, 2] += (self.fy[i, gy - 1][0] - self.fy[i, gy + ny - 1][0]) * dx
+                if ti.static(self.seg):
+                    self.bud[d, 3] += (
+                        self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]
+                    ) * dx

@@ -1,0 +1,356 @@
+"""Dimensionally split MUSCL-Hancock sweeps (``numerics.stepper = "hancock"``).
+
+A step of the split scheme is one sweep per direction, each a complete one-stage
+finite-volume update of its own: where the semi-discrete operator (:mod:`.operator`) is
+integrated by Runge-Kutta stages that each need the fluxes of both directions, a sweep moves
+the state a whole step along one direction from a single flux evaluation. Along direction d
+(spacing D, lambda = dt / D), on the cells' primitives w:
+
+1. the limited slopes s of the operator (:meth:`TaichiOperator._slope`: minmod-theta or the
+   WENO-type slope, with h >= 0 and 0 <= phi <= 1 at the edges);
+2. the edge states w -+ s/2, conserved q_W, q_E, evolved half a step by the cell's own flux
+   difference (Hancock's predictor; van Leer 1984, Toro 2009 section 14.4):
+
+       q~_W,E = q_W,E - lambda/2 (f(q_E) - f(q_W)) + dt/2 S(w)
+
+   where the predicted h of either edge would be negative the cell keeps its unevolved edges
+   (first order in time there: the predictor is a Taylor step and knows nothing of dry beds);
+3. the numerical flux of the operator (``numerics.flux``: central-upwind = HLL with the local
+   one-sided speeds, or KT; ``phi_flux`` upwind) between q~_E of a cell and q~_W of its
+   neighbour, zero between two films thinner than h_min;
+4. the draining-time correction (Bollermann, Chen, Kurganov & Noelle 2013, J. Sci. Comput. 56,
+   267): a cell whose outgoing mass lambda (F+_h + F-_h) exceeds its h gives out only h, every
+   component of the flux through a face being scaled by theta = h / outgoing of the cell the
+   mass leaves; with segregation the same for its small particles (h phi) and its large ones
+   (h (1 - phi)), theta the smallest of the three. So h >= 0 and 0 <= phi <= 1 after any step
+   that the scheme's stability allows, not only below a positivity bound, and the scaling is
+   conservative (a face's flux is one number for both cells). (phi_flux "upwind", which the
+   scene requires with segregation here, makes the three fluxes of a face run the same way,
+   so the factor of the cell the mass leaves is the one all three need);
+5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S, the source (gravity along the slope,
+   g sin(zeta) h, the only one without friction) in the x sweep only, by the trapezoidal rule
+   between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
+   momentum in films thinner than h_min).
+
+The sweeps alternate their order from step to step (x then y, then y then x), which makes the
+splitting error of two steps second order (Strang 1968) at two sweeps a step; each sweep is
+stable for Courant numbers up to 1 (``numerics.cfl``, with step_rule "max": dt = cfl min(dx/a_x,
+dy/a_y)), against 1/2 for a_x dt/dx + a_y dt/dy of the unsplit scheme's Euler steps. A sweep
+costs about 0.7 of an evaluation of the operator (benchmarks/README.md section 7).
+
+What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
+stability of RKC or the friction projection within stages; a scene with either must use the
+Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sweep is
+:func:`tiseg.solver.reference.split.hancock_sweep`.
+"""
+
+import taichi as ti
+
+from ...model.physics.pointwise import Params
+
+
+@ti.data_oriented
+class SplitSweeps:
+    """The sweeps of the split scheme, a part of :class:`TaichiOperator` (its fields ``w``,
+    ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
+    which only a split scene allocates)."""
+
+    def sweep(self, d: int, t: float, dt: float) -> None:
+        """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
+        update of the active range in place, its boundary fluxes into slot 0's budget."""
+        self._set_time(t)
+        if d == 0 and self.bc[0] == "periodic":
+            # the ghosts' draining factors are copied from the edge cells, which the factor
+            # pass computes only on the active range (the simulation keeps it whole then)
+            assert self.active == (self.gx, self.gx + self.nx), "periodic x: whole range"
+        key = (0, t, self.active)
+        # what the last preparation left valid in w: everything (a stability pass at t on
+        # slot 0), the interior (the last sweep), or nothing
+        fresh = 2 if self._prepared == key else (1 if self._interior == (0, self.active) else 0)
+        lam = dt / (self.cfg.dx if d == 0 else self.cfg.dy)
+        self._sweep(d, fresh, lam, dt, self.serial_loops())
+        self._written(0, primitives=True)
+
+    @ti.kernel
+    def _sweep(
+        self, d: ti.template(), fresh: ti.template(), lam: float, dt: float, serial: ti.template()
+    ):
+        """Sweep along d in one launch (top-level loops run in order): ghosts and primitives
+        as far as ``fresh`` says they are stale, the predicted edges, the face fluxes, the
+        draining factors, the update with its budget."""
+        if ti.static(fresh < 2):
+            self._ghosts(0)
+            if ti.static(fresh == 1):
+                self._edge_primitives(0, serial)
+            else:
+                self._primitives(0, serial)
+        self._predict(d, lam, dt, serial)
+        self._sweep_faces(d, serial)
+        self._drain_factors(d, lam, serial)
+        self._sweep_update(d, lam, dt, serial)
+
+    # -------------------------------------------------------------- index helpers
+    @ti.func
+    def _nb(self, i, j, d: ti.template(), k):
+        """The cell k cells along d from (i, j)."""
+        ii, jj = i, j
+        if ti.static(d == 0):
+            ii = i + k
+        else:
+            jj = j + k
+        return ii, jj
+
+    # -------------------------------------------------------------- the passes
+    @ti.func
+    def _predict(self, d: ti.template(), lam, dt, serial: ti.template()):
+        """Hancock's predicted edge states of every cell a face of this sweep reads, as
+        primitives: west/south edge in ew, east/north edge in ee."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ph = self.phys
+        ilo, ihi, jlo, jhi = a, b, gy, gy + ny
+        if ti.static(d == 0):
+            ilo, ihi = ti.max(a - 1, 1), ti.min(b + 1, self.NX - 1)
+        else:
+            jlo, jhi = gy - 1, gy + ny + 1
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+            w0 = self.w[i, j]
+            s = w0 * 0.0
+            if ti.static(not self.rec_first):
+                im, jm = self._nb(i, j, d, -1)
+                ip, jp = self._nb(i, j, d, 1)
+                s = self._slope(self.w[im, jm], w0, self.w[ip, jp])
+            wW = w0 - 0.5 * s
+            wE = w0 + 0.5 * s
+            qW = ph.conserved(wW)
+            qE = ph.conserved(wE)
+            shift = (0.5 * lam) * (ph.flux(wE, d) - ph.flux(wW, d))
+            keep = 0  # 1: the edges stay unevolved
+            if ti.static(d == 0):
+                sgn, keep = self._ghost_source(i)
+                shift -= (0.5 * dt * sgn) * ph.source(w0)
+            pW = qW - shift
+            pE = qE - shift
+            if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
+                pW = qW
+                pE = qE
+            self.ew[i, j] = self._fast_primitive(pW)
+            self.ee[i, j] = self._fast_primitive(pE)
+
+    @ti.func
+    def _ghost_source(self, i):
+        """(sign of the source, keep as 0 or 1) in the x predictor of cell column i.
+        Interior, outflow and periodic ghost cells evolve as the cells they copy (+1). A
+        wall's ghost cell is the mirror image of its interior cell, so its source is mirrored
+        too (-1): the
+        predicted edges on both sides of the wall then mirror each other and no mass crosses
+        it (with +1 the gravity source pushed mass through a wall on a slope). An inflow's
+        ghost cells hold the prescribed state, which is not evolved (keep = 1); a stopped
+        inflow is a wall."""
+        gx, nx = ti.static(self.gx, self.nx)
+        # the components' kinds as compile-time bools (ti.static takes no objects)
+        lo_mirrors, lo_prescribed = ti.static(self.bcs[0].mirrors, self.bcs[0].prescribed)
+        hi_mirrors = ti.static(self.bcs[1].mirrors)
+        sgn = 1.0
+        keep = 0
+        if i < gx:
+            if ti.static(lo_mirrors):
+                sgn = -1.0
+            elif ti.static(lo_prescribed):
+                if self.par[Params.IN_ON] > 0.5:
+                    keep = 1
+                else:
+                    sgn = -1.0
+        elif i >= gx + nx:
+            if ti.static(hi_mirrors):
+                sgn = -1.0
+        return sgn, keep
+
+    @ti.func
+    def _fast_primitive(self, q):
+        """TaichiOperator._primitive, with its square root only where it matters: for
+        h >= h_eps the desingularised velocity sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4))
+        is (hu) / h, up to rounding."""
+        h = ti.max(q[0], 0.0)
+        h4 = h * h * h * h
+        r = 0.0 * h
+        if h4 >= self.par[Params.H_EPS4]:
+            r = 1.0 / h
+        else:
+            r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.par[Params.H_EPS4])
+        return self._primitive_of(q, h, r)
+
+    @ti.func
+    def _sweep_faces(self, d: ti.template(), serial: ti.template()):
+        """Numerical fluxes between the predicted edges: the face (m, m + 1) along d at m's
+        index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        hmin = self.par[Params.H_MIN]
+        ilo, ihi, jlo, jhi = a, b, gy, gy + ny
+        if ti.static(d == 0):
+            ilo = a - 1
+        else:
+            jlo = gy - 1
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+            i1, j1 = self._nb(i, j, d, 1)
+            F = ti.Vector.zero(self.fp, self.nc)
+            if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
+                F = self._face_flux(self.ee[i, j], self.ew[i1, j1], d)
+            if ti.static(d == 0):
+                self.fx[i, j] = F
+            else:
+                self.fy[i, j] = F
+
+    @ti.func
+    def _across(self, d: ti.template()):
+        """The range [lo, hi) of cells across d that a sweep along d updates: the interior
+        rows in x, the active columns in y."""
+        lo, hi = self.gy, self.gy + self.ny
+        if ti.static(d == 1):
+            lo, hi = self.act[0], self.act[1]
+        return lo, hi
+
+    @ti.func
+    def _along(self, d: ti.template(), m, k):
+        """The cell (i, j) at index m along d and k across it."""
+        i, j = m, k
+        if ti.static(d == 1):
+            i, j = k, m
+        return i, j
+
+    @ti.func
+    def _face(self, i, j, d: ti.template()):
+        F = self.fx[i, j]
+        if ti.static(d == 1):
+            F = self.fy[i, j]
+        return F
+
+    @ti.func
+    def _drain_factors(self, d: ti.template(), lam, serial: ti.template()):
+        """drain := each updated cell's factor: 1, or what it holds / what would leave it over
+        the step where that is less, the smallest of that ratio for h and, with segregation,
+        for h phi and h (1 - phi); 1 on the cells next to them that the sweep leaves as they
+        are (ghosts, cells beyond the active range), except that a periodic boundary's ghost
+        cells take their images' factors. A pass of its own: the update must read its
+        neighbours' factors, computed from their h before the update."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ilo, ihi, jlo, jhi = a, b, gy, gy + ny
+        if ti.static(d == 0):
+            ilo, ihi = a - 1, b + 1
+        else:
+            jlo, jhi = gy - 1, gy + ny + 1
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+            th = 1.0 + 0.0 * lam
+            inside = a <= i < b
+            if ti.static(d == 1):
+                inside = gy <= j < gy + ny
+            if inside:
+                im, jm = self._nb(i, j, d, -1)
+                Fp = self._face(i, j, d)
+                Fm = self._face(im, jm, d)
+                q0 = self.q[0, i, j]
+                out = lam * (ti.max(Fp[0], 0.0) - ti.min(Fm[0], 0.0))
+                if out > q0[0]:
+                    th = q0[0] / out
+                if ti.static(self.seg):
+                    # the small particles (h phi) and the large ones (h (1 - phi)) of the cell
+                    # as well: phi then stays in [0, 1] without the limiter's clip, which
+                    # would create or destroy particles (with phi_flux "upwind" all three
+                    # fluxes of a face run the same way, so one factor serves the face)
+                    P = ti.static(self.HPHI)
+                    out_s = lam * (ti.max(Fp[P], 0.0) - ti.min(Fm[P], 0.0))
+                    if out_s * th > q0[P]:
+                        th = q0[P] / out_s
+                    out_l = lam * (ti.max(Fp[0] - Fp[P], 0.0) - ti.min(Fm[0] - Fm[P], 0.0))
+                    if out_l * th > q0[0] - q0[P]:
+                        th = (q0[0] - q0[P]) / out_l
+            self.drain[i, j] = th
+        # across a periodic boundary the ghost cell is its image: the face there is one face
+        # of two cells, so both must scale it by the same factor (else mass is made or lost)
+        if ti.static(self.bcs[2 * d].periodic):
+            lo, hi = self._across(d)
+            ti.loop_config(serialize=self.strip_serial)  # a column or a row of cells
+            for k in range(lo, hi):
+                self._periodic_image(d, k)
+
+    @ti.func
+    def _periodic_image(self, d: ti.template(), k):
+        """The draining factors of the two ghost cells at index k across d from their images."""
+        g, n = ti.static((self.gx, self.nx) if d == 0 else (self.gy, self.ny))
+        i0, j0 = self._along(d, g - 1, k)
+        i1, j1 = self._along(d, g + n - 1, k)
+        self.drain[i0, j0] = self.drain[i1, j1]
+        i0, j0 = self._along(d, g + n, k)
+        i1, j1 = self._along(d, g, k)
+        self.drain[i0, j0] = self.drain[i1, j1]
+
+    @ti.func
+    def _gravity(self, h):
+        """g sin(zeta) h, zero in films thinner than h_min (as Physics.source without
+        friction)."""
+        return ti.select(h >= self.par[Params.H_MIN], h * self.par[Params.G_SIN], 0.0)
+
+    @ti.func
+    def _scaled(self, F, th_lo, th_hi):
+        """A face's flux scaled by the draining factor of the cell its mass leaves."""
+        out = F
+        if F[0] > 0.0:
+            out = th_lo * F
+        elif F[0] < 0.0:
+            out = th_hi * F
+        return out
+
+    @ti.func
+    def _sweep_update(self, d: ti.template(), lam, dt, serial: ti.template()):
+        """q := q - lambda (F_{m+1/2} - F_{m-1/2}) with the fluxes scaled by the draining
+        factors (+ the gravity source in the x sweep), limited, with its primitives into w;
+        then the boundary fluxes of the sweep times dt into slot 0's budget."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((a, b), (gy, gy + ny)):
+            im, jm = self._nb(i, j, d, -1)
+            ip, jp = self._nb(i, j, d, 1)
+            th = self.drain[i, j]
+            Fp = self._scaled(self._face(i, j, d), th, self.drain[ip, jp])
+            Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
+            q0 = self.q[0, i, j]
+            upd = -lam * (Fp - Fm)
+            if ti.static(d == 0):
+                # gravity along the slope, h g sin(zeta) (the only source without friction),
+                # by the trapezoidal rule between the cell's h before and after the fluxes
+                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
+            acc = self._limit(q0 + upd)
+            self.w[i, j] = self._fast_primitive(acc)
+            self.q[0, i, j] = acc
+        # the budget: what entered through the domain's faces along d (as _boundary_rates;
+        # along x a face beyond the active range carried no flux this time)
+        g, n = ti.static((gx, nx) if d == 0 else (gy, ny))
+        wl = 1.0
+        wr = 1.0
+        if ti.static(d == 0):
+            wl = ti.select(a == gx, 1.0, 0.0)
+            wr = ti.select(b == gx + nx, 1.0, 0.0)
+        lo, hi = self._across(d)
+        ti.loop_config(serialize=True)
+        for _ in range(1):  # (one thread sums in a fixed order)
+            mass = 0.0 * dt
+            small = 0.0 * dt
+            for k in range(lo, hi):
+                i0, j0 = self._along(d, g - 1, k)
+                i1, j1 = self._along(d, g, k)
+                Fl = self._scaled(self._face(i0, j0, d), self.drain[i0, j0], self.drain[i1, j1])
+                i0, j0 = self._along(d, g + n - 1, k)
+                i1, j1 = self._along(d, g + n, k)
+                Fr = self._scaled(self._face(i0, j0, d), self.drain[i0, j0], self.drain[i1, j1])
+                mass += wl * Fl[0] - wr * Fr[0]
+                if ti.static(self.seg):
+                    small += wl * Fl[self.HPHI] - wr * Fr[self.HPHI]
+            width = self.par[Params.DY] if ti.static(d == 0) else self.par[Params.DX]
+            self.bud[0, 2 * d] += dt * mass * width
+            self.bud[0, 2 * d + 1] += dt * small * width

@@ -1,0 +1,387 @@
+"""NumPy reference of the semi-discrete operator dq/dt = L(q, t) for (6.1)-(6.6).
+
+The discretisation (identical in :mod:`tiseg.solver.numerics.operator`):
+
+1. Ghost cells from the boundary conditions (inflow (6.8)-(6.9), outflow, periodic, wall).
+2. Cell primitives w = (h, u, v, phi) with Kurganov-Petrova desingularisation
+   u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)) (dimensional h_eps, NUMERICS finding 4).
+3. Slopes of w per direction: zero (first order), minmod-theta, or a WENO-type weighted slope
+   (smoothness indicators made dimensionless with h_ref, u_ref); then limited so that the
+   edge values keep h >= 0 and 0 <= phi <= 1.
+4. A central flux at each face (``numerics.flux``), zero where both neighbouring cells are
+   thinner than h_min:
+
+   * ``kt``, Kurganov-Tadmor (2000): H = (f(q_L) + f(q_R))/2 - a/2 (q_R - q_L), with the local
+     speed a = max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) over both edge states
+     (segregation wave speed (5.26) included);
+   * ``central-upwind``, Kurganov, Noelle & Petrova (2001):
+     H = (a+ f(q_L) - a- f(q_R))/(a+ - a-) + a+ a- / (a+ - a-) (q_R - q_L), with
+     a+ = max(u + c, u (1 - G'), 0) and a- = min(u - c, u (1 - G'), 0) over both edge states
+     (H = (f_L + f_R)/2 if a+ = a- = 0).
+   * ``rusanov``, the local Lax-Friedrichs flux of Rusanov (1961): the formula of ``kt``.
+
+   With ``numerics.phi_flux = "upwind"`` the h phi component becomes F_h (phi - G(phi)), F_h the
+   mass component of H and phi that of the edge state upwind of F_h (Larrouturou 1991).
+5. Viscous stress div(nu h^{3/2} D) (6.2), (6.6): face coefficient K = harmonic mean of
+   nu h^{3/2} of the two cells (zero if either is thinner than h_min), central differences with
+   the cross derivatives averaged over four cells.
+6. Source g h S (6.4) with mu_b from (3.4), (3.7), the direction u/|u| regularised as
+   u / max(|u|, u_eps); no source where h < h_min.
+
+Arrays are shaped (nc, NX, NY) as in :class:`tiseg.solver.numerics.config.Layout`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..numerics.boundaries import BOUNDARIES
+from ..numerics.config import OperatorConfig
+from ..numerics.fluxes import FLUXES, PHI_FLUXES
+from ..numerics.reconstruction import RECONSTRUCTIONS, limit_edges_np
+from ...model.physics.friction import FRICTION_LAWS
+from ...model.physics.segregation import TRANSPORTS
+from ...model.physics.viscosity import VISCOSITY
+
+SQRT2 = math.sqrt(2.0)
+
+
+class ReferenceOperator:
+    """dq/dt for a full array with ghost cells (ghosts are overwritten)."""
+
+    def __init__(self, cfg: OperatorConfig, y_centres: np.ndarray | None = None):
+        self.cfg = cfg
+        self.lay = cfg.layout
+        lay = self.lay
+        if y_centres is None:
+            y_centres = (np.arange(lay.ny) + 0.5) * cfg.dy
+        self.y = np.asarray(y_centres, dtype=float)
+        # friction as a projection after each stage (project_friction), not in the source
+        self.projected = cfg.friction_projected
+        self.law = FRICTION_LAWS[cfg.friction]
+        self.transport = TRANSPORTS[cfg.transport]
+        # the numerics components, whose NumPy twins the steps below call
+        self.bcs = tuple(BOUNDARIES[b] for b in cfg.bc)
+        self.rec = RECONSTRUCTIONS[cfg.reconstruction]
+        self.num_flux = FLUXES[cfg.flux]
+        self.phi_flux = PHI_FLUXES[cfg.phi_flux]
+
+    # ------------------------------------------------------------------ boundaries
+    def fill_ghosts(self, q: np.ndarray, t: float) -> None:
+        """Ghost cells from the boundary conditions' twins (tiseg.solver.numerics.boundaries): x
+        first (over all rows), y second (over all columns, corners included), layer k of the
+        low side before that of the high side."""
+        lay = self.lay
+        for d in (0,) if lay.is_1d else (0, 1):
+            lo, hi = self.bcs[2 * d], self.bcs[2 * d + 1]
+            for k in range(lay.gx if d == 0 else lay.gy):
+                lo.fill_np(self, q, t, d, 0, k)
+                hi.fill_np(self, q, t, d, 1, k)
+
+    # ------------------------------------------------------------------ pointwise physics
+    def primitives(self, q: np.ndarray) -> np.ndarray:
+        """w = (h, u[, v][, phi]) with Kurganov-Petrova desingularisation."""
+        c, lay = self.cfg, self.lay
+        h = np.maximum(q[lay.H], 0.0)
+        h4 = h**4
+        denom = np.sqrt(h4 + np.maximum(h4, c.h_eps**4))
+        return self.primitives_of(q, h, lambda m: SQRT2 * h * m / denom)
+
+    def primitives_of(self, q: np.ndarray, h: np.ndarray, velocity) -> np.ndarray:
+        """w of q with h = max(q_h, 0), each velocity ``velocity(momentum)`` and phi bounded."""
+        lay = self.lay
+        w = np.empty_like(q)
+        w[0] = h
+        for comp in range(1, lay.nc):
+            w[comp] = velocity(q[comp])
+        if lay.segregation:
+            # phi = h phi / h, bounded; no desingularisation (it would bias thin films to 0)
+            safe = np.where(h > 0, h, 1.0)
+            w[lay.HPHI] = np.where(h > 0, np.clip(q[lay.HPHI] / safe, 0.0, 1.0), 0.0)
+        return w
+
+    def G(self, phi):
+        """The transport function's NumPy twin, (2.17) or (2.18)."""
+        return self.transport.G_np(phi, self.cfg.alpha)
+
+    def dG(self, phi):
+        return self.transport.dG_np(phi, self.cfg.alpha)
+
+    def _weight(self, phi):
+        """The concentration a mixture law weights with: local phi with feedback."""
+        return phi if self.cfg.feedback and self.law.weighted else self.cfg.phi_ref
+
+    def mu_b(self, h, speed, phi):
+        """Basal friction coefficient of the configured law (the NumPy twin in
+        tiseg.model.physics.friction), e.g. (3.4) with (3.7)."""
+        return self.law.mu_np(self.cfg, h, speed, self._weight(phi))
+
+    def mu_start(self, h, phi):
+        """The largest coefficient at rest (mu_S(h) of a law with hysteresis)."""
+        return self.law.mu_start_np(self.cfg, h, self._weight(phi))
+
+    def flux(self, w: np.ndarray, direction: int) -> np.ndarray:
+        """Physical flux f (x) or g (y) of the primitive state w, as conserved components."""
+        lay, c = self.lay, self.cfg
+        h, u = w[0], w[1]
+        vel = u if direction == 0 else w[lay.HV]
+        f = np.empty_like(w)
+        f[lay.H] = h * vel
+        f[lay.HU] = h * u * vel
+        if not lay.is_1d:
+            f[lay.HV] = h * w[lay.HV] * vel
+        f[lay.HU if direction == 0 else lay.HV] += 0.5 * c.g_cos * h * h
+        if lay.segregation:
+            phi = w[lay.HPHI]
+            f[lay.HPHI] = h * vel * (phi - self.G(phi))
+        return f
+
+    def speed(self, w: np.ndarray, direction: int) -> np.ndarray:
+        lay, c = self.lay, self.cfg
+        vel = w[1] if direction == 0 else w[lay.HV]
+        a = np.abs(vel) + np.sqrt(c.g_cos * w[0])
+        if lay.segregation:
+            a = np.maximum(a, np.abs(vel * (1.0 - self.dG(w[lay.HPHI]))))
+        return a
+
+    def speed_range(self, w: np.ndarray, direction: int):
+        """(smallest, largest) characteristic speed: u -+ c widened by u (1 - G'(phi))."""
+        lay, c = self.lay, self.cfg
+        vel = w[1] if direction == 0 else w[lay.HV]
+        cc = np.sqrt(c.g_cos * w[0])
+        lo, hi = vel - cc, vel + cc
+        if lay.segregation:
+            s = vel * (1.0 - self.dG(w[lay.HPHI]))
+            lo, hi = np.minimum(lo, s), np.maximum(hi, s)
+        return lo, hi
+
+    def conserved(self, w: np.ndarray) -> np.ndarray:
+        q = w.copy()
+        q[1:] = w[1:] * w[0]
+        return q
+
+    # ------------------------------------------------------------------ reconstruction
+    def slopes(self, w: np.ndarray, axis: int) -> np.ndarray:
+        """Undivided slopes (edge value = w +- slope/2) along axis 1 (x) or 2 (y); zero at the
+        outermost ghost layer."""
+        s = np.zeros_like(w)
+        if not self.rec.slopes:
+            return s
+        wm = np.take(w, range(0, w.shape[axis] - 2), axis=axis)
+        w0 = np.take(w, range(1, w.shape[axis] - 1), axis=axis)
+        wp = np.take(w, range(2, w.shape[axis]), axis=axis)
+        dm, dp, dc = w0 - wm, wp - w0, 0.5 * (wp - wm)
+        inner = self.rec.slope_np(self.cfg, self.lay, dm, dp, dc)
+        limit_edges_np(self.lay, inner, w0)  # keep edge values physical
+        idx = [slice(None)] * w.ndim
+        idx[axis] = slice(1, w.shape[axis] - 1)
+        s[tuple(idx)] = inner
+        return s
+
+    # ------------------------------------------------------------------ the operator
+    def face_fluxes(self, w: np.ndarray, axis: int) -> np.ndarray:
+        """Numerical flux (step 4) at faces between cells m and m+1 along axis; shape like w with the
+        face m+1/2 stored at index m (last index unused)."""
+        c = self.cfg
+        direction = axis - 1
+        s = self.slopes(w, axis)
+        n = w.shape[axis]
+
+        def sl(a, b):
+            idx = [slice(None)] * w.ndim
+            idx[axis] = slice(a, b)
+            return tuple(idx)
+
+        wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
+        wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
+        H = self.numerical_flux(wl, wr, direction)
+        lay = self.lay
+        if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
+            lo, hi = sl(0, n - 1)[1:], sl(1, n)[1:]
+            still = w[lay.HU] == 0
+            if not lay.is_1d:
+                still &= w[lay.HV] == 0
+            both = still[lo] & still[hi]  # no mass or h phi crosses
+            # the upwind cell outruns its neighbour: at least f_u - f_d^2 / f_u crosses
+            c_n = lay.HU if direction == 0 else lay.HV
+            un = w[c_n]  # the cells' normal speeds
+            towards_r = (un[lo] > 0) & ~(un[hi] < 0)
+            towards_l = (un[hi] < 0) & ~(un[lo] > 0)
+
+            def bound(fu, fd, sF):
+                # f_u - f_d^2 / f_u where it lies above s F (tested first without the division,
+                # as the kernel does), else no bound (-inf)
+                over = (fu > 0) & (fu * fu - fd * fd > sF * fu)
+                safe = np.where(fu > 0, fu, 1.0)
+                return np.where(over, fu - fd * fd / safe, -np.inf)
+
+            f_lo = bound(
+                wl[lay.H] * np.maximum(wl[c_n], 0.0),
+                wr[lay.H] * np.maximum(wr[c_n], 0.0),
+                H[lay.H],
+            )
+            f_hi = -bound(
+                -wr[lay.H] * np.minimum(wr[c_n], 0.0),
+                -wl[lay.H] * np.minimum(wl[c_n], 0.0),
+                -H[lay.H],
+            )
+            up_r = ~both & towards_r & (f_lo > H[lay.H])
+            up_l = ~both & towards_l & (f_hi < H[lay.H])
+            floor = np.where(up_r, f_lo, np.where(up_l, f_hi, 0.0))  # finite where it applies
+            if lay.segregation:
+                p = np.where(up_r, wl[lay.HPHI], wr[lay.HPHI])  # the upwind cell's phi
+                H[lay.HPHI] = np.where(
+                    both, 0.0, np.where(up_r | up_l, floor * (p - self.G(p)), H[lay.HPHI])
+                )
+            H[lay.H] = np.where(both, 0.0, np.where(up_r | up_l, floor, H[lay.H]))
+        hc = w[0]
+        dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
+        H = np.where(dry[None], 0.0, H)
+        out = np.zeros_like(w)
+        out[sl(0, n - 1)] = H
+        return out
+
+    def numerical_flux(self, wl: np.ndarray, wr: np.ndarray, direction: int) -> np.ndarray:
+        """The face flux of step 4 between edge states wl | wr (primitives) along direction:
+        the numerical flux's twin, then (with segregation) the phi modifier's."""
+        H = self.num_flux.flux_np(self, wl, wr, direction)
+        if self.lay.segregation:
+            H = self.phi_flux.modify_np(self, H, wl, wr)
+        return H
+
+    def viscous_fluxes(self, w: np.ndarray):
+        """Face stresses P (x faces, y faces) to be subtracted from the KT fluxes of hu, hv."""
+        c, lay = self.cfg, self.lay
+        h, u = w[0], w[1]
+        Px = np.zeros_like(w)
+        Py = np.zeros_like(w)
+
+        def face_K(ha, hb):  # the component's twin (tiseg.model.physics.viscosity)
+            return VISCOSITY.face_K_np(ha, hb, c.nu, c.h_min)
+
+        Kx = face_K(h[:-1], h[1:])  # face i+1/2 at index i
+        Px[lay.HU, :-1] = Kx * (u[1:] - u[:-1]) / c.dx
+        if lay.is_1d:
+            return Px, Py
+        v = w[lay.HV]
+        dx, dy = c.dx, c.dy
+        # x faces: cross derivative du/dy averaged over cells i, i+1 (rows j-1, j+1)
+        dudy = np.zeros_like(u)
+        dudy[:-1, 1:-1] = ((u[:-1, 2:] - u[:-1, :-2]) + (u[1:, 2:] - u[1:, :-2])) / (4 * dy)
+        Px[lay.HV, :-1] = 0.5 * Kx * ((v[1:] - v[:-1]) / dx + dudy[:-1])
+        Ky = face_K(h[:, :-1], h[:, 1:])
+        Py[lay.HV, :, :-1] = Ky * (v[:, 1:] - v[:, :-1]) / dy
+        dvdx = np.zeros_like(v)
+        dvdx[1:-1, :-1] = ((v[2:, :-1] - v[:-2, :-1]) + (v[2:, 1:] - v[:-2, 1:])) / (4 * dx)
+        Py[lay.HU, :, :-1] = 0.5 * Ky * ((u[:, 1:] - u[:, :-1]) / dy + dvdx[:, :-1])
+        return Px, Py
+
+    def source(self, w: np.ndarray) -> np.ndarray:
+        """g h S of (6.4) (zero where h < h_min)."""
+        c, lay = self.cfg, self.lay
+        h, u = w[0], w[1]
+        v = np.zeros_like(u) if lay.is_1d else w[lay.HV]
+        speed = np.sqrt(u * u + v * v)
+        phi = w[lay.HPHI] if lay.segregation else c.phi_ref
+        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)  # only used where h >= h_min
+        inv = 1.0 / np.maximum(speed, c.u_eps)
+        wet = h >= c.h_min
+        S = np.zeros_like(w)
+        if self.projected:  # the friction is project_friction's
+            mu = np.zeros_like(mu)
+        S[lay.HU] = np.where(wet, h * (c.g_sin - c.g_cos * mu * u * inv), 0.0)
+        if not lay.is_1d:
+            S[lay.HV] = np.where(wet, -h * c.g_cos * mu * v * inv, 0.0)
+        return S
+
+    def project_friction(self, q: np.ndarray, tau: float, q0: np.ndarray, held=None) -> None:
+        """The projected friction over tau, in place (Physics.project_friction): momentum
+        shrinks by tau g cos(zeta) mu_b h along itself, or stops where that cancels it; mu_b
+        at the speed of q0, the state the stage started from. ``held``: the cells the static
+        friction of a law with hysteresis holds for the step (:meth:`holds`), which stay at
+        rest."""
+        c, lay = self.cfg, self.lay
+        if not self.projected or tau <= 0:
+            return
+        wet, hs, phi = self._friction_cells(q)
+        m = self._magnitude(q)
+        spd0 = self._magnitude(self.primitives(q0))
+        imp = tau * c.g_cos * self.mu_b(hs, spd0, phi) * hs
+        f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
+        f = np.where(wet, f, 1.0)
+        if held is not None:
+            f = np.where(held, 0.0, f)
+        q[lay.HU] *= f
+        if not lay.is_1d:
+            q[lay.HV] *= f
+
+    def _magnitude(self, a):
+        """|(a[1], a[HV])|: the speed of a primitive state, |h u| of a conserved one
+        (Physics.speed_mag)."""
+        lay = self.lay
+        x = a[lay.HU]
+        return np.abs(x) if lay.is_1d else np.sqrt(x * x + a[lay.HV] * a[lay.HV])
+
+    def _friction_cells(self, q):
+        """(wet, h with 1 in films, phi the friction weights with) of a conserved state."""
+        c, lay = self.cfg, self.lay
+        wet = q[lay.H] >= c.h_min
+        hs = np.where(wet, q[lay.H], 1.0)
+        phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
+        return wet, hs, phi
+
+    def holds(self, q: np.ndarray, tau: float, at_rest) -> np.ndarray:
+        """Physics.holds: of the cells ``at_rest`` at the step's start, those whose first-stage
+        state q (one Euler step of tau) has |h u| <= tau g cos(zeta) mu_S(h) h: the static
+        friction holds them for the step (a law with hysteresis; no cell otherwise)."""
+        c, lay = self.cfg, self.lay
+        if not (self.projected and self.law.hysteresis) or tau <= 0:
+            return np.zeros_like(q[lay.H], dtype=bool)
+        wet, hs, phi = self._friction_cells(q)
+        static = tau * c.g_cos * self.mu_start(hs, phi) * hs
+        return at_rest & wet & (self._magnitude(q) <= static)
+
+    def at_rest(self, q: np.ndarray) -> np.ndarray:
+        """Cells whose primitive velocity is exactly zero (the rest mask of a step's start)."""
+        w = self.primitives(q)
+        lay = self.lay
+        r = w[lay.HU] == 0
+        if not lay.is_1d:
+            r &= w[lay.HV] == 0
+        return r
+
+    def rhs(self, q: np.ndarray, t: float) -> np.ndarray:
+        """dq/dt on interior cells (ghost entries of the result are zero); fills q's ghosts."""
+        c, lay = self.cfg, self.lay
+        self.fill_ghosts(q, t)
+        w = self.primitives(q)
+        Fx = self.face_fluxes(w, 1)
+        Fy = None if lay.is_1d else self.face_fluxes(w, 2)
+        if c.viscous:
+            Px, Py = self.viscous_fluxes(w)
+            Fx = Fx - Px
+            if Fy is not None:
+                Fy = Fy - Py
+        ix, iy = lay.interior()
+        out = np.zeros_like(q)
+        ixm = slice(ix.start - 1, ix.stop - 1)
+        div = -(Fx[:, ix, iy] - Fx[:, ixm, iy]) / c.dx
+        if Fy is not None:
+            iym = slice(iy.start - 1, iy.stop - 1)
+            div = div - (Fy[:, ix, iy] - Fy[:, ix, iym]) / c.dy
+        out[:, ix, iy] = div + self.source(w)[:, ix, iy]
+        return out
+
+    def postprocess(self, q: np.ndarray) -> None:
+        """Stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
+        c, lay = self.cfg, self.lay
+        h = np.where(q[lay.H] < 0.0, 0.0, q[lay.H])  # NaN passes through to the guard
+        q[lay.H] = h
+        dry = h < c.h_min
+        q[lay.HU][dry] = 0.0
+        if not lay.is_1d:
+            q[lay.HV][dry] = 0.0
+        if lay.segregation:
+            q[lay.HPHI] = np.clip(q[lay.HPHI], 0.0, h)

@@ -1,0 +1,69 @@
+"""Stepper interface and registry."""
+
+from __future__ import annotations
+
+from ...errors import InputError
+
+STEPPERS: dict[str, type] = {}
+
+# The slot of the rate in a stage's terms: op.stage(dst, [(c, slot), ..., (c, RATE)], src, t)
+# is op.rhs(src, F, t) then op.combine(dst, [..., (c, F)]) for a spare slot F, fused (the rate is
+# used where it is computed and never stored). Steppers use it where a rate is needed once.
+RATE = -1
+
+
+def register(cls):
+    STEPPERS[cls.name] = cls
+    return cls
+
+
+class Stepper:
+    """Base class. ``slots`` is how many state slots (slot 0 = the solution) a step needs; a
+    step sees the operator through the interface of the package docstring."""
+
+    name = "base"
+    slots = 1
+    order = 1
+    # whether a cell held at rest keeps its h bit for bit through a step (every stage a
+    # limited combination of states and rates: TaichiOperator._keep_rest); the skipping of
+    # resting regions is exact only then
+    keeps_rest = True
+    # advances by dimensionally split sweeps (tiseg.solver.numerics.split) rather than stages of L
+    split = False
+    # how many steps the run has taken before this one, set by the simulation before each
+    # step: a stepper whose steps differ by their parity (the split step's sweep order) reads
+    # it, so that a resumed run steps as the run it continues
+    index = 0
+
+    def plan(
+        self, dt_cfl: float, rho: float, dt_max: float, stages: int | None = None
+    ) -> tuple[float, int]:
+        """(dt, stages) for the next step given the convective limit, the spectral radius and
+        an upper bound (the time left to the end of the run). ``stages``: a fixed stage count
+        instead of the one the stiffness asks for (benchmarks and the estimate's calibration;
+        stability is then the caller's business)."""
+        raise NotImplementedError
+
+    def step(self, op, t: float, dt: float, stages: int) -> None:
+        """Advance slot 0 of ``op`` from t to t + dt."""
+        raise NotImplementedError
+
+
+def stepper_for(numerics, name: str | None = None, is_1d: bool = False) -> Stepper:
+    """The stepper of a scene's [numerics] (or the one named), with the scene's RKC stage cap
+    (and, for the split sweeps, how many directions there are)."""
+    name = name or numerics.stepper
+    kw = {}
+    if name == "rkc":
+        kw["max_stages"] = numerics.max_stages
+    if getattr(STEPPERS.get(name), "split", False):
+        kw["dims"] = 1 if is_1d else 2
+    return make_stepper(name, **kw)
+
+
+def make_stepper(name: str, **kwargs) -> Stepper:
+    if name not in STEPPERS:
+        raise InputError(
+            f"numerics.stepper={name!r} is not known; choose one of {', '.join(sorted(STEPPERS))}"
+        )
+    return STEPPERS[name](**kwargs)
