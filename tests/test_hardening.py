@@ -340,7 +340,7 @@ def test_a_sweep_retries_a_transient_failure_once(tmp_path, monkeypatch):
             },
         }
 
-    monkeypatch.setattr(S, "execute_run", flaky)
+    monkeypatch.setattr(S.runner, "execute_run", flaky)
     sw = S.load_sweep("tiny")
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
@@ -384,7 +384,7 @@ def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch
         if line.startswith("[1/3]"):
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(S, "execute_run", slow)
+    monkeypatch.setattr(S.runner, "execute_run", slow)
     sw = S.load_sweep("tiny", grid_overrides={"flow.nu": [0.01, 0.02, 0.03]})
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"

@@ -327,7 +327,7 @@ def test_sweep_overwrite_reaches_its_members(tmp_path, monkeypatch):
     import tiseg.apps.sweep as S
 
     seen = {}
-    monkeypatch.setattr(S, "_run_on_dask", lambda *a, **kw: seen.update(kw))
+    monkeypatch.setattr(S.runner, "_run_on_dask", lambda *a, **kw: seen.update(kw))
     S.run_sweep(S.load_sweep("tiny"), tmp_path / "sw", echo=None, overwrite=True)
     assert seen.get("overwrite") is True
 

@@ -12,6 +12,8 @@ import os
 import sys
 
 from ..errors import RunInterrupted, TisegError
+from .._version import __version__
+from ..log import configure
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
@@ -46,7 +48,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    from .._version import __version__
 
     parser.add_argument("--version", action="version", version=f"tiseg {__version__}")
     _verbosity_options(parser, 0)
@@ -136,7 +137,6 @@ def _usable_std_streams() -> None:
 
 
 def _main(argv: list[str] | None) -> int:
-    from ..log import configure
 
     parser = build_parser()
     args = parser.parse_args(argv)

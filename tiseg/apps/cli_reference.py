@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from .cli import build_parser
 
 
 def _children(parser: argparse.ArgumentParser):
@@ -16,7 +17,6 @@ def _children(parser: argparse.ArgumentParser):
 
 
 def markdown() -> str:
-    from .cli import build_parser
 
     old = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = "100"  # argparse wraps help to the terminal width

@@ -67,6 +67,7 @@ import numpy as np
 from ..solver.numerics.config import config_from_scene
 from ..model.physics.viscosity import VISCOSITY
 from ..model.physics.friction import FRICTION_LAWS
+from ..solver.timestepping import stepper_for
 
 # Flow-model constants (see the module docstring for where they come from).
 HEAD_THICKNESS = 2.5  # coarse-rich head thickness / h0 before fingering
@@ -265,7 +266,6 @@ def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, flo
 def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = None) -> dict:
     """Steps, operator evaluations and the per-step (t, dt, stages, active cells) of a run."""
     from ..run.simulation import ACTIVE_MARGIN, step_limits
-    from ..solver.timestepping import stepper_for
 
     model = model or flow_model(scene)
     num = scene.numerics

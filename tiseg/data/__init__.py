@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path, PurePath
+from ..errors import InputError
+from ..log import note
 
 # A wheel installs packages as plain folders, so these are real paths (pathlib.Path).
 SCENE_DIR = Path(str(resources.files(__name__) / "scenes"))
@@ -33,8 +35,6 @@ def builtin_file(path, folder: Path, kind: str) -> Path | None:
     that no longer exists maps onto its built-in (:func:`legacy_path`), with a note."""
     import difflib
 
-    from ..errors import InputError
-
     text = str(path)
     if (
         isinstance(path, str)
@@ -53,8 +53,6 @@ def builtin_file(path, folder: Path, kind: str) -> Path | None:
         )
     old = legacy_path(text)
     if old is not None:
-        from ..log import note
-
         note(f"{text} moved into the package: using the built-in {kind} {old.stem!r}")
     return old
 

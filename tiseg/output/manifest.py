@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from .diagnostics import write_json_atomic
 
 MANIFEST_NAME = ".tiseg-files.json"
 FORMAT = "tiseg-run-files"
@@ -47,7 +48,6 @@ class Manifest:
         return cls(d["files"], d.get("saved") is True)
 
     def write(self, folder) -> None:
-        from .diagnostics import write_json_atomic
 
         write_json_atomic(
             Path(folder) / MANIFEST_NAME,

@@ -35,6 +35,9 @@ import netCDF4
 import numpy as np
 
 from .atomic import replacing
+from .._version import __version__
+from ..errors import InputError
+from ..errors import TisegError
 
 TIME_UNITS = "seconds since 2000-01-01 00:00:00"
 REFERENCES = (
@@ -115,7 +118,6 @@ class FieldsWriter:
         return ds
 
     def _define(self, ds, x, y, attrs: dict) -> None:
-        from .._version import __version__
 
         now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
         ds.setncattr("Conventions", "CF-1.8")
@@ -224,8 +226,6 @@ class FieldsWriter:
                 + (f" up to t={t_max!r}" if t_max is not None else "")
             )
         if shape is not None and tuple(grid) != tuple(shape):
-            from ..errors import InputError
-
             raise InputError(
                 f"{str(path)!r} holds fields on a {grid[1]} x {grid[0]} grid, the run's scene "
                 f"has {shape[1]} x {shape[0]} cells: it is not this run's fields file; put the "
@@ -249,7 +249,6 @@ class FieldsWriter:
         self.shape = (ds.dimensions["y"].size, ds.dimensions["x"].size)
         self.count = keep
         self._last_t = float(kept[-1]) if keep else -math.inf
-        from .._version import __version__
 
         now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
         history = str(getattr(ds, "history", ""))
@@ -365,8 +364,6 @@ def read_fields(path):
     snapshot (its "time" would read as 9.97e36 s)."""
     import xarray as xr
 
-    from ..errors import InputError
-
     try:
         ds = xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
@@ -385,7 +382,6 @@ def reading(path):
     """Errors of the NetCDF / HDF5 library while the data of ``path`` are read (lazily, after
     :func:`read_fields` opened it) become one InputError line: a damaged data block is a
     damaged file, not a bug of tiseg. ``path``: the file, or the run folder that holds it."""
-    from ..errors import InputError, TisegError
 
     path = Path(path) / "fields.nc" if Path(path).is_dir() else Path(path)
 

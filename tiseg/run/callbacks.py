@@ -33,6 +33,7 @@ from typing import Callable
 
 from ..errors import InputError
 from .schedules import Schedule
+from ..log import bar_disable
 
 
 @dataclass
@@ -111,8 +112,6 @@ class ProgressBar:
 
     def __init__(self, total: float, name: str, start: float = 0.0):
         from tqdm import tqdm
-
-        from ..log import bar_disable
 
         self.bar = tqdm(
             total=total,

@@ -77,6 +77,8 @@ import numpy as np
 
 from ..errors import InputError, TisegError
 from ..output.atomic import replacing
+from .._version import __version__
+from ..output import DiagnosticsWriter, write_text_atomic
 
 CHECKPOINT_NAME = "checkpoint.npz"
 FORMAT = "tiseg-checkpoint"
@@ -108,7 +110,6 @@ def state_arrays(
     **extra,
 ) -> dict:
     """The checkpoint dict of ``sim`` (its current state unless q/budget/meta are given)."""
-    from .._version import __version__
 
     op = sim.op
     meta = dict(meta) if meta is not None else sim.checkpoint_meta()
@@ -351,8 +352,6 @@ def append_diagnostics(path, keep_rows: int, t: float | None = None):
     refused, the file stays as it is and can be mended by hand."""
     import csv
     import io
-
-    from ..output import DiagnosticsWriter, write_text_atomic
 
     path = Path(path)
     try:

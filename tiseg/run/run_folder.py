@@ -35,6 +35,7 @@ from .schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, W
 from ..output.diagnostics import DiagnosticsWriter, write_text_atomic, write_units
 from ..output.manifest import MANIFEST_NAME, Manifest, record
 from ..output.netcdf import FieldsFileError, FieldsWriter
+from ..log import logger
 
 DIAGNOSTICS = "diagnostics.csv"
 # what a run folder writes there itself (listed in the manifest before the first of them)
@@ -395,7 +396,6 @@ class RunFolder:
         record(self.path, [kept.name])
         if old.exists():
             old.replace(kept)
-        from ..log import logger
 
         logger.warning(
             "warning: %s; it was moved to %s and a new fields.nc starts at t=%.9g s",

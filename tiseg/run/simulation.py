@@ -39,27 +39,29 @@ import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 
 from .. import backend
 from . import checkpoint as _ckpt
-from .callbacks import Callback, ProgressBar, Snapshot
-from ..errors import InputError, RunInterrupted, TisegError
-from .guards import StateGuard, Violation
+from .callbacks import Callback, ProgressBar
+from .dispatch import CallbackDispatch
+from .failures import FailureChecks, SimulationError
+from .state_access import StateAccess
+from ..errors import InputError, RunInterrupted
+from .guards import StateGuard
 from ..setup.initial import initial_state
 from .limits import check_memory
 from ..solver.numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
-from .schedules import IterationInterval, Schedule, SpecifiedTimes
+from .schedules import IterationInterval, SpecifiedTimes
 from ..setup.schema import compiled_keys
 from ..setup.sections import SECTIONS
 from ..solver.timestepping import stepper_for
+from ..solver.numerics.operator import TaichiOperator
+from ..solver.numerics.operator import StabilityNumbers
+from .run_folder import RunFolder
 
 # Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
 # (the stencil's reach): the range stays exact (see TaichiOperator._combine).
 ACTIVE_MARGIN = 3
-
-MIN_STEP_FRACTION = 1e-9  # a step this much below the CFL limit: stiffness out of range
-GUARD_ORDER = -100  # the guard callback runs before everything else after a step
 
 
 def step_limits(
@@ -122,19 +124,6 @@ class StepPlan:
     lands: bool = False  # it ends exactly on the stop time
 
 
-class SimulationError(TisegError):
-    """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
-
-    ``violation``: the :class:`tiseg.run.guards.Violation` (None for a collapsed step with no
-    broken bound); ``files``: paths of the saved last-good and offending states (may be empty).
-    """
-
-    def __init__(self, message: str, violation: Violation | None = None, files=()):
-        super().__init__(message)
-        self.violation = violation
-        self.files = tuple(files)
-
-
 @dataclass
 class RunStats:
     steps: int = 0
@@ -143,7 +132,7 @@ class RunStats:
     history: list = field(default_factory=list)
 
 
-class Simulation:
+class Simulation(StateAccess, CallbackDispatch, FailureChecks):
     """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``.
 
     Taichi is initialised on first use (``arch`` default cpu, the scene's precision). Once it
@@ -168,7 +157,6 @@ class Simulation:
         exact for the same steps: False only to compare); ``check_every``: guard check every that
         many steps (0: only on steps that make a snapshot); ``mass_tol``: relative
         mass-balance tolerance of the guard (tiseg.run.guards)."""
-        from ..solver.numerics.operator import TaichiOperator
 
         self.scene = scene
         prec = precision or scene.numerics.precision
@@ -280,94 +268,7 @@ class Simulation:
         self.op.set_params(cfg)
         self.guard.set_params()  # h_min of the phi rule
 
-    def set_state(self, h, u=None, v=None, phi=None) -> None:
-        """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
-        (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
-        afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
-        lay = self.layout
-        shape = (lay.ny, lay.nx)
-
-        def arr(name, a, default):
-            if a is None:
-                return np.full(shape, float(default))
-            a = np.asarray(a, dtype=float)
-            if a.shape != shape:
-                raise InputError(
-                    f"set_state: {name} has shape {a.shape}, expected {shape} (ny, nx)"
-                )
-            if not np.all(np.isfinite(a)):
-                raise InputError(f"set_state: {name} holds NaN or Inf")
-            return a
-
-        h = arr("h", h, 0.0)
-        if np.any(h < 0):
-            raise InputError(f"set_state: h must be >= 0 (min {h.min():.3g})")
-        if v is not None and lay.is_1d:
-            raise InputError("set_state: a 1D simulation has no v")
-        if phi is not None and not lay.segregation:
-            raise InputError("set_state: this scene has no segregation, so no phi")
-        u = arr("u", u, 0.0)
-        q = np.zeros((lay.nc, lay.nx, lay.ny))
-        q[lay.H], q[lay.HU] = h.T, (h * u).T
-        if not lay.is_1d:
-            q[lay.HV] = (h * arr("v", v, 0.0)).T
-        if lay.segregation:
-            phi = arr("phi", phi, self.scene.flow.phi0)
-            if np.any((phi < 0) | (phi > 1)):
-                raise InputError("set_state: phi must lie in [0, 1]")
-            q[lay.HPHI] = (h * phi).T
-        self.set_conserved(q)
-        self.op.reset_budget()
-        self.initial_totals = self.totals()
-        self.guard.keep(self.checkpoint_meta())
-
-    def state(self) -> dict[str, np.ndarray]:
-        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as :meth:`fields`)."""
-        return self.fields()
-
     # ------------------------------------------------------------------ callbacks
-    def add_callback(
-        self,
-        func,
-        schedule: Schedule | None = None,
-        name: str | None = None,
-        snapshot: bool = False,
-        order: int = 0,
-    ) -> Callback:
-        """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.run.callbacks`),
-        or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
-        if isinstance(func, Callback):
-            cb = func
-        elif schedule is None:
-            raise InputError(
-                "add_callback: give a schedule (e.g. IterationInterval(10) or "
-                "TimeInterval(0.1) from tiseg.run.schedules)"
-            )
-        else:
-            cb = Callback(func, schedule, name, snapshot, order)
-        self.callbacks[cb.name] = cb
-        return cb
-
-    def remove_callback(self, name: str) -> None:
-        self.callbacks.pop(name, None)
-
-    @property
-    def check_every(self) -> int:
-        """Steps between guard checks (0: only on steps that make a snapshot)."""
-        return self._check_every
-
-    @check_every.setter
-    def check_every(self, n: int) -> None:
-        if not (isinstance(n, int) and n >= 0):
-            raise InputError(f"check_every={n!r} must be an integer >= 0")
-        self._check_every = n
-        self.callbacks.pop("guard", None)
-        if n:
-            # before the step's snapshots (negative order): nothing is written unchecked
-            self.callbacks["guard"] = Callback(
-                lambda sim: sim._guard(), IterationInterval(n), name="guard", order=GUARD_ORDER
-            )
-
     # ------------------------------------------------------------------ state
     def checkpoint_meta(self) -> dict:
         """The numbers besides slot 0 and the budget that a checkpoint needs (tiseg.run.checkpoint)."""
@@ -397,49 +298,6 @@ class Simulation:
         }
         self._io_counts = (int(ck.get("snapshots", 0)), int(ck.get("diag_rows", 0)))
         self.guard.keep(self.checkpoint_meta())
-
-    def conserved(self, slot: int = 0) -> np.ndarray:
-        """Interior conserved variables (nc, nx, ny)."""
-        ix, iy = self.layout.interior()
-        return self.op.get(slot)[:, ix, iy]
-
-    def set_conserved(self, q_interior: np.ndarray) -> None:
-        full = self.op.get(0)
-        ix, iy = self.layout.interior()
-        full[:, ix, iy] = q_interior
-        self.op.set(0, full)
-
-    def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
-        """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.
-
-        Velocities and phi are hu/h etc. where h > 0 and 0 on the empty chute."""
-        lay = self.layout
-        q = self.conserved(slot)
-        h = q[lay.H]
-        safe = np.where(h > 0, h, 1.0)
-        out = {"h": h.T.copy(), "u": np.where(h > 0, q[lay.HU] / safe, 0.0).T.copy()}
-        if not lay.is_1d:
-            out["v"] = np.where(h > 0, q[lay.HV] / safe, 0.0).T.copy()
-        if lay.segregation:
-            out["phi"] = np.clip(np.where(h > 0, q[lay.HPHI] / safe, 0.0), 0.0, 1.0).T.copy()
-        return out
-
-    def totals(self, slot: int = 0) -> dict[str, float]:
-        """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
-        fixed order on the device: deterministic for any thread count."""
-        lay = self.layout
-        sh, shphi = self.op.sums(slot)
-        cell = self.scene.dx * (self.scene.dy if not lay.is_1d else 1.0)
-        return {"mass": sh * cell, "small_mass": shphi * cell if lay.segregation else float("nan")}
-
-    def budget(self, slot: int = 0) -> dict[str, float]:
-        """Mass and small-particle mass that entered through the boundaries since the start."""
-        b = self.op.budget(slot)
-        scale = 1.0 if not self.layout.is_1d else 1.0 / self.scene.dy
-        return {
-            "mass_in": float((b[0] + b[2]) * scale),
-            "small_mass_in": float((b[1] + b[3]) * scale),
-        }
 
     def wall_time(self) -> float:
         """Cumulative wall time of the run [s] (continues across resumes)."""
@@ -471,7 +329,6 @@ class Simulation:
         if self.active_region and self.op.active[0] == self.op.active[1]:
             # nothing can change (every cell is a dry film or held at rest, far from any
             # other): no stability limit, the step goes to the stop time at no cost
-            from ..solver.numerics.operator import StabilityNumbers
 
             stab = StabilityNumbers(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         else:
@@ -580,140 +437,12 @@ class Simulation:
         self._after_step(t0, t1, pending)
         return self.last_step
 
-    def _check_progress(self, p: StepPlan) -> None:
-        """Stop a run that cannot get anywhere: a step too small to move the clock, or one
-        shorter than MIN_STEP_FRACTION of the convective limit (RKC's stage cap or an
-        explicit stepper's stability limit under a stiffness out of range, a huge flow.nu
-        say): the message says which term."""
-        stab = p.stability
-        small = (
-            math.isfinite(p.dt_cfl) and p.dt < MIN_STEP_FRACTION * p.dt_cfl and not p.lands
-        )  # a last step may be short: what was left
-        if p.t_next > self.t and not small:
-            return
-        why = (
-            f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
-            if p.t_next <= self.t
-            else f"dt={p.dt:.3g} s is {p.dt / p.dt_cfl:.2g} of the convective limit "
-            f"{p.dt_cfl:.3g} s"
-        )
-        self._fail(
-            None,
-            f"{why} (step {self.stats.steps}); the stiffness is out of range: "
-            f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
-            f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters",
-        )
-
     def advance(self, t_target: float, on_step=None) -> None:
         """Step until t == t_target exactly (the last step lands there)."""
         while self.t < t_target - 1e-12 * max(1.0, t_target):
             info = self.step(t_target)
             if on_step is not None:
                 on_step(info)
-
-    def _pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
-        """(time, snapshot callbacks) for every scheduled snapshot time in (t0, t1], in order."""
-        by_time: dict[float, list[Callback]] = {}
-        for cb in self.callbacks.values():
-            if cb.snapshot:
-                for tk in cb.schedule.times_in(t0, t1):
-                    by_time.setdefault(tk, []).append(cb)
-        return sorted(by_time.items(), key=lambda item: item[0])
-
-    def _snapshot(self, tk: float, t0: float, t1: float) -> Snapshot:
-        """The state at tk in (t0, t1]: slot 0 when tk is the step's end, else interpolated
-        linearly from the state before the step (slot PREV) into slot SNAP."""
-        if t1 - tk <= 1e-12 * max(1.0, abs(t1)):
-            return Snapshot(self, tk, 0, self.stats.steps, 1.0)
-        theta = (tk - t0) / (t1 - t0)
-        self.op.blend(self.SNAP, self.PREV, 0, theta)
-        return Snapshot(self, tk, self.SNAP, self.stats.steps, theta)
-
-    def _after_step(self, t0: float, t1: float, pending) -> None:
-        """The callbacks of the step: those due with a negative order (the guard), the
-        snapshots at the scheduled times the step crossed, then the other callbacks due, in
-        increasing order (the checkpoint last)."""
-        steps = self.stats.steps
-        due = sorted(
-            (
-                cb
-                for cb in self.callbacks.values()
-                if not cb.snapshot and cb.schedule.due(t0, t1, steps)
-            ),
-            key=lambda c: c.order,
-        )  # every schedule is asked (wall clocks)
-        before = [cb for cb in due if cb.order < 0]
-        if (pending or any(cb.checked for cb in due)) and "guard" not in (cb.name for cb in before):
-            self._guard()  # nothing is saved from an unchecked state
-        for cb in before:
-            cb(self)
-        for tk, cbs in pending:
-            snap = self._snapshot(tk, t0, t1)
-            for cb in cbs:
-                cb(snap)
-        for cb in due:
-            if cb.order >= 0:
-                cb(self)
-
-    def _initial_snapshots(self) -> None:
-        """Snapshot callbacks whose schedule holds the current time get the current state."""
-        snap = Snapshot(self, self.t, 0, self.stats.steps, 1.0)
-        for cb in list(self.callbacks.values()):
-            if cb.snapshot and cb.schedule.contains(self.t):
-                cb(snap)
-
-    def check_state(self) -> None:
-        """Stop with a :class:`SimulationError` naming time, step, cell and field when the state
-        holds NaN/Inf, h < 0, phi outside [0, 1] on a wet cell, or breaks the mass balance."""
-        self._guard()
-
-    def _guard(self, full: bool = True) -> None:
-        """One guard check (tiseg.run.guards); on success the state becomes the last good one."""
-        v = self.guard.scan(self.t, self.stats.steps)
-        if v is None and full:
-            v = self.guard.check_mass(
-                self.totals(), self.initial_totals, self.budget(), self.t, self.stats.steps
-            )
-        if v is not None:
-            self._fail(v, v.message())
-        if full:
-            self.guard.keep(self.checkpoint_meta())
-
-    def _fail(self, violation: Violation | None, message: str):
-        """Raise SimulationError; with a failure folder, save the last good and this state."""
-        files = []
-        if self.failure_dir is not None:
-            try:
-                files = self._save_failure(message)
-            except OSError as exc:
-                message += f" (could not save the failure states: {exc})"
-        if files:
-            good = self.guard.good_meta or {}
-            message += (
-                f"; last good state (t={good.get('t', float('nan')):.9g} s, step "
-                f"{good.get('steps', '?')}) and the offending state saved in "
-                f"{files[0].parent}/"
-            )
-        raise SimulationError(message, violation, files)
-
-    def _save_failure(self, message: str) -> list[Path]:
-        d = Path(self.failure_dir)
-        files = []
-        good = self.guard.last_good()
-        if good is not None:
-            q, bud, meta = good
-            files.append(
-                _ckpt.write_npz_atomic(
-                    d / "last_good.npz",
-                    _ckpt.state_arrays(self, q=q, budget=bud, meta=meta, reason=message),
-                )
-            )
-        files.append(
-            _ckpt.write_npz_atomic(
-                d / "offending.npz", _ckpt.state_arrays(self, reason=message, **self.fields())
-            )
-        )
-        return files
 
     # ------------------------------------------------------------------ the loop
     def output_times(self, t_end: float | None = None) -> list[float]:
@@ -750,7 +479,6 @@ class Simulation:
         ``overwrite`` (:mod:`tiseg.run.run_folder`). ``signals``: SIGTERM and SIGINT stop
         the run at the end of the current step, with a checkpoint when there is a folder, by
         raising :class:`RunInterrupted` (the command line exits 143 / 130)."""
-        from .run_folder import RunFolder
 
         t_end = self.scene.t_end if t_end is None else float(t_end)
         if not (math.isfinite(t_end) and t_end >= 0):

@@ -25,6 +25,8 @@ import sys
 from pathlib import Path
 
 from ...errors import TisegError
+from ... import backend
+from ...log import info, logger, stderr_line
 
 
 def cpu_model() -> str:
@@ -82,7 +84,6 @@ def machine_line(info: dict) -> str:
 
 def available_backends() -> list[str]:
     """["cpu"] plus "gpu" where a CUDA or Metal device really works (without initialising)."""
-    from ... import backend
     import taichi as ti
 
     return ["cpu"] + (["gpu"] if backend._probe_gpu(ti) is not None else [])
@@ -91,7 +92,6 @@ def available_backends() -> list[str]:
 def log_stderr(message: str) -> None:
     """Progress lines of the benchmarks: the ``tiseg`` logger (stderr, not with -q); stdout
     carries results and JSON. Without logging configured (a benchmark child) plain stderr."""
-    from ...log import info, logger, stderr_line
 
     if logger.handlers:
         info(message)

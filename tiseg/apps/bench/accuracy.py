@@ -93,6 +93,9 @@ from .accuracy_runner import (  # noqa: F401
 )
 from ...post.problems import front_position, transport_exact  # noqa: F401
 from ...post.problems.solutions import channel_cells as _channel_cells  # noqa: F401
+from ... import backend as _backend
+from ...errors import InputError
+from ...output import write_json_atomic, write_text_atomic
 
 # the T6b transport problem's numbers (tiseg/data/problems/transport.toml)
 _T6B = PROBLEMS["transport"]
@@ -120,8 +123,6 @@ def run_study(
 
     Each (precision, backend) runs in a child process unless there is only one combination
     and ``in_process`` is not False (then this process's Taichi is used: tests, quick runs)."""
-    from ... import backend as _backend
-    from ...errors import InputError
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -175,7 +176,6 @@ def run_study(
 def write_outputs(rows: list[dict], out_dir, machine: dict, **extra) -> dict:
     """Score relative errors, mark the Pareto fronts and write accuracy.csv, one PNG per
     problem, summary.json and summary.md into out_dir; return the summary."""
-    from ...output import write_json_atomic, write_text_atomic
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

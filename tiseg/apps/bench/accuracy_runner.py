@@ -11,6 +11,9 @@ from typing import Sequence
 import numpy as np
 
 from .accuracy_points import DEFAULT_SCHEME, PROBLEMS, _numerics, scheme_label
+from ...errors import TisegError
+from ...solver.timestepping import stepper_for
+from ... import backend
 
 
 # On a shared machine other jobs steal cores at random moments and a parallel kernel waits for
@@ -84,9 +87,7 @@ def run_group(points: Sequence[dict], quick: bool, precision: str, backend_name:
     which needs the most state slots) and its stepper swapped per point: compiling costs
     seconds per simulation, more than most of these runs. Each point is warmed up (its
     combination kernels and the field export compile on first use), then reset and timed."""
-    from ...errors import TisegError
     from ...run.simulation import Simulation
-    from ...solver.timestepping import stepper_for
 
     p0 = points[0]
     prob = PROBLEMS[p0["problem"]]
@@ -138,7 +139,6 @@ def run_points(
 
     ``reinit``: re-initialise Taichi before each simulation (children do, so that the fields
     of hundreds of simulations do not pile up in one runtime); in-process callers keep theirs."""
-    from ... import backend
 
     groups: dict[tuple, list[int]] = {}
     for i, pt in enumerate(points):

@@ -35,6 +35,12 @@ import time
 from pathlib import Path
 
 from . import child_env, log_stderr, machine_info
+from ... import backend
+from ...post.render import FrameRenderer
+from ...errors import TisegError
+from . import throughput
+from . import available_backends
+from ...errors import InputError
 
 FULL = {
     "throughput_grid": None,
@@ -211,8 +217,6 @@ def viewer_loop(
 ) -> dict:
     """The viewer's work without its window: per frame, steps and the colour kernel into a
     NumPy image. Runs in its own process (``python -m tiseg.apps.bench.gpu viewer-loop ...``)."""
-    from ... import backend
-    from ...post.render import FrameRenderer
     from ...run.simulation import Simulation
 
     backend.init(arch, precision)
@@ -236,8 +240,6 @@ def viewer_loop(
 
 def throughput_rows(arch: str, grid, quick: bool, log) -> list[dict]:
     """Full-physics operator and step throughput, f32 and f64, on the CPU and on ``arch``."""
-    from ...errors import TisegError
-    from . import throughput
 
     rows = []
     backends = ["cpu"] + ([arch] if arch != "cpu" else [])
@@ -290,11 +292,7 @@ def vulkan_available() -> bool:
 def run_check(arch: str = "gpu", quick: bool = False, out_dir=None, log=log_stderr) -> dict:
     """Every measurement of the module docstring; returns the report (and writes it)."""
     if arch == "gpu":
-        from . import available_backends
-
         if "gpu" not in available_backends():
-            from ...errors import InputError
-
             raise InputError(
                 "no CUDA or Metal GPU is available here: run the GPU check on a "
                 "machine with one, or check the code path with --arch vulkan "

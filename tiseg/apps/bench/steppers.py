@@ -29,6 +29,10 @@ from typing import Sequence
 import numpy as np
 
 from ...errors import InputError
+from ... import backend
+from ...solver.timestepping import STEPPERS as KNOWN
+from . import machine_info
+from . import machine_line
 
 STEPPERS = ("rkc", "ssprk3", "ssprk2", "ssprk4_2", "ssprk10_4", "euler")
 REFERENCE_STEPPER = "ssprk3"
@@ -127,10 +131,7 @@ def measure(
     log=None,
 ) -> dict:
     """Measure every stepper from the run's snapshots; return the report (see module doc)."""
-    from ... import backend
     from ...run.simulation import Simulation
-    from ...solver.timestepping import STEPPERS as KNOWN
-    from . import machine_info
     from .accuracy import pareto_front
 
     run_dir = Path(run_dir)
@@ -270,7 +271,6 @@ def verdict(report: dict) -> str:
 
 
 def markdown(report: dict) -> str:
-    from . import machine_line
 
     out = [
         f"# Time steppers from the states of run `{Path(report['run']).name}` "

@@ -39,6 +39,10 @@ from pathlib import Path
 import numpy as np
 
 from . import available_backends, log_stderr, machine_info, machine_line, run_child
+from ... import backend
+from ...solver.reference import ReferenceOperator
+from ... import backend as _backend
+from ...errors import InputError
 
 PAPER_GRID = (1125, 375)  # 750 cells per metre on 1.5 m x 0.5 m
 QUICK_GRID = (96, 32)
@@ -189,7 +193,6 @@ class _Variant:
     """One variant's simulation and the callables that are timed."""
 
     def __init__(self, name: str, nx: int, ny: int):
-        from ... import backend
         from ...run.simulation import Simulation
 
         self.name = name
@@ -233,7 +236,6 @@ def measure_variants(
     ``repeats`` rounds, keeping each one's minimum: a burst of load from other jobs hits one
     round of all variants alike instead of one variant's whole measurement."""
     import taichi as ti
-    from ...solver.reference import ReferenceOperator
 
     vs = []
     for name in names:
@@ -308,7 +310,6 @@ def measure(
     log=None,
 ) -> dict:
     """Every variant plus the bandwidth for one (precision, backend) in this process."""
-    from ... import backend
 
     backend.init(backend_name, precision, threads)
     st = backend.state()
@@ -410,8 +411,6 @@ def run_benchmark(
     """Measure every (precision, backend) and return the report (see the module docstring).
 
     Children are used unless there is one combination and ``in_process`` is not False."""
-    from ... import backend as _backend
-    from ...errors import InputError
 
     if nx is None or ny is None:
         gx, gy = QUICK_GRID if quick else PAPER_GRID

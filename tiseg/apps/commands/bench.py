@@ -13,6 +13,7 @@ from ...backend import ARCHS
 from ...solver.numerics.config import FLUXES, PHI_FLUXES, SPLIT_STEPPERS
 from ...setup.scene import STEPPERS as STEPPER_CHOICES
 from .common import check_threads, print_json, stdout_for_json
+from ...errors import InputError
 
 
 def register(sub) -> None:
@@ -207,7 +208,6 @@ def _add_machine_options(p, precisions) -> None:
 
 def run_accuracy(args) -> int:
     from ..bench import accuracy, log_stderr
-    from ...errors import InputError
 
     check_threads(args.threads)
     for c in args.cfl:
@@ -246,7 +246,6 @@ def run_accuracy(args) -> int:
 
 def run_throughput(args) -> int:
     from ..bench import log_stderr, throughput
-    from ...errors import InputError
 
     for name in ("nx", "ny"):
         v = getattr(args, name)
@@ -273,7 +272,6 @@ def run_throughput(args) -> int:
 
 def run_steppers(args) -> int:
     from ..bench import log_stderr, steppers
-    from ...errors import InputError
 
     check_threads(args.threads)
     run_dir = Path(args.run_dir)

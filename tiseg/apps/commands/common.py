@@ -15,6 +15,7 @@ from ...errors import InputError
 from ...model.material import Material
 from ...model.physics.segregation import TRANSPORTS
 from ...output.diagnostics import json_clean
+from ...backend import threads_problem
 
 
 def add_material_options(p) -> None:
@@ -55,7 +56,6 @@ def positive(name: str, value: float) -> float:
 
 def check_threads(threads: int) -> None:
     """The --threads option of every command that runs kernels."""
-    from ...backend import threads_problem
 
     if threads < 0:
         raise InputError(f"--threads={threads}: must be >= 0 (0 = all cores)")

@@ -10,6 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...backend import ARCHS
+from ...post.analysis import analyse_run
+from ...errors import InputError
 
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
 # what the demo writes beside the run's files (a rerun replaces them without asking)
@@ -42,8 +44,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ...post.analysis import analyse_run
-    from ...errors import InputError
     from ..figures.stability import make_all
     from ...output import write_json_atomic
     from ...run.run_folder import check_fresh_folder

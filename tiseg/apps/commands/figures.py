@@ -13,13 +13,14 @@ import shutil
 from pathlib import Path
 
 from .common import add_material_options, check_output_folder, material_from_args
+from ...errors import InputError
+from ...errors import require
 
 # the repository's README media (a source checkout or an editable install only)
 ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets" / "figures"
 
 
 def _assets_dir() -> Path:
-    from ...errors import InputError
 
     if not (ASSETS_DIR.parents[1] / "pyproject.toml").is_file():
         raise InputError(
@@ -32,7 +33,6 @@ def _assets_dir() -> Path:
 
 def _run_stability(args) -> int:
     from ..figures.stability import make_all
-    from ...errors import require
 
     require(20 <= args.dpi <= 600, f"--dpi={args.dpi!r} must lie in [20, 600]")
     m = material_from_args(args)
@@ -118,7 +118,6 @@ def _fingers_options(q) -> None:
 
 
 def _run_fingers(args) -> int:
-    from ...errors import require
     from ..figures.fingers import FILES, make_all, shrink_copy
 
     require(20 <= args.dpi <= 600, f"--dpi={args.dpi!r} must lie in [20, 600]")
@@ -167,7 +166,6 @@ def _run_fingers(args) -> int:
 
 
 def _run_deposit(args) -> int:
-    from ...errors import require
     from ..figures.deposit import deposit_figure
 
     require(20 <= args.dpi <= 600, f"--dpi={args.dpi!r} must lie in [20, 600]")

@@ -6,6 +6,9 @@ import math
 
 from ...post.analysis.deposit import deposit_when, still_moving
 from .common import print_json
+from ...post.analysis.fingers import analyse_run
+from ...errors import require
+from ...output.netcdf import reading
 
 
 def register(sub) -> None:
@@ -95,9 +98,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ...post.analysis.fingers import analyse_run
-    from ...errors import require
-    from ...output.netcdf import reading
 
     require(
         args.time is None or (math.isfinite(args.time) and args.time >= 0),

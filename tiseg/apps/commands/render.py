@@ -6,6 +6,8 @@ import math
 from pathlib import Path
 
 from .common import print_json
+from ...errors import InputError
+from ...output.netcdf import reading
 
 
 def register(sub) -> None:
@@ -59,9 +61,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ...errors import InputError
     from ...post.render.colours import canonical_field
-    from ...output.netcdf import reading
     from ...post.render.movie import refuse_link, render_run
 
     try:

@@ -20,6 +20,9 @@ from .common import (
     load_scene_args,
     print_json,
 )
+from ...errors import InputError
+from ... import backend
+from .estimate import print_estimate
 
 
 def register(sub) -> None:
@@ -73,7 +76,6 @@ def register(sub) -> None:
 
 def _check_args(args) -> None:
     """Options that are wrong whatever the scene."""
-    from ...errors import InputError
 
     check_threads(args.threads)
     if args.movie is None:
@@ -134,7 +136,6 @@ def _check_args(args) -> None:
 def _backend_first(args, precision: str) -> None:
     """Refuse --arch gpu where there is no GPU before any folder is made (this initialises
     Taichi for gpu/auto; the CPU is left to Simulation)."""
-    from ... import backend
 
     if args.arch != "cpu":
         backend.init(args.arch, precision, args.threads)
@@ -162,8 +163,6 @@ def run(args) -> int:
     else:
         scene = load_scene_args(args)
         if args.estimate:
-            from .estimate import print_estimate
-
             print_estimate(scene, args.arch, args.threads, as_json=args.json)
             return 0
         out = Path(args.out) if args.out else Path("runs") / scene.name
@@ -245,7 +244,6 @@ def _movie(args, sim):
     """The movie recorder asked for with --movie (one frame per output time), or None."""
     if getattr(args, "movie", None) is None:
         return None
-    from ...errors import InputError
     from ...post.render.colours import canonical_field
     from ...post.render.movie import MovieRecorder
 

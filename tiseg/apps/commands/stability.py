@@ -8,6 +8,7 @@ import numpy as np
 
 from ...errors import require
 from .common import add_material_options, material_from_args, print_json
+from .common import check_figure_path
 
 DEFAULT_K = [0.01, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0, 100.0]
 
@@ -209,8 +210,6 @@ def run(args) -> int:
     k = _check_wavenumbers("k", DEFAULT_K if args.k is None else args.k)
     ky = None if args.ky is None else _check_wavenumbers("ky", args.ky)
     if args.plot:
-        from .common import check_figure_path
-
         check_figure_path(args.plot)
     out = analyse(bs, k, ky, args.precision)
     if args.plot:

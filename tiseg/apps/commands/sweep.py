@@ -9,6 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...backend import ARCHS
+from ...errors import InputError
+from ...log import info
+from ...log import note
 
 
 def register(sub) -> None:
@@ -105,7 +108,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ...errors import InputError
     from ...setup.scene import parse_override
     from ..sweep import load_sweep, read_marker, run_sweep
 
@@ -127,7 +129,6 @@ def run(args) -> int:
                 f"{r.scene.t_end:g} s{' (finished)' if done else ''}"
             )
         return 0
-    from ...log import info
 
     result = run_sweep(
         sweep,
@@ -145,8 +146,6 @@ def run(args) -> int:
 
         print_json(result.as_dict())
     if result.count("busy"):
-        from ...log import note
-
         note(
             f"{result.count('busy')} run(s) were skipped because another process runs them; "
             "the sweep is not complete: run it again later"

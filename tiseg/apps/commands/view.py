@@ -1,6 +1,8 @@
 """`tiseg view SCENE`: the live GGUI viewer (see :mod:`tiseg.apps.viewer.app`)."""
 
 from __future__ import annotations
+from tiseg.apps.viewer.app import add_arguments
+from tiseg.apps.viewer.app import run_from_args
 
 
 def register(sub) -> None:
@@ -12,13 +14,11 @@ def register(sub) -> None:
         "recording, inflow/nu/slope). Needs Vulkan and a display; "
         "without them use `tiseg run SCENE --movie out.mp4`.",
     )
-    from tiseg.apps.viewer.app import add_arguments
 
     add_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from tiseg.apps.viewer.app import run_from_args
 
     return run_from_args(args)

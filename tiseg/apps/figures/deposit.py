@@ -14,6 +14,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from ...post.analysis.fingers import _fields_path, analyse_run
+from ...post.render.colours import CHUTE_RGB, phi_colours
+from ...post.analysis.fingers import _stored_scene
+from ...post.analysis.deposit import deposit_when, still_moving
 
 FILE = "deposit.png"
 # What the paper reports of the finite-release experiments (section 2, figures 3b and 4b),
@@ -33,9 +37,7 @@ def deposit_figure(run_dir, out_dir, dpi: int = 90) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ...post.analysis.fingers import _fields_path, analyse_run
     from ...output import read_fields
-    from ...post.render.colours import CHUTE_RGB, phi_colours
 
     res = analyse_run(run_dir)
     dep = res["deposit"]
@@ -88,14 +90,12 @@ def deposit_figure(run_dir, out_dir, dpi: int = 90) -> Path:
 
 def _stop_of_inflow(ds, path) -> float | None:
     """inflow.stop_time of the scene stored with the run, if any."""
-    from ...post.analysis.fingers import _stored_scene
 
     sc = _stored_scene(ds, path)
     return None if sc is None or sc.inflow is None else sc.inflow.stop_time
 
 
 def _caption(d: dict) -> str:
-    from ...post.analysis.deposit import deposit_when, still_moving
 
     if not d["settled"]:
         last = d["max_speed"][-1] if d["max_speed"] else None

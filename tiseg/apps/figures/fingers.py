@@ -33,6 +33,9 @@ import numpy as np
 from ...data import SWEEP_DIR
 from ...errors import InputError
 from . import new_figure, save_figure
+from ...post.render.panels import plot_panels
+from ...post.render.movie import _snapshot
+from ...post.render.panels import nearest_indices
 
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)  # panels of figures 12-14
 FINAL_TIME = 7.5  # figures 15-17
@@ -213,7 +216,6 @@ def _resolution(run: StudyRun) -> float:
 
 def fig12_14(study: Study, out: Path, dpi: int) -> list[Path]:
     """Panels of phi, |u| and h at the paper's times from the finest grid-study run."""
-    from ...post.render.panels import plot_panels
 
     run = max(study.runs, key=_resolution)
     res = _resolution(run)
@@ -240,8 +242,6 @@ def _render_phi(run: StudyRun, t: float):
     time nearest t of a run; the same frame kernel as the movies and plot_panels."""
     from ...output.netcdf import read_fields
     from ...post.render.frame import render_fields
-    from ...post.render.movie import _snapshot
-    from ...post.render.panels import nearest_indices
 
     sc = run.scene
     with read_fields(run.dir / "fields.nc") as ds:
@@ -555,8 +555,6 @@ def beyond_figures(finite: Study | None, mono: Study | None, out: Path, dpi: int
             )
         )
     if mono is not None and mono.runs:
-        from ...post.render.panels import plot_panels
-
         run = max(mono.runs, key=_resolution)
         # the explicitly listed output times (the sweep's panels), else the last three
         times = list(run.scene.output.times)[-3:] or run.metrics["time"][-3:]

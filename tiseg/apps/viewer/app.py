@@ -39,6 +39,7 @@ import numpy as np
 
 from tiseg import field_tree
 from tiseg.errors import TisegError
+from tiseg.errors import InputError
 
 OFFSCREEN_HINT = (
     "use the off-screen path instead: `tiseg run SCENE --movie out.mp4` or "
@@ -591,7 +592,6 @@ def add_arguments(p) -> None:
 def run_from_args(args) -> int:
     """Open the viewer as the arguments say; raises DisplayUnavailable/TisegError for the caller
     to report in one line."""
-    from tiseg.errors import InputError
 
     if args.frames is not None and args.frames < 0:
         raise InputError(f"--frames={args.frames}: must be >= 0")

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import InputError
+from ...solver.numerics.config import config_from_scene
+from ...solver.reference import ReferenceOperator
 
 
 @dataclass(frozen=True)
@@ -70,9 +72,6 @@ def channel_profile(scene, tol: float = 1e-5) -> ChannelProfile:
     max(|u|, u_eps) in any case: at 500 cells/m, tol = 1e-5 and 1e-7 give profiles equal to
     1e-12 relative."""
     from scipy.integrate import solve_bvp
-
-    from ...solver.numerics.config import config_from_scene
-    from ...solver.reference import ReferenceOperator
 
     ini = scene.initial
     if ini.kind != "channel":

@@ -27,6 +27,8 @@ import numpy as np
 
 from ...errors import InputError, TisegError
 from . import colours as C
+from ...run.callbacks import Callback
+from ...log import bar_disable
 
 DEFAULT_FPS = 10.0
 
@@ -290,7 +292,6 @@ class MovieRecorder:
     def callback(self, schedule, snapshot: bool | None = None, name: str = "movie"):
         """This recorder as a :class:`tiseg.run.callbacks.Callback` (a snapshot callback on a
         time schedule unless ``snapshot=False``)."""
-        from ...run.callbacks import Callback
 
         return Callback(
             self, schedule, name=name, snapshot=schedule.timed if snapshot is None else snapshot
@@ -436,8 +437,6 @@ def render_run(
         bar = None
         if progress:
             from tqdm import tqdm
-
-            from ...log import bar_disable
 
             bar = tqdm(
                 total=len(indices), unit="frame", desc=f"render {field}", disable=bar_disable()

@@ -14,6 +14,10 @@ import numpy as np
 
 from ...errors import InputError, TisegError
 from . import colours as C
+from .movie import _fields_path
+from ...log import note
+from .movie import _remove_file, _snapshot, global_range, refuse_link, run_h_min
+from .raster import render_fields_numpy
 
 
 def _open(ds_or_path):
@@ -21,7 +25,6 @@ def _open(ds_or_path):
     if hasattr(ds_or_path, "data_vars"):
         return ds_or_path, None, False
     from ...output.netcdf import read_fields
-    from .movie import _fields_path
 
     path = _fields_path(ds_or_path)
     return read_fields(path), path.parent, True
@@ -39,8 +42,6 @@ def nearest_indices(available, times) -> list[int]:
             raise InputError(f"time {t!r}: give a finite time in seconds")
         k = int(np.argmin(np.abs(available - t)))
         if abs(available[k] - t) > 1e-9 * max(1.0, abs(t)):
-            from ...log import note
-
             note(
                 f"t = {t:g} s is not a snapshot of the run; showing the nearest, "
                 f"t = {available[k]:g} s"
@@ -72,9 +73,6 @@ def plot_panels(
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
-
-    from .movie import _remove_file, _snapshot, global_range, refuse_link, run_h_min
-    from .raster import render_fields_numpy
 
     field = C.canonical_field(field)
     ds, run_dir, opened = _open(ds)

@@ -38,6 +38,7 @@ from .reductions import NSTAB, StabilityNumbers, StepReductions  # noqa: F401 (p
 from .rest import HELD, REST, X_NEG, X_POS, Y_NEG, Y_POS, RestRules  # noqa: F401
 from .slots import MAX_TERMS, NBUDGET, SlotAlgebra  # noqa: F401 (public names)
 from .split import SplitSweeps
+from ...errors import TisegError
 
 
 @ti.data_oriented
@@ -196,8 +197,6 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
     # ------------------------------------------------------------------ host access
     def check_alive(self) -> None:
         if backend.state().generation != self.generation:
-            from ...errors import TisegError
-
             raise TisegError(
                 "Taichi was re-initialised (tiseg.init with other settings); "
                 "this simulation's fields no longer exist: create it again"
@@ -503,8 +502,6 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
 
     def _no_operator(self) -> None:
         if self.split:
-            from ...errors import TisegError
-
             raise TisegError(
                 "numerics.stepper 'hancock' advances by sweeps (tiseg.solver.numerics.split) and "
                 "has no semi-discrete operator L to evaluate"

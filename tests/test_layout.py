@@ -1,0 +1,128 @@
+"""The package's layout: one layer a folder, each importing only downwards (issue 32).
+
+Read from the source with `ast`, so these checks cost no imports: the layer order, the share of
+intra-package imports deferred into functions, the size of modules and classes, the root's
+modules; and, in a subprocess, that building the command-line parser imports no heavy library."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[1] / "tiseg"
+
+# Bottom to top. The root modules (errors, log, backend, _version, _aliases) and the data
+# package sit below every layer; `tiseg/__init__.py` is the public face and may import any.
+LAYERS = ["output", "model", "solver", "setup", "run", "post", "apps"]
+BASE = {"errors", "log", "backend", "_version", "_aliases", "data"}
+HEAVY = ("taichi", "matplotlib", "dask", "distributed")
+
+
+def _modules():
+    for p in sorted(PKG.rglob("*.py")):
+        parts = list(p.relative_to(PKG.parent).with_suffix("").parts)
+        is_pkg = parts[-1] == "__init__"
+        if is_pkg:
+            parts = parts[:-1]
+        yield ".".join(parts), is_pkg, p
+
+
+def _rank(module: str) -> int | None:
+    """The layer of a dotted module name: -1 for the base modules, None for the package root."""
+    parts = module.split(".")
+    if len(parts) < 2:
+        return None
+    if parts[1] in BASE:
+        return -1
+    return LAYERS.index(parts[1]) if parts[1] in LAYERS else None
+
+
+def _imports():
+    """(importer, imported module, deferred) for every import of a tiseg module."""
+    found = []
+    for mod, is_pkg, path in _modules():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        package = mod.split(".") if is_pkg else mod.split(".")[:-1]
+
+        def visit(node, deferred):
+            for child in ast.iter_child_nodes(node):
+                inner = deferred or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef))
+                if isinstance(child, ast.ImportFrom):
+                    if child.level:
+                        base = package[: len(package) - child.level + 1]
+                        target = ".".join(base + ([child.module] if child.module else []))
+                    else:
+                        target = child.module or ""
+                    if target.split(".")[0] == "tiseg":
+                        found.append((mod, target, deferred))
+                elif isinstance(child, ast.Import):
+                    for alias in child.names:
+                        if alias.name.split(".")[0] == "tiseg":
+                            found.append((mod, alias.name, deferred))
+                visit(child, inner)
+
+        visit(tree, False)
+    return found
+
+
+def test_every_import_runs_down_the_layers():
+    up = []
+    for importer, target, deferred in _imports():
+        a, b = _rank(importer), _rank(target)
+        if a is None or b is None:
+            continue
+        if b > a:
+            up.append(f"{importer} -> {target}{' (in a function)' if deferred else ''}")
+    assert not up, "imports that run up the layers:\n" + "\n".join(up)
+
+
+def test_the_root_holds_the_layers_and_at_most_six_modules():
+    root = sorted(p.stem for p in PKG.glob("*.py"))
+    assert len(root) <= 6, root
+    folders = {p.name for p in PKG.iterdir() if (p / "__init__.py").is_file()}
+    assert set(LAYERS) <= folders, folders
+
+
+def test_few_imports_hide_in_functions():
+    """Lower layers are imported at module top; only what pulls in Taichi, matplotlib or Dask
+    (and the lazy public names of `tiseg/__init__.py`) waits for first use."""
+    inner = [(a, b) for a, b, deferred in _imports() if a != "tiseg"]
+    deferred = sum(1 for a, b, d in _imports() if d and a != "tiseg")
+    assert deferred <= 0.20 * len(inner), f"{deferred} of {len(inner)} imports are deferred"
+
+
+def test_no_module_over_900_lines_and_no_class_over_600():
+    long_modules, long_classes = [], []
+    for mod, _, path in _modules():
+        text = path.read_text(encoding="utf-8")
+        if text.count("\n") > 900:
+            long_modules.append(mod)
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ClassDef):
+                # with its mixins' methods: they are the class for a reader as well
+                if node.end_lineno - node.lineno + 1 > 600:
+                    long_classes.append(f"{mod}.{node.name}")
+    assert not long_modules and not long_classes, (long_modules, long_classes)
+
+
+@pytest.mark.parametrize("old", ["tiseg.simulation", "tiseg.numerics.operator", "tiseg.sweep"])
+def test_old_module_paths_are_the_new_modules(old):
+    """Scripts written before the layer folders keep working, with the same objects."""
+    import importlib
+
+    from tiseg._aliases import new_path
+
+    assert importlib.import_module(old) is importlib.import_module(new_path(old))
+
+
+def test_the_command_line_parser_imports_no_heavy_library():
+    code = (
+        "import sys; from tiseg.apps.cli import build_parser; build_parser(); "
+        f"print([m for m in {HEAVY!r} if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr

@@ -1,0 +1,218 @@
+"""One run of a sweep: executed under its folder's lock, its done marker and its metrics."""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import json
+import os
+import socket
+import time as _time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable
+
+import tomli_w
+
+from ...errors import InputError, TisegError
+from ...backend import available_cores
+from ...setup.scene import Scene
+from .spec import DONE_MARKER, FINGERS_FILE, MARKER_VERSION, PROGRESS_TOPIC
+from ...setup.scene import scene_from_text
+from ...output.paths import RunLock
+from ... import backend
+from ...post.analysis.fingers import analyse_run
+from ...output import write_json_atomic
+from ...output.manifest import record
+from ...run.run_folder import check_fresh_folder
+from ...post.analysis.fingers import ANALYSIS_VERSION, RUN_KEYS
+
+log = logging.getLogger(__name__)
+
+
+def scene_fingerprint(scene: Scene) -> str:
+    """sha256 of the resolved scene (without its source path): what a run folder computed."""
+    return hashlib.sha256(tomli_w.dumps(scene.to_dict()).encode()).hexdigest()
+
+
+# =================================================================================================
+# One run (a Dask task)
+# =================================================================================================
+def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
+    """The completion record of a finished run folder, or None when it is absent or unreadable,
+    when the run's fields.nc is gone, or (with ``scene``) when the folder's stored
+    ``scene.toml`` is not that scene.
+
+    Why compare scenes rather than a hash of their text: the stored scene is re-read with the
+    current code, so a new scene key with a default (which does not change what was computed)
+    does not invalidate finished runs, while any changed value does."""
+
+    run_dir = Path(run_dir)
+    try:
+        rec = json.loads((run_dir / DONE_MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(rec, dict) or rec.get("marker_version") != MARKER_VERSION:
+        return None
+    if not (run_dir / "fields.nc").is_file():  # the results are gone: not a finished run
+        return None
+    if scene is not None:
+        try:
+            stored = scene_from_text((run_dir / "scene.toml").read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, InputError):
+            return None
+        if stored != scene:
+            return None
+    return rec
+
+
+def execute_run(spec: dict) -> dict:
+    """Run one sweep member into ``spec["dir"]`` unless a valid completion marker is there.
+
+    ``spec``: ``name``, ``dir``, ``scene_toml`` (the resolved scene), ``fingerprint`` (for the
+    record), ``arch``, ``threads`` (Taichi CPU threads; 0 = all cores), ``report`` (send progress events).
+    Returns the completion record (also stored as ``done.json``) with ``status`` "done", or the
+    stored one with ``status`` "reused", or ``status`` "busy" when another process holds the
+    member's folder (its lock is held from the check of the marker to the writing of a new
+    one). Runs in a Dask worker or in the calling process.
+    """
+
+    run_dir = Path(spec["dir"])
+    scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
+    rec = read_marker(run_dir, scene)
+    if rec is not None:  # checked again here: the worker's view counts
+        return {**rec, "status": "reused"}
+
+    run_dir.mkdir(parents=True, exist_ok=True)
+    lock = RunLock(run_dir)
+    try:  # held from here to the marker: one writer only
+        lock.acquire()
+    except InputError:  # another worker (or an orphaned task) runs it now
+        return {"name": spec["name"], "status": "busy", "holder": lock.holder()}
+    try:
+        return _execute_locked(spec, run_dir, scene)
+    except TisegError as exc:  # a user mistake or a run that failed its guard: no retry, one line
+        return {"name": spec["name"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        lock.release()
+
+
+def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
+    """:func:`execute_run` once the member's folder is locked."""
+    from ...run.simulation import Simulation
+
+    rec = read_marker(run_dir, scene)
+    if rec is not None:  # finished meanwhile by the holder we waited on
+        return {**rec, "status": "reused"}
+    # the member's own earlier output may be replaced, files that tiseg did not write may not
+    check_fresh_folder(run_dir, bool(spec.get("overwrite")), replace_run=True)
+    (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene
+    t0 = _time.perf_counter()
+    # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
+    threads = spec.get("threads", 0)
+    if threads is None:
+        threads = _worker_threads()
+    backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
+    sim = Simulation(scene)
+    report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
+    stats = sim.run(
+        out_dir=run_dir, progress=False, on_output=report, overwrite=True
+    )  # its own folder, without a completion marker
+    metrics = analyse_run(run_dir)
+    record(run_dir, [FINGERS_FILE, DONE_MARKER])
+    write_json_atomic(run_dir / FINGERS_FILE, metrics)
+    nx, ny = scene.domain.nx, scene.domain.ny
+    rec = {
+        "marker_version": MARKER_VERSION,
+        "name": spec["name"],
+        "scene_sha256": spec["fingerprint"],
+        "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+        "arch": sim.backend.arch,
+        "precision": sim.backend.precision,
+        "threads": sim.backend.threads,
+        "nx": nx,
+        "ny": ny,
+        "cells": nx * ny,
+        "dx": scene.dx,
+        "t_end": sim.t,
+        "wall_s": stats.wall,
+        "task_s": _time.perf_counter() - t0,
+        "steps": stats.steps,
+        "rhs_evaluations": stats.stages,
+        "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
+        "metrics": _record_metrics(metrics),
+    }
+    write_json_atomic(run_dir / DONE_MARKER, rec)  # last: its presence means "complete"
+    return {**rec, "status": "done"}
+
+
+def _record_metrics(metrics: dict) -> dict:
+    """What a completion record keeps of analyse_run's result: every per-time series."""
+
+    return {"analysis_version": ANALYSIS_VERSION, **{k: metrics[k] for k in RUN_KEYS}}
+
+
+def refresh_metrics(run_dir, rec: dict) -> dict:
+    """The completion record with finger diagnostics of the current definitions: a record of
+    older ones is analysed again from the run's fields.nc, and fingers.json and done.json are
+    rewritten (atomically). A run whose fields cannot be read keeps its old record."""
+
+    if (rec.get("metrics") or {}).get("analysis_version") == ANALYSIS_VERSION:
+        return rec
+    run_dir = Path(run_dir)
+    try:
+        metrics = analyse_run(run_dir)
+    except InputError as exc:
+        log.warning("cannot analyse %s again: %s", run_dir, exc)
+        return rec
+    write_json_atomic(run_dir / FINGERS_FILE, metrics)
+    rec = {**{k: v for k, v in rec.items() if k != "status"}, "metrics": _record_metrics(metrics)}
+    write_json_atomic(run_dir / DONE_MARKER, rec)
+    return rec
+
+
+def _worker_threads() -> int:
+    """The thread count of the Dask worker running this task (0 outside a worker)."""
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+        n = getattr(getattr(w, "state", None), "nthreads", None) or getattr(w, "nthreads", 0)
+        return max(0, min(int(n), available_cores()))
+    except (ImportError, ValueError):
+        return 0
+
+
+def _reporter(name: str, t_end: float) -> Callable | None:
+    """A callback sending (run, t, steps, wall) to the client as a Dask worker event."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):
+        return None  # not inside a Dask worker
+    t0 = _time.perf_counter()
+
+    def report(snap) -> None:
+        try:
+            worker.log_event(
+                PROGRESS_TOPIC,
+                {
+                    "run": name,
+                    "t": snap.t,
+                    "t_end": t_end,
+                    "steps": snap.step,
+                    "wall": _time.perf_counter() - t0,
+                },
+            )
+        except Exception:  # progress is best effort, never fails a run
+            pass
+
+    return report
+
+
+# =================================================================================================
+# The whole sweep
+# =================================================================================================

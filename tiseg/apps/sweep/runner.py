@@ -1,0 +1,335 @@
+"""Running a sweep on Dask: the folder checks, the task graph, retries, progress and the result."""
+
+from __future__ import annotations
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import time as _time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+
+from ...errors import InputError, TisegError
+from ...backend import available_cores
+from ...log import stderr_line
+from .members import execute_run, read_marker, refresh_metrics, scene_fingerprint
+from .spec import PROGRESS_TOPIC, Sweep, SweepRun, _canonical
+from .table import _write_outputs
+from ...output.diagnostics import json_clean
+from ...backend import threads_problem
+
+
+@dataclass
+class SweepResult:
+    out: Path
+    table: Path
+    records: list[dict]  # one per run, grid order; status done / reused / failed / busy
+
+    def count(self, status: str) -> int:
+        return sum(1 for r in self.records if r.get("status") == status)
+
+    def as_dict(self) -> dict:
+        """The summary ``tiseg sweep --json`` prints: folders, counts and one entry per run."""
+        keep = (
+            "name",
+            "status",
+            "error",
+            "holder",
+            "wall_s",
+            "steps",
+            "rhs_evaluations",
+            "nx",
+            "ny",
+            "t_end",
+        )
+        runs = [{k: r[k] for k in keep if k in r} for r in self.records]
+        counts = {}
+        for r in self.records:
+            counts[r.get("status", "?")] = counts.get(r.get("status", "?"), 0) + 1
+        return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
+
+
+SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv")
+# what makes two sweeps the same: the runs and what is tabulated (not the file's place or text)
+SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "times")
+
+
+def check_sweep_folder(sweep: Sweep, out) -> None:
+    """Refuse an ``out`` that holds another sweep (its ``sweep.json`` defines other runs) or a
+    table that no sweep.json of tiseg's accounts for: running there would replace the other
+    sweep's table and, under shared folder names, its finished runs."""
+    out = Path(out)
+    if not out.is_dir():
+        return
+    present = [n for n in SWEEP_OUTPUTS if (out / n).exists()]
+    if not present:
+        return
+    hint = "choose a new --out, or pass --overwrite to replace it"
+    try:
+        stored = json.loads((out / "sweep.json").read_text(encoding="utf-8"))["sweep"]
+        theirs = {k: stored[k] for k in SAME_SWEEP_KEYS}
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+        raise InputError(
+            f"--out {str(out)!r} holds {', '.join(present)} that no sweep of tiseg's wrote "
+            f"there (no readable sweep.json); {hint}"
+        ) from None
+
+    # as sweep.json stores it (tuples as lists, non-finite numbers as null)
+    ours = json.loads(json.dumps(json_clean({k: sweep.to_dict()[k] for k in SAME_SWEEP_KEYS})))
+    if _canonical(theirs) != _canonical(ours):
+        differ = [k for k in SAME_SWEEP_KEYS if _canonical(theirs[k]) != _canonical(ours[k])]
+        raise InputError(
+            f"--out {str(out)!r} holds another sweep ({theirs['name']!r}, its "
+            f"{', '.join(differ)} differ from this one's); {hint}"
+        )
+
+
+def run_sweep(
+    sweep: Sweep,
+    out,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    threads_per_task: int | None = None,
+    arch: str = "cpu",
+    echo: Callable[[str], None] | None = stderr_line,
+    progress_interval: float = 30.0,
+    overwrite: bool = False,
+) -> SweepResult:
+    """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
+
+    ``scheduler``: address of an existing Dask scheduler (``tcp://host:8786``); default: a
+    ``LocalCluster(processes=True, threads_per_worker=1, n_workers=workers)`` started and
+    stopped here. ``workers``: local worker processes (default: as many as CPU cores, at most
+    the number of runs). ``threads_per_task``: Taichi CPU threads per run (default: cores /
+    workers locally, the worker's own thread count on a remote cluster). ``echo``: where
+    progress lines go (default stderr; the command line: the ``tiseg`` logger; None: silent). ``progress_interval``: seconds between progress lines
+    of one running run. ``overwrite``: write into an ``out`` that holds
+    another sweep, and replace files that tiseg did not write in member folders (by default
+    both are refused, see :func:`check_sweep_folder`).
+
+    The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
+    calling script: call this from under ``if __name__ == "__main__":`` in a script.
+    """
+    out = Path(out)
+    say = echo or (lambda _s: None)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers={workers}: must be at least 1")
+    if threads_per_task is not None and threads_per_task < 0:
+        raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
+    if threads_per_task and scheduler is None:
+        problem = threads_problem(threads_per_task, "--threads-per-task")
+        if problem:
+            raise InputError(problem)
+    if not overwrite:
+        check_sweep_folder(sweep, out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
+
+    records: dict[str, dict] = {}
+    pending: list[SweepRun] = []
+    for run in sweep.runs:
+        rec = read_marker(out / run.name, run.scene)
+        if rec is not None:
+            rec = refresh_metrics(out / run.name, rec)
+            records[run.name] = {**rec, "status": "reused"}
+        else:
+            pending.append(run)
+    say(
+        f"sweep {sweep.name!r}: {len(sweep.runs)} runs, {len(records)} already finished, "
+        f"{len(pending)} to run; output in {out}/"
+    )
+    # written now and after every finished run (a partial table survives an interruption)
+    table = _write_outputs(sweep, out, records)
+    if pending:
+        _run_on_dask(
+            sweep,
+            out,
+            pending,
+            records,
+            scheduler,
+            workers,
+            threads_per_task,
+            arch,
+            say,
+            progress_interval,
+            overwrite=overwrite,
+        )
+    result = SweepResult(
+        out, table, [records.get(r.name, {"name": r.name, "status": "missing"}) for r in sweep.runs]
+    )
+    say(
+        f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
+        f"{result.count('failed')} failed; table {table}, ensembles "
+        f"{table.parent / 'summary.csv'}"
+    )
+    return result
+
+
+def _run_on_dask(
+    sweep,
+    out,
+    pending,
+    records,
+    scheduler,
+    workers,
+    threads_per_task,
+    arch,
+    say,
+    progress_interval,
+    overwrite=False,
+) -> None:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise TisegError(
+            "sweeps need Dask: pip install 'tiseg[sweep]' (dask[distributed])"
+        ) from None
+    cores = available_cores()
+    cluster = None
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
+            first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
+            raise InputError(
+                f"cannot connect to the Dask scheduler at {scheduler!r}: "
+                f"{first.strip()} (give an address like tcp://host:8786)"
+            ) from None
+        # None: each task takes as many threads as its worker runs (its --nthreads)
+        threads = threads_per_task
+        where = f"Dask scheduler {scheduler}"
+    else:
+        n = workers or max(1, min(cores, len(pending)))
+        threads = max(1, cores // n) if threads_per_task is None else threads_per_task
+        # processes=True: Taichi's runtime is per process, one run per worker at a time.
+        # The scheduler always serves HTTP; ":0" picks a free port so that several sweeps
+        # (or other Dask users) on one machine never collide on 8787.
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
+        client = Client(cluster)
+        where = f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)"
+        say(f"Dask dashboard: {client.dashboard_link}")
+    per = "the worker's" if threads is None else (threads or "all")
+    say(
+        f"running {len(pending)} runs on the {where}, {per} Taichi thread"
+        f"{'' if threads == 1 else 's'} per run"
+    )
+
+    last_report: dict[str, float] = {}
+
+    def on_progress(event) -> None:
+        # event = (timestamp, msg); throttled per run so long sweeps stay readable
+        msg = event[1] if isinstance(event, tuple) else event
+        try:
+            name, now = msg["run"], _time.monotonic()
+            if now - last_report.get(name, -math.inf) < progress_interval:
+                return
+            last_report[name] = now
+            say(
+                f"  running {name}: t = {msg['t']:.2f} / {msg['t_end']:.2f} s "
+                f"({100 * msg['t'] / msg['t_end']:.0f} %), {msg['steps']} steps, "
+                f"{msg['wall']:.0f} s"
+            )
+        except Exception:
+            pass
+
+    futures = {}
+    try:
+        try:
+            client.subscribe_topic(PROGRESS_TOPIC, on_progress)
+        except Exception:  # older distributed: no events, only completion lines
+            pass
+        for run in sorted(pending, key=lambda r: -r.cost):  # longest first: better packing
+            spec = {
+                "name": run.name,
+                "dir": str((out / run.name).resolve()),
+                "scene_toml": run.scene.to_toml(),
+                "scene_name": run.scene.name,
+                "fingerprint": scene_fingerprint(run.scene),
+                "arch": arch,
+                "threads": threads,
+                "report": True,
+                "overwrite": overwrite,
+            }
+            # retries=1: a transient failure (a worker lost, ti.init briefly out of resources)
+            # is tried once more; a run's own error fails again and is reported
+            fut = client.submit(
+                execute_run,
+                spec,
+                key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
+                pure=False,
+                priority=int(run.cost // 1e6),
+                retries=1,
+            )
+            futures[fut] = run
+        done = 0
+        for fut in as_completed(list(futures)):
+            run = futures[fut]
+            done += 1
+            try:
+                rec = fut.result()
+            except Exception as exc:  # a failed run is reported, the others go on
+                first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
+                rec = {
+                    "name": run.name,
+                    "status": "failed",
+                    "error": f"{type(exc).__name__}: {first.strip()}",
+                }
+            if rec.get("status") == "failed":
+                say(f"[{done}/{len(futures)}] {run.name}: FAILED ({rec['error']})")
+            else:
+                say(f"[{done}/{len(futures)}] {run.name}: {_summary(rec)}")
+            records[run.name] = rec
+            _write_outputs(sweep, out, records)  # a partial table survives an interruption
+    except BaseException:
+        for fut in futures:
+            fut.cancel()
+        raise
+    finally:
+        try:
+            client.unsubscribe_topic(PROGRESS_TOPIC)
+        except Exception:
+            pass
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _summary(rec: dict) -> str:
+    if rec.get("status") == "busy":
+        return (
+            f"skipped: another process is running it now ({rec.get('holder')}); "
+            "run the sweep again when it has finished"
+        )
+    m = rec.get("metrics") or {}
+    last = {
+        k: (m.get(k) or [None])[-1] for k in ("time", "finger_count", "wavelength", "elongation")
+    }
+    wl = last["wavelength"]
+    xl = last["elongation"]
+    verb = "reused" if rec.get("status") == "reused" else "done"
+    return (
+        f"{verb} in {rec.get('wall_s', 0):.1f} s ({rec.get('steps')} steps, "
+        f"{rec.get('rhs_evaluations')} operator evaluations); at t = {last['time']:g} s: "
+        f"{last['finger_count']} fingers, wavelength "
+        f"{'-' if wl is None else f'{100 * wl:.1f} cm'}, elongation "
+        f"{'-' if xl is None else f'{xl:.3f} m'}"
+    )
+
+
+# =================================================================================================
+# The table
+# =================================================================================================

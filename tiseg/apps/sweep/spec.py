@@ -1,0 +1,369 @@
+"""What a sweep is: the sweep file (TOML) read into a :class:`Sweep` of named runs."""
+
+from __future__ import annotations
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import itertools
+import json
+import logging
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+
+from ...errors import InputError
+from ...output.paths import UNSAFE_CHARS, check_name, safe_name
+from ...setup.scene import Scene, list_builtin_scenes, load_scene
+from ...data import SWEEP_DIR, builtin_names
+from ...data import builtin_file
+
+SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid")
+DONE_MARKER = "done.json"
+FINGERS_FILE = "fingers.json"
+PROGRESS_TOPIC = "tiseg-sweep-progress"
+MAX_RUNS = 10_000  # a guard against a grid that multiplies out by mistake
+MAX_NAME = 120  # longest run-folder name before it is shortened with a hash
+MARKER_VERSION = 1
+
+# Metrics tabulated at the final time and at each extra time (a subset of analyse_run's keys).
+FINAL_METRICS = (
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "elongation",
+    "x_front_max",
+    "x_front_min",
+    "front_speed",
+    "max_channel_speed_over_u0",
+    "channel_speed_over_u0",
+    "channel_phi",
+    "levee_speed_over_u0",
+)
+TIME_METRICS = (
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "elongation",
+    "x_front_max",
+    "x_front_min",
+    "channel_speed_over_u0",
+)
+COST_COLUMNS = ("wall_s", "task_s", "steps", "rhs_evaluations", "cell_updates_per_s")
+# Ensemble statistics (summary.csv): over the runs that differ only in these grid keys.
+ENSEMBLE_KEYS = ("inflow.seed",)
+SUMMARY_METRICS = (
+    "finger_count",
+    "wavelength",
+    "wavelength_spectral",
+    "elongation",
+    "channel_speed_over_u0",
+    "channel_phi",
+    "levee_speed_over_u0",
+)
+
+log = logging.getLogger(__name__)
+
+
+# =================================================================================================
+# The sweep definition
+# =================================================================================================
+@dataclass(frozen=True)
+class SweepRun:
+    """One member of a sweep: its folder name, its grid values and its validated scene."""
+
+    name: str
+    values: dict  # grid key -> value for this run (grid order)
+    overrides: dict  # fixed overrides and grid values, as applied to the base scene
+    scene: Scene
+
+    @property
+    def cells(self) -> int:
+        return self.scene.domain.nx * self.scene.domain.ny
+
+    @property
+    def cost(self) -> float:
+        """Rough relative cost (cells x steps ~ cells x nx x t_end): longest runs start first."""
+        return float(self.cells) * self.scene.domain.nx * self.scene.t_end
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep file (see the module docstring)."""
+
+    name: str
+    description: str
+    source: str | None  # the sweep file
+    scene: str  # base scene as resolved (built-in name or absolute path)
+    fixed: dict  # dotted key -> value
+    grid: dict  # dotted key -> list of values
+    times: tuple[float, ...]
+    runs: tuple[SweepRun, ...]
+
+    def to_dict(self) -> dict:
+        """The definition as plain data (for sweep.json)."""
+        return {
+            "name": self.name,
+            "description": self.description,
+            "source": self.source,
+            "scene": self.scene,
+            "set": self.fixed,
+            "grid": self.grid,
+            "times": list(self.times),
+            "runs": [r.name for r in self.runs],
+        }
+
+
+def list_builtin_sweeps() -> list[str]:
+    """Names of the sweeps shipped in the package (``tiseg/data/sweeps``)."""
+
+    return builtin_names(SWEEP_DIR)
+
+
+def resolve_sweep_path(path) -> Path:
+    """A sweep file's path: ``path`` itself, or the built-in sweep of that name (no '/' and no
+    '.toml'), or the built-in an old ``assets/sweeps/<name>.toml`` path meant."""
+
+    return builtin_file(path, SWEEP_DIR, "sweep") or Path(str(path)).expanduser()
+
+
+def load_sweep(
+    path, extra_overrides: Mapping | None = None, grid_overrides: Mapping | None = None
+) -> Sweep:
+    """Read and strictly validate a sweep file, building the scene of every combination.
+
+    ``extra_overrides`` (``{"section.key": value}``) are added to the file's ``[set]`` table
+    (a key of the grid may not be given again); ``grid_overrides`` (``{"section.key": [values]}``)
+    replace a grid axis of the file or add one (e.g. fewer resolutions for a quick look).
+    Raises :class:`InputError` with one line naming the file, the key and what is allowed.
+    """
+    p = resolve_sweep_path(path)
+    where = f"sweep file {str(p)!r}"
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{where} not found") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where} is not UTF-8 text: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"cannot read {where}: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{where} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{where} nests arrays or tables too deeply") from None
+    return sweep_from_dict(
+        data,
+        default_name=p.stem,
+        source=str(p),
+        base_dir=p.parent,
+        extra_overrides=extra_overrides,
+        grid_overrides=grid_overrides,
+    )
+
+
+def sweep_from_dict(
+    data: Mapping,
+    default_name: str = "sweep",
+    source: str | None = None,
+    base_dir=None,
+    extra_overrides: Mapping | None = None,
+    grid_overrides: Mapping | None = None,
+) -> Sweep:
+    """Validate a sweep given as the dict a sweep file parses to (see :func:`load_sweep`)."""
+    where = f"sweep file {source!r}" if source else "sweep"
+
+    def fail(msg: str):
+        raise InputError(f"{where}: {msg}")
+
+    if not isinstance(data, Mapping):
+        fail(f"expected a table of keys, got {type(data).__name__}")
+    for key in data:
+        if key not in SWEEP_KEYS:
+            close = difflib.get_close_matches(str(key), SWEEP_KEYS, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            fail(f"unknown key {key!r}{hint}; allowed keys: {', '.join(SWEEP_KEYS)}")
+
+    if "name" in data:
+        try:
+            name = check_name(data["name"])
+        except InputError as exc:
+            fail(str(exc))
+    else:
+        name = safe_name(default_name, "sweep")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        fail(f"description={description!r} must be a string")
+
+    if "scene" not in data:
+        fail(
+            "the key 'scene' is required: a built-in scene name "
+            f"({', '.join(list_builtin_scenes())}) or a path to a scene .toml file"
+        )
+    scene_ref = data["scene"]
+    if not isinstance(scene_ref, str) or not scene_ref.strip():
+        fail(f"scene={scene_ref!r} must be a built-in scene name or a path")
+    scene_ref = _resolve_scene_ref(scene_ref, base_dir)
+
+    fixed = _flatten(data.get("set", {}), "set", fail)
+    grid = _flatten(data.get("grid", {}), "grid", fail)
+    for key, values in (grid_overrides or {}).items():
+        grid[key] = values  # replaces the file's axis, or makes a fixed value an axis
+        fixed.pop(key, None)
+    for key, value in (extra_overrides or {}).items():
+        fixed[key] = value
+    for key, values in grid.items():
+        if not isinstance(values, list) or not values:
+            fail(
+                f"grid key {key!r} = {_show(values)}: give a non-empty list of values, "
+                f"e.g. {key} = [a, b, c]"
+            )
+        canon = [_canonical(v) for v in values]
+        dup = next((v for v, c in zip(values, canon) if canon.count(c) > 1), None)
+        if dup is not None:
+            fail(f"grid key {key!r} lists the value {_show(dup)} more than once")
+        if key in fixed:
+            fail(f"{key!r} is both in [set] and in [grid]; give it in one of them")
+    n_runs = math.prod(len(v) for v in grid.values())
+    if n_runs > MAX_RUNS:
+        fail(f"the grid multiplies out to {n_runs} runs; at most {MAX_RUNS} are allowed")
+
+    times = data.get("times", [])
+    if not isinstance(times, list) or not all(
+        isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t) and t >= 0
+        for t in times
+    ):
+        fail(f"times={_show(times)} must be a list of times >= 0 [s], e.g. times = [2.5, 5.0]")
+    times = tuple(sorted({float(t) for t in times}))
+
+    # Build and validate every combination before anything runs (see the module docstring).
+    keys = list(grid)
+    combos = [dict(zip(keys, vals)) for vals in itertools.product(*(grid[k] for k in keys))]
+    names = _run_names(combos)
+    runs = []
+    for run_name, values in zip(names, combos):
+        overrides = {**fixed, **values}
+        label = f"run {run_name!r}" if values else "the base run"
+        try:
+            scene = load_scene(scene_ref, overrides)
+        except InputError as exc:
+            problem = str(exc)
+        else:
+            problem = None
+        if problem is not None:  # raised here, not inside except: one clean error
+            fail(f"{label}: {problem}")
+        for t in times:
+            if t > scene.t_end * (1 + 1e-12):
+                fail(f"{label}: times lists {t:g} s, after time.t_end = {scene.t_end:g} s")
+            if time_index(scene.output_times, t) is None:
+                fail(
+                    f"{label}: times lists {t:g} s, which is not an output time of the scene; "
+                    f"add it to output.times in [set]"
+                )
+        runs.append(SweepRun(run_name, values, overrides, scene))
+    return Sweep(
+        name=name,
+        description=description,
+        source=source,
+        scene=scene_ref,
+        fixed=fixed,
+        grid=grid,
+        times=times,
+        runs=tuple(runs),
+    )
+
+
+def _resolve_scene_ref(ref: str, base_dir) -> str:
+    """A built-in name stays a name; a path is taken relative to the sweep file's folder."""
+    is_name = "/" not in ref and "\\" not in ref and not ref.endswith(".toml")
+    if is_name or base_dir is None:
+        return ref
+    p = Path(ref).expanduser()
+    if not p.is_absolute():
+        p = Path(base_dir) / p
+    return str(p.resolve())
+
+
+def _flatten(table, section: str, fail) -> dict:
+    """``{"domain": {"resolution": [..]}}`` -> ``{"domain.resolution": [..]}`` (leaf values)."""
+    if not isinstance(table, Mapping):
+        fail(f"[{section}] must be a table of 'section.key = value' entries, got {_show(table)}")
+    out: dict[str, Any] = {}
+
+    def walk(node, prefix):
+        for k, v in node.items():
+            key = f"{prefix}.{k}" if prefix else str(k)
+            if isinstance(v, Mapping):
+                if not v:
+                    fail(f"[{section}] {key!r} is an empty table")
+                walk(v, key)
+            else:
+                if "." not in key:
+                    fail(
+                        f"[{section}] key {key!r} must be a dotted scene key such as "
+                        f"'domain.resolution' or 'flow.nu'"
+                    )
+                out[key] = v
+
+    walk(table, "")
+    return out
+
+
+def _canonical(v) -> str:
+    return json.dumps(v, sort_keys=True, default=str)
+
+
+def _show(v) -> str:
+    text = _canonical(v) if not isinstance(v, str) else repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _format_value(v) -> str:
+    """A grid value as part of a folder name: short, stable, file-system safe."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return format(v, ".12g")
+    if isinstance(v, str):
+        return UNSAFE_CHARS.sub("_", v).strip("_") or "_"
+    if isinstance(v, list):
+        return "+".join(_format_value(x) for x in v) or "empty"
+    return hashlib.sha256(_canonical(v).encode()).hexdigest()[:8]
+
+
+def _run_names(combos: list[dict]) -> list[str]:
+    """Folder names from the grid values: ``resolution-250_nu-0.01``.
+
+    A key is shown by its last part (``flow.nu`` -> ``nu``) unless two grid keys share it, then
+    in full. Names that still collide (values equal after formatting) or are too long get a
+    hash of the exact values appended, so every combination has its own stable folder.
+    """
+    if not combos or not combos[0]:
+        return ["base"] * len(combos)
+    keys = list(combos[0])
+    last = [k.rsplit(".", 1)[-1] for k in keys]
+    labels = {k: (s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
+    names = [
+        "_".join(f"{UNSAFE_CHARS.sub('_', labels[k])}-{_format_value(v)}" for k, v in c.items())
+        for c in combos
+    ]
+    out = []
+    for name, c in zip(names, combos):
+        if names.count(name) > 1 or len(name) > MAX_NAME:
+            digest = hashlib.sha256(_canonical(c).encode()).hexdigest()[:8]
+            name = f"{name[: MAX_NAME - 9]}-{digest}"
+        out.append(name)
+    return out
+
+
+def time_index(times, t) -> int | None:
+    """Index of the output time equal to t (to 1e-9 relative), or None."""
+    for i, s in enumerate(times):
+        if abs(s - t) <= 1e-9 * max(1.0, t):
+            return i
+    return None

@@ -1,0 +1,111 @@
+"""Callbacks after each step: which are due, snapshots interpolated at their times, in order.
+
+A mixin of :class:`tiseg.run.simulation.Simulation`. Output observes the run: a snapshot at a
+scheduled time between two steps is interpolated from the states around it, so what is written,
+and when, never changes the steps."""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from .callbacks import Callback, Snapshot
+from .schedules import IterationInterval, Schedule
+
+GUARD_ORDER = -100  # the guard callback runs before everything else after a step
+
+
+class CallbackDispatch:
+    """Registering callbacks and calling them after a step of a
+    :class:`~tiseg.run.simulation.Simulation`."""
+
+    def add_callback(
+        self,
+        func,
+        schedule: Schedule | None = None,
+        name: str | None = None,
+        snapshot: bool = False,
+        order: int = 0,
+    ) -> Callback:
+        """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.run.callbacks`),
+        or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
+        if isinstance(func, Callback):
+            cb = func
+        elif schedule is None:
+            raise InputError(
+                "add_callback: give a schedule (e.g. IterationInterval(10) or "
+                "TimeInterval(0.1) from tiseg.run.schedules)"
+            )
+        else:
+            cb = Callback(func, schedule, name, snapshot, order)
+        self.callbacks[cb.name] = cb
+        return cb
+
+    def remove_callback(self, name: str) -> None:
+        self.callbacks.pop(name, None)
+
+    @property
+    def check_every(self) -> int:
+        """Steps between guard checks (0: only on steps that make a snapshot)."""
+        return self._check_every
+
+    @check_every.setter
+    def check_every(self, n: int) -> None:
+        if not (isinstance(n, int) and n >= 0):
+            raise InputError(f"check_every={n!r} must be an integer >= 0")
+        self._check_every = n
+        self.callbacks.pop("guard", None)
+        if n:
+            # before the step's snapshots (negative order): nothing is written unchecked
+            self.callbacks["guard"] = Callback(
+                lambda sim: sim._guard(), IterationInterval(n), name="guard", order=GUARD_ORDER
+            )
+
+    def _pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
+        """(time, snapshot callbacks) for every scheduled snapshot time in (t0, t1], in order."""
+        by_time: dict[float, list[Callback]] = {}
+        for cb in self.callbacks.values():
+            if cb.snapshot:
+                for tk in cb.schedule.times_in(t0, t1):
+                    by_time.setdefault(tk, []).append(cb)
+        return sorted(by_time.items(), key=lambda item: item[0])
+
+    def _snapshot(self, tk: float, t0: float, t1: float) -> Snapshot:
+        """The state at tk in (t0, t1]: slot 0 when tk is the step's end, else interpolated
+        linearly from the state before the step (slot PREV) into slot SNAP."""
+        if t1 - tk <= 1e-12 * max(1.0, abs(t1)):
+            return Snapshot(self, tk, 0, self.stats.steps, 1.0)
+        theta = (tk - t0) / (t1 - t0)
+        self.op.blend(self.SNAP, self.PREV, 0, theta)
+        return Snapshot(self, tk, self.SNAP, self.stats.steps, theta)
+
+    def _after_step(self, t0: float, t1: float, pending) -> None:
+        """The callbacks of the step: those due with a negative order (the guard), the
+        snapshots at the scheduled times the step crossed, then the other callbacks due, in
+        increasing order (the checkpoint last)."""
+        steps = self.stats.steps
+        due = sorted(
+            (
+                cb
+                for cb in self.callbacks.values()
+                if not cb.snapshot and cb.schedule.due(t0, t1, steps)
+            ),
+            key=lambda c: c.order,
+        )  # every schedule is asked (wall clocks)
+        before = [cb for cb in due if cb.order < 0]
+        if (pending or any(cb.checked for cb in due)) and "guard" not in (cb.name for cb in before):
+            self._guard()  # nothing is saved from an unchecked state
+        for cb in before:
+            cb(self)
+        for tk, cbs in pending:
+            snap = self._snapshot(tk, t0, t1)
+            for cb in cbs:
+                cb(snap)
+        for cb in due:
+            if cb.order >= 0:
+                cb(self)
+
+    def _initial_snapshots(self) -> None:
+        """Snapshot callbacks whose schedule holds the current time get the current state."""
+        snap = Snapshot(self, self.t, 0, self.stats.steps, 1.0)
+        for cb in list(self.callbacks.values()):
+            if cb.snapshot and cb.schedule.contains(self.t):
+                cb(snap)

@@ -1,0 +1,114 @@
+"""Stopping a run that broke a bound or cannot advance, and saving what it was doing.
+
+A mixin of :class:`tiseg.run.simulation.Simulation`: the guard check (:mod:`tiseg.run.guards`)
+and the stall check raise :class:`SimulationError`; with a failure folder the last good state and
+the offending one are saved there first."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..errors import TisegError
+from . import checkpoint as _ckpt
+from .guards import Violation
+
+if TYPE_CHECKING:
+    from .simulation import StepPlan
+
+MIN_STEP_FRACTION = 1e-9  # a step this much below the CFL limit: stiffness out of range
+
+
+class SimulationError(TisegError):
+    """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
+
+    ``violation``: the :class:`tiseg.run.guards.Violation` (None for a collapsed step with no
+    broken bound); ``files``: paths of the saved last-good and offending states (may be empty).
+    """
+
+    def __init__(self, message: str, violation: Violation | None = None, files=()):
+        super().__init__(message)
+        self.violation = violation
+        self.files = tuple(files)
+
+
+class FailureChecks:
+    """The checks of a :class:`~tiseg.run.simulation.Simulation` that end a run."""
+
+    def _check_progress(self, p: StepPlan) -> None:
+        """Stop a run that cannot get anywhere: a step too small to move the clock, or one
+        shorter than MIN_STEP_FRACTION of the convective limit (RKC's stage cap or an
+        explicit stepper's stability limit under a stiffness out of range, a huge flow.nu
+        say): the message says which term."""
+        stab = p.stability
+        small = (
+            math.isfinite(p.dt_cfl) and p.dt < MIN_STEP_FRACTION * p.dt_cfl and not p.lands
+        )  # a last step may be short: what was left
+        if p.t_next > self.t and not small:
+            return
+        why = (
+            f"time stalled: dt={p.dt:.3g} s does not advance t={self.t:.9g} s"
+            if p.t_next <= self.t
+            else f"dt={p.dt:.3g} s is {p.dt / p.dt_cfl:.2g} of the convective limit "
+            f"{p.dt_cfl:.3g} s"
+        )
+        self._fail(
+            None,
+            f"{why} (step {self.stats.steps}); the stiffness is out of range: "
+            f"viscous {stab.rho_visc:.3g} 1/s, friction {stab.rho_fric:.3g} 1/s "
+            f"(flow.nu={self.scene.flow.nu!r}); check the scene's parameters",
+        )
+
+    def check_state(self) -> None:
+        """Stop with a :class:`SimulationError` naming time, step, cell and field when the state
+        holds NaN/Inf, h < 0, phi outside [0, 1] on a wet cell, or breaks the mass balance."""
+        self._guard()
+
+    def _guard(self, full: bool = True) -> None:
+        """One guard check (tiseg.run.guards); on success the state becomes the last good one."""
+        v = self.guard.scan(self.t, self.stats.steps)
+        if v is None and full:
+            v = self.guard.check_mass(
+                self.totals(), self.initial_totals, self.budget(), self.t, self.stats.steps
+            )
+        if v is not None:
+            self._fail(v, v.message())
+        if full:
+            self.guard.keep(self.checkpoint_meta())
+
+    def _fail(self, violation: Violation | None, message: str):
+        """Raise SimulationError; with a failure folder, save the last good and this state."""
+        files = []
+        if self.failure_dir is not None:
+            try:
+                files = self._save_failure(message)
+            except OSError as exc:
+                message += f" (could not save the failure states: {exc})"
+        if files:
+            good = self.guard.good_meta or {}
+            message += (
+                f"; last good state (t={good.get('t', float('nan')):.9g} s, step "
+                f"{good.get('steps', '?')}) and the offending state saved in "
+                f"{files[0].parent}/"
+            )
+        raise SimulationError(message, violation, files)
+
+    def _save_failure(self, message: str) -> list[Path]:
+        d = Path(self.failure_dir)
+        files = []
+        good = self.guard.last_good()
+        if good is not None:
+            q, bud, meta = good
+            files.append(
+                _ckpt.write_npz_atomic(
+                    d / "last_good.npz",
+                    _ckpt.state_arrays(self, q=q, budget=bud, meta=meta, reason=message),
+                )
+            )
+        files.append(
+            _ckpt.write_npz_atomic(
+                d / "offending.npz", _ckpt.state_arrays(self, reason=message, **self.fields())
+            )
+        )
+        return files
