@@ -73,10 +73,18 @@ def nice_step(raw: float) -> float:
     return 10.0 ** (e + 1)  # pragma: no cover (m = 10 always qualifies)
 
 
+def _finer(step: float) -> float:
+    """The next 1-2-5 step below ``step`` (itself a 1-2-5 step)."""
+    e = math.floor(math.log10(step) + 1e-9)
+    m = round(step / 10.0**e)
+    return {1: 0.5 * 10.0**e, 2: 10.0**e, 5: 2 * 10.0**e}[m]
+
+
 def nice_ticks(lo: float, hi: float, max_ticks: int = 6) -> list[float]:
-    """Round values inside [lo, hi] for a colour bar's ticks: multiples of a 1-2-5 step, at
-    least two and at most ``max_ticks`` (>= 3) of them when lo < hi. An empty range gives the
-    one value; a range that is not finite gives none."""
+    """Round values inside [lo, hi] for a colour bar's ticks: multiples of a 1-2-5 step, the
+    smallest such step that gives at most ``max_ticks`` (>= 3) of them, and at least two when
+    lo < hi (where two need a finer step, up to five ticks, more than ``max_ticks`` < 5). An empty
+    range gives the one value; a range that is not finite gives none."""
     if max_ticks < 3:
         raise ValueError(f"max_ticks={max_ticks}: must be at least 3")
     if not (math.isfinite(lo) and math.isfinite(hi)):
@@ -87,8 +95,12 @@ def nice_ticks(lo: float, hi: float, max_ticks: int = 6) -> list[float]:
         return [lo]
     step = nice_step((hi - lo) / (max_ticks - 1))
     tol = 1e-9 * (hi - lo)
-    k0 = math.ceil((lo - tol) / step)
-    k1 = math.floor((hi + tol) / step)
+    while True:
+        k0 = math.ceil((lo - tol) / step)
+        k1 = math.floor((hi + tol) / step)
+        if k1 > k0:
+            break
+        step = _finer(step)  # one tick or none in the range: the next smaller 1-2-5 step
     digits = max(0, -math.floor(math.log10(step)) + 1)
     ticks = [round(k * step, digits) for k in range(k0, k1 + 1)]
     return [0.0 if t == 0 else t for t in ticks]  # no "-0"
