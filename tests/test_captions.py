@@ -232,3 +232,11 @@ def test_help_box_lists_every_key():
     for k in range(1 + len(cap.KEYS)):
         base = 6 + cap.SIZE + cap.LINE_H * k
         assert _bright(box[base - cap.SIZE + 2 : base, 2:-2]), k
+
+
+def test_viewer_page_lists_every_key():
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "viewer.md").read_text()
+    for key, _, _ in cap.KEYS:
+        assert f"| `{key}` |" in page, key
