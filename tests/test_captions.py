@@ -240,3 +240,11 @@ def test_viewer_page_lists_every_key():
     page = (Path(__file__).resolve().parents[1] / "docs" / "viewer.md").read_text()
     for key, _, _ in cap.KEYS:
         assert f"| `{key}` |" in page, key
+
+
+def test_low_colour_bar_keeps_the_outer_ticks():
+    """A 1D run's band is 40 pixels tall: two tick marks, at the bar's ends, none between."""
+    img = cap.colour_bar_column("h", 0.0, 0.005, 40)
+    x1 = cap.BAR_X + cap.BAR_STRIP
+    marks = np.nonzero((img[:, x1 : x1 + 4] == C.to_uint8(C.TEXT_RGB)).all(axis=(1, 2)))[0]
+    assert list(marks) == [8, 40 - 8 - 1]  # 0 mm at the bottom row, 5 mm at the top row

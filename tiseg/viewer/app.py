@@ -358,9 +358,11 @@ class Viewer:
         self.canvas.set_image(self.canvas_image)
 
     def caption_texts(self) -> dict:
-        """What the captions say now: time stamp, status line and hint (strings), and the scale
-        bar (:class:`tiseg.viewer.captions.ScaleBar` or None)."""
+        """What the captions say now: time stamp (with the field shown and the run's state),
+        status line and hint (strings), and the scale bar
+        (:class:`tiseg.viewer.captions.ScaleBar` or None)."""
         stamp = captions.time_text(self.sim.t, self.scene.t_end)
+        stamp += "   " + captions.field_title(self.renderer.field)
         if self.recorder is not None:
             stamp += "   recording"
         if self.paused:

@@ -282,7 +282,7 @@ def _draw(img, s, x, baseline, colour=None, size=SIZE) -> int:
 def colour_bar_column(field: str, vmin: float, vmax: float, height: int, width: int = BAR_W):
     """The column right of the map, uint8 (height, width, 3): the bar (same colours as the frame
     kernel, high values at the top), ticks with their numbers in display units, and the field's
-    name and unit written upwards along its right edge."""
+    name and unit written upwards along its right edge where the column is tall enough."""
     from PIL import Image, ImageDraw
 
     from tiseg.render.frame import _font
@@ -296,7 +296,10 @@ def colour_bar_column(field: str, vmin: float, vmax: float, height: int, width: 
     t = (np.arange(n)[::-1] + 0.5) / n
     out[top:bot, x0:x1] = _rgb(C.colours_for(field, t))[:, None, :]
     white = _rgb(C.TEXT_RGB)
-    for frac, label in colour_bar_ticks(field, vmin, vmax, n):
+    ticks = colour_bar_ticks(field, vmin, vmax, n)
+    if n < 4 * LINE_H and len(ticks) > 2:  # a low bar (a 1D run's band): the outer two only
+        ticks = [ticks[0], ticks[-1]]
+    for frac, label in ticks:
         row = int(round(bot - 1 - frac * (n - 1)))
         out[row, x1 : x1 + 4] = white
         base = min(max(row + SIZE // 3, top + SIZE - 2), height - 2)
