@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -273,10 +274,29 @@ def text_width(s: str, size: int = SIZE) -> int:
     return tw(s, size)
 
 
-def _draw(img, s, x, baseline, colour=None, size=SIZE) -> int:
-    from tiseg.render.frame import draw_text
+class _Writer:
+    """Text onto a uint8 picture through one Pillow image: a single conversion each way for all
+    the texts of a picture (:func:`tiseg.render.frame.draw_text` converts per text)."""
 
-    return draw_text(img, s, x, baseline, C.TEXT_RGB if colour is None else colour, size)
+    def __init__(self, img: np.ndarray):
+        from PIL import Image, ImageDraw
+
+        from tiseg.render.frame import _font
+
+        self.img = img
+        self.pil = Image.fromarray(np.ascontiguousarray(img))
+        self.draw = ImageDraw.Draw(self.pil)
+        self.font = _font(SIZE)
+
+    def text(self, s: str, x: int, baseline: int, colour=None) -> int:
+        """s with its left end at column x on the given baseline row; returns the x after it."""
+        fill = tuple(int(round(float(c) * 255.0)) for c in (colour or C.TEXT_RGB))
+        self.draw.text((x, baseline), s, font=self.font, fill=fill, anchor="ls")
+        return x + text_width(s)
+
+    def done(self) -> np.ndarray:
+        self.img[...] = np.asarray(self.pil)
+        return self.img
 
 
 def colour_bar_column(field: str, vmin: float, vmax: float, height: int, width: int = BAR_W):
@@ -299,11 +319,13 @@ def colour_bar_column(field: str, vmin: float, vmax: float, height: int, width: 
     ticks = colour_bar_ticks(field, vmin, vmax, n)
     if n < 4 * LINE_H and len(ticks) > 2:  # a low bar (a 1D run's band): the outer two only
         ticks = [ticks[0], ticks[-1]]
-    for frac, label in ticks:
-        row = int(round(bot - 1 - frac * (n - 1)))
+    rows = [int(round(bot - 1 - frac * (n - 1))) for frac, _ in ticks]
+    for row in rows:
         out[row, x1 : x1 + 4] = white
-        base = min(max(row + SIZE // 3, top + SIZE - 2), height - 2)
-        _draw(out, label, x1 + 6, base)
+    pen = _Writer(out)
+    for row, (_, label) in zip(rows, ticks):
+        pen.text(label, x1 + 6, min(max(row + SIZE // 3, top + SIZE - 2), height - 2))
+    out = pen.done()
     title = field_title(field)
     font = _font(SIZE)
     tw = int(math.ceil(font.getlength(title)))
@@ -329,27 +351,41 @@ def caption_strip(
 ):
     """The strip under the map, uint8 (height, width, 3): time stamp on the left and scale bar
     under the map's right end, then the status (wrapped to the width, up to STATUS_LINES lines)
-    and the keys' hint."""
+    and the keys' hint.
+
+    Everything but the time stamp is kept from the last calls (it changes rarely), so a new
+    time stamp costs one line of text."""
+    x = 6 + text_width(stamp) + 12
+    fits = bar is not None and map_width - 6 - bar.pixels - text_width(bar.label) - 6 > x
+    out = _strip_without_stamp(width, map_width, bar if fits else None, status, hint, height)
+    pen = _Writer(out.copy())
+    pen.text(stamp, 6, 8 + SIZE)
+    return pen.done()
+
+
+@lru_cache(maxsize=4)
+def _strip_without_stamp(width, map_width, bar, status, hint, height) -> np.ndarray:
     out = _canvas(height, width)
     base = 8 + SIZE
-    x = _draw(out, stamp, 6, base) + 12
-    white = _rgb(C.TEXT_RGB)
+    pen = _Writer(out)
     if bar is not None:
         x1 = map_width - 6
         x0 = x1 - bar.pixels
-        tw = text_width(bar.label)
-        if x0 - tw - 6 > x:  # room for bar and label beside the time stamp
-            row = base - SIZE // 3
-            out[row - 1 : row + 2, x0:x1] = white
-            out[row - 5 : row + 6, x0 : x0 + 1] = white
-            out[row - 5 : row + 6, x1 - 1 : x1] = white
-            _draw(out, bar.label, x0 - tw - 6, base)
+        pen.text(bar.label, x0 - text_width(bar.label) - 6, base)
     lines = fit_lines(wrap_text(status, width - 12, text_width), STATUS_LINES) if status else []
     for k, line in enumerate(lines):
-        _draw(out, line, 6, base + LINE_H * (k + 1))
+        pen.text(line, 6, base + LINE_H * (k + 1))
     if hint:
         grey = tuple(0.6 * c for c in C.TEXT_RGB)
-        _draw(out, hint, 6, base + LINE_H * (STATUS_LINES + 1), colour=grey)
+        pen.text(hint, 6, base + LINE_H * (STATUS_LINES + 1), colour=grey)
+    out = pen.done()
+    if bar is not None:
+        white = _rgb(C.TEXT_RGB)
+        row = base - SIZE // 3
+        out[row - 1 : row + 2, x0:x1] = white
+        out[row - 5 : row + 6, x0 : x0 + 1] = white
+        out[row - 5 : row + 6, x1 - 1 : x1] = white
+    out.setflags(write=False)
     return out
 
 
@@ -367,9 +403,10 @@ def help_box():
     out = _canvas(h, w)
     white = _rgb(C.TEXT_RGB)
     out[0, :], out[-1, :], out[:, 0], out[:, -1] = white, white, white, white
-    _draw(out, lines[0], 10, 6 + SIZE)
+    pen = _Writer(out)
+    pen.text(lines[0], 10, 6 + SIZE)
     for k, (key, what, _) in enumerate(KEYS):
         base = 6 + SIZE + LINE_H * (k + 1)
-        _draw(out, key, 10, base)
-        _draw(out, what, int(10 + kw + 16), base)
-    return out
+        pen.text(key, 10, base)
+        pen.text(what, int(10 + kw + 16), base)
+    return pen.done()
