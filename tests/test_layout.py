@@ -48,7 +48,7 @@ def _imports():
         tree = ast.parse(path.read_text(encoding="utf-8"))
         package = mod.split(".") if is_pkg else mod.split(".")[:-1]
 
-        def visit(node, deferred):
+        def visit(node, deferred, mod=mod, package=package):
             for child in ast.iter_child_nodes(node):
                 inner = deferred or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef))
                 if isinstance(child, ast.ImportFrom):
@@ -63,7 +63,7 @@ def _imports():
                     for alias in child.names:
                         if alias.name.split(".")[0] == "tiseg":
                             found.append((mod, alias.name, deferred))
-                visit(child, inner)
+                visit(child, inner, mod, package)
 
         visit(tree, False)
     return found

@@ -150,6 +150,64 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
 
 
 @needs_vulkan
+def test_window_shows_the_captions(ti_cpu, tmp_path):
+    """The colour bar column, the caption strip (time stamp, scale bar, the whole status line,
+    the keys' hint) and the help box are in the window as tiseg.apps.viewer.captions draws them."""
+    from tiseg.apps.viewer import captions as cap
+    from tiseg.apps.viewer.app import Viewer
+
+    v = Viewer("fingers", TINY, show_window=False, save_dir=tmp_path)
+    try:
+        v.set_field("h")
+        v.run_frames(3)
+        top = v.height - (v.map_y0 + v.map_h)  # the map's top row in the picture
+
+        def close(got, ref):  # GGUI quantises floats itself: a few levels
+            return (np.abs(got.astype(int) - ref.astype(int)).max(axis=2) <= 3).mean() > 0.99
+
+        img = v.capture()
+        bar = cap.colour_bar_column("h", *v.renderer.vrange, v.map_h)
+        assert close(img[top : top + v.map_h, v.map_w : v.map_w + v.BAR_W], bar)
+        strip = img[top + v.map_h : top + v.map_h + v.STRIP_H]
+        texts = v.caption_texts()
+        assert texts["stamp"].startswith(f"t = {v.sim.t:.2f} s of 0.3 s")
+        assert texts["bar"] is not None and texts["hint"] == cap.hint_line()
+        assert close(strip, cap.caption_strip(v.width, v.map_w, **texts, height=v.STRIP_H))
+
+        # a status line longer than the window is wrapped, not cut
+        v.message = "saved " + "/a-long-folder-name" * 12 + "/tiseg-fingers-h-t000.123.png"
+        v.paused = True
+        v.run_frames(1)
+        lines = cap.wrap_text(v.message, v.width - 12, cap.text_width)
+        assert 2 <= len(lines) <= cap.STATUS_LINES and "".join(lines) == v.message
+        img = v.capture()
+        strip = img[top + v.map_h : top + v.map_h + v.STRIP_H]
+        texts = v.caption_texts()
+        assert texts["status"] == v.message and "paused" in texts["stamp"]
+        assert close(strip, cap.caption_strip(v.width, v.map_w, **texts, height=v.STRIP_H))
+
+        # h: the keys' box over the map's top left, blended with the map; again: gone
+        box = cap.help_box()
+        bh, bw = box.shape[:2]
+        plain = img[8 : 8 + bh, 8 : 8 + bw].astype(float)
+        v.toggle_help()
+        v.run_frames(1)
+        got = v.capture()[8 : 8 + bh, 8 : 8 + bw].astype(float)
+        assert np.abs(got - (0.9 * box + 0.1 * plain)).max() <= 4
+        v.toggle_help()
+        v.run_frames(1)
+        assert np.abs(v.capture()[8 : 8 + bh, 8 : 8 + bw] - plain).max() <= 3
+
+        # f: every field of the run in turn, back to the first
+        names = v.available_fields()
+        assert names == ["phi", "h", "speed", "u", "v"]
+        seen = [v.next_field() for _ in names]
+        assert seen == names[2:] + names[:2]
+    finally:
+        v.close()
+
+
+@needs_vulkan
 @pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed")
 def test_live_window_under_xvfb(tmp_path):
     """A real window on a virtual X display starts, steps, records and closes by itself."""

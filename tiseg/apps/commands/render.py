@@ -8,6 +8,7 @@ from pathlib import Path
 from .common import print_json
 from ...errors import InputError
 from ...output.netcdf import reading
+from ...post.render.colours import canonical_field
 
 
 def register(sub) -> None:
@@ -61,7 +62,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ...post.render.colours import canonical_field
     from ...post.render.movie import refuse_link, render_run
 
     try:

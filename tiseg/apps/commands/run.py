@@ -23,6 +23,7 @@ from .common import (
 from ...errors import InputError
 from ... import backend
 from .estimate import print_estimate
+from ...post.render.colours import canonical_field
 
 
 def register(sub) -> None:
@@ -119,8 +120,6 @@ def _check_args(args) -> None:
             "--resume DIR to continue a killed run"
         )
     if args.movie is not None:
-        from ...post.render.colours import canonical_field
-
         try:
             canonical_field(args.movie_field)
         except ValueError as exc:
@@ -244,7 +243,6 @@ def _movie(args, sim):
     """The movie recorder asked for with --movie (one frame per output time), or None."""
     if getattr(args, "movie", None) is None:
         return None
-    from ...post.render.colours import canonical_field
     from ...post.render.movie import MovieRecorder
 
     try:

@@ -13,6 +13,12 @@ field, which GGUI shows with ``canvas.set_image``. Below the picture, three cont
   takes when the scene derives it). Reset restores the initial state and keeps the
   parameters; "scene values" restores the scene's.
 
+Around the map (:mod:`tiseg.apps.viewer.captions`): at its right a colour bar with round ticks, their
+numbers and the field's name and unit; under it a strip with the time stamp, a scale bar, the
+status line (the last message, wrapped to the window's width) and a one-line hint of the keys;
+``h`` shows a box with every key over the map. The captions are rasterised with Pillow into small
+pictures only when their text changes, then copied into the window image each frame.
+
 Recording is a callback of the simulation (:class:`tiseg.post.render.movie.MovieRecorder`, the
 movie path of ``tiseg run --movie`` and ``tiseg demo``): one frame every ``steps_per_frame``
 steps, so a paused viewer records nothing.
@@ -37,9 +43,13 @@ from pathlib import Path
 
 import numpy as np
 
-from tiseg import field_tree
+from tiseg.solver import field_tree
 from tiseg.errors import TisegError
 from tiseg.errors import InputError
+from tiseg.apps.viewer import captions
+from tiseg.post.render import colours as C
+from tiseg.post.render.colours import FIELD_LABELS
+from tiseg.post.render.colours import canonical_field
 
 OFFSCREEN_HINT = (
     "use the off-screen path instead: `tiseg run SCENE --movie out.mp4` or "
@@ -191,7 +201,8 @@ class Viewer:
     ``save_dir``: where screenshots and recordings go.
     """
 
-    BAR_W = 64  # colour bar strip at the right of the map
+    BAR_W = captions.BAR_W  # colour bar column at the right of the map
+    STRIP_H = captions.STRIP_H  # caption strip under the map
     PANEL_H = 230  # control panels below the map
     MIN_W = 760  # the three panels need this much width
 
@@ -217,7 +228,7 @@ class Viewer:
             raise DisplayUnavailable(f"cannot open the viewer: {problem}; {OFFSCREEN_HINT}")
         import taichi as ti
 
-        from tiseg.post.render import FrameRenderer
+        from tiseg.post.render import FrameRenderer  # Taichi: first use only
         from tiseg.post.render.movie import MovieWriter  # noqa: F401  (fail early if imageio is missing)
         from tiseg.run.simulation import Simulation
 
@@ -248,9 +259,18 @@ class Viewer:
         self.map_w = self.renderer.width
         self.map_h = self.renderer.height
         self.width = max(self.map_w + self.BAR_W, self.MIN_W)
-        self.height = self.map_h + self.PANEL_H
-        self.map_x0, self.map_y0 = 0, self.PANEL_H  # image y runs upwards: panel at bottom
+        self.height = self.map_h + self.STRIP_H + self.PANEL_H
+        # image y runs upwards: panels at the bottom, the caption strip above them, then the map
+        self.map_x0, self.map_y0 = 0, self.PANEL_H + self.STRIP_H
         self.canvas_image = ti.Vector.field(3, ti.f32, shape=(self.width, self.height))
+        # caption pictures (uploaded when their text changes) and the keys' box
+        self._bar_image = ti.Vector.field(3, ti.f32, shape=(self.BAR_W, self.map_h))
+        self._strip_image = ti.Vector.field(3, ti.f32, shape=(self.width, self.STRIP_H))
+        box = captions.help_box()
+        self._help_image = ti.Vector.field(3, ti.f32, shape=(box.shape[1], box.shape[0]))
+        _upload(self._help_image, box)
+        self._bar_key = self._strip_key = None
+        self.show_help = False
         field_tree.track(self)  # plain fields and a window: no Taichi reset under it
         title = f"tiseg viewer - {self.scene.name} ({nx} x {ny} cells)"
         self.window = ti.ui.Window(
@@ -319,20 +339,74 @@ class Viewer:
 
     # ------------------------------------------------------------------ drawing
     def _clear_background(self) -> None:
-        from tiseg.post.render import colours as C
 
         self.renderer.painter.fill(
             self.canvas_image, 0, 0, self.width, self.height, *C.BACKGROUND_RGB
         )
 
     def draw(self) -> None:
-        """Paint the map and its colour bar into the window image and hand it to the canvas."""
+        """Paint the map, its colour bar, the caption strip and (when on) the keys' box into the
+        window image and hand it to the canvas."""
         r = self.renderer
         r.paint_into(self.canvas_image, self.map_x0, self.map_y0, self.map_w, self.map_h)
-        bx = self.map_w + 12
-        if bx + 16 <= self.width:
-            r.painter.colourbar(self.canvas_image, bx, self.map_y0 + 8, 16, self.map_h - 16)
+        self._update_captions()
+        from tiseg.apps.viewer.blit import blit
+
+        img, y_min = self.canvas_image, self.PANEL_H
+        blit(img, self._bar_image, self.map_w, self.map_y0, y_min, 1.0)
+        blit(img, self._strip_image, 0, self.PANEL_H, y_min, 1.0)
+        if self.show_help:  # at the map's top left, over the strip if the map is low
+            bw, bh = self._help_image.shape
+            blit(img, self._help_image, 8, self.height - 8 - bh, y_min, 0.9)
         self.canvas.set_image(self.canvas_image)
+
+    def caption_texts(self) -> dict:
+        """What the captions say now: time stamp (with the field shown and the run's state),
+        status line and hint (strings), and the scale bar
+        (:class:`tiseg.apps.viewer.captions.ScaleBar` or None)."""
+        stamp = captions.time_text(self.sim.t, self.scene.t_end)
+        stamp += "   " + captions.field_title(self.renderer.field)
+        if self.recorder is not None:
+            stamp += "   recording"
+        if self.paused:
+            stamp += "   paused"
+        return {
+            "stamp": stamp,
+            "bar": captions.scale_bar(self.map_w, self.renderer.pixel_size),
+            "status": self.message,
+            "hint": captions.hint_line(),
+        }
+
+    def _update_captions(self) -> None:
+        r = self.renderer
+        key = (r.field, r.vrange)
+        if key != self._bar_key:
+            _upload(self._bar_image, captions.colour_bar_column(r.field, *r.vrange, self.map_h))
+            self._bar_key = key
+        texts = self.caption_texts()
+        key = tuple(texts.values())
+        if key != self._strip_key:
+            strip = captions.caption_strip(self.width, self.map_w, **texts, height=self.STRIP_H)
+            _upload(self._strip_image, strip)
+            self._strip_key = key
+
+    def toggle_help(self) -> None:
+        self.show_help = not self.show_help
+
+    def next_field(self) -> str:
+        """Switch to the next field this run has (phi, h, |u|, u, v) and return its name."""
+        names = self.available_fields()
+        i = names.index(self.renderer.field) if self.renderer.field in names else -1
+        self.set_field(names[(i + 1) % len(names)])
+        return self.renderer.field
+
+    def available_fields(self) -> list[str]:
+        return [
+            name
+            for name, _ in FIELDS
+            if not (name == "v" and self.is_1d)
+            and not (name == "phi" and not self.sim.layout.segregation)
+        ]
 
     def frame(self) -> None:
         """One frame: events, controls, simulation steps (unless paused), drawing, showing."""
@@ -374,7 +448,6 @@ class Viewer:
 
         GGUI draws a frame when its buffer is read and then starts an empty one, so the picture
         is read once per frame and kept for further calls in the same frame."""
-        from tiseg.post.render import colours as C
 
         if self._captured is None or self._captured[0] != self.frames:
             a = self.window.get_image_buffer_as_numpy()[:, :, :3]
@@ -428,6 +501,12 @@ class Viewer:
             rec.close()
             self.message = f"saved {self.record_path} ({rec.count} frames)"
 
+    def toggle_recording(self) -> None:
+        if self.recorder is None:
+            self.start_recording()
+        else:
+            self.stop_recording()
+
     def set_steps_per_frame(self, n: int) -> None:
         self.steps_per_frame = int(n)
         cb = self.sim.callbacks.get("viewer:recording")
@@ -475,6 +554,14 @@ class Viewer:
                 self.step(1)
             elif e.key == "r":
                 self.reset()
+            elif e.key == "h":
+                self.toggle_help()
+            elif e.key == "f":
+                self.next_field()
+            elif e.key == "p":
+                self.screenshot()
+            elif e.key == "m":
+                self.toggle_recording()
 
     def _controls(self) -> None:
         g = self.gui
@@ -495,26 +582,18 @@ class Viewer:
             if w.button("Screenshot (PNG)"):
                 self.screenshot()
             if w.button("Stop recording" if self.recorder else "Record (mp4)"):
-                if self.recorder is None:
-                    self.start_recording()
-                else:
-                    self.stop_recording()
+                self.toggle_recording()
             r = self.rates()
             w.text(f"t = {self.sim.t:.3f} s   steps {self.sim.stats.steps}")
             w.text(
                 f"{r['steps_per_s']:.1f} steps/s  {r['fps']:.1f} fps  "
                 f"x{r['realtime']:.3g} real time"
             )
-            if self.message:
-                w.text(self.message[:60])
         with g.sub_window("View", x0 + cw + 4 / W, top, cw, ph) as w:
             w.text(f"field: {self.renderer.field}")
-            for name, label in FIELDS:
-                if name == "v" and self.is_1d:
-                    continue
-                if name == "phi" and not self.sim.layout.segregation:
-                    continue
-                if w.button(f"show {label}"):
+            labels = dict(FIELDS)
+            for name in self.available_fields():
+                if w.button(f"show {labels[name]}"):
                     self.set_field(name)
             self.renderer.shade = (
                 0.35 if w.checkbox("relief shading", self.renderer.shade > 0) else 0.0
@@ -522,8 +601,6 @@ class Viewer:
             self.set_steps_per_frame(w.slider_int("steps/frame", self.steps_per_frame, 1, 100))
             lo, hi = self.renderer.vrange
             if self.renderer.field != "phi":
-                from tiseg.post.render.colours import FIELD_LABELS
-
                 _, f, unit = FIELD_LABELS[self.renderer.field]
                 w.text(f"range {lo * f:.3g} .. {hi * f:.3g} {unit}")
         with g.sub_window("Parameters", x0 + 2 * (cw + 4 / W), top, cw, ph) as w:
@@ -559,6 +636,13 @@ class Viewer:
                 self.set_params(changes)
             except TisegError as exc:  # e.g. a perturbation that leaves [0, 1]
                 self.message = str(exc)
+
+
+def _upload(field, picture: np.ndarray) -> None:
+    """A uint8 picture (rows, columns, 3; row 0 at the top) into an image field (x right, y up)
+    of the same size."""
+    a = np.transpose(picture[::-1], (1, 0, 2)).astype(np.float32) / 255.0
+    field.from_numpy(np.ascontiguousarray(a))
 
 
 # =================================================================================================
@@ -604,8 +688,6 @@ def run_from_args(args) -> int:
         raise DisplayUnavailable(f"cannot open the viewer: {problem}; {OFFSCREEN_HINT}")
     field = args.field
     if field is not None:
-        from tiseg.post.render.colours import canonical_field
-
         try:
             field = canonical_field(field)
         except ValueError as exc:
