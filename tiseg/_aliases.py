@@ -2,7 +2,7 @@
 
 tiseg's modules live in one folder per layer (``model``, ``solver``, ``setup``, ``run``,
 ``output``, ``post``, ``apps``). Scripts written earlier import ``tiseg.simulation``,
-``tiseg.schedules``, ``tiseg.numerics.operator`` and so on: :data:`OLD_PATHS` maps each old
+``tiseg.schedules``, ``tiseg.numerics.operator`` and so on: `OLD_PATHS` maps each old
 module or package to its new place, and a meta-path finder answers an import of an old name
 with the module at the new one (the same module object, so ``isinstance`` checks and monkeypatching
 behave as before)."""

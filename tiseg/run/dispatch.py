@@ -1,6 +1,6 @@
 """Callbacks after each step: which are due, snapshots interpolated at their times, in order.
 
-A mixin of :class:`tiseg.run.simulation.Simulation`. Output observes the run: a snapshot at a
+A mixin of `tiseg.run.simulation.Simulation`. Output observes the run: a snapshot at a
 scheduled time between two steps is interpolated from the states around it, so what is written,
 and when, never changes the steps."""
 
@@ -15,7 +15,7 @@ GUARD_ORDER = -100  # the guard callback runs before everything else after a ste
 
 class CallbackDispatch:
     """Registering callbacks and calling them after a step of a
-    :class:`~tiseg.run.simulation.Simulation`."""
+    `tiseg.run.simulation.Simulation`."""
 
     def add_callback(
         self,
@@ -25,8 +25,8 @@ class CallbackDispatch:
         snapshot: bool = False,
         order: int = 0,
     ) -> Callback:
-        """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.run.callbacks`),
-        or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
+        """Register ``func`` to run on ``schedule`` after steps (see `tiseg.run.callbacks`),
+        or a ready `Callback`; a callback of the same name is replaced. Returns it."""
         if isinstance(func, Callback):
             cb = func
         elif schedule is None:

@@ -1,7 +1,7 @@
 """Stopping a run that broke a bound or cannot advance, and saving what it was doing.
 
-A mixin of :class:`tiseg.run.simulation.Simulation`: the guard check (:mod:`tiseg.run.guards`)
-and the stall check raise :class:`SimulationError`; with a failure folder the last good state and
+A mixin of `tiseg.run.simulation.Simulation`: the guard check (`tiseg.run.guards`)
+and the stall check raise `SimulationError`; with a failure folder the last good state and
 the offending one are saved there first."""
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ MIN_STEP_FRACTION = 1e-9  # a step this much below the CFL limit: stiffness out 
 class SimulationError(TisegError):
     """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
 
-    ``violation``: the :class:`tiseg.run.guards.Violation` (None for a collapsed step with no
+    ``violation``: the `tiseg.run.guards.Violation` (None for a collapsed step with no
     broken bound); ``files``: paths of the saved last-good and offending states (may be empty).
     """
 
@@ -34,7 +34,7 @@ class SimulationError(TisegError):
 
 
 class FailureChecks:
-    """The checks of a :class:`~tiseg.run.simulation.Simulation` that end a run."""
+    """The checks of a `tiseg.run.simulation.Simulation` that end a run."""
 
     def _check_progress(self, p: StepPlan) -> None:
         """Stop a run that cannot get anywhere: a step too small to move the clock, or one
@@ -61,7 +61,7 @@ class FailureChecks:
         )
 
     def check_state(self) -> None:
-        """Stop with a :class:`SimulationError` naming time, step, cell and field when the state
+        """Stop with a `SimulationError` naming time, step, cell and field when the state
         holds NaN/Inf, h < 0, phi outside [0, 1] on a wet cell, or breaks the mass balance."""
         self._guard()
 

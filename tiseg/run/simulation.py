@@ -3,22 +3,22 @@
 Each step measures the wave speeds and stiffness of the current state, asks the stepper for
 (dt, stages) from the convective CFL and the spectral radius, and advances. Nothing but the end
 of the run shortens a step: output, checkpoints, movies and the viewer are callbacks
-(:mod:`tiseg.run.callbacks`) on schedules (:mod:`tiseg.run.schedules`) that observe the steps, and a
+(`tiseg.run.callbacks`) on schedules (`tiseg.run.schedules`) that observe the steps, and a
 snapshot at an output time is interpolated between the two step states around it. Two runs
 that differ only in what they write therefore take the same steps and end in the same bits.
 Only ``t_end`` is landed on exactly; when less than two steps are left, the rest is split into
 two equal steps, so no sliver step is taken.
 
-Guards (:mod:`tiseg.run.guards`, the callback ``"guard"``): every ``check_every`` steps (default
+Guards (`tiseg.run.guards`, the callback ``"guard"``): every ``check_every`` steps (default
 10) and on every step that makes a snapshot the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and
-the mass balance; a breach stops the run with a :class:`SimulationError` naming time, step,
+the mass balance; a breach stops the run with a `SimulationError` naming time, step,
 cell and field, and (with an output folder) saves ``failure/last_good.npz`` and
 ``failure/offending.npz``.
 
-Checkpoints (:mod:`tiseg.run.checkpoint`, :mod:`tiseg.run.run_folder`): with an output folder,
+Checkpoints (`tiseg.run.checkpoint`, `tiseg.run.run_folder`): with an output folder,
 ``checkpoint.npz`` holds a step state, written after every step that crossed an output time,
 per ``output.checkpoint_interval`` and per ``checkpoint_wall`` seconds;
-:meth:`Simulation.resume` continues a killed run bit for bit.
+`Simulation.resume` continues a killed run bit for bit.
 
 The Python API::
 
@@ -27,8 +27,8 @@ The Python API::
                      TimeInterval(0.5), snapshot=True)
     sim.run(out_dir="runs/f250")
 
-with the explicit mutators :meth:`Simulation.set_parameters`, :meth:`Simulation.set_state`
-and :meth:`Simulation.reset`.
+with the explicit mutators `Simulation.set_parameters`, `Simulation.set_state`
+and `Simulation.reset`.
 """
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
 
     Taichi is initialised on first use (``arch`` default cpu, the scene's precision). Once it
     is, a simulation asking for another precision, arch or thread count is an
-    :class:`InputError`: switching means ``tiseg.init(...)``, which invalidates every
+    `InputError`: switching means ``tiseg.init(...)``, which invalidates every
     existing simulation, so it is never done behind the caller's back."""
 
     def __init__(
@@ -237,7 +237,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         ``{"flow.nu": 0.02, "material.zeta_deg": 28, "inflow.h": 0.003}``), or a whole
         ``scene`` to take the values of. The scene and the operator change together; the state
         and the time stay. What the kernels were compiled for (grid, effects, boundaries,
-        reconstruction, stepper, precision) cannot change: that is an :class:`InputError`
+        reconstruction, stepper, precision) cannot change: that is an `InputError`
         naming it (build a new Simulation instead)."""
         if scene is None:
             if not changes:
@@ -286,7 +286,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         }
 
     def restore_meta(self, ck: dict) -> None:
-        """Inverse of :meth:`checkpoint_meta` (after slot 0 and the budget were restored)."""
+        """Inverse of `checkpoint_meta` (after slot 0 and the budget were restored)."""
         self.t = float(ck["t"])
         self.stats = RunStats(
             steps=int(ck["steps"]), stages=int(ck["stages"]), wall=float(ck["wall"])
@@ -467,18 +467,18 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
 
         * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
-          per step), checkpoint.npz (:mod:`tiseg.run.run_folder`); a simulation made by
-          :meth:`resume` appends to its run folder;
+          per step), checkpoint.npz (`tiseg.run.run_folder`); a simulation made by
+          `resume` appends to its run folder;
         * ``on_output(snap)``: a snapshot callback at the output times (e.g. a movie frame);
-        * ``callbacks``: more :class:`tiseg.run.callbacks.Callback` objects;
+        * ``callbacks``: more `tiseg.run.callbacks.Callback` objects;
         * ``progress``: a progress bar.
 
         ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
         output times and per ``output.checkpoint_interval``). None of this changes the steps.
         A fresh run refuses an ``out_dir`` that holds other files or another run unless
-        ``overwrite`` (:mod:`tiseg.run.run_folder`). ``signals``: SIGTERM and SIGINT stop
+        ``overwrite`` (`tiseg.run.run_folder`). ``signals``: SIGTERM and SIGINT stop
         the run at the end of the current step, with a checkpoint when there is a folder, by
-        raising :class:`RunInterrupted` (the command line exits 143 / 130)."""
+        raising `RunInterrupted` (the command line exits 143 / 130)."""
 
         t_end = self.scene.t_end if t_end is None else float(t_end)
         if not (math.isfinite(t_end) and t_end >= 0):

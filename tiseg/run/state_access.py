@@ -1,6 +1,6 @@
 """The state of a simulation as arrays: read it, replace it, sum it.
 
-A mixin of :class:`tiseg.run.simulation.Simulation`: the conserved slots of its Taichi operator
+A mixin of `tiseg.run.simulation.Simulation`: the conserved slots of its Taichi operator
 seen as NumPy arrays shaped (ny, nx) (primitive fields) or (nc, nx, ny) (conserved, no ghost
 cells), the totals that the mass balance compares and the boundary budget."""
 
@@ -12,10 +12,10 @@ from ..errors import InputError
 
 
 class StateAccess:
-    """Reading and replacing the state of a :class:`~tiseg.run.simulation.Simulation`."""
+    """Reading and replacing the state of a `tiseg.run.simulation.Simulation`."""
 
     def set_state(self, h, u=None, v=None, phi=None) -> None:
-        """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
+        """Replace the state by primitive fields shaped (ny, nx) as `state` returns them
         (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
         afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
         lay = self.layout
@@ -56,7 +56,7 @@ class StateAccess:
         self.guard.keep(self.checkpoint_meta())
 
     def state(self) -> dict[str, np.ndarray]:
-        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as :meth:`fields`)."""
+        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as `fields`)."""
         return self.fields()
 
     def conserved(self, slot: int = 0) -> np.ndarray:

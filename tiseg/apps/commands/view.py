@@ -1,4 +1,4 @@
-"""`tiseg view SCENE`: the live GGUI viewer (see :mod:`tiseg.apps.viewer.app`)."""
+"""`tiseg view SCENE`: the live GGUI viewer (see `tiseg.apps.viewer.app`)."""
 
 from __future__ import annotations
 from tiseg.apps.viewer.app import add_arguments

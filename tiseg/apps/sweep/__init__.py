@@ -29,17 +29,17 @@ the sweep asks for now; if the sweep file changed so that the same folder name m
 scene, the run is repeated.
 
 Why validate everything first: a typo in the fifth of eight long runs must not surface after the
-first four have run for an hour. :func:`load_sweep` builds and validates the scene of every
+first four have run for an hour. `load_sweep` builds and validates the scene of every
 combination (and checks the tabulation times against each scene's output times) before anything
 is submitted.
 
 Why Dask: runs are independent, and the same code scales from a laptop (a
 ``LocalCluster(processes=True, threads_per_worker=1)``: one process per concurrent run, because
 Taichi's runtime is per process) to an existing cluster (``scheduler=ADDRESS``). Each task
-(:func:`execute_run`) re-initialises Taichi (:func:`tiseg.backend.init`, the only place ti.init is
+(`execute_run`) re-initialises Taichi (`tiseg.backend.init`, the only place ti.init is
 called) with the thread count asked for, so that consecutive runs in one worker do not keep the
 previous run's fields alive. Runs report progress as Dask worker events (topic
-:data:`PROGRESS_TOPIC`), which reach the client without a shared file system; the run folders
+`PROGRESS_TOPIC`), which reach the client without a shared file system; the run folders
 themselves must however be on a file system the workers share with the client for re-runs to be
 skipped and for the figures to be drawn.
 
@@ -52,13 +52,13 @@ series of the finger diagnostics and the sweep definition.
 Ensembles: runs that differ only in ``inflow.seed`` (a grid key; see the scene's
 ``inflow.noise``) are realisations of one experiment. ``OUT/summary.csv`` has one row per
 combination of the other grid keys, with ``n`` (finished runs) and, for each metric of
-:data:`SUMMARY_METRICS` at the final time and at each extra time (``wavelength@7.5``),
+`SUMMARY_METRICS` at the final time and at each extra time (``wavelength@7.5``),
 ``<metric>_mean``, ``<metric>_std`` (sample standard deviation, ddof = 1; empty for n < 2) and
 ``<metric>_n`` (runs where the metric is defined: a wavelength is undefined without fingers),
 plus the mean wall time per run.
 
 Finished runs keep their diagnostics in ``fingers.json`` with the version of the definitions
-(:data:`tiseg.post.analysis.fingers.ANALYSIS_VERSION`); a reused run whose diagnostics are older is
+(`tiseg.post.analysis.fingers.ANALYSIS_VERSION`); a reused run whose diagnostics are older is
 analysed again from its ``fields.nc`` (seconds, not a re-run).
 """
 

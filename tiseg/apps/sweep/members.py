@@ -98,7 +98,7 @@ def execute_run(spec: dict) -> dict:
 
 
 def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
-    """:func:`execute_run` once the member's folder is locked."""
+    """`execute_run` once the member's folder is locked."""
     from ...run.simulation import Simulation
 
     rec = read_marker(run_dir, scene)

@@ -111,7 +111,7 @@ def run_sweep(
     progress lines go (default stderr; the command line: the ``tiseg`` logger; None: silent). ``progress_interval``: seconds between progress lines
     of one running run. ``overwrite``: write into an ``out`` that holds
     another sweep, and replace files that tiseg did not write in member folders (by default
-    both are refused, see :func:`check_sweep_folder`).
+    both are refused, see `check_sweep_folder`).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
     calling script: call this from under ``if __name__ == "__main__":`` in a script.

@@ -1,4 +1,4 @@
-"""What a sweep is: the sweep file (TOML) read into a :class:`Sweep` of named runs."""
+"""What a sweep is: the sweep file (TOML) read into a `Sweep` of named runs."""
 
 from __future__ import annotations
 
@@ -139,7 +139,7 @@ def load_sweep(
     ``extra_overrides`` (``{"section.key": value}``) are added to the file's ``[set]`` table
     (a key of the grid may not be given again); ``grid_overrides`` (``{"section.key": [values]}``)
     replace a grid axis of the file or add one (e.g. fewer resolutions for a quick look).
-    Raises :class:`InputError` with one line naming the file, the key and what is allowed.
+    Raises `InputError` with one line naming the file, the key and what is allowed.
     """
     p = resolve_sweep_path(path)
     where = f"sweep file {str(p)!r}"
@@ -173,7 +173,7 @@ def sweep_from_dict(
     extra_overrides: Mapping | None = None,
     grid_overrides: Mapping | None = None,
 ) -> Sweep:
-    """Validate a sweep given as the dict a sweep file parses to (see :func:`load_sweep`)."""
+    """Validate a sweep given as the dict a sweep file parses to (see `load_sweep`)."""
     where = f"sweep file {source!r}" if source else "sweep"
 
     def fail(msg: str):

@@ -31,7 +31,7 @@ def table_columns(sweep: Sweep) -> list[str]:
 
 
 def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
-    """One row per run (grid order) with the columns of :func:`table_columns`."""
+    """One row per run (grid order) with the columns of `table_columns`."""
     rows = []
     for run in sweep.runs:
         rec = records.get(run.name)
@@ -66,7 +66,7 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
 
 def summary_groups(sweep: Sweep) -> tuple[list[str], list[tuple[dict, list[SweepRun]]]]:
     """(the grid keys that tell ensembles apart, [(their values, the member runs), ...]) in grid
-    order: runs that differ only in the keys of :data:`ENSEMBLE_KEYS` form one group."""
+    order: runs that differ only in the keys of `ENSEMBLE_KEYS` form one group."""
     keys = [k for k in sweep.grid if k not in ENSEMBLE_KEYS]
     groups: dict[str, tuple[dict, list]] = {}
     for run in sweep.runs:

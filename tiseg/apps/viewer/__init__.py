@@ -1,9 +1,9 @@
 """Live GGUI viewer of tiseg simulations: ``tiseg view SCENE`` or ``python -m tiseg.apps.viewer SCENE``.
 
-Shows the simulation as it runs, painted by tiseg's frame kernel (:mod:`tiseg.post.render`), with
+Shows the simulation as it runs, painted by tiseg's frame kernel (`tiseg.post.render`), with
 controls for running, the field shown, recording and run-time parameters. Needs Vulkan (and a
 display for a visible window); without them it says so in one line and exits with status 2.
-See :mod:`tiseg.apps.viewer.app`.
+See `tiseg.apps.viewer.app`.
 """
 
 from .app import DisplayUnavailable, Viewer, display_problem, vulkan_problem

@@ -1,33 +1,33 @@
 """Live GGUI viewer: run a scene and watch it evolve, with controls.
 
 The picture is painted by the same frame kernel as every off-screen frame
-(:class:`tiseg.post.render.FrameRenderer`, straight from the Taichi state) into the window's image
+(`tiseg.post.render.FrameRenderer`, straight from the Taichi state) into the window's image
 field, which GGUI shows with ``canvas.set_image``. Below the picture, three control panels:
 
 * Run: pause/resume (space), single step (s), reset (r), screenshot (PNG), start/stop recording
   (mp4); simulated time, steps per second, real-time factor and frames per second.
 * View: field (phi, h, |u|, u, v), relief shading, steps per frame.
 * Parameters: inflow thickness and concentration, nu, slope angle. These are run-time numbers:
-  :meth:`tiseg.run.simulation.Simulation.set_parameters` changes the scene and the operator
+  `tiseg.run.simulation.Simulation.set_parameters` changes the scene and the operator
   together, without recompiling (the slope also changes the steady velocity u0 the inflow
   takes when the scene derives it). Reset restores the initial state and keeps the
   parameters; "scene values" restores the scene's.
 
-Around the map (:mod:`tiseg.apps.viewer.captions`): at its right a colour bar with round ticks, their
+Around the map (`tiseg.apps.viewer.captions`): at its right a colour bar with round ticks, their
 numbers and the field's name and unit; under it a strip with the time stamp, a scale bar, the
 status line (the last message, wrapped to the window's width) and a one-line hint of the keys;
 ``h`` shows a box with every key over the map. The captions are rasterised with Pillow into small
 pictures only when their text changes, then copied into the window image each frame.
 
-Recording is a callback of the simulation (:class:`tiseg.post.render.movie.MovieRecorder`, the
+Recording is a callback of the simulation (`tiseg.post.render.movie.MovieRecorder`, the
 movie path of ``tiseg run --movie`` and ``tiseg demo``): one frame every ``steps_per_frame``
 steps, so a paused viewer records nothing.
 
 GGUI needs Vulkan and, for a visible window, a display. A GGUI window that cannot open can kill the
-process (no exception), so :func:`display_problem` checks both *before* any window is made; where
+process (no exception), so `display_problem` checks both *before* any window is made; where
 either is missing the viewer says so in one line, suggests the off-screen path and exits with 2.
 ``Viewer(scene, show_window=False)`` runs without a display (Vulkan still needed) for tests and
-benchmarks: :meth:`Viewer.run_frames` and :meth:`Viewer.capture`.
+benchmarks: `Viewer.run_frames` and `Viewer.capture`.
 """
 
 from __future__ import annotations
@@ -363,7 +363,7 @@ class Viewer:
     def caption_texts(self) -> dict:
         """What the captions say now: time stamp (with the field shown and the run's state),
         status line and hint (strings), and the scale bar
-        (:class:`tiseg.apps.viewer.captions.ScaleBar` or None)."""
+        (`tiseg.apps.viewer.captions.ScaleBar` or None)."""
         stamp = captions.time_text(self.sim.t, self.scene.t_end)
         stamp += "   " + captions.field_title(self.renderer.field)
         if self.recorder is not None:
@@ -455,7 +455,7 @@ class Viewer:
         return self._captured[1].copy()
 
     def capture_map(self) -> np.ndarray:
-        """The map part of :meth:`capture` (without colour bar and controls)."""
+        """The map part of `capture` (without colour bar and controls)."""
         img = self.capture()
         top = self.height - (self.map_y0 + self.map_h)
         return img[top : top + self.map_h, self.map_x0 : self.map_x0 + self.map_w]

@@ -2,18 +2,18 @@
 
 The first half is plain Python (no Taichi, no window), so every rule can be tested on its own:
 
-* :func:`nice_ticks` / :func:`tick_labels` / :func:`colour_bar_ticks`: round tick values for a
+* `nice_ticks` / `tick_labels` / `colour_bar_ticks`: round tick values for a
   colour range ("nice numbers": steps of 1, 2 or 5 x 10^k, at most a given count), labelled with
   the same number of decimals;
-* :func:`field_title`: the field's name and display unit for the colour bar (h in mm);
-* :func:`scale_bar`: a 1-2-5 length (1 mm, 2 mm, 5 mm, 1 cm, ...) that spans between two given
+* `field_title`: the field's name and display unit for the colour bar (h in mm);
+* `scale_bar`: a 1-2-5 length (1 mm, 2 mm, 5 mm, 1 cm, ...) that spans between two given
   fractions of the map's width;
-* :func:`time_text`: the time stamp;
-* :func:`wrap_text`: a status line broken to a pixel width, every character kept;
-* :data:`KEYS`, :func:`hint_line`, :func:`help_lines`: the keyboard keys.
+* `time_text`: the time stamp;
+* `wrap_text`: a status line broken to a pixel width, every character kept;
+* `KEYS`, `hint_line`, `help_lines`: the keyboard keys.
 
 The second half rasterises them with Pillow (the DejaVu Sans glyphs the saved frames of
-:mod:`tiseg.post.render.frame` use, no matplotlib figure) into uint8 pictures, row 0 at the top,
+`tiseg.post.render.frame` use, no matplotlib figure) into uint8 pictures, row 0 at the top,
 which the viewer copies into its window image: the colour-bar column, the caption strip under
 the map and the help box.
 """
@@ -276,7 +276,7 @@ def text_width(s: str, size: int = SIZE) -> int:
 
 class _Writer:
     """Text onto a uint8 picture through one Pillow image: a single conversion each way for all
-    the texts of a picture (:func:`tiseg.post.render.frame.draw_text` converts per text)."""
+    the texts of a picture (`tiseg.post.render.frame.draw_text` converts per text)."""
 
     def __init__(self, img: np.ndarray):
         from PIL import Image, ImageDraw
