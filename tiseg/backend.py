@@ -1,8 +1,8 @@
-"""The only place Taichi is initialised: :func:`init` (arch, precision).
+"""The only place Taichi is initialised: `init` (arch, precision).
 
 Taichi reads its floating-point type (``default_fp``) at initialisation, so precision is a
-process-wide choice; calling :func:`init` again with other settings resets the Taichi runtime and
-invalidates every field made before (simulations check :func:`generation` to refuse stale fields).
+process-wide choice; calling `init` again with other settings resets the Taichi runtime and
+invalidates every field made before (simulations check `generation` to refuse stale fields).
 """
 
 from __future__ import annotations
@@ -266,7 +266,7 @@ def _f64_works(ti) -> bool:
 
 
 def requested_arch(resolved: str) -> str:
-    """The ``arch`` to ask :func:`init` for to get the resolved backend again."""
+    """The ``arch`` to ask `init` for to get the resolved backend again."""
     return resolved if resolved in ("cpu", "vulkan") else "gpu"
 
 

@@ -1,12 +1,12 @@
-"""Callbacks: what runs between time steps, each on its own schedule (:mod:`tiseg.schedules`).
+"""Callbacks: what runs between time steps, each on its own schedule (`tiseg.schedules`).
 
-A :class:`Callback` is a function and a schedule. After every step the simulation asks each
+A `Callback` is a function and a schedule. After every step the simulation asks each
 schedule whether it is due:
 
 * a plain callback is called as ``func(sim)`` once after a step on which it fell due, with the
   simulation at the step's end (diagnostics, checkpoints, progress, the viewer's recording);
 * a *snapshot* callback (``snapshot=True``, a time schedule) is called as ``func(snap)`` for
-  every scheduled time t the step crossed, with a :class:`Snapshot` of the state at exactly t
+  every scheduled time t the step crossed, with a `Snapshot` of the state at exactly t
   (field output, movie frames, the sweep's progress reports).
 
 Snapshots are observers: the steps never land on their times (only ``time.t_end`` is landed on),
@@ -40,7 +40,7 @@ class Snapshot:
     """The state of ``sim`` at time ``t``, held in operator slot ``slot`` until the next step.
 
     ``fields()``, ``conserved()`` and ``totals()`` read it like the simulation's own methods;
-    :class:`tiseg.render.FrameRenderer` draws it with ``to_numpy(state=snap)``. ``step``: steps
+    `tiseg.render.FrameRenderer` draws it with ``to_numpy(state=snap)``. ``step``: steps
     taken when it was made (the step that crossed t included); ``theta``: where t lies in that
     step (1: the step state itself)."""
 
@@ -64,7 +64,7 @@ class Snapshot:
 
 
 class Callback:
-    """``func`` on ``schedule``; ``snapshot=True`` hands it a :class:`Snapshot` at each scheduled
+    """``func`` on ``schedule``; ``snapshot=True`` hands it a `Snapshot` at each scheduled
     time instead of the simulation after the step (needs a time schedule). ``order``: plain
     callbacks due after the same step run in increasing order (the checkpoint runs last, after
     everything it must agree with has been written). ``checked``: the guard checks the state

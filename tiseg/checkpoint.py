@@ -37,15 +37,15 @@ equality of fields and diagnostics in f64).
 
 When
 ----
-With an output folder, :meth:`tiseg.simulation.Simulation.run` writes a checkpoint
-(:mod:`tiseg.output.run_folder`, a callback of the run loop)
+With an output folder, `tiseg.simulation.Simulation.run` writes a checkpoint
+(`tiseg.output.run_folder`, a callback of the run loop)
 
 * after every step that crossed an output time, right after the snapshots it made (so
   ``fields.nc`` and the checkpoint agree);
 * if ``output.checkpoint_interval`` is set, also after the first step that ends at or past each
   multiple of that many seconds of *simulated* time;
 * and after any step that ends more than ``checkpoint_wall`` seconds of *wall* time after the
-  previous wall-clock checkpoint (default :data:`DEFAULT_WALL_INTERVAL` = 300 s), so that a
+  previous wall-clock checkpoint (default `DEFAULT_WALL_INTERVAL` = 300 s), so that a
   slow run with sparse output times loses at most a few minutes of work.
 
 A checkpoint always holds a step state (the state at the end of a step), never a snapshot
@@ -61,7 +61,7 @@ leaves either the old or the new checkpoint, never a half-written one.
 
 Resume
 ------
-``tiseg run --resume DIR`` (or :meth:`Simulation.resume`) reads ``DIR/checkpoint.npz`` (whose
+``tiseg run --resume DIR`` (or `Simulation.resume`) reads ``DIR/checkpoint.npz`` (whose
 scene must agree with ``DIR/scene.toml``), restores the state, trims ``fields.nc`` and
 ``diagnostics.csv`` to what the checkpoint knows of (dropping anything written after it by the
 killed run), and appends from there.

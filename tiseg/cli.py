@@ -1,6 +1,6 @@
-"""`tiseg` command line: one sub-command per module in :mod:`tiseg.commands`.
+"""`tiseg` command line: one sub-command per module in `tiseg.commands`.
 
-User mistakes (:class:`tiseg.errors.TisegError`) end in one line on stderr and exit status 2;
+User mistakes (`tiseg.errors.TisegError`) end in one line on stderr and exit status 2;
 anything else is a bug and shows its traceback.
 """
 

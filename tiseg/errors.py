@@ -1,6 +1,6 @@
 """Errors that mean "the user asked for something we cannot do".
 
-The command line turns a :class:`TisegError` into one line on stderr and a non-zero exit code;
+The command line turns a `TisegError` into one line on stderr and a non-zero exit code;
 anything else is a bug and is allowed to show its traceback.
 """
 
@@ -14,7 +14,7 @@ class InputError(TisegError, ValueError):
 
 
 def require(condition: bool, message: str) -> None:
-    """Raise :class:`InputError` with ``message`` unless ``condition`` holds."""
+    """Raise `InputError` with ``message`` unless ``condition`` holds."""
     if not condition:
         raise InputError(message)
 

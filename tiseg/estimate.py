@@ -3,12 +3,12 @@
 ``tiseg estimate SCENE [--set ...]`` and ``tiseg run SCENE --estimate`` predict a run from two
 ingredients:
 
-1. **A flow model** (:func:`flow_model`): from the scene's steady state (h0, u0, phi0) and its
+1. **A flow model** (`flow_model`): from the scene's steady state (h0, u0, phi0) and its
    set-up, the largest wave speeds a_x(t), a_y(t), the largest thickness h_max(t) (viscous
    stiffness), the slowest wet speed u_slow(t) (friction stiffness) and the wet x range (the
    active region the operator computes) as functions of time. The step and stage count then
-   follow from exactly the rules the run uses (:meth:`Simulation.plan` and the stepper's
-   ``plan``, :func:`tiseg.simulation.step_limits`): dt = cfl / max(a_x/dx, a_y/dy), or
+   follow from exactly the rules the run uses (`Simulation.plan` and the stepper's
+   ``plan``, `tiseg.simulation.step_limits`): dt = cfl / max(a_x/dx, a_y/dy), or
    cfl / (a_x/dx + a_y/dy) with ``numerics.step_rule = "sum"`` (also for ``"local"``, whose
    per-cell rate the model does not know: an upper bound on its steps), times an SSP stepper's SSP
    coefficient, and, for RKC, s from dt * rho with
@@ -16,7 +16,7 @@ ingredients:
    viscous term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow (the run bounds
    the two terms together cell by cell, and they peak in different cells: viscosity in thick
    channels, friction in slow thin levees, so the larger one stands for both). Output times do
-   not shorten steps (snapshots are interpolated, :mod:`tiseg.callbacks`): the steps are
+   not shorten steps (snapshots are interpolated, `tiseg.callbacks`): the steps are
    counted over [0, t_end] in one piece, whose last step lands on t_end.
 
    For an inflow into an empty chute with segregation-mobility feedback (the fingers scene) the
@@ -39,7 +39,7 @@ ingredients:
    not bounds: a scene far from these set-ups (a finite release after its inflow stops, fingers
    at other parameters) will differ.
 
-2. **A calibration in this process** (:func:`calibrate`): the scene's own Simulation on its own
+2. **A calibration in this process** (`calibrate`): the scene's own Simulation on its own
    grid, in a wet state (the uniform flow h0, u0, phi0 with noise) covering all of x and a
    quarter of it, timing one stage (operator + linear combination + limiter), one step at a
    fixed stage count (so the per-step work -- stability numbers, wet extent, guard checks --
@@ -604,7 +604,7 @@ def estimate(
     calibration: Calibration | None = None,
     t_end: float | None = None,
 ) -> Estimate:
-    """Predict a run of ``scene`` (a :class:`tiseg.scene.Scene`) on this machine.
+    """Predict a run of ``scene`` (a `tiseg.scene.Scene`) on this machine.
 
     ``output``: the run writes files (snapshots, checkpoints, a diagnostics row per step), as
     ``tiseg run`` does; False for ``Simulation.advance`` without output."""

@@ -2,14 +2,14 @@
 
 Both start from h = h_l for x < x0 and h = h_r beyond, at rest, with gravity g:
 
-* :func:`ritter` (h_r = 0): a rarefaction fan from x0 - c_l t to the dry front x0 + 2 c_l t,
+* `ritter` (h_r = 0): a rarefaction fan from x0 - c_l t to the dry front x0 + 2 c_l t,
   where c = (2 c_l - xi) / 3 and h = c^2 / g at xi = (x - x0) / t (Ritter 1892);
-* :func:`stoker` (h_r > 0): the fan, a constant star state (h*, u*) and a bore into the still
+* `stoker` (h_r > 0): the fan, a constant star state (h*, u*) and a bore into the still
   right state (Stoker 1957). h* solves 2 (c_l - c*) = (h* - h_r) sqrt(g (h* + h_r) / (2 h* h_r)),
   the Riemann invariant of the fan equal to the bore's Rankine-Hugoniot velocity, and the bore
   runs at s = h* u* / (h* - h_r).
 
-:func:`cell_averages` turns a point solution into the cell averages a finite-volume scheme is
+`cell_averages` turns a point solution into the cell averages a finite-volume scheme is
 compared with.
 """
 

@@ -3,9 +3,9 @@
 Taichi's plain ``ti.field(..., shape=...)`` places every field under its root, which it
 materialises into a new field tree (an SNode tree) at the next kernel launch and never frees until
 ``ti.init`` resets the runtime; the LLVM backends hold at most 512 trees per runtime. A
-:class:`FieldTree` instead collects the fields of one object (a simulation's operator, its guard)
-in a ``ti.FieldsBuilder`` and frees them all at once with :meth:`FieldTree.destroy`, which runs
-by itself when the owner is garbage collected (:meth:`FieldTree.free_with`). A process can then
+`FieldTree` instead collects the fields of one object (a simulation's operator, its guard)
+in a ``ti.FieldsBuilder`` and frees them all at once with `FieldTree.destroy`, which runs
+by itself when the owner is garbage collected (`FieldTree.free_with`). A process can then
 make any number of simulations one after another.
 
 The fields are dense arrays laid out exactly as ``ti.field(dtype, shape=...)`` lays them out, so
@@ -31,7 +31,7 @@ def made() -> int:
 
 
 def track(obj) -> None:
-    """Count ``obj`` as holding Taichi fields for as long as it lives (see :func:`live`)."""
+    """Count ``obj`` as holding Taichi fields for as long as it lives (see `live`)."""
     _holders.add(obj)
 
 
@@ -42,8 +42,8 @@ def live() -> int:
 
 
 class FieldTree:
-    """Fields of one owner, allocated with :meth:`field` and :meth:`vector`, usable after
-    :meth:`finalize`, freed by :meth:`destroy` (or with the owner, see :meth:`free_with`)."""
+    """Fields of one owner, allocated with `field` and `vector`, usable after
+    `finalize`, freed by `destroy` (or with the owner, see `free_with`)."""
 
     def __init__(self):
         import taichi as ti

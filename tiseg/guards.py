@@ -1,15 +1,15 @@
 """Guards: stop a run as soon as its state leaves what the model allows, and say where.
 
-The state of a run (slot 0 of the :class:`~tiseg.numerics.operator.TaichiOperator`) must hold
+The state of a run (slot 0 of the `tiseg.numerics.operator.TaichiOperator`) must hold
 finite numbers, a thickness h >= 0 and, where the chute is wet (h >= h_min), a concentration
-0 <= phi = (h phi) / h <= 1. :class:`StateGuard` checks all of this in one Taichi reduction over
+0 <= phi = (h phi) / h <= 1. `StateGuard` checks all of this in one Taichi reduction over
 the interior cells:
 
 * every violated rule counts its cells with integer atomics and keeps its *first* offending cell
   (smallest linear index) with ``atomic_min``, so the report is the same for any thread count;
 * only a (4, 2) integer table comes back to the host: a check costs one kernel launch and a tiny
   copy, about as much as one of the ~15 kernels of an RKC step (measured in
-  ``tests/test_hard_cases.py``, see :func:`measure_overhead`), so it can run every few steps;
+  ``tests/test_hard_cases.py``, see `measure_overhead`), so it can run every few steps;
 * after a check that passes, the state (ghost cells included) and the boundary budget are copied,
   on the device, into a "last good" buffer, so that a failure can save the last state that passed
   next to the offending one.
@@ -24,7 +24,7 @@ A NaN is the failure that matters in practice. The operator's stage limiter clam
 select that lets a NaN through (``max(NaN, 0)`` would give 0 and hide it as an empty cell), so a
 NaN made inside a step reaches slot 0 and the scan names its cell. The guard also checks the
 mass balance (total mass against the initial mass plus what entered through the boundaries)
-with a loose tolerance, see :attr:`StateGuard.mass_tol`: mass lost by any other route shows there.
+with a loose tolerance, see `StateGuard.mass_tol`: mass lost by any other route shows there.
 """
 # (no "from __future__ import annotations": Taichi reads kernel annotations as objects)
 

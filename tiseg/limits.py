@@ -1,12 +1,12 @@
 """Limits checked before work starts: memory for the grid, disk for the output.
 
-:func:`check_memory` compares what a simulation will take at its peak (the operator's fields,
+`check_memory` compares what a simulation will take at its peak (the operator's fields,
 the guard's last-good copy, the host copies made when states are read and written) with the
 memory available to this process: the machine's available memory or, when lower, what the
 memory limit of its cgroup (a container's, a batch job's) still allows. It refuses with the
 numbers when the grid does not fit, before Taichi tries to allocate it (past a cgroup's limit
 the kernel kills the process with no message).
-:func:`disk_note` warns when the expected output of a run exceeds the free space where it goes.
+`disk_note` warns when the expected output of a run exceeds the free space where it goes.
 """
 
 from __future__ import annotations

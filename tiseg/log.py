@@ -1,14 +1,14 @@
-"""Messages to the user through the standard :mod:`logging` module (logger ``tiseg``).
+"""Messages to the user through the standard `logging` module (logger ``tiseg``).
 
-* :func:`note`: tiseg did something the user may not expect but that is not an error (e.g.
+* `note`: tiseg did something the user may not expect but that is not an error (e.g.
   dropping output times past a shortened ``time.t_end``); a warning-level record, so Python's
   last-resort handler prints it on stderr even where nothing configured logging;
-* :func:`info`: progress lines (sweeps, benchmarks); shown by the command line unless ``-q``;
-* :func:`debug`: details for ``-v``.
+* `info`: progress lines (sweeps, benchmarks); shown by the command line unless ``-q``;
+* `debug`: details for ``-v``.
 
-The command line prints them on stderr as ``tiseg: ...`` (:func:`configure`, with the
+The command line prints them on stderr as ``tiseg: ...`` (`configure`, with the
 verbosity of ``-q`` / ``-v``); stdout carries results and JSON only. Progress bars show only
-on a terminal and not with ``-q`` (:func:`bar_disable`). An application may route or silence
+on a terminal and not with ``-q`` (`bar_disable`). An application may route or silence
 the ``tiseg`` logger as it likes.
 """
 

@@ -1,13 +1,13 @@
 """Material constants (Table 1) and the closures of sections 2-3.
 
 Pure NumPy functions, vectorised over arrays; the Taichi kernels have ``ti.func`` twins in
-:mod:`tiseg.physics` that are tested against these.
+`tiseg.physics` that are tested against these.
 
 * Pouliquen-Forterre friction of one species, eq. (3.7), written in the division-free form
   ``mu1 + (mu2 - mu1) * L Fr / (beta h + L Fr)`` so that Fr = 0 (material at rest) is regular.
 * Concentration-weighted mixture, eq. (3.4).
 * Transport functions G: linear shear profile (2.17) for any alpha (default 1/7) and the Bagnold
-  profile (2.18), through the components of :mod:`tiseg.physics.segregation`.
+  profile (2.18), through the components of `tiseg.physics.segregation`.
 * Monodisperse viscosity coefficient (3.8), defined only for zeta_1 < zeta < zeta_2.
 """
 
@@ -155,7 +155,7 @@ class Material:
     # ---- transport function -------------------------------------------------------------
     def G(self, phi):
         """Transport function G(phi): (2.17) with this alpha, or (2.18)
-        (:mod:`tiseg.physics.segregation`)."""
+        (`tiseg.physics.segregation`)."""
         return TRANSPORTS[self.transport].G_np(phi, self.alpha)
 
     def dG(self, phi):
@@ -218,7 +218,7 @@ def nu_monodisperse(zeta_deg: float, sp: Species, g: float = GRAVITY) -> float:
     """nu^N of (3.8): 2 L sqrt(g) / (9 beta) * sin(zeta)/sqrt(cos(zeta)) * (mu2 - tan z)/(tan z - mu1).
 
     Defined only for zeta1^N < zeta < zeta2^N; outside, the coefficient is negative and the
-    monodisperse depth-averaged theory is ill posed, so this raises :class:`InputError`.
+    monodisperse depth-averaged theory is ill posed, so this raises `InputError`.
     """
     if not (sp.zeta1_deg < zeta_deg < sp.zeta2_deg):
         raise InputError(

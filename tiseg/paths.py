@@ -1,11 +1,11 @@
 """Where tiseg may write: safe names, no symlinks, one writer per run folder.
 
-* :func:`check_name` / :func:`safe_name`: scene and sweep names become folder names (the
+* `check_name` / `safe_name`: scene and sweep names become folder names (the
   default ``runs/<name>``), so they are letters, digits, ``.``, ``_``, ``+`` and ``-``,
   starting with a letter or digit: never ``..``, a hidden name, a path or an option.
-* :func:`refuse_symlinks`: the files of a run are never written through a symbolic link
+* `refuse_symlinks`: the files of a run are never written through a symbolic link
   (a link inside the output folder could point anywhere).
-* :class:`RunLock`: a lock file per run folder (the maintained ``filelock`` library); a second
+* `RunLock`: a lock file per run folder (the maintained ``filelock`` library); a second
   writer is refused with one line naming the holder (host, process, since when).
 """
 

@@ -1,14 +1,14 @@
-"""Scenes: a simulation set-up as a TOML file, validated into one frozen :class:`Scene`.
+"""Scenes: a simulation set-up as a TOML file, validated into one frozen `Scene`.
 
 A scene describes everything a run needs: the material (Table 1), the reference steady uniform
 flow of section 4, which physical effects are switched on, the domain and its boundaries, the
 inflow (6.8)-(6.9), the initial state (e.g. the empty slope (6.7)), the numerics, the end time and
-the output times. Built-in scenes live in ``tiseg/data/scenes/*.toml`` (see :func:`list_builtin_scenes`);
+the output times. Built-in scenes live in ``tiseg/data/scenes/*.toml`` (see `list_builtin_scenes`);
 any other TOML file can be given by path.
 
 Loading is strict, because a typo in a scene would otherwise silently run the wrong experiment:
 unknown sections and keys, wrong types, out-of-range values and inconsistent combinations all raise
-:class:`tiseg.errors.InputError` with a message that names the full dotted key, the bad value and
+`tiseg.errors.InputError` with a message that names the full dotted key, the bad value and
 what is allowed. Nothing given is ever ignored without saying so.
 
 Command-line style overrides (``--set section.key=value``) are applied to the raw TOML data
@@ -16,11 +16,11 @@ before validation, so an override is checked exactly like the same value written
 
     scene = load_scene("fingers", ["domain.resolution=250", "time.t_end=2.0"])
 
-:meth:`Scene.to_toml` writes the fully resolved scene (every default filled in) as TOML that
-:func:`load_scene` turns back into an equal :class:`Scene`; a run stores it next to its output so
+`Scene.to_toml` writes the fully resolved scene (every default filled in) as TOML that
+`load_scene` turns back into an equal `Scene`; a run stores it next to its output so
 that the run can be repeated exactly.
 
-Each key is declared once, on its section's dataclass field (:mod:`tiseg.setup`); the reader,
+Each key is declared once, on its section's dataclass field (`tiseg.setup`); the reader,
 the writer, the allowed-key lists, the compiled keys and the scenes reference page are derived
 from that declaration. This module keeps the public names.
 """

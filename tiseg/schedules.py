@@ -2,16 +2,16 @@
 
 A schedule answers one question after every time step from t0 to t1: is the callback due? Time
 schedules also name the scheduled times inside the step, so that a *snapshot* callback
-(:class:`tiseg.callbacks.Callback` with ``snapshot=True``) can be handed the state at each of
+(`tiseg.callbacks.Callback` with ``snapshot=True``) can be handed the state at each of
 those times, interpolated between the two step states around it. Schedules never shorten a
 step: the sequence of steps of a run does not depend on them.
 
-* :class:`TimeInterval` ``(dt)``: every multiple k dt of simulated time (k >= 1);
-* :class:`SpecifiedTimes` ``(times)``: the given simulated times;
-* :class:`IterationInterval` ``(n)``: after every step whose number is a multiple of n;
-* :class:`WallTimeInterval` ``(seconds)``: after the first step that ends at least that much
+* `TimeInterval` ``(dt)``: every multiple k dt of simulated time (k >= 1);
+* `SpecifiedTimes` ``(times)``: the given simulated times;
+* `IterationInterval` ``(n)``: after every step whose number is a multiple of n;
+* `WallTimeInterval` ``(seconds)``: after the first step that ends at least that much
   wall time after the last firing (or after the start of the run);
-* :class:`AnyOf` ``(*schedules)``: due when one of them is.
+* `AnyOf` ``(*schedules)``: due when one of them is.
 
 Every schedule depends on the simulation's (t, steps) alone, except the wall-time one; so a
 resumed run fires the same callbacks at the same steps as an uninterrupted one.
@@ -30,7 +30,7 @@ from .errors import InputError
 class Schedule:
     """Base class: ``due(t0, t1, steps)`` after a step from t0 to t1 (steps: the count after it)."""
 
-    #: whether :meth:`times_in` names the scheduled times (time schedules only)
+    #: whether `times_in` names the scheduled times (time schedules only)
     timed = False
 
     def start(self) -> None:
@@ -56,9 +56,9 @@ class TimeInterval(Schedule):
 
     Asking whether a step is due costs the same however many multiples the step crosses (the
     first multiple past t0 is computed, not searched for). The schedule holds at most
-    :data:`MAX_MULTIPLES` multiples: beyond that the 12-digit times of successive multiples
+    `MAX_MULTIPLES` multiples: beyond that the 12-digit times of successive multiples
     would no longer differ (the interval is lost in the time's rounding), so a time past
-    ``MAX_MULTIPLES * interval`` is an :class:`InputError`."""
+    ``MAX_MULTIPLES * interval`` is an `InputError`."""
 
     timed = True
 

@@ -3,22 +3,22 @@
 Each step measures the wave speeds and stiffness of the current state, asks the stepper for
 (dt, stages) from the convective CFL and the spectral radius, and advances. Nothing but the end
 of the run shortens a step: output, checkpoints, movies and the viewer are callbacks
-(:mod:`tiseg.callbacks`) on schedules (:mod:`tiseg.schedules`) that observe the steps, and a
+(`tiseg.callbacks`) on schedules (`tiseg.schedules`) that observe the steps, and a
 snapshot at an output time is interpolated between the two step states around it. Two runs
 that differ only in what they write therefore take the same steps and end in the same bits.
 Only ``t_end`` is landed on exactly; when less than two steps are left, the rest is split into
 two equal steps, so no sliver step is taken.
 
-Guards (:mod:`tiseg.guards`, the callback ``"guard"``): every ``check_every`` steps (default
+Guards (`tiseg.guards`, the callback ``"guard"``): every ``check_every`` steps (default
 10) and on every step that makes a snapshot the state is checked for NaN/Inf, h < 0 and 0 <= phi <= 1 on wet cells, and
-the mass balance; a breach stops the run with a :class:`SimulationError` naming time, step,
+the mass balance; a breach stops the run with a `SimulationError` naming time, step,
 cell and field, and (with an output folder) saves ``failure/last_good.npz`` and
 ``failure/offending.npz``.
 
-Checkpoints (:mod:`tiseg.checkpoint`, :mod:`tiseg.output.run_folder`): with an output folder,
+Checkpoints (`tiseg.checkpoint`, `tiseg.output.run_folder`): with an output folder,
 ``checkpoint.npz`` holds a step state, written after every step that crossed an output time,
 per ``output.checkpoint_interval`` and per ``checkpoint_wall`` seconds;
-:meth:`Simulation.resume` continues a killed run bit for bit.
+`Simulation.resume` continues a killed run bit for bit.
 
 The Python API::
 
@@ -27,8 +27,8 @@ The Python API::
                      TimeInterval(0.5), snapshot=True)
     sim.run(out_dir="runs/f250")
 
-with the explicit mutators :meth:`Simulation.set_parameters`, :meth:`Simulation.set_state`
-and :meth:`Simulation.reset`.
+with the explicit mutators `Simulation.set_parameters`, `Simulation.set_state`
+and `Simulation.reset`.
 """
 
 from __future__ import annotations
@@ -125,7 +125,7 @@ class StepPlan:
 class SimulationError(TisegError):
     """The numerical solution broke a physical bound (NaN, h < 0, phi outside [0, 1], mass).
 
-    ``violation``: the :class:`tiseg.guards.Violation` (None for a collapsed step with no
+    ``violation``: the `tiseg.guards.Violation` (None for a collapsed step with no
     broken bound); ``files``: paths of the saved last-good and offending states (may be empty).
     """
 
@@ -148,7 +148,7 @@ class Simulation:
 
     Taichi is initialised on first use (``arch`` default cpu, the scene's precision). Once it
     is, a simulation asking for another precision, arch or thread count is an
-    :class:`InputError`: switching means ``tiseg.init(...)``, which invalidates every
+    `InputError`: switching means ``tiseg.init(...)``, which invalidates every
     existing simulation, so it is never done behind the caller's back."""
 
     def __init__(
@@ -249,7 +249,7 @@ class Simulation:
         ``{"flow.nu": 0.02, "material.zeta_deg": 28, "inflow.h": 0.003}``), or a whole
         ``scene`` to take the values of. The scene and the operator change together; the state
         and the time stay. What the kernels were compiled for (grid, effects, boundaries,
-        reconstruction, stepper, precision) cannot change: that is an :class:`InputError`
+        reconstruction, stepper, precision) cannot change: that is an `InputError`
         naming it (build a new Simulation instead)."""
         if scene is None:
             if not changes:
@@ -281,7 +281,7 @@ class Simulation:
         self.guard.set_params()  # h_min of the phi rule
 
     def set_state(self, h, u=None, v=None, phi=None) -> None:
-        """Replace the state by primitive fields shaped (ny, nx) as :meth:`state` returns them
+        """Replace the state by primitive fields shaped (ny, nx) as `state` returns them
         (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
         afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
         lay = self.layout
@@ -322,7 +322,7 @@ class Simulation:
         self.guard.keep(self.checkpoint_meta())
 
     def state(self) -> dict[str, np.ndarray]:
-        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as :meth:`fields`)."""
+        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as `fields`)."""
         return self.fields()
 
     # ------------------------------------------------------------------ callbacks
@@ -334,8 +334,8 @@ class Simulation:
         snapshot: bool = False,
         order: int = 0,
     ) -> Callback:
-        """Register ``func`` to run on ``schedule`` after steps (see :mod:`tiseg.callbacks`),
-        or a ready :class:`Callback`; a callback of the same name is replaced. Returns it."""
+        """Register ``func`` to run on ``schedule`` after steps (see `tiseg.callbacks`),
+        or a ready `Callback`; a callback of the same name is replaced. Returns it."""
         if isinstance(func, Callback):
             cb = func
         elif schedule is None:
@@ -385,7 +385,7 @@ class Simulation:
         }
 
     def restore_meta(self, ck: dict) -> None:
-        """Inverse of :meth:`checkpoint_meta` (after slot 0 and the budget were restored)."""
+        """Inverse of `checkpoint_meta` (after slot 0 and the budget were restored)."""
         self.t = float(ck["t"])
         self.stats = RunStats(
             steps=int(ck["steps"]), stages=int(ck["stages"]), wall=float(ck["wall"])
@@ -663,7 +663,7 @@ class Simulation:
                 cb(snap)
 
     def check_state(self) -> None:
-        """Stop with a :class:`SimulationError` naming time, step, cell and field when the state
+        """Stop with a `SimulationError` naming time, step, cell and field when the state
         holds NaN/Inf, h < 0, phi outside [0, 1] on a wet cell, or breaks the mass balance."""
         self._guard()
 
@@ -738,18 +738,18 @@ class Simulation:
         """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
 
         * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
-          per step), checkpoint.npz (:mod:`tiseg.output.run_folder`); a simulation made by
-          :meth:`resume` appends to its run folder;
+          per step), checkpoint.npz (`tiseg.output.run_folder`); a simulation made by
+          `resume` appends to its run folder;
         * ``on_output(snap)``: a snapshot callback at the output times (e.g. a movie frame);
-        * ``callbacks``: more :class:`tiseg.callbacks.Callback` objects;
+        * ``callbacks``: more `tiseg.callbacks.Callback` objects;
         * ``progress``: a progress bar.
 
         ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
         output times and per ``output.checkpoint_interval``). None of this changes the steps.
         A fresh run refuses an ``out_dir`` that holds other files or another run unless
-        ``overwrite`` (:mod:`tiseg.output.run_folder`). ``signals``: SIGTERM and SIGINT stop
+        ``overwrite`` (`tiseg.output.run_folder`). ``signals``: SIGTERM and SIGINT stop
         the run at the end of the current step, with a checkpoint when there is a folder, by
-        raising :class:`RunInterrupted` (the command line exits 143 / 130)."""
+        raising `RunInterrupted` (the command line exits 143 / 130)."""
         from .output.run_folder import RunFolder
 
         t_end = self.scene.t_end if t_end is None else float(t_end)

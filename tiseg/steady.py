@@ -127,7 +127,7 @@ class SteadyState:
 
 
 def steady_state(h0: float, phi0: float, m: Material = TABLE1) -> SteadyState:
-    """All section-4 quantities for (h0, phi0); raises :class:`InputError` if none exists."""
+    """All section-4 quantities for (h0, phi0); raises `InputError` if none exists."""
     check_thickness(h0)
     check_concentration(phi0)
     per = froude_per_thickness(phi0, m)

@@ -12,7 +12,7 @@ Its steady state solves the cross-slope boundary-value problem
     (1/2) nu h^{3/2} u'' + g h (sin zeta - cos zeta mu_b(h, |u|, phi(y)) u / max(|u|, u_eps)) = 0,
 
 periodic across Ly. The regularised direction u / max(|u|, u_eps) is the solver's (its
-:mod:`tiseg.reference.operator` twin is used here), so that coarse levees on a slope below their
+`tiseg.reference.operator` twin is used here), so that coarse levees on a slope below their
 zeta_1 come to the same slow creep (u ~ u_eps tan zeta / mu_b) as in the simulation.
 
 By symmetry (levee centre at y = 0, channel centre at y = Ly/2) it is solved on [0, Ly/2] as two

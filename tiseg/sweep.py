@@ -29,17 +29,17 @@ the sweep asks for now; if the sweep file changed so that the same folder name m
 scene, the run is repeated.
 
 Why validate everything first: a typo in the fifth of eight long runs must not surface after the
-first four have run for an hour. :func:`load_sweep` builds and validates the scene of every
+first four have run for an hour. `load_sweep` builds and validates the scene of every
 combination (and checks the tabulation times against each scene's output times) before anything
 is submitted.
 
 Why Dask: runs are independent, and the same code scales from a laptop (a
 ``LocalCluster(processes=True, threads_per_worker=1)``: one process per concurrent run, because
 Taichi's runtime is per process) to an existing cluster (``scheduler=ADDRESS``). Each task
-(:func:`execute_run`) re-initialises Taichi (:func:`tiseg.backend.init`, the only place ti.init is
+(`execute_run`) re-initialises Taichi (`tiseg.backend.init`, the only place ti.init is
 called) with the thread count asked for, so that consecutive runs in one worker do not keep the
 previous run's fields alive. Runs report progress as Dask worker events (topic
-:data:`PROGRESS_TOPIC`), which reach the client without a shared file system; the run folders
+`PROGRESS_TOPIC`), which reach the client without a shared file system; the run folders
 themselves must however be on a file system the workers share with the client for re-runs to be
 skipped and for the figures to be drawn.
 
@@ -52,13 +52,13 @@ series of the finger diagnostics and the sweep definition.
 Ensembles: runs that differ only in ``inflow.seed`` (a grid key; see the scene's
 ``inflow.noise``) are realisations of one experiment. ``OUT/summary.csv`` has one row per
 combination of the other grid keys, with ``n`` (finished runs) and, for each metric of
-:data:`SUMMARY_METRICS` at the final time and at each extra time (``wavelength@7.5``),
+`SUMMARY_METRICS` at the final time and at each extra time (``wavelength@7.5``),
 ``<metric>_mean``, ``<metric>_std`` (sample standard deviation, ddof = 1; empty for n < 2) and
 ``<metric>_n`` (runs where the metric is defined: a wavelength is undefined without fingers),
 plus the mean wall time per run.
 
 Finished runs keep their diagnostics in ``fingers.json`` with the version of the definitions
-(:data:`tiseg.analysis.fingers.ANALYSIS_VERSION`); a reused run whose diagnostics are older is
+(`tiseg.analysis.fingers.ANALYSIS_VERSION`); a reused run whose diagnostics are older is
 analysed again from its ``fields.nc`` (seconds, not a re-run).
 """
 
@@ -208,7 +208,7 @@ def load_sweep(
     ``extra_overrides`` (``{"section.key": value}``) are added to the file's ``[set]`` table
     (a key of the grid may not be given again); ``grid_overrides`` (``{"section.key": [values]}``)
     replace a grid axis of the file or add one (e.g. fewer resolutions for a quick look).
-    Raises :class:`InputError` with one line naming the file, the key and what is allowed.
+    Raises `InputError` with one line naming the file, the key and what is allowed.
     """
     p = resolve_sweep_path(path)
     where = f"sweep file {str(p)!r}"
@@ -242,7 +242,7 @@ def sweep_from_dict(
     extra_overrides: Mapping | None = None,
     grid_overrides: Mapping | None = None,
 ) -> Sweep:
-    """Validate a sweep given as the dict a sweep file parses to (see :func:`load_sweep`)."""
+    """Validate a sweep given as the dict a sweep file parses to (see `load_sweep`)."""
     where = f"sweep file {source!r}" if source else "sweep"
 
     def fail(msg: str):
@@ -501,7 +501,7 @@ def execute_run(spec: dict) -> dict:
 
 
 def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
-    """:func:`execute_run` once the member's folder is locked."""
+    """`execute_run` once the member's folder is locked."""
     from . import backend
     from .analysis.fingers import analyse_run
     from .output import write_json_atomic
@@ -715,7 +715,7 @@ def run_sweep(
     progress lines go (default stderr; the command line: the ``tiseg`` logger; None: silent). ``progress_interval``: seconds between progress lines
     of one running run. ``overwrite``: write into an ``out`` that holds
     another sweep, and replace files that tiseg did not write in member folders (by default
-    both are refused, see :func:`check_sweep_folder`).
+    both are refused, see `check_sweep_folder`).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
     calling script: call this from under ``if __name__ == "__main__":`` in a script.
@@ -947,7 +947,7 @@ def table_columns(sweep: Sweep) -> list[str]:
 
 
 def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
-    """One row per run (grid order) with the columns of :func:`table_columns`."""
+    """One row per run (grid order) with the columns of `table_columns`."""
     rows = []
     for run in sweep.runs:
         rec = records.get(run.name)
@@ -982,7 +982,7 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
 
 def summary_groups(sweep: Sweep) -> tuple[list[str], list[tuple[dict, list[SweepRun]]]]:
     """(the grid keys that tell ensembles apart, [(their values, the member runs), ...]) in grid
-    order: runs that differ only in the keys of :data:`ENSEMBLE_KEYS` form one group."""
+    order: runs that differ only in the keys of `ENSEMBLE_KEYS` form one group."""
     keys = [k for k in sweep.grid if k not in ENSEMBLE_KEYS]
     groups: dict[str, tuple[dict, list]] = {}
     for run in sweep.runs:

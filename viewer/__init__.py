@@ -1,4 +1,4 @@
-"""Alias of :mod:`tiseg.viewer` in a source checkout, so that ``python -m viewer SCENE`` keeps
+"""Alias of `tiseg.viewer` in a source checkout, so that ``python -m viewer SCENE`` keeps
 working from the repository root. The package itself is ``tiseg.viewer`` (installed with tiseg);
 this folder is not part of the wheel."""
 

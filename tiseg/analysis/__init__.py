@@ -1,6 +1,6 @@
 """Post-processing of saved runs.
 
-* :mod:`tiseg.analysis.fingers`: finger diagnostics of section 6.3 -- front positions
+* `tiseg.analysis.fingers`: finger diagnostics of section 6.3 -- front positions
   x_f^+, x_f^- and elongation x_l (6.10)-(6.12), finger count and mean wavelength
   Lambda = Ly / count, front speed and channel speed relative to u0.
 """

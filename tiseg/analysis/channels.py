@@ -6,11 +6,11 @@ Counted on single cross-slope lines, the fingers of unequal length give a count 
 the line: near the tips only the longest fingers are crossed, near x_f^- the channels have
 merged. Counted as 2D objects, each finger counts once whatever its length.
 
-The count (:func:`count_channels`)
+The count (`count_channels`)
 ----------------------------------
 1. Channel cells are wet (h >= h_min) and fine-rich (phi > phi_threshold); on each grid column
    (cross-slope line) of the fingered zone they form periodic runs after the noise filters of
-   :func:`periodic_runs` (runs narrower than ``min_width`` cells dropped,
+   `periodic_runs` (runs narrower than ``min_width`` cells dropped,
    gaps narrower than ``min_gap`` cells closed; a line that is channel all across has no
    levee and no run).
 2. Runs on neighbouring columns that share a row are connected (4-connectivity, periodic in
@@ -25,7 +25,7 @@ The count (:func:`count_channels`)
 Why ``min_span`` relative to x_l: it removes fine-rich specks inside levees and incipient
 intrusions without depending on the grid, and it scales with the fingered zone as it grows.
 
-Channel and levee numbers (:func:`channel_numbers`)
+Channel and levee numbers (`channel_numbers`)
 ---------------------------------------------------
 Over the runs that belong to counted fingers (objects of extent >= min_span after the sweep):
 

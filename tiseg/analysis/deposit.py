@@ -5,14 +5,14 @@ times. Definitions, with "wet" meaning h >= h_min as in (6.10):
 
 * ``max_speed`` (per output time): the largest |u| (with v in 2D) over the wet cells.
 * The flow is **at rest** at an output time when ``max_speed <= rest_speed`` (default
-  :data:`DEFAULT_REST_SPEED`; with ``numerics.friction_scheme = "projected"`` cells at rest
+  `DEFAULT_REST_SPEED`; with ``numerics.friction_scheme = "projected"`` cells at rest
   have u = 0 exactly, while the regularised friction creeps at ~u_eps and never stops).
 * ``stop_time``: the first output time from which the flow is at rest at every later output
   time; ``moving_until`` the output time before it (the flow stopped in between). None if the
   flow still moves at the last output time.
 * ``momentum`` (per output time): the momentum of the wet cells, the sum of h |u| dx dy
   [m^4/s]. The flow has **settled** at an output time when the momentum is at most
-  ``settle_fraction`` (default :data:`DEFAULT_SETTLE_FRACTION`) of its largest value over the
+  ``settle_fraction`` (default `DEFAULT_SETTLE_FRACTION`) of its largest value over the
   output times, a criterion on the moving mass as a whole, as avalanche codes use to end a
   run. ``settle_time`` / ``settling_until``: as ``stop_time`` / ``moving_until`` for it. A
   flow at rest has settled; one that has settled may still hold slow cells, such as the creep
@@ -162,12 +162,12 @@ def deposit_metrics(
     u_last=None,
     v_last=None,
 ) -> dict:
-    """The deposit dict of :data:`DEPOSIT_KEYS` (see the module docstring). ``speeds`` are
-    the per-time :func:`max_speed`, ``momenta`` the per-time :func:`momentum` (None: the
+    """The deposit dict of `DEPOSIT_KEYS` (see the module docstring). ``speeds`` are
+    the per-time `max_speed`, ``momenta`` the per-time `momentum` (None: the
     settling is not judged); ``h_last``, ``phi_last``, ``u_last``, ``v_last`` the last
     snapshot (ny, nx) (phi None without segregation, v None in 1D, u None: no moving cells
     counted); ``run_out``: x_f^+ at the stop time, else at the settle time, from the
-    caller (at :func:`deposit_index`)."""
+    caller (at `deposit_index`)."""
     k = stop_index(speeds, rest_speed)
     ks = None if momenta is None else settle_index(momenta, settle_fraction)
     if k is not None and (ks is None or ks > k):

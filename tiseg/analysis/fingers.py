@@ -2,7 +2,7 @@
 
 All functions work on one snapshot of the primitive fields on the cell-centre grid, arrays of
 shape (ny, nx) with ``x`` (length nx, downslope) and ``y`` (length ny, cross-slope, periodic),
-or on a saved run (``fields.nc`` written by :class:`tiseg.output.FieldsWriter`).
+or on a saved run (``fields.nc`` written by `tiseg.output.FieldsWriter`).
 
 Front positions
 ---------------
@@ -39,7 +39,7 @@ form runs:
 4. **The headline count** (default): the runs of neighbouring lines that touch are joined into
    2D channels, and the count is the number of distinct channels, each reaching at least
    ``min_span`` (default 0.1) of x_l downslope, before they join into the mixed flow behind
-   the fingers (:mod:`tiseg.analysis.channels`). Each finger counts once whatever its length,
+   the fingers (`tiseg.analysis.channels`). Each finger counts once whatever its length,
    so the count holds still while the fingers grow at different speeds.
 5. With ``line_fractions`` given, only the lines x = x_f^- + f x_l (nearest column) are used and
    the count is their median (the lower median for an even number of lines).
@@ -51,10 +51,10 @@ form runs:
 
 ``wavelength`` = Ly / count, or None when the count is 0 (undefined).
 ``wavelength_spectral``: the dominant cross-slope wavelength of phi over the fingered zone from
-its power spectrum, refined between the spectral bins (:mod:`tiseg.analysis.spectrum`): an
+its power spectrum, refined between the spectral bins (`tiseg.analysis.spectrum`): an
 independent check of the count that needs no channel detection.
 
-Channels and levees (:mod:`tiseg.analysis.channels`)
+Channels and levees (`tiseg.analysis.channels`)
 ---------------------------------------------------
 ``channel_speed_over_u0`` (median speed on the channel centrelines over u0), ``channel_phi``
 (mean phi in the channels) and ``levee_speed_over_u0`` (median speed of the coarse cells beside
@@ -98,7 +98,7 @@ from .spectrum import spectral_wavelength
 DEFAULT_MIN_PERSISTENCE = 0.1  # fraction of the lines in [x_f^-, x_f^+] the count must hold on
 DEFAULT_NOISE_CELLS = 2  # default min_width and min_gap, in grid cells
 
-# Per-time keys of :func:`analyse_run` (in table order).
+# Per-time keys of `analyse_run` (in table order).
 RUN_KEYS = (
     "time",
     "x_front_max",
@@ -335,19 +335,19 @@ def analyse_run(
     file's global attribute "scene" (``flow.phi0``, ``flow.u0``, ``numerics.h_min``,
     ``domain.Ly``), else to ``scene.toml`` next to it. ``time``: analyse only the output time
     equal to it (within 1e-6 relative); the front speed still uses the neighbouring times.
-    Further keyword options go to :func:`finger_metrics`.
+    Further keyword options go to `finger_metrics`.
 
     Returns ``{"analysis_version", "file", "phi0", "u0", "h_min", "Ly", "options", "times": n}``
-    plus per-time lists under the keys of :data:`RUN_KEYS`: ``time``, ``x_front_max``,
+    plus per-time lists under the keys of `RUN_KEYS`: ``time``, ``x_front_max``,
     ``x_front_min``, ``elongation``, ``finger_count``, ``wavelength``, ``wavelength_spectral``,
     ``front_speed``, ``front_speed_over_u0``, ``max_channel_speed``,
     ``max_channel_speed_over_u0``, ``channel_speed_over_u0``, ``channel_phi``,
     ``levee_speed_over_u0``, ``finger_count_lines`` (None where undefined), and ``deposit``:
     whether and when the flow stopped (at most ``rest_speed`` [m/s] anywhere) or settled (its
     momentum at most ``settle_fraction`` of its peak), its run-out and thickness
-    (:func:`tiseg.analysis.deposit.deposit_metrics`, with the per-time ``max_speed`` and
+    (`tiseg.analysis.deposit.deposit_metrics`, with the per-time ``max_speed`` and
     ``momentum``), over all output times whatever ``time`` says.
-    Raises :class:`tiseg.errors.InputError` for a missing or unreadable file, a file without h
+    Raises `tiseg.errors.InputError` for a missing or unreadable file, a file without h
     or phi, or a time that is not an output time.
     """
     path = _fields_path(run_dir)

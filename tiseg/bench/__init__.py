@@ -1,16 +1,16 @@
 """Benchmarks: what accuracy costs in time, and how fast the operator runs.
 
-* :mod:`tiseg.bench.accuracy`: error against wall time on reference problems with known answers,
+* `tiseg.bench.accuracy`: error against wall time on reference problems with known answers,
   over resolution x reconstruction x stepper x precision x backend, with the Pareto front
   (``tiseg bench accuracy``).
-* :mod:`tiseg.bench.throughput`: cell-updates per second of the operator and steps per second,
+* `tiseg.bench.throughput`: cell-updates per second of the operator and steps per second,
   with each effect switched off in turn, against the NumPy reference and a memory-bandwidth bound
   measured in the same run; the cost of each effect (``tiseg bench throughput``).
-* :mod:`tiseg.bench.steppers`: time-stepping error and cost of each stepper restarted from a
+* `tiseg.bench.steppers`: time-stepping error and cost of each stepper restarted from a
   run's own saved states, on its own grid (``tiseg bench steppers RUN_DIR``).
 
 Taichi's precision is fixed when it is initialised, so every (precision, backend) combination is
-measured in a child process of its own (:func:`run_child`); this module holds the small pieces
+measured in a child process of its own (`run_child`); this module holds the small pieces
 both benchmarks share (machine description, backends, children).
 """
 

@@ -10,7 +10,7 @@
 * precision: f32, f64 (each in its own process: Taichi's precision is process-wide),
 * backend: cpu, and gpu where one is present,
 
-on the verification problems of ``tiseg/data/problems`` (:mod:`tiseg.problems`: each file
+on the verification problems of ``tiseg/data/problems`` (`tiseg.problems`: each file
 names its scene, resolutions, end time, exact or reference solution and score; the comment at
 its top says what it checks):
 
@@ -22,14 +22,14 @@ its top says what it checks):
 ``channel``    phi across a straight channel's contacts, exact: unchanged.
 ``channel-speed``  the channel's u(y) against the steady cross-slope profile.
 
-The study's parts: :mod:`.accuracy_points` (the numerics varied, the plan),
-:mod:`.accuracy_runner` (one group of points, timed and scored), :mod:`.accuracy_report` (the
+The study's parts: `accuracy_points` (the numerics varied, the plan),
+`accuracy_runner` (one group of points, timed and scored), `accuracy_report` (the
 Pareto fronts, the verdict on the defaults, the files); this module runs them and is the
 child processes' entry.
 
 Wall time is the time of the simulation alone (Taichi kernels compiled beforehand by one
 warm-up step, error evaluation excluded), the minimum over 3 repeats for runs under 1 s and 2
-for runs under 5 s (see :data:`REPEATS`). Output: ``accuracy.csv`` (one row per point), one
+for runs under 5 s (see `REPEATS`). Output: ``accuracy.csv`` (one row per point), one
 ``<problem>.png`` per problem with the Pareto front (the points no other point beats in both
 error and wall time), and ``summary.json`` / ``summary.md`` saying whether the scenes'
 defaults (weno + rkc + f64, cfl 0.25) sit on the front.

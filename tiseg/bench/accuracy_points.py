@@ -1,5 +1,5 @@
 """The points of the accuracy study: the numerics it varies, the problems it runs (the files in
-tiseg/data/problems, see :mod:`tiseg.problems`) and the plan that combines them."""
+tiseg/data/problems, see `tiseg.problems`) and the plan that combines them."""
 
 from __future__ import annotations
 

@@ -6,7 +6,7 @@ Meant for a machine with a CUDA GPU (``--arch gpu``, the default), and runnable 
 
 1. **throughput**: operator cell-updates per second and steps per second of the full fingers
    physics on the paper's 1125 x 375 grid, in f32 and f64, on the device and on the CPU in the
-   same run (:mod:`tiseg.bench.throughput`, each in a child process); a precision the device
+   same run (`tiseg.bench.throughput`, each in a child process); a precision the device
    lacks is recorded as unsupported;
 2. **the paper's run**: the fingers scene at 750 cells/m to t = 7.5 s on the device (f64 where
    the device has it, else f32), with its wall time (target: under 7.5 s, faster than the

@@ -13,7 +13,7 @@ each backend and precision (each in its own child process),
   data is in cache);
 * the same **with each effect switched off in turn** (segregation, mobility feedback,
   viscosity, friction "none", and 1D instead of 2D with the same number of cells);
-* the **NumPy reference** (:mod:`tiseg.reference`) on the same state: the speed-up of the kernels;
+* the **NumPy reference** (`tiseg.reference`) on the same state: the speed-up of the kernels;
 * a **memory-bandwidth bound**: a STREAM-like triad a = b + s c, in Taichi (all threads) and in
   NumPy, over arrays about the size of the operator's fields, measured in the same process. The
   operator must at least read the state and write its rate of change, 2 nc values per cell, so
@@ -21,7 +21,7 @@ each backend and precision (each in its own child process),
   shows how far the kernels are from the limit. The traffic of the kernels as written (each of
   primitives, slopes, fluxes and divergence passes through memory) is reported beside it.
 
-The cost of each effect (:func:`effect_costs`) follows from the variants: per stage and per
+The cost of each effect (`effect_costs`) follows from the variants: per stage and per
 step, predicted from the per-stage and per-step costs and the stage counts, and measured on
 whole steps, so that one can check that a scene switching an effect off runs faster by about
 what the effect costs.

@@ -2,7 +2,7 @@
 runs, and what each time stepper costs and loses on a run's own states.
 
 accuracy and throughput measure every precision (and the GPU where there is one) in child
-processes of their own, because Taichi's precision is fixed per process; see :mod:`tiseg.bench`.
+processes of their own, because Taichi's precision is fixed per process; see `tiseg.bench`.
 """
 
 from __future__ import annotations

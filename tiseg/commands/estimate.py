@@ -2,7 +2,7 @@
 
 The prediction combines a model of the flow's wave speeds and stiffness over time (from the
 scene's steady state h0, u0) with a quick calibration of the scene's kernels on its own grid in
-this process; see :mod:`tiseg.estimate`. ``tiseg run SCENE --estimate`` prints the same.
+this process; see `tiseg.estimate`. ``tiseg run SCENE --estimate`` prints the same.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@
 * ``fingers``: figures 12-18 (the finger simulations and the grid / width / viscosity studies
   of sections 6.2-6.3), computed from sweep results that are run first where missing.
 
-Each set registers in :data:`FIGURE_SETS` as (help text, handler, its own options or None).
+Each set registers in `FIGURE_SETS` as (help text, handler, its own options or None).
 """
 
 from __future__ import annotations

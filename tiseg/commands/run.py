@@ -1,7 +1,7 @@
 """`tiseg run SCENE`: simulate a scene and write scene.toml, fields.nc, diagnostics.csv.
 
 `tiseg run --resume DIR` continues a run that was killed, from its checkpoint.npz (see
-:mod:`tiseg.checkpoint`), appending to its fields.nc and diagnostics.csv.
+`tiseg.checkpoint`), appending to its fields.nc and diagnostics.csv.
 
 Every user mistake is refused before anything heavy starts (Taichi, compilation) with one line
 naming the option, the value and what is allowed.

@@ -1,6 +1,6 @@
 """`tiseg sweep SWEEP.toml`: run a parameter sweep on Dask and collect one table.
 
-The sweep file format is described in :mod:`tiseg.sweep`; built-in sweeps are in ``tiseg/data/sweeps/``
+The sweep file format is described in `tiseg.sweep`; built-in sweeps are in ``tiseg/data/sweeps/``
 (``tiseg sweep grid-study``).
 """
 

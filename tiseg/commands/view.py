@@ -1,4 +1,4 @@
-"""`tiseg view SCENE`: the live GGUI viewer (see :mod:`tiseg.viewer.app`)."""
+"""`tiseg view SCENE`: the live GGUI viewer (see `tiseg.viewer.app`)."""
 
 from __future__ import annotations
 

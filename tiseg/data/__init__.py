@@ -1,11 +1,11 @@
 """Files shipped inside the package, read through importlib.resources so that an installed
 wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.toml``, see
-:func:`tiseg.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
-:func:`tiseg.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
-:func:`tiseg.problems.load_problem`).
+`tiseg.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
+`tiseg.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
+`tiseg.problems.load_problem`).
 
 Up to version 0.1.0 they lived in ``assets/scenes`` and ``assets/sweeps`` beside the package;
-:func:`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.
+`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ def builtin_file(path, folder: Path, kind: str) -> Path | None:
 
     A str without '/', '\\' and '.toml' is a name: the ``kind`` ("scene", "sweep") of that
     name in ``folder``, or an InputError naming the closest one. An old ``assets/...`` path
-    that no longer exists maps onto its built-in (:func:`legacy_path`), with a note."""
+    that no longer exists maps onto its built-in (`legacy_path`), with a note."""
     import difflib
 
     from ..errors import InputError

@@ -1,7 +1,7 @@
 """Figures of the paper regenerated from the library (matplotlib, Agg backend, no pyplot state).
 
-* :mod:`.stability` -- figures 8-11 (steady Froude number, growth rates, sigma_Max and k_c).
-* :mod:`.fingers` -- figures 12-18 and beyond, from the grid, width and viscosity studies.
+* `stability` -- figures 8-11 (steady Froude number, growth rates, sigma_Max and k_c).
+* `fingers` -- figures 12-18 and beyond, from the grid, width and viscosity studies.
 
 Modules are imported on demand so that ``import tiseg.figures`` does not load matplotlib.
 """

@@ -4,7 +4,7 @@ description of figures 3(b) and 4(b).
 Panels: (a) the concentration seen from above at the cut-off time and (b) at the last output
 time, coloured like the experiments (white fines, brown coarse, turquoise empty chute); (c) the
 thickness of the deposit. The caption holds the deposit numbers of
-:func:`tiseg.analysis.deposit.deposit_metrics` (when the flow stopped, the run-out and the
+`tiseg.analysis.deposit.deposit_metrics` (when the flow stopped, the run-out and the
 thickness of channels and levees) and, for comparison, what section 2 of the paper says the
 experiments show.
 """

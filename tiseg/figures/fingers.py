@@ -1,7 +1,7 @@
 """Figures 12-18 of the paper (sections 6.2-6.3) from sweep results, and the runs beyond it.
 
 * figures 12-14: phi, |u| and h of the fingers scene at t = 1.9, 3.3, 5.1, 6.2, 7.5 s, from the
-  finest run of the grid study (:func:`tiseg.render.panels.plot_panels`, experiment colours);
+  finest run of the grid study (`tiseg.render.panels.plot_panels`, experiment colours);
 * figure 15: phi at t = 7.5 s of every grid- and width-study run, with x_f+ and x_f- dotted;
 * figure 16: mean finger wavelength Lambda (t = 7.5 s) and elongation x_l (t = 2.5, 5, 7.5 s)
   against the grid resolution and against the domain width Ly;
@@ -10,12 +10,12 @@
 * beyond the paper (``beyond=True``): the finite release (inflow stopped, figures 3b/4b) and the
   monodisperse front (figure 5).
 
-The numbers come from sweeps (:mod:`tiseg.sweep`) over the built-in sweep files in
+The numbers come from sweeps (`tiseg.sweep`) over the built-in sweep files in
 ``tiseg/data/sweeps`` (grid-study, width-study, nu-study, finite-release, monodisperse), kept
 under one runs folder (``RUNS/<sweep name>/``). A study whose folder has a ``sweep.json`` is
 taken as it is (and resumed if it was interrupted); a missing one is run first, with the
 sweep file's settings or the cheaper ones asked for (``settings``, or ``quick``). The finger
-diagnostics are those of :mod:`tiseg.analysis.fingers` (section 6.3 definitions).
+diagnostics are those of `tiseg.analysis.fingers` (section 6.3 definitions).
 """
 
 from __future__ import annotations
@@ -704,7 +704,7 @@ def make_all(
     """Obtain the studies (running missing sweeps) and draw figures 12-18 (and, with
     ``beyond``, the finite-release and monodisperse figures) into ``out``. ``settings``:
     per-study sweep overrides (``{"grid": {"grid": {"domain.resolution": [...]}}}``);
-    ``quick``: :data:`QUICK_SETTINGS` for the studies without settings. Returns the files."""
+    ``quick``: `QUICK_SETTINGS` for the studies without settings. Returns the files."""
     out, runs_root = Path(out), Path(runs_root)
     settings = dict(settings or {})
     keys = PAPER_STUDIES + (BEYOND_STUDIES if beyond else ())

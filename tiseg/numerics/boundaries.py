@@ -1,7 +1,7 @@
 """Boundary conditions (``boundary.x_lo`` ... ``boundary.y_hi``) as components: one class per
 condition, one registry line each.
 
-The grid has g ghost layers on each side of each direction (:class:`tiseg.numerics.config.
+The grid has g ghost layers on each side of each direction (`tiseg.numerics.config.
 Layout`); a boundary condition fills the ghost cell k (k = 0 next to the interior) of its side,
 given the index m across the direction. Each condition holds:
 
@@ -12,12 +12,12 @@ given the index m across the direction. Each condition holds:
 * ``fill_np(ref, q, t, d, side, k)``: its NumPy twin on a whole layer of ghost cells of an
   array shaped (nc, NX, NY), as the reference operator fills them;
 * ``mirrors``: the ghost cell is the mirror image of an interior cell (a wall), so a split
-  sweep's predictor mirrors the source there too (:mod:`tiseg.numerics.split`);
+  sweep's predictor mirrors the source there too (`tiseg.numerics.split`);
 * ``periodic``: the ghost cell is another interior cell (a face across the boundary is one
   face of two cells);
 * ``prescribed``: the ghost cells hold a state given by the scene (an inflow, low x only).
 
-:data:`BOUNDARIES` is the registry the scene's allowed values come from. This module imports no
+`BOUNDARIES` is the registry the scene's allowed values come from. This module imports no
 Taichi.
 """
 

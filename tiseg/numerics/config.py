@@ -1,13 +1,13 @@
 """Everything the semi-discrete operator needs, as plain numbers and switches.
 
-:class:`OperatorConfig` is shared by the Taichi operator (:mod:`tiseg.numerics.operator`) and the
-NumPy reference (:mod:`tiseg.reference.operator`) so both see exactly the same problem. Switches
+`OperatorConfig` is shared by the Taichi operator (`tiseg.numerics.operator`) and the
+NumPy reference (`tiseg.reference.operator`) so both see exactly the same problem. Switches
 (``segregation``, ``viscous``, ``feedback``, ``friction``, ``reconstruction``, ``flux``,
 ``phi_flux``, 1D/2D, boundaries)
 are compile-time choices of the Taichi kernels; numbers (slope, nu, inflow state, ...) are
 run-time parameters.
 
-The array layout (:class:`Layout`) is the same for both: cell-centred conserved variables
+The array layout (`Layout`) is the same for both: cell-centred conserved variables
 ``q = (h, hu[, hv][, h*phi])`` with ``G = 2`` ghost cells on each side in x, and in y unless the
 run is 1D (``ny == 1``: one row, no ghosts, no v component, no cross-slope work).
 """
@@ -76,7 +76,7 @@ def inflow_noise(y, Ly: float, seed: int) -> np.ndarray:
 
 
 def noise_modes(Ly: float) -> int:
-    """Number N of Fourier modes of :func:`inflow_noise` across Ly."""
+    """Number N of Fourier modes of `inflow_noise` across Ly."""
     return max(1, int(math.floor(Ly / NOISE_MIN_WAVELENGTH + 1e-9)))
 
 
@@ -85,7 +85,7 @@ def inflow_concentration(
 ) -> np.ndarray:
     """Inflow concentration at cross-slope positions y [m]: (6.9) plus the optional noise,
 
-    phi(0, y) = phi + delta sin(2 pi modes y / Ly) + noise phi r(y)   (r: :func:`inflow_noise`),
+    phi(0, y) = phi + delta sin(2 pi modes y / Ly) + noise phi r(y)   (r: `inflow_noise`),
 
     clipped to [0, 1] (the scene keeps it inside; the clip only guards round-off). The one
     definition used by the Taichi operator (as a field filled once), the NumPy reference and
@@ -155,14 +155,14 @@ class Layout:
 def compiled(what: str) -> dict:
     """Field metadata: the kernels are compiled for this field's value, and ``what`` names
     the scene keys that set it in the message of a refused change
-    (``Simulation.set_parameters``, :data:`COMPILED`)."""
+    (``Simulation.set_parameters``, `COMPILED`)."""
     return {"compiled": what}
 
 
 @dataclass(frozen=True)
 class OperatorConfig:
     """The operator's problem. The numerics' choices and numbers have no defaults here: the
-    scene declares them once (:class:`tiseg.setup.sections.NumericsConfig`), and a test that
+    scene declares them once (`tiseg.setup.sections.NumericsConfig`), and a test that
     builds a config by hand states the ones it means."""
 
     layout: Layout = field(metadata=compiled("the grid or the segregation switch"))
@@ -270,7 +270,7 @@ COMPILED = {f.name: f.metadata["compiled"] for f in fields(OperatorConfig) if f.
 
 
 def config_from_scene(scene) -> OperatorConfig:
-    """The operator's view of a :class:`tiseg.scene.Scene`."""
+    """The operator's view of a `tiseg.scene.Scene`."""
     m = scene.material
     lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
     fric = FrictionParams.of(m, **dict(scene.effects.constants))

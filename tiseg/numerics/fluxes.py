@@ -2,21 +2,21 @@
 modifier of the h phi component (``numerics.phi_flux``): one class each, one registry line each.
 
 A numerical flux H(w_l, w_r) turns the two edge states of a face (primitives w = (h, u[, v][,
-phi]), reconstructed by :mod:`.reconstruction`) into the flux through it. It holds, in the shape
-of the physics laws (:mod:`tiseg.physics.friction`):
+phi]), reconstructed by `reconstruction`) into the flux through it. It holds, in the shape
+of the physics laws (`tiseg.physics.friction`):
 
 * ``taichi(ti, phys)``: its Taichi function ``flux(wl, wr, d)`` for one operator, built on the
-  pointwise physics :class:`tiseg.physics.pointwise.Physics` (physical flux, conserved state,
+  pointwise physics `tiseg.physics.pointwise.Physics` (physical flux, conserved state,
   wave speeds along d); the operator composes it with ``ti.static`` at construction, so a flux
   that is not chosen leaves no code in the kernels;
 * ``flux_np(ref, wl, wr, d)``: its NumPy twin on arrays of edge states, built on the reference
-  operator's pointwise physics (:class:`tiseg.reference.operator.ReferenceOperator`), written
+  operator's pointwise physics (`tiseg.reference.operator.ReferenceOperator`), written
   apart from the Taichi function with the same operations in the same order;
 * ``slots``: the run-time numbers it reads (none: the wave speeds come from the physics).
 
 A phi-flux modifier rewrites the h phi component of a face's flux after the numerical flux; it
-is only applied with segregation. :data:`FLUXES` and :data:`PHI_FLUXES` are the registries the
-scene's allowed values come from (:mod:`tiseg.numerics.config`). This module imports no Taichi.
+is only applied with segregation. `FLUXES` and `PHI_FLUXES` are the registries the
+scene's allowed values come from (`tiseg.numerics.config`). This module imports no Taichi.
 """
 
 import numpy as np
@@ -140,7 +140,7 @@ class UpwindPhi:
     1991, J. Comput. Phys. 95, 59): where no mass crosses a face, no phi crosses it, so a
     contact between fine and coarse material along the flow stays sharp, and phi stays in
     [0, 1] (phi - G(phi) is non-decreasing for every transport function,
-    :mod:`tiseg.physics.segregation`)."""
+    `tiseg.physics.segregation`)."""
 
     name = "upwind"
     slots: tuple[str, ...] = ()

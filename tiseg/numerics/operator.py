@@ -1,26 +1,26 @@
 """The semi-discrete operator dq/dt = L(q, t) of (6.1)-(6.6) in Taichi kernels.
 
-Same discretisation as the NumPy reference (:mod:`tiseg.reference.operator`, whose docstring
+Same discretisation as the NumPy reference (`tiseg.reference.operator`, whose docstring
 lists the steps): ghost cells, desingularised primitives, slopes, numerical fluxes with local
 speeds (optionally with the h phi flux upwinded by the mass flux), the viscous stress with
 harmonic face coefficients, and the friction source.
 
-The operator is composed, in the shape of the physics laws (:mod:`tiseg.physics`), of numerics
-components chosen by the scene and fixed at construction (:meth:`TaichiOperator._compose`): the
-reconstruction (:mod:`.reconstruction`), the numerical flux and the h phi modifier
-(:mod:`.fluxes`), a boundary condition per side (:mod:`.boundaries`); each returns the Taichi
+The operator is composed, in the shape of the physics laws (`tiseg.physics`), of numerics
+components chosen by the scene and fixed at construction (`TaichiOperator._compose`): the
+reconstruction (`reconstruction`), the numerical flux and the h phi modifier
+(`fluxes`), a boundary condition per side (`boundaries`); each returns the Taichi
 function its loops call, and has its NumPy twin in the reference. Around them:
 
-* :class:`.ranges.ActiveRange` (collaborator): the active x range and serial or parallel loops;
-* :class:`.reductions.StepReductions` (collaborator): the stability pass and the totals;
-* :class:`.slots.SlotAlgebra`: combinations of slots, fused stages, the stage limiter, budgets;
-* :class:`.rest.RestRules`: the projected friction's rest mask, face rules and projection;
-* :class:`.split.SplitSweeps`: the sweeps of the split scheme.
+* `ranges.ActiveRange` (collaborator): the active x range and serial or parallel loops;
+* `reductions.StepReductions` (collaborator): the stability pass and the totals;
+* `slots.SlotAlgebra`: combinations of slots, fused stages, the stage limiter, budgets;
+* `rest.RestRules`: the projected friction's rest mask, face rules and projection;
+* `split.SplitSweeps`: the sweeps of the split scheme.
 
 The last three are parts of this class (they work on its fields and caches). States live in one
 field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field passed as template,
-so buffers are slots selected by an integer). Time steppers (:mod:`tiseg.timestepping`) see only
-:meth:`rhs`, :meth:`combine` / :meth:`stage` (with the stage limiter) and :meth:`stability`.
+so buffers are slots selected by an integer). Time steppers (`tiseg.timestepping`) see only
+`rhs`, `combine` / `stage` (with the stage limiter) and `stability`.
 """
 
 import numpy as np
@@ -44,7 +44,7 @@ from .split import SplitSweeps
 class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
     def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
         """``serial``: run every loop on the calling thread (True), never (False), or decide
-        per launch (None, :meth:`serial_loops`); the results are the same bits either way."""
+        per launch (None, `serial_loops`); the results are the same bits either way."""
         st = backend.state()
         self.generation = st.generation
         self.cfg = cfg

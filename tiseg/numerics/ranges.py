@@ -1,6 +1,6 @@
 """The active x range of the operator and the choice of serial or parallel loops.
 
-A collaborator of :class:`tiseg.numerics.operator.TaichiOperator`. The active range [a, b) holds
+A collaborator of `tiseg.numerics.operator.TaichiOperator`. The active range [a, b) holds
 the x indices whose cells may change: cells outside are dry films (h < h_min) far from any wet
 cell, whose rate is exactly zero, so skipping them is exact. The wet range [wa, wb), which
 contains it, is what the next wet scan covers (wider where resting regions are left out). The
@@ -8,7 +8,7 @@ ranges live in small integer fields that the kernels read (``act``, ``wrng``; ``
 the scan's result), and on the host as tuples (``active``, ``wet_range``), so a range that does
 not change costs no field write (each is a kernel launch).
 
-Serial loops: below :data:`SERIAL_CELLS` cells a CPU launch runs its loops on the calling thread.
+Serial loops: below `SERIAL_CELLS` cells a CPU launch runs its loops on the calling thread.
 Each parallel loop costs a fixed ~80 us on the 2-core machines here (the thread pool's hand-off,
 measured with a one-line kernel; a serialised loop costs ~1 us), and an evaluation has about ten
 of them: on small grids that, not arithmetic, set the pace. Each kernel is compiled for both

@@ -1,15 +1,15 @@
 """Step-size reductions of the operator: the stability pass and the conservation totals.
 
-A collaborator of :class:`tiseg.numerics.operator.TaichiOperator` with fields of its own (the
+A collaborator of `tiseg.numerics.operator.TaichiOperator` with fields of its own (the
 reduced numbers ``red``, the per-cell speeds ``spd`` of step_rule "local", the row sums of the
 totals) and read-only views of the operator's (primitives ``w``, states ``q``, parameters,
 active range) and its pointwise physics. It holds no reference to the operator, so the
 operator's fields are freed with it as before.
 
-* :meth:`StepReductions.stability`: max wave speeds and stiffness bounds of the prepared state
-  (:class:`StabilityNumbers`), from which the time steppers and
-  :func:`tiseg.simulation.step_limits` take the step and the RKC stage count;
-* :meth:`StepReductions.totals`: sums of h and h phi in a fixed order (the same bits for any
+* `StepReductions.stability`: max wave speeds and stiffness bounds of the prepared state
+  (`StabilityNumbers`), from which the time steppers and
+  `tiseg.simulation.step_limits` take the step and the RKC stage count;
+* `StepReductions.totals`: sums of h and h phi in a fixed order (the same bits for any
   thread count).
 """
 

@@ -3,19 +3,19 @@
 Shallow-water codes that bring material to rest apply friction as a projection after the
 explicit update (Mangeney et al., Bouchut et al.): if the friction impulse can cancel the
 momentum, the cell stops exactly; otherwise the momentum shrinks along its direction. Around
-that projection (:class:`tiseg.physics.pointwise.Physics`) this module keeps a deposit at rest
+that projection (`tiseg.physics.pointwise.Physics`) this module keeps a deposit at rest
 bitwise:
 
 * the rest mask of a step's start (``rest``: REST where u = v = 0, else the signs of u and v;
-  HELD where a law with hysteresis holds the cell for the whole step), :meth:`RestRules._mark_rest`;
-* the face rules (:meth:`RestRules._rest_face`): no mass between two cells at rest, and at least
+  HELD where a law with hysteresis holds the cell for the whole step), `RestRules._mark_rest`;
+* the face rules (`RestRules._rest_face`): no mass between two cells at rest, and at least
   the upwind cell's outrunning flux where it moves into a slower neighbour;
-* the projection of a limited stage (:meth:`RestRules._project`) and the exact rest of
-  :meth:`RestRules._keep_rest`;
-* the skipping of quiescent regions (:meth:`RestRules._quiescent`, the wet scan
-  :meth:`RestRules.wet_extent`) and the mask as part of a checkpoint (:meth:`RestRules.rest_state`).
+* the projection of a limited stage (`RestRules._project`) and the exact rest of
+  `RestRules._keep_rest`;
+* the skipping of quiescent regions (`RestRules._quiescent`, the wet scan
+  `RestRules.wet_extent`) and the mask as part of a checkpoint (`RestRules.rest_state`).
 
-A part of :class:`tiseg.numerics.operator.TaichiOperator`, whose fields and caches it works on.
+A part of `tiseg.numerics.operator.TaichiOperator`, whose fields and caches it works on.
 """
 
 import numpy as np
@@ -308,7 +308,7 @@ class RestRules:
         }
 
     def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
-        """Inverse of :meth:`rest_state` (after slot 0 was set): the next step then skips
+        """Inverse of `rest_state` (after slot 0 was set): the next step then skips
         what the run it continues would have skipped, so a resumed run keeps its bits."""
         if not self.skip_rest:
             return

@@ -3,15 +3,15 @@ limiter, fused stages and the boundary budgets that follow the states.
 
 States live in one field ``q`` of ``nslots`` slots (Taichi compiles one kernel per distinct field
 passed as template, so buffers are slots selected by an integer). The time steppers
-(:mod:`tiseg.timestepping`) build their stages from :meth:`SlotAlgebra.combine` (slot dst := sum of
-c * slot), :meth:`SlotAlgebra.stage` (the same with one term the rate L of a slot, computed in
-the same launch) and :meth:`SlotAlgebra.blend` (snapshots between two step states). Each
+(`tiseg.timestepping`) build their stages from `SlotAlgebra.combine` (slot dst := sum of
+c * slot), `SlotAlgebra.stage` (the same with one term the rate L of a slot, computed in
+the same launch) and `SlotAlgebra.blend` (snapshots between two step states). Each
 applies the same combination to the boundary budgets (``bud``), so slot 0 accumulates exactly
 the time integral of the inflow the scheme uses.
 
-A part of :class:`tiseg.numerics.operator.TaichiOperator`, whose fields and caches it works on
-(as :class:`tiseg.numerics.split.SplitSweeps` is); the friction projection of a limited stage
-is :class:`tiseg.numerics.rest.RestRules`'.
+A part of `tiseg.numerics.operator.TaichiOperator`, whose fields and caches it works on
+(as `tiseg.numerics.split.SplitSweeps` is); the friction projection of a limited stage
+is `tiseg.numerics.rest.RestRules`'.
 """
 
 import numpy as np
@@ -28,7 +28,7 @@ class SlotAlgebra:
     def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
         can touch (the active range and its stencil halo; all cells without an active range);
-        ``limit=True`` applies the stage limiter (:meth:`_limit`) in the same pass, and with
+        ``limit=True`` applies the stage limiter (`_limit`) in the same pass, and with
         the projected friction scheme the friction projection over ``tau`` seconds (the
         stage's share of the step). ``rates``: the slots among the terms that hold rates, not
         states (for the exact rest of _keep_rest).
@@ -47,7 +47,7 @@ class SlotAlgebra:
         self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
     ) -> None:
         """slot dst := sum(c * term) where a term's slot is a slot, or RATE (negative) for
-        L(slot src, t): :meth:`rhs` into a spare slot and then :meth:`combine`, with the same
+        L(slot src, t): `rhs` into a spare slot and then `combine`, with the same
         bits, in one launch and without storing the rate. Exactly one term is the rate.
         ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
         stage is a convex combination of states and one Euler step of that length."""

@@ -1,12 +1,12 @@
 """Dimensionally split MUSCL-Hancock sweeps (``numerics.stepper = "hancock"``).
 
 A step of the split scheme is one sweep per direction, each a complete one-stage
-finite-volume update of its own: where the semi-discrete operator (:mod:`.operator`) is
+finite-volume update of its own: where the semi-discrete operator (`operator`) is
 integrated by Runge-Kutta stages that each need the fluxes of both directions, a sweep moves
 the state a whole step along one direction from a single flux evaluation. Along direction d
 (spacing D, lambda = dt / D), on the cells' primitives w:
 
-1. the limited slopes s of the operator (:meth:`TaichiOperator._slope`: minmod-theta or the
+1. the limited slopes s of the operator (`TaichiOperator._slope`: minmod-theta or the
    WENO-type slope, with h >= 0 and 0 <= phi <= 1 at the edges);
 2. the edge states w -+ s/2, conserved q_W, q_E, evolved half a step by the cell's own flux
    difference (Hancock's predictor; van Leer 1984, Toro 2009 section 14.4):
@@ -41,7 +41,7 @@ costs about 0.7 of an evaluation of the operator (benchmarks/README.md section 7
 What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
 stability of RKC or the friction projection within stages; a scene with either must use the
 Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sweep is
-:func:`tiseg.reference.split.hancock_sweep`.
+`tiseg.reference.split.hancock_sweep`.
 """
 
 import taichi as ti
@@ -51,7 +51,7 @@ from ..physics.pointwise import Params
 
 @ti.data_oriented
 class SplitSweeps:
-    """The sweeps of the split scheme, a part of :class:`TaichiOperator` (its fields ``w``,
+    """The sweeps of the split scheme, a part of `TaichiOperator` (its fields ``w``,
     ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
     which only a split scene allocates)."""
 

@@ -1,10 +1,10 @@
 """Run output: NetCDF snapshots of the fields, a CSV of per-step diagnostics, atomic text files.
 
-* :class:`FieldsWriter` / :func:`read_fields`: CF-1.8 NetCDF-4 file of h, u, v, phi on the
+* `FieldsWriter` / `read_fields`: CF-1.8 NetCDF-4 file of h, u, v, phi on the
   cell-centre grid, one record per output time, synced after every snapshot so a killed run
   keeps everything written so far.
-* :class:`DiagnosticsWriter` / :func:`read_diagnostics`: CSV, one row per step, flushed per row.
-* :func:`write_text_atomic`: resolved scene TOML and JSON summaries, never half-written.
+* `DiagnosticsWriter` / `read_diagnostics`: CSV, one row per step, flushed per row.
+* `write_text_atomic`: resolved scene TOML and JSON summaries, never half-written.
 """
 
 from .diagnostics import (

@@ -1,10 +1,10 @@
 """Per-step diagnostics as CSV, and atomic text files.
 
 The CSV is flushed after every row so that a running or killed simulation can be followed with
-``tail -f`` and read back with :func:`read_diagnostics`. Its units are stated beside it in
+``tail -f`` and read back with `read_diagnostics`. Its units are stated beside it in
 ``diagnostics.csv-metadata.json``, a W3C "CSV on the Web" metadata file (the name CSVW tools
 look for next to a CSV): per column a title, a description with the unit, the datatype and
-``"unit"`` (:func:`write_units`). The columns of a run (:data:`DEFAULT_COLUMNS`):
+``"unit"`` (`write_units`). The columns of a run (`DEFAULT_COLUMNS`):
 
 ======================== ======================================================================
 ``time``                 simulated time at the end of the step [s]
@@ -16,7 +16,7 @@ look for next to a CSV): per column a title, a description with the unit, the da
 ``wall_time_cumulative`` wall time since the run started, resumed runs included [s]
 ======================== ======================================================================
 
-Files written before the column was renamed call it ``wall_time``; :func:`read_diagnostics`
+Files written before the column was renamed call it ``wall_time``; `read_diagnostics`
 returns both names for either file, and a resumed old run keeps its old header.
 """
 
@@ -60,7 +60,7 @@ UNITS = {
 
 
 class DiagnosticsWriter:
-    """CSV with a header row and one row per :meth:`write`.
+    """CSV with a header row and one row per `write`.
 
     ``columns``: the column names (the defaults: time [s], dt [s], RKC stages, mass = integral
     of h [m^3], small_mass = integral of h phi [m^3], max_speed [m/s], wall_time [s]); ``extra``
@@ -145,7 +145,7 @@ def read_diagnostics(path) -> dict[str, np.ndarray]:
 def write_units(csv_path, columns: Sequence[str], one_d: bool = False) -> Path:
     """Write ``<csv>-metadata.json`` (CSV on the Web) stating each column's unit and meaning;
     the units of mass are per metre of width in a 1D run (``one_d``). Columns not in
-    :data:`UNITS` are listed without a unit."""
+    `UNITS` are listed without a unit."""
     csv_path = Path(csv_path)
     cols = []
     for c in columns:
@@ -175,7 +175,7 @@ def write_text_atomic(path, text: str) -> Path:
 
 
 def write_json_atomic(path, obj, **json_kw) -> Path:
-    """:func:`write_text_atomic` of ``obj`` as JSON (non-finite floats become null)."""
+    """`write_text_atomic` of ``obj`` as JSON (non-finite floats become null)."""
     json_kw.setdefault("indent", 2)
     return write_text_atomic(path, json.dumps(json_clean(obj), **json_kw) + "\n")
 

@@ -2,10 +2,10 @@
 
 Why a manifest: a file is tiseg's only because tiseg wrote it, never because of its name (a
 user's own ``scene.toml`` or ``fields.nc`` must not be replaced by a run). Every writer of a run
-folder (:class:`tiseg.output.run_folder.RunFolder`, a sweep member) lists the names it is about
+folder (`tiseg.output.run_folder.RunFolder`, a sweep member) lists the names it is about
 to write here first; a fresh run then refuses a folder holding any entry that is not listed (in
 a folder without a manifest: any entry at all) unless ``--overwrite``
-(:func:`tiseg.output.run_folder.check_fresh_folder`).
+(`tiseg.output.run_folder.check_fresh_folder`).
 
 The file (JSON): ``format`` = "tiseg-run-files", ``version`` = 1, ``files`` (the names, sorted)
 and ``saved``: whether the run saved a checkpoint or finished. A folder whose run never got that

@@ -6,17 +6,17 @@ data variables (time, y, x).
 * ``time`` is the simulated time in seconds since t = 0 of the run. CF wants a time coordinate
   in "<unit> since <date>", so its units are ``seconds since 2000-01-01 00:00:00``, a placeholder
   date (the ``comment`` attribute says so): xarray decodes it to dates unless opened with
-  ``decode_times=False``, as :func:`read_fields` does.
+  ``decode_times=False``, as `read_fields` does.
 * ``phi`` is missing (``_FillValue``, NaN after xarray's decoding) where h < h_min: there is no
   material there, and 0 would read as pure coarse grains.
 * Data are stored as f8 or f4 (``output.precision``), optionally quantised to
   ``output.significant_digits`` decimal digits (netCDF-C's quantisation, which zlib then
-  compresses far better), and zlib-compressed. Every :meth:`FieldsWriter.write` ends with a sync, which flushes the
+  compresses far better), and zlib-compressed. Every `FieldsWriter.write` ends with a sync, which flushes the
 HDF5 metadata and data to disk: if the process is killed later, the file still opens with every
 snapshot written before the kill (the run is then restartable from the last snapshot).
 
-:meth:`FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
-(:mod:`tiseg.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
+`FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
+(`tiseg.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
 after it (and a record left half-written by the kill) by copying the kept records into a new
 file that replaces the old one atomically, so the file on disk is always either the old or the
 new complete file.
@@ -192,7 +192,7 @@ class FieldsWriter:
         Records beyond ``keep`` (written after the checkpoint the run resumes from, or left
         half-written by a kill: the data of a record is written before its time) are dropped,
         by rewriting the file through a temporary copy and ``os.replace``. Raises
-        :class:`FieldsFileError` when the file cannot be read or holds fewer than ``keep``
+        `FieldsFileError` when the file cannot be read or holds fewer than ``keep``
         complete records (or a kept time after ``t_max``), or when a kept record's data cannot
         be read (a damaged block). ``h_min``: as for a new writer; the quantisation and the
         precision are the file's own. ``shape``: the run's (ny, nx); a file of another grid is
@@ -357,7 +357,7 @@ def _read_records(path: Path, keep: int, fields) -> None:
 
 
 def read_fields(path):
-    """Open a fields file as an :class:`xarray.Dataset` (time stays float seconds); a file
+    """Open a fields file as an `xarray.Dataset` (time stays float seconds); a file
     that cannot be read (truncated, damaged, not NetCDF) is an InputError saying so.
 
     Records whose time is missing (NaN or the NetCDF fill value) are left out: a writer stores
@@ -383,7 +383,7 @@ def read_fields(path):
 @contextlib.contextmanager
 def reading(path):
     """Errors of the NetCDF / HDF5 library while the data of ``path`` are read (lazily, after
-    :func:`read_fields` opened it) become one InputError line: a damaged data block is a
+    `read_fields` opened it) become one InputError line: a damaged data block is a
     damaged file, not a bug of tiseg. ``path``: the file, or the run folder that holds it."""
     from ..errors import InputError, TisegError
 

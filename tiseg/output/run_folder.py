@@ -2,13 +2,13 @@
 
 ``scene.toml`` (the resolved scene), ``fields.nc`` (snapshots at the output times, a snapshot
 callback), ``diagnostics.csv`` with its units in ``diagnostics.csv-metadata.json`` (a row per
-step), ``checkpoint.npz`` (step states, see :mod:`tiseg.checkpoint`) and ``failure/`` (the states
+step), ``checkpoint.npz`` (step states, see `tiseg.checkpoint`) and ``failure/`` (the states
 a guard failure saves). A resumed run appends to the files of its folder.
 
-Safety (:mod:`tiseg.paths`): the folder is locked for as long as the run writes there (a
+Safety (`tiseg.paths`): the folder is locked for as long as the run writes there (a
 second writer is refused, naming the holder); no file is written through a symbolic link; a
 fresh run refuses a folder that holds any file tiseg did not write there (whatever its name:
-the manifest ``.tiseg-files.json`` lists what tiseg wrote, :mod:`tiseg.output.manifest`), and
+the manifest ``.tiseg-files.json`` lists what tiseg wrote, `tiseg.output.manifest`), and
 a finished or unfinished run, unless ``overwrite`` (the command line's ``--overwrite``); a
 resume checks, once it holds the lock, that the checkpoint it read is still the folder's, and
 removes the temporary files a killed writer left behind.
@@ -334,7 +334,7 @@ class RunFolder:
             ) from None
 
     def resume_info(self) -> dict:
-        """What :meth:`Simulation.run` needs to append to these files later (the last
+        """What `Simulation.run` needs to append to these files later (the last
         checkpoint is the current state: a run ends on a step that wrote one)."""
         return {
             "dir": self.path.resolve(),

@@ -2,16 +2,16 @@
 
 A law holds everything the solver needs of it:
 
-* ``constants``: the numbers of its own that a scene sets (:class:`Constant`: the scene key,
+* ``constants``: the numbers of its own that a scene sets (`Constant`: the scene key,
   its default, its doc text and its checks); the scene reads them through the law, so a law
   registered by user code brings its keys with it;
 * ``slots``: the names of its run-time numbers, stored in the operator's parameter field after
-  :attr:`tiseg.physics.params.Params.COUNT` (a law without numbers has no slots), and
-  ``values``, which reads them from :class:`FrictionParams`;
+  `tiseg.physics.params.Params.COUNT` (a law without numbers has no slots), and
+  ``values``, which reads them from `FrictionParams`;
 * ``taichi``: its Taichi functions ``mu(h, |u|, phi)`` and ``mu_start(h, phi)``, built for one
   operator's parameter field (so a law that is not chosen leaves no code in the kernels);
 * ``mu_np`` / ``mu_start_np``: their NumPy twins, written independently, for the reference
-  operator (:mod:`tiseg.reference.operator`), which the Taichi kernels are tested against;
+  operator (`tiseg.reference.operator`), which the Taichi kernels are tested against;
 * ``least_mu``: the smallest coefficient it can give, which bounds the acceleration in the run
   estimate; the friction stiffness g cos(zeta) mu_b / max(|u|, u_eps) of the regularised
   scheme is computed from ``mu`` itself (``Physics.friction_rate``);
@@ -20,7 +20,7 @@ A law holds everything the solver needs of it:
   this law, and u0 is derived from it) and ``hysteresis`` (a static coefficient mu_start above
   the dynamic one, which the projected friction uses to decide whether a cell at rest starts).
 
-The scene's allowed ``effects.friction`` values are the keys of :data:`FRICTION_LAWS`, read
+The scene's allowed ``effects.friction`` values are the keys of `FRICTION_LAWS`, read
 when a scene is read. Adding a law is one class with its ``constants`` plus its registry line
 (``FRICTION_LAWS[law.name] = law`` from user code works the same). This module imports no Taichi: the Taichi functions are built from the ``ti`` module
 the operator passes in, so the scene can read the registry without starting Taichi.
@@ -49,7 +49,7 @@ class Constant:
     it, its default, the doc text of the scenes reference and its checks (inclusive bounds
     ``lo``/``hi``, or ``positive``/``nonneg``), which the scene applies with the one-line
     messages of every other key. ``section`` "effects" keeps the value with the effects;
-    "material" names a field of :class:`tiseg.material.Material` of the same name."""
+    "material" names a field of `tiseg.material.Material` of the same name."""
 
     name: str
     default: float
@@ -80,8 +80,8 @@ class ConstantsByName:
 @dataclass(frozen=True)
 class FrictionParams(ConstantsByName):
     """The numbers the laws read: (3.7)'s constants of each species (Table 1; ``mu3`` the
-    start coefficient of the extended law) and every registered law's :class:`Constant` by
-    name (``fric.coulomb_mu``). Build it with :meth:`of`."""
+    start coefficient of the extended law) and every registered law's `Constant` by
+    name (``fric.coulomb_mu``). Build it with `of`."""
 
     mu1_s: float
     mu2_s: float
@@ -308,7 +308,7 @@ EXTENDED_SPECIES = ("mu1", "mu2", "beta", "L", "mu3")
 
 
 def _extended_np(h, fr, mu1, mu2, beta, L, mu3, beta_star, kappa):
-    """One species of the extended law (see :class:`PouliquenExtended`)."""
+    """One species of the extended law (see `PouliquenExtended`)."""
     md = _pouliquen_np(h, np.maximum(fr, beta_star), mu1, mu2, beta, L)
     ms = mu3 + (mu2 - mu1) * L / (L + h)
     mi = (np.minimum(fr, beta_star) / beta_star) ** kappa * (md - ms) + ms
@@ -343,7 +343,7 @@ class PouliquenExtended(FrictionLaw):
     there; slower steady flows (0 < F < beta*) are not those of section 4 and the scene
     derives no u0 for them. The deposit a steady flow leaves when its supply stops has the
     thickness h_stop where tan(zeta) = mu_D(h_stop, beta*):
-    h_stop = (L beta* / beta) (mu2 - tan zeta) / (tan zeta - mu1) (:func:`h_stop`).
+    h_stop = (L beta* / beta) (mu2 - tan zeta) / (tan zeta - mu1) (`h_stop`).
 
     Slots: (mu1, mu2, beta, L, mu3) of the small, then of the large grains, then beta*, kappa.
     """

@@ -1,10 +1,10 @@
 """Indices of the run-time numbers in the operator's parameter field.
 
 The slots below are those every scene has. A component with numbers of its own (a transport
-function of :mod:`tiseg.physics.segregation`, the viscosity of :mod:`tiseg.physics.viscosity`, a
-friction law of :mod:`tiseg.physics.friction`)
-stores them after :attr:`Params.COUNT`, at indices it is given when the operator is built
-(:func:`tiseg.physics.pointwise.slot_bases`), so a switched-off component has no slots at all.
+function of `tiseg.physics.segregation`, the viscosity of `tiseg.physics.viscosity`, a
+friction law of `tiseg.physics.friction`)
+stores them after `Params.COUNT`, at indices it is given when the operator is built
+(`tiseg.physics.pointwise.slot_bases`), so a switched-off component has no slots at all.
 """
 
 

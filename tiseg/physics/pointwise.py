@@ -18,7 +18,7 @@ __all__ = ["Physics", "Params", "param_count", "slot_bases"]
 
 def slot_bases(cfg) -> dict[str, int]:
     """Where each component's numbers start in the parameter field: after the common slots
-    (:attr:`Params.COUNT`) come the transport function's (only with segregation), the
+    (`Params.COUNT`) come the transport function's (only with segregation), the
     viscosity's (only with it), then the friction law's; ``"end"`` is the field's length. A
     component that is off has no slots."""
     bases = {}
@@ -40,7 +40,7 @@ def param_count(cfg) -> int:
 
 
 def param_values(cfg) -> list[float]:
-    """The components' numbers, in the order of :func:`slot_bases` (from Params.COUNT on)."""
+    """The components' numbers, in the order of `slot_bases` (from Params.COUNT on)."""
     vals = []
     if cfg.layout.segregation:
         vals += TRANSPORTS[cfg.transport].values(cfg.alpha)
@@ -55,7 +55,7 @@ def param_values(cfg) -> list[float]:
 class Physics:
     def __init__(self, cfg, par):
         """cfg: the OperatorConfig; par: the operator's parameter field, of
-        :func:`param_count` slots (the components' from Params.COUNT on, :func:`slot_bases`)."""
+        `param_count` slots (the components' from Params.COUNT on, `slot_bases`)."""
         lay = cfg.layout
         self.par = par
         self.nc = lay.nc
@@ -253,7 +253,7 @@ class Physics:
         q, which is the speed before friction, a law whose coefficient grows with the speed
         (3.7) gave an impulse too large by O(tau): it slowed steady flows and stopped a layer
         it could not hold when the step was long. Whether a law with hysteresis holds a cell
-        at rest is decided once per step, by :meth:`holds`; a cell it holds is not projected
+        at rest is decided once per step, by `holds`; a cell it holds is not projected
         (the operator keeps it at rest)."""
         r = q
         h = q[0]

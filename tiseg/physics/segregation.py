@@ -6,7 +6,7 @@ The large-particle flux is h u (phi - G(phi)) (6.3); G comes from the shear prof
 holds everything the solver needs of it:
 
 * ``slots`` and ``values``: its run-time numbers, stored in the operator's parameter field at
-  the index the operator gives it (:func:`tiseg.physics.pointwise.slot_bases`);
+  the index the operator gives it (`tiseg.physics.pointwise.slot_bases`);
 * ``taichi``: its Taichi functions ``G(phi)`` and ``dG(phi)``, built for one operator (so a
   function that is not chosen, or no segregation at all, leaves no code in the kernels);
 * ``G_np`` / ``dG_np``: the NumPy twins, written apart from the Taichi functions (and
@@ -16,10 +16,10 @@ holds everything the solver needs of it:
   Segregation adds no stiff term (it is all in the flux), so it has no stiffness bound for the
   RKC stage count.
 
-The scene's allowed ``material.transport`` values are the keys of :data:`TRANSPORTS`. Every
+The scene's allowed ``material.transport`` values are the keys of `TRANSPORTS`. Every
 transport function here has phi - G(phi) non-decreasing on [0, 1] (1 - G' >= 0), so upwinding
 phi by the sign of the mass flux upwinds the large-particle flux (``numerics.phi_flux``).
-This module imports no Taichi (and nothing of tiseg: :mod:`tiseg.material` takes its G from
+This module imports no Taichi (and nothing of tiseg: `tiseg.material` takes its G from
 here).
 """
 

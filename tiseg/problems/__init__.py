@@ -1,9 +1,9 @@
 """Verification problems as data: files naming a scene, an exact or reference solution and a
 score, which ``tiseg bench accuracy``, the tests and the examples all load.
 
-The files live in ``tiseg/data/problems/<name>.toml`` (format: :mod:`tiseg.problems.reader`);
-the solutions they name are Python functions in :mod:`tiseg.problems.solutions`, the records
-(what a timed run keeps) and scores in :mod:`tiseg.problems.scores`. A problem file only
+The files live in ``tiseg/data/problems/<name>.toml`` (format: `tiseg.problems.reader`);
+the solutions they name are Python functions in `tiseg.problems.solutions`, the records
+(what a timed run keeps) and scores in `tiseg.problems.scores`. A problem file only
 chooses among these and sets their parameters, so a new problem on an existing solution is a
 new file; a new kind of solution is one registry entry.
 

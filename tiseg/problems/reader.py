@@ -1,4 +1,4 @@
-"""Problem files: read, validate, and the :class:`Problem` they describe.
+"""Problem files: read, validate, and the `Problem` they describe.
 
 A problem file (``tiseg/data/problems/<name>.toml``; the name is the file's stem) holds::
 
@@ -136,7 +136,7 @@ def list_builtin_problems() -> list[str]:
 
 
 def load_problem(name_or_path) -> Problem:
-    """A built-in problem by name (see :func:`list_builtin_problems`) or a problem file."""
+    """A built-in problem by name (see `list_builtin_problems`) or a problem file."""
     builtin = builtin_file(name_or_path, PROBLEM_DIR, "problem")
     path = builtin or Path(name_or_path)
     where = str(path)

@@ -1,6 +1,6 @@
 """NumPy reference of the semi-discrete operator dq/dt = L(q, t) for (6.1)-(6.6).
 
-The discretisation (identical in :mod:`tiseg.numerics.operator`):
+The discretisation (identical in `tiseg.numerics.operator`):
 
 1. Ghost cells from the boundary conditions (inflow (6.8)-(6.9), outflow, periodic, wall).
 2. Cell primitives w = (h, u, v, phi) with Kurganov-Petrova desingularisation
@@ -28,7 +28,7 @@ The discretisation (identical in :mod:`tiseg.numerics.operator`):
 6. Source g h S (6.4) with mu_b from (3.4), (3.7), the direction u/|u| regularised as
    u / max(|u|, u_eps); no source where h < h_min.
 
-Arrays are shaped (nc, NX, NY) as in :class:`tiseg.numerics.config.Layout`.
+Arrays are shaped (nc, NX, NY) as in `tiseg.numerics.config.Layout`.
 """
 
 from __future__ import annotations
@@ -300,7 +300,7 @@ class ReferenceOperator:
         """The projected friction over tau, in place (Physics.project_friction): momentum
         shrinks by tau g cos(zeta) mu_b h along itself, or stops where that cancels it; mu_b
         at the speed of q0, the state the stage started from. ``held``: the cells the static
-        friction of a law with hysteresis holds for the step (:meth:`holds`), which stay at
+        friction of a law with hysteresis holds for the step (`holds`), which stay at
         rest."""
         c, lay = self.cfg, self.lay
         if not self.projected or tau <= 0:

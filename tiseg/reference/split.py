@@ -1,6 +1,6 @@
 """NumPy twin of a sweep of the dimensionally split MUSCL-Hancock scheme
-(:mod:`tiseg.numerics.split`, whose docstring gives the steps), built from the pieces of the
-reference operator (:class:`tiseg.reference.operator.ReferenceOperator`): ghost cells,
+(`tiseg.numerics.split`, whose docstring gives the steps), built from the pieces of the
+reference operator (`tiseg.reference.operator.ReferenceOperator`): ghost cells,
 primitives, slopes, physical and numerical fluxes, source and stage limiter."""
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
 """Pictures of a run: one Taichi colour kernel for frames, movies, the viewer and panels.
 
-* :func:`render_fields` - NumPy fields (one snapshot) -> uint8 RGB image.
-* :class:`FrameRenderer` - the same picture straight from a running simulation's Taichi state.
-* :func:`annotate`, :func:`add_colourbar` - time stamp, scale bar, colour bar burned in.
-* :class:`MovieWriter`, :class:`FrameFolderWriter`, :func:`render_run` - mp4 / GIF / PNG frames.
-* :class:`MovieRecorder` - frames of a running simulation into a movie (run, demo, viewer).
-* :func:`plot_panels` - paper-style matplotlib panels (figures 12-14), the kernel's pictures
-  computed in NumPy (:mod:`tiseg.render.raster`): they need no Taichi.
+* `render_fields` - NumPy fields (one snapshot) -> uint8 RGB image.
+* `FrameRenderer` - the same picture straight from a running simulation's Taichi state.
+* `annotate`, `add_colourbar` - time stamp, scale bar, colour bar burned in.
+* `MovieWriter`, `FrameFolderWriter`, `render_run` - mp4 / GIF / PNG frames.
+* `MovieRecorder` - frames of a running simulation into a movie (run, demo, viewer).
+* `plot_panels` - paper-style matplotlib panels (figures 12-14), the kernel's pictures
+  computed in NumPy (`tiseg.render.raster`): they need no Taichi.
 
 Colours (``tiseg.render.colours``): phi = 1 white fines, phi = 0 brown coarse grains, turquoise
 empty chute (h < h_min); viridis for h, |u|, u, v. x runs left to right, y bottom to top.

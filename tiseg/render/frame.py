@@ -1,9 +1,9 @@
 """The frame kernel: (h, phi, u, v) on the grid -> an RGB picture, in Taichi.
 
-Everything tiseg draws goes through :class:`_Painter.paint`: off-screen frames of NumPy fields
-(:func:`render_fields`), frames straight from a running simulation's Taichi state
-(:class:`FrameRenderer`) and the GGUI viewer (which paints into its window image); the matplotlib
-panels use its NumPy twin (:mod:`tiseg.render.raster`, no Taichi). Only plain ``ti.field`` s and kernels are used, so it
+Everything tiseg draws goes through `_Painter.paint`: off-screen frames of NumPy fields
+(`render_fields`), frames straight from a running simulation's Taichi state
+(`FrameRenderer`) and the GGUI viewer (which paints into its window image); the matplotlib
+panels use its NumPy twin (`tiseg.render.raster`, no Taichi). Only plain ``ti.field`` s and kernels are used, so it
 runs on every Taichi backend and needs no Vulkan; the picture comes back with ``to_numpy``.
 
 Orientation (as in figure 12): x (downslope) runs from left to right, y (cross-slope) from bottom
@@ -11,7 +11,7 @@ to top, so the inflow is on the left edge and the fingers grow to the right. The
 indexed ``img[px, py]`` with ``py = 0`` at the bottom, which is GGUI's convention; NumPy images
 are returned the usual way, ``(rows, columns, 3)`` with row 0 at the top.
 
-Colouring (see :mod:`tiseg.render.colours`): phi = 1 white fines, phi = 0 brown coarse grains,
+Colouring (see `tiseg.render.colours`): phi = 1 white fines, phi = 0 brown coarse grains,
 a linear blend in between, turquoise where the chute is empty (h < h_min). The fields h, |u|, u, v
 use the viridis table. Optional relief shading lights the thickness from the upper left of the
 picture so levees and the bulbous front read as relief::
@@ -25,7 +25,7 @@ gives tanh(1)). Flat flow keeps f = 1 exactly, so shading changes brightness onl
 the saturating tanh keeps the steep front (dh/dx ~ 1) from turning black. f < 1 darkens (c f),
 f > 1 brightens towards white (c + (1 - c)(f - 1)). The empty chute is never shaded.
 
-Captions are burned in with :func:`annotate` (time stamp and scale bar) and :func:`add_colourbar`,
+Captions are burned in with `annotate` (time stamp and scale bar) and `add_colourbar`,
 using glyphs rasterised once by matplotlib's FreeType wrapper (no figure, sub-millisecond).
 """
 # (no "from __future__ import annotations": Taichi reads kernel annotations as objects)
@@ -95,7 +95,7 @@ class _ArraySource:
 class _StateSource:
     """A simulation's conserved state, a slot of ``op.q`` (ghost cells skipped), read in place:
     rendering a frame moves no state through NumPy. The slot is 0 (the step state) unless a
-    snapshot in another slot is drawn (:meth:`use_slot`)."""
+    snapshot in another slot is drawn (`use_slot`)."""
 
     def __init__(self, op):
         lay = op.lay
@@ -142,7 +142,7 @@ class _Painter:
     """Colour kernels over one source of nx x ny cells.
 
     Run-time numbers (field, range, h_min, shading, cell size) live in ``par``; the colour table
-    in ``lut``. Each distinct image field passed to :meth:`paint` compiles once (template)."""
+    in ``lut``. Each distinct image field passed to `paint` compiles once (template)."""
 
     def __init__(self, source):
         self.src = source
@@ -395,8 +395,8 @@ def render_fields(
 # Frames straight from a simulation
 # =================================================================================================
 class FrameRenderer:
-    """Render a :class:`tiseg.simulation.Simulation` 's current state, or one of its snapshots
-    (``state=snap``, :class:`tiseg.callbacks.Snapshot`), without copying it to NumPy.
+    """Render a `tiseg.simulation.Simulation` 's current state, or one of its snapshots
+    (``state=snap``, `tiseg.callbacks.Snapshot`), without copying it to NumPy.
 
     The kernel reads the state's slot of ``sim.op.q`` in place; only the finished picture comes back (or
     nothing, when the viewer shows the image field directly). ``vrange`` for the mapped fields:
@@ -493,7 +493,7 @@ class FrameRenderer:
             self.vrange = C._nondegenerate(min(cur[0], lo), max(cur[1], hi), self.field)
 
     def render(self, state=None):
-        """Paint the current state (or ``state``, a snapshot) into :attr:`image` (a Taichi
+        """Paint the current state (or ``state``, a snapshot) into `image` (a Taichi
         field) and return it."""
         self.paint_into(self.image, 0, 0, self.width, self.height, state)
         return self.image
@@ -511,7 +511,7 @@ class FrameRenderer:
         self, annotate_frame: bool = False, colourbar: bool | None = None, state=None
     ) -> np.ndarray:
         """Render and return uint8 (H, W, 3); optionally with colour bar, time and scale bar.
-        ``state``: a :class:`tiseg.callbacks.Snapshot` to draw instead of the current state."""
+        ``state``: a `tiseg.callbacks.Snapshot` to draw instead of the current state."""
         self.render(state)
         out = _image_to_numpy(self.image)
         cb = self.colourbar if colourbar is None else colourbar
@@ -545,7 +545,7 @@ def _font(size: int):
 
 
 def text_width(s: str, size: int = 12) -> int:
-    """Width in pixels of a string drawn by :func:`draw_text`."""
+    """Width in pixels of a string drawn by `draw_text`."""
     return int(round(_font(size).getlength(s)))
 
 

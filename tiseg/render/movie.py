@@ -1,9 +1,9 @@
-"""Movies and frame folders from rendered frames, and :func:`render_run` for a finished run.
+"""Movies and frame folders from rendered frames, and `render_run` for a finished run.
 
 * mp4: imageio-ffmpeg's bundled ffmpeg (works offline), H.264 in yuv420p so every player opens
   it. yuv420p subsamples colour 2 x 2, so frames are padded to even sizes (with the background
   colour, at the right and bottom) instead of letting ffmpeg rescale them (macro_block_size=1).
-* GIF: imageio's Pillow plugin, looping; frames are kept in memory until :meth:`close` (GIFs are
+* GIF: imageio's Pillow plugin, looping; frames are kept in memory until `close` (GIFs are
   for short clips).
 * PNG frames: ``frame_00000.png`` ... in a folder.
 
@@ -55,7 +55,7 @@ def _check_fps(fps: float) -> float:
 
 class MovieWriter:
     """Write frames to ``path``: mp4 (or .mov/.mkv/.avi/.webm through ffmpeg) or, when the suffix
-    is .gif, an animated GIF. Use as a context manager or call :meth:`close`."""
+    is .gif, an animated GIF. Use as a context manager or call `close`."""
 
     def __init__(self, path, fps: float = DEFAULT_FPS, quality: float = 8.0):
         self.path = Path(path)
@@ -255,12 +255,12 @@ class FrameFolderWriter:
 
 class MovieRecorder:
     """The one movie path from a running simulation (``tiseg run --movie``, ``tiseg demo``, the
-    viewer's recording): a :class:`tiseg.render.FrameRenderer` and a :class:`MovieWriter`.
+    viewer's recording): a `tiseg.render.FrameRenderer` and a `MovieWriter`.
 
-    Call it with a :class:`tiseg.callbacks.Snapshot` (as a snapshot callback at output times)
+    Call it with a `tiseg.callbacks.Snapshot` (as a snapshot callback at output times)
     or with the simulation itself (as a plain callback, e.g. every n steps): each call appends
-    one frame with time stamp and scale bar. :meth:`callback` wraps it for
-    :meth:`tiseg.simulation.Simulation.add_callback`."""
+    one frame with time stamp and scale bar. `callback` wraps it for
+    `tiseg.simulation.Simulation.add_callback`."""
 
     def __init__(self, renderer, path, fps: float = DEFAULT_FPS):
         self.renderer = renderer
@@ -288,7 +288,7 @@ class MovieRecorder:
         self.writer.append(self.renderer.to_numpy(annotate_frame=True, state=snap))
 
     def callback(self, schedule, snapshot: bool | None = None, name: str = "movie"):
-        """This recorder as a :class:`tiseg.callbacks.Callback` (a snapshot callback on a
+        """This recorder as a `tiseg.callbacks.Callback` (a snapshot callback on a
         time schedule unless ``snapshot=False``)."""
         from ..callbacks import Callback
 
@@ -307,7 +307,7 @@ class MovieRecorder:
 
 
 def open_writer(path, fps: float = DEFAULT_FPS):
-    """A :class:`MovieWriter` for a file path with a suffix, else a :class:`FrameFolderWriter`."""
+    """A `MovieWriter` for a file path with a suffix, else a `FrameFolderWriter`."""
     path = Path(path)
     return MovieWriter(path, fps) if path.suffix else FrameFolderWriter(path)
 
@@ -393,7 +393,7 @@ def render_run(
     folder (``frames``) and/or a GIF (``gif``). One frame per snapshot (at most ``max_frames``,
     evenly spread), each with time stamp and scale bar (``annotate``) and, for the mapped
     fields, a colour bar with one range for the whole movie (``vrange`` or the data's).
-    ``scale``: pixels per cell; default :func:`auto_scale` (small grids are enlarged so that
+    ``scale``: pixels per cell; default `auto_scale` (small grids are enlarged so that
     the captions fit).
     Returns {"frames": count, "size": (H, W), "outputs": [paths]}."""
     from ..output.netcdf import read_fields

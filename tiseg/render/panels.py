@@ -1,9 +1,9 @@
 """Paper-style panels (figures 12-14): one panel per time, axes in metres, a colour bar.
 
-The pictures inside the axes are the frame kernel's (:func:`tiseg.render.render_fields`), computed
-in NumPy (:mod:`tiseg.render.raster`, so that no Taichi starts), so the panels show exactly the
+The pictures inside the axes are the frame kernel's (`tiseg.render.render_fields`), computed
+in NumPy (`tiseg.render.raster`, so that no Taichi starts), so the panels show exactly the
 colours of the movies and the viewer; matplotlib only adds axes,
-titles and a colour bar built from the same colour table (:func:`colours.matplotlib_cmap`).
+titles and a colour bar built from the same colour table (`colours.matplotlib_cmap`).
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def plot_panels(
 ):
     """A figure with one panel per time (nearest snapshot), stacked like figures 12-14.
 
-    ``ds``: a dataset from :func:`tiseg.output.netcdf.read_fields`, a run folder or a fields.nc
+    ``ds``: a dataset from `tiseg.output.netcdf.read_fields`, a run folder or a fields.nc
     path. ``times``: seconds (default: up to five snapshots evenly spread). ``field``: "phi",
     "h", "speed" ("|u|"), "u" or "v". ``vrange``: colour range of a mapped field in SI units
     (default: the data's over the panels, one range for all). ``path``: where to save (PNG, PDF,

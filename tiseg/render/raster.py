@@ -1,8 +1,8 @@
 """The frame kernel's picture computed with NumPy, and the picture sizes and shading settings
 both share.
 
-:func:`render_fields_numpy` paints a snapshot exactly as :func:`tiseg.render.render_fields` does
-(the colouring and relief shading of :mod:`tiseg.render.frame`, the same nearest-cell pixel
+`render_fields_numpy` paints a snapshot exactly as `tiseg.render.render_fields` does
+(the colouring and relief shading of `tiseg.render.frame`, the same nearest-cell pixel
 mapping and colour table), but without Taichi: the matplotlib panels (``tiseg render --panels``)
 then need no Taichi runtime (no start-up, no kernel compilation, no cache folder). The tests hold
 the two to within one 8-bit level (the f32 tanh of two maths libraries may differ by an ulp).
@@ -101,7 +101,7 @@ def render_fields_numpy(
     dx: float | None = None,
     dy: float | None = None,
 ) -> np.ndarray:
-    """:func:`tiseg.render.render_fields` without its colour bar, in NumPy (same arguments):
+    """`tiseg.render.render_fields` without its colour bar, in NumPy (same arguments):
     uint8 (H, W, 3), row 0 at the top."""
     field, h, vrange = checked_fields(fields, field, vrange, h_min)
     ny, nx = h.shape

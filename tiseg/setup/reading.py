@@ -2,9 +2,9 @@
 
 Loading is strict, because a typo in a scene would otherwise silently run the wrong experiment:
 unknown sections and keys, wrong types, out-of-range values and inconsistent combinations all
-raise :class:`tiseg.errors.InputError` with a message that names the full dotted key, the bad
+raise `tiseg.errors.InputError` with a message that names the full dotted key, the bad
 value and what is allowed, prefixed by the scene it is in. The allowed keys are derived from
-the declarations (:func:`tiseg.setup.sections.section_keys`) and the registries as they stand
+the declarations (`tiseg.setup.sections.section_keys`) and the registries as they stand
 when the scene is read.
 """
 
@@ -45,7 +45,7 @@ def load_scene(name_or_path, overrides=None) -> Scene:
     """Load and validate a scene.
 
     ``name_or_path``: a built-in scene name (no '/' and no '.toml', see
-    :func:`list_builtin_scenes`), a path to a TOML file, or a :class:`Scene` (then only the
+    `list_builtin_scenes`), a path to a TOML file, or a `Scene` (then only the
     overrides are applied). ``overrides``: a dict ``{"section.key": value}`` (a value of None
     removes the key) or a list of ``"section.key=value"`` strings (``--set``).
     """

@@ -2,7 +2,7 @@
 
 Every key, its meaning, its allowed words (read from the registries) or its range, and whether
 the kernels are compiled for it come from the one declaration of the key
-(:mod:`tiseg.setup.sections`, and the friction laws' constants); its value in the ``fingers``
+(`tiseg.setup.sections`, and the friction laws' constants); its value in the ``fingers``
 scene is read from the built-in scene. So the page cannot drift from the code.
 """
 

@@ -1,6 +1,6 @@
 """The resolved scene: every section validated, every default filled in, one frozen value.
 
-Build it with :func:`tiseg.scene.load_scene`; its properties are the switches and numbers the
+Build it with `tiseg.scene.load_scene`; its properties are the switches and numbers the
 run derives from the sections (``viscous``, ``feedback``, ``dx``, the Reynolds number (5.7)).
 """
 
@@ -30,7 +30,7 @@ from .writing import scene_to_dict
 
 @dataclass(frozen=True)
 class Scene:
-    """A fully validated simulation set-up; build it with :func:`load_scene`."""
+    """A fully validated simulation set-up; build it with `load_scene`."""
 
     name: str
     description: str

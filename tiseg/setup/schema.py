@@ -1,7 +1,7 @@
 """The scene schema's machinery: each key declared once, on its section's dataclass field.
 
 A section is a frozen dataclass; each field that is a scene key carries its metadata through
-:func:`key`::
+`key`::
 
     nu: float = field(default=0.01, metadata=key("coefficient of the viscous term of (6.2)
         [m^(3/2)/s]", nonneg=True))
@@ -12,11 +12,11 @@ or the choices (a callable, so a registry is read when a scene is read and a law
 registers is a valid choice), the doc text of the scenes reference and whether the kernels are
 compiled for the value. Fields without it (derived values such as ``FlowConfig.F``) are no keys.
 
-From that one declaration come: the generic reader (:func:`read_section`, one typed and checked
-read per field, in field order), the writer (:func:`write_section`), the allowed keys
-(:func:`key_names`), the compiled keys (:func:`compiled_keys`) and the reference page
-(:mod:`tiseg.setup.reference`). The rules that tie several keys together are explicit validators
-after the generic read (:mod:`tiseg.setup.validators`).
+From that one declaration come: the generic reader (`read_section`, one typed and checked
+read per field, in field order), the writer (`write_section`), the allowed keys
+(`key_names`), the compiled keys (`compiled_keys`) and the reference page
+(`tiseg.setup.reference`). The rules that tie several keys together are explicit validators
+after the generic read (`tiseg.setup.validators`).
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ class Key:
 
 
 def key(doc: str, **meta) -> dict:
-    """The metadata of a field that is a scene key (see :class:`Key`)."""
+    """The metadata of a field that is a scene key (see `Key`)."""
     return {KEY: Key(doc, **meta)}
 
 
@@ -109,7 +109,7 @@ def field_named(cls, name: str) -> dataclasses.Field:
 
 
 def default_of(f: dataclasses.Field):
-    """The declared default, or :data:`MISSING` for a required key."""
+    """The declared default, or `MISSING` for a required key."""
     if f.default is not dataclasses.MISSING:
         return f.default
     if f.default_factory is not dataclasses.MISSING:
@@ -176,7 +176,7 @@ def read_section(cls, t: Table, defaults: Mapping[str, Any] | None = None, skip=
 
 
 def constant_field(c) -> dataclasses.Field:
-    """A friction law's :class:`tiseg.physics.friction.Constant` as the field of a number key,
+    """A friction law's `tiseg.physics.friction.Constant` as the field of a number key,
     so that it is read, written and documented like the section's own keys."""
     f = dataclasses.field(
         default=c.default,

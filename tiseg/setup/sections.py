@@ -2,10 +2,10 @@
 
 Choices are read from the registries when a scene is read (``lambda: FRICTION_LAWS``), so a
 friction law, stepper or transport that user code registers is a valid choice. The constants of
-the friction laws are declared by the laws themselves (:class:`tiseg.physics.friction.Constant`)
-and join the section they name (:func:`law_constants`). What no single key can say (a key needed
+the friction laws are declared by the laws themselves (`tiseg.physics.friction.Constant`)
+and join the section they name (`law_constants`). What no single key can say (a key needed
 only with another, a range that depends on another key) is checked after the generic read by
-:mod:`tiseg.setup.validators`.
+`tiseg.setup.validators`.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ _SMALL, _LARGE = TABLE1.small, TABLE1.large
 @dataclass(frozen=True)
 class SpeciesKeys:
     """The keys of ``material.small`` and ``material.large``; the defaults are Table 1's (those
-    of :class:`tiseg.material.Material`, different for each species)."""
+    of `tiseg.material.Material`, different for each species)."""
 
     zeta1_deg: float = field(
         default=None, metadata=key("minimum angle of steady flow, mu1 = tan(zeta1)")
@@ -90,7 +90,7 @@ def _species_doc(name: str) -> str:
 class MaterialKeys:
     """Table 1 of the paper; every constant can be overridden (``Material(zeta_deg=28)`` etc.).
 
-    The section's values are a :class:`tiseg.material.Material`; the keys of the friction laws'
+    The section's values are a `tiseg.material.Material`; the keys of the friction laws'
     constants that live there (``beta_star``, ``kappa``) come from the laws."""
 
     zeta_deg: float = field(default=TABLE1.zeta_deg, metadata=key("slope angle zeta [degrees]"))
@@ -173,7 +173,7 @@ class FlowConfig:
 
 @dataclass(frozen=True)
 class EffectsConfig(ConstantsByName):
-    """Which physics is switched on; see the resolved properties on :class:`Scene`.
+    """Which physics is switched on; see the resolved properties on `Scene`.
 
     ``constants``: the values of the friction laws' constants that live in this section
     (``effects.coulomb_mu``), by name; each is also an attribute (``effects.coulomb_mu``)."""
@@ -283,7 +283,7 @@ class InflowConfig:
 
     ``noise`` (default 0) adds a random cross-slope profile r(y) of unit RMS, band-limited to
     wavelengths of 2 cm and more and the same on every grid
-    (:func:`tiseg.numerics.config.inflow_noise`), drawn from ``seed``: without it the
+    (`tiseg.numerics.config.inflow_noise`), drawn from ``seed``: without it the
     symmetry of (6.9) is broken by round-off alone, so the finger pattern of one run is one
     draw that changes with any change of the numerics; with it, runs that differ only in
     ``seed`` are physically different realisations (ensembles, ``tiseg sweep``).
@@ -352,7 +352,7 @@ class InitialConfig:
     * release: a block [x0, x1] x [y0, y1] of thickness h and concentration phi, at rest.
     * channel: a layer of thickness h at rest, with one straight downslope channel of
       concentration ``phi_channel`` and ``width`` centred at y = Ly/2 between levees of
-      ``phi_levee`` (the verification case of sharp contacts, :mod:`tiseg.steady_channel`).
+      ``phi_levee`` (the verification case of sharp contacts, `tiseg.steady_channel`).
 
     The fields are in the order each kind lists its keys; ``kinds`` says which kinds use a key.
     """

@@ -1,9 +1,9 @@
 """Typed reads from one TOML table, and the small helpers of reading TOML.
 
-Every failure is a one-line :class:`tiseg.errors.InputError` that names the full dotted key, the
+Every failure is a one-line `tiseg.errors.InputError` that names the full dotted key, the
 bad value and what is allowed: an unknown key lists the allowed ones with the closest match, a
 number out of its range says the range. A number written non-zero that a double cannot hold
-(1e-400) is refused by the key that reads it (:class:`Underflow`), not silently taken as 0.
+(1e-400) is refused by the key that reads it (`Underflow`), not silently taken as 0.
 """
 
 from __future__ import annotations
@@ -192,7 +192,7 @@ class Underflow(float):
 
 
 def toml_float(text: str) -> float:
-    """tomllib's parse_float: the float of a TOML literal, an :class:`Underflow` when a
+    """tomllib's parse_float: the float of a TOML literal, an `Underflow` when a
     non-zero literal (a digit 1-9 before its exponent) does not survive as a normal double."""
     v = float(text)
     if not math.isfinite(v) or abs(v) >= sys.float_info.min:

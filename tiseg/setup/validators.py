@@ -1,7 +1,7 @@
 """Reading each section: the generic read of its declared keys, then its cross-key rules.
 
 A key's own type, range and choices are checked by the generic reader
-(:func:`tiseg.setup.schema.read_section`) from its declaration; what is left here are the rules
+(`tiseg.setup.schema.read_section`) from its declaration; what is left here are the rules
 that tie keys together, each an explicit check with a one-line message naming every key it
 involves: a steady flow that defines u0 (4.3), a grid sized by a resolution or by perturbation
 wavelengths, periodic sides in pairs, an inflow perturbation that keeps phi in [0, 1], the keys

@@ -1,7 +1,7 @@
 """A resolved scene as the nested dict of its TOML form, written from the declarations.
 
 Every section is written key by key in declaration order by
-:func:`tiseg.setup.schema.write_section` (None left out, as TOML has no null); two tables say
+`tiseg.setup.schema.write_section` (None left out, as TOML has no null); two tables say
 more than their values: the domain writes the resolution instead of the cell counts it derives
 (so that an override of Lx or Ly on the resolved scene re-derives them), and the initial state
 writes the keys of its kind only. ``load_scene`` of the TOML gives an equal scene.

@@ -1,6 +1,6 @@
 """High-wavenumber asymptotics of the growth rates, sections 5.3-5.4 and appendices A.1-A.2, B.
 
-All quantities are dimensionless (scalings (5.1)); ``bs`` is a :class:`~.base.BaseState`.
+All quantities are dimensionless (scalings (5.1)); ``bs`` is a `base.BaseState`.
 
 1D inviscid (nu = 0):  Re sigma -> constants (5.28)-(5.30) (= (A12)-(A14)), except at F = Fc where
                        two of them diverge and Re sigma ~ +/- c k^{1/2} with c of (5.31) (= (A17)).
@@ -31,7 +31,7 @@ def inviscid_limits(bs: BaseState) -> tuple[float, float, float]:
     """Limits of Re sigma^(1,2,3) as k -> inf for nu = 0, (5.28), (5.29), (5.30).
 
     At F = Fc the two formulas whose denominator vanishes are returned as nan (the roots grow like
-    +/- k^{1/2} instead, see :func:`critical_sqrt_coefficient`).
+    +/- k^{1/2} instead, see `critical_sqrt_coefficient`).
     """
     F, g, dg = bs.F, bs.G0, bs.dG0
     mh, mu, mp = bs.mu_h, bs.mu_u, bs.mu_phi

@@ -2,7 +2,7 @@
 
 With the scalings (5.1) (h = h0 h^, u = u0 u^, x = h0 x^, t = h0/u0 t^) the steady uniform flow
 of section 4 becomes (h, u, phi) = (1, 1, phi0) and the linearised equations (5.11)-(5.13) depend
-only on the handful of numbers collected in :class:`BaseState`:
+only on the handful of numbers collected in `BaseState`:
 
 * F, the steady Froude number (4.9), and R = u0 sqrt(h0) / nu, the granular Reynolds number (5.7)
   (SI units for u0, h0, nu; R = inf for the inviscid model nu = 0);
@@ -92,7 +92,7 @@ def check_viscosity(nu: float) -> None:
 def base_state(h0: float, phi0: float, nu: float, material: Material = TABLE1) -> BaseState:
     """Base state for thickness h0 [m], concentration phi0 and viscosity coefficient nu.
 
-    Raises :class:`tiseg.errors.InputError` for h0 <= 0, phi0 outside [0, 1], phi0 <= phi0* (no
+    Raises `tiseg.errors.InputError` for h0 <= 0, phi0 outside [0, 1], phi0 <= phi0* (no
     steady uniform flow, (4.8)), nu < 0, or a slope outside the range (3.10) for which the
     segregation-mobility model is built.
     """

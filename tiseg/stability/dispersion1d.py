@@ -8,7 +8,7 @@ Precision. ``numpy.linalg.eigvals`` is accurate to about eps * ||A|| ~ eps k^2 /
 this round-off is as large as the true growth rate, which decays like k^-2 (k^-4 at F = Fc), and
 it even fakes a cutoff near k ~ 1e3-1e4 for F <= Fc (NUMERICS finding 2). ``extended=True``
 therefore solves the cubic (A1) with the coefficients (A2)-(A7) in mpmath at ~40 digits, and
-``extended="auto"`` does so only where double precision cannot be trusted (:func:`needs_extended`).
+``extended="auto"`` does so only where double precision cannot be trusted (`needs_extended`).
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def roots(bs: BaseState, k, extended=False) -> np.ndarray:
 
     extended: False (double precision eigenvalues of (5.21)), True (mpmath polyroots of the cubic
     (A1) at DPS digits, result rounded to double) or "auto" (mpmath only where
-    :func:`needs_extended` says double precision is not good enough).
+    `needs_extended` says double precision is not good enough).
     """
     k = np.asarray(k, dtype=float)
     s = _sort_desc(np.linalg.eigvals(matrix(bs, k)))

@@ -16,7 +16,7 @@ sigma = -tan(zeta)/F^2 - i k_x - k_x^2/(2R).
 
 Its characteristic polynomial is the quartic (B2) with the coefficients (B3)-(B5). Three of the
 printed coefficients of (B5) disagree with the determinant of this matrix (NUMERICS finding 3);
-:func:`expansion_coefficients` uses the corrected forms:
+`expansion_coefficients` uses the corrected forms:
 
 * f_{1,1,2}: the printed "-2 mu_u" inside (2 - G0')(tan + 2R - 2 mu_u) must be "+2 mu_u";
 * f_{1,2,2}: the printed (3 - G0') must be (3 - 2 G0');
@@ -178,7 +178,7 @@ def roots(bs: BaseState, kx, ky, extended=False) -> np.ndarray:
 
     extended: False (numpy eigvals), True (mpmath roots of the corrected quartic (B2)-(B5)) or
     "auto" (mpmath where double round-off ~ eps |k|^2/R is not negligible, see
-    :func:`tiseg.stability.dispersion1d.needs_extended`).
+    `tiseg.stability.dispersion1d.needs_extended`).
     """
     kx, ky = np.broadcast_arrays(np.asarray(kx, dtype=float), np.asarray(ky, dtype=float))
     s = np.linalg.eigvals(matrix(bs, kx, ky))

@@ -1,27 +1,27 @@
 """Live GGUI viewer: run a scene and watch it evolve, with controls.
 
 The picture is painted by the same frame kernel as every off-screen frame
-(:class:`tiseg.render.FrameRenderer`, straight from the Taichi state) into the window's image
+(`tiseg.render.FrameRenderer`, straight from the Taichi state) into the window's image
 field, which GGUI shows with ``canvas.set_image``. Below the picture, three control panels:
 
 * Run: pause/resume (space), single step (s), reset (r), screenshot (PNG), start/stop recording
   (mp4); simulated time, steps per second, real-time factor and frames per second.
 * View: field (phi, h, |u|, u, v), relief shading, steps per frame.
 * Parameters: inflow thickness and concentration, nu, slope angle. These are run-time numbers:
-  :meth:`tiseg.simulation.Simulation.set_parameters` changes the scene and the operator
+  `tiseg.simulation.Simulation.set_parameters` changes the scene and the operator
   together, without recompiling (the slope also changes the steady velocity u0 the inflow
   takes when the scene derives it). Reset restores the initial state and keeps the
   parameters; "scene values" restores the scene's.
 
-Recording is a callback of the simulation (:class:`tiseg.render.movie.MovieRecorder`, the
+Recording is a callback of the simulation (`tiseg.render.movie.MovieRecorder`, the
 movie path of ``tiseg run --movie`` and ``tiseg demo``): one frame every ``steps_per_frame``
 steps, so a paused viewer records nothing.
 
 GGUI needs Vulkan and, for a visible window, a display. A GGUI window that cannot open can kill the
-process (no exception), so :func:`display_problem` checks both *before* any window is made; where
+process (no exception), so `display_problem` checks both *before* any window is made; where
 either is missing the viewer says so in one line, suggests the off-screen path and exits with 2.
 ``Viewer(scene, show_window=False)`` runs without a display (Vulkan still needed) for tests and
-benchmarks: :meth:`Viewer.run_frames` and :meth:`Viewer.capture`.
+benchmarks: `Viewer.run_frames` and `Viewer.capture`.
 """
 
 from __future__ import annotations
@@ -381,7 +381,7 @@ class Viewer:
         return self._captured[1].copy()
 
     def capture_map(self) -> np.ndarray:
-        """The map part of :meth:`capture` (without colour bar and controls)."""
+        """The map part of `capture` (without colour bar and controls)."""
         img = self.capture()
         top = self.height - (self.map_y0 + self.map_h)
         return img[top : top + self.map_h, self.map_x0 : self.map_x0 + self.map_w]
