@@ -162,12 +162,30 @@ class Simulation:
         mass_tol: float | None = None,
         skip_rest: bool = True,
     ):
-        """``active_region``: work only on the x range that can change (exact); ``skip_rest``:
-        leave out of it the regions held at rest (projected friction with a law with
-        hysteresis and a stepper that keeps rest bit for bit, every one but SSPRK(10,4);
-        exact for the same steps: False only to compare); ``check_every``: guard check every that
-        many steps (0: only on steps that make a snapshot); ``mass_tol``: relative
-        mass-balance tolerance of the guard (tiseg.guards)."""
+        """Set up the operator, the stepper and the guard for a scene, at its initial state.
+
+        Parameters
+        ----------
+        scene
+            A `tiseg.scene.Scene` (see `from_scene` for names and files).
+        arch
+            Taichi backend when Taichi is not yet initialised (default "cpu"); see
+            `tiseg.backend.init`.
+        precision
+            "f32" or "f64"; default the scene's ``numerics.precision``.
+        threads
+            CPU threads (0 = all cores).
+        active_region
+            Work only on the x range that can change (exact).
+        check_every
+            Guard check every that many steps (0: only on steps that make a snapshot).
+        mass_tol
+            Relative mass-balance tolerance of the guard (`tiseg.guards`).
+        skip_rest
+            Leave out of the active range the regions held at rest (projected friction with
+            a law with hysteresis and a stepper that keeps rest bit for bit, every one but
+            SSPRK(10,4); exact for the same steps): False only to compare.
+        """
         from .numerics.operator import TaichiOperator
 
         self.scene = scene
@@ -220,7 +238,17 @@ class Simulation:
 
     @classmethod
     def from_scene(cls, scene, overrides=None, **kwargs) -> "Simulation":
-        """Build from a Scene, a built-in scene name or a TOML path, with ``section.key`` overrides."""
+        """Build from a Scene, a built-in scene name or a TOML path, with ``section.key`` overrides.
+
+        Parameters
+        ----------
+        scene
+            A `tiseg.scene.Scene`, a built-in scene name ("fingers") or a TOML path.
+        overrides
+            ``{"section.key": value}`` or a list of ``"section.key=value"`` strings.
+        **kwargs
+            Passed to the constructor (``arch``, ``precision``, ``threads``, ...).
+        """
         from .scene import Scene, load_scene
 
         if not isinstance(scene, Scene):
@@ -735,21 +763,40 @@ class Simulation:
         overwrite: bool = False,
         signals: bool = False,
     ) -> RunStats:
-        """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
+        """Step to t_end (default the scene's) with the registered callbacks.
 
-        * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
-          per step), checkpoint.npz (`tiseg.output.run_folder`); a simulation made by
-          `resume` appends to its run folder;
-        * ``on_output(snap)``: a snapshot callback at the output times (e.g. a movie frame);
-        * ``callbacks``: more `tiseg.callbacks.Callback` objects;
-        * ``progress``: a progress bar.
+        None of the options changes the steps.
 
-        ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
-        output times and per ``output.checkpoint_interval``). None of this changes the steps.
-        A fresh run refuses an ``out_dir`` that holds other files or another run unless
-        ``overwrite`` (`tiseg.output.run_folder`). ``signals``: SIGTERM and SIGINT stop
-        the run at the end of the current step, with a checkpoint when there is a folder, by
-        raising `RunInterrupted` (the command line exits 143 / 130)."""
+        Parameters
+        ----------
+        out_dir
+            Run folder: scene.toml, fields.nc at the output times, diagnostics.csv (a row per
+            step), checkpoint.npz (`tiseg.output.run_folder`); a simulation made by `resume`
+            appends to its run folder. None: nothing is written.
+        progress
+            Show a progress bar.
+        t_end
+            End time [s]; default the scene's ``time.t_end``.
+        on_output
+            ``on_output(snap)``, a snapshot callback at the output times (e.g. a movie frame).
+        checkpoint_wall
+            Seconds of wall time between checkpoints at most (None: only at output times and
+            per ``output.checkpoint_interval``).
+        callbacks
+            More `tiseg.callbacks.Callback` objects for this run.
+        overwrite
+            Write into an ``out_dir`` that holds other files or another run (a fresh run
+            refuses one otherwise).
+        signals
+            SIGTERM and SIGINT stop the run at the end of the current step, with a checkpoint
+            when there is a folder, by raising `RunInterrupted` (the command line exits 143 /
+            130).
+
+        Returns
+        -------
+        RunStats
+            Steps, operator evaluations and wall time of the run.
+        """
         from .output.run_folder import RunFolder
 
         t_end = self.scene.t_end if t_end is None else float(t_end)

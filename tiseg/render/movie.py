@@ -389,13 +389,45 @@ def render_run(
     annotate: bool = True,
     progress: bool = False,
 ) -> dict:
-    """Render the snapshots of a run (its folder or fields.nc) to an mp4 (``movie``), a PNG
-    folder (``frames``) and/or a GIF (``gif``). One frame per snapshot (at most ``max_frames``,
-    evenly spread), each with time stamp and scale bar (``annotate``) and, for the mapped
-    fields, a colour bar with one range for the whole movie (``vrange`` or the data's).
-    ``scale``: pixels per cell; default `auto_scale` (small grids are enlarged so that
-    the captions fit).
-    Returns {"frames": count, "size": (H, W), "outputs": [paths]}."""
+    """Render the snapshots of a run to an mp4, a folder of PNG frames and/or a GIF.
+
+    One frame per snapshot (at most ``max_frames``, evenly spread), each with time stamp and
+    scale bar (``annotate``) and, for the mapped fields, a colour bar with one range for the
+    whole movie (``vrange`` or the data's).
+
+    Parameters
+    ----------
+    run_dir
+        The run folder or its fields.nc.
+    field
+        "phi", "h", "speed" ("|u|"), "u" or "v".
+    movie
+        Path of an mp4 to write.
+    frames
+        Folder to write PNG frames into.
+    gif
+        Path of an animated GIF to write.
+    fps
+        Frames per second of the movie and the GIF.
+    max_frames
+        At most this many frames, evenly spread over the run.
+    shade
+        True, False or a strength in [0, 1] of the relief shading.
+    scale
+        Pixels per cell; default `auto_scale` (small grids are enlarged so that the captions
+        fit).
+    vrange
+        (vmin, vmax) of a colour-mapped field.
+    annotate
+        Burn in the time stamp and the scale bar.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    dict
+        ``{"frames": count, "size": (H, W), "outputs": [paths]}``.
+    """
     from ..output.netcdf import read_fields
     from .frame import annotate as annotate_image
     from .frame import add_colourbar, render_fields

@@ -62,11 +62,32 @@ def plot_panels(
 ):
     """A figure with one panel per time (nearest snapshot), stacked like figures 12-14.
 
-    ``ds``: a dataset from `tiseg.output.netcdf.read_fields`, a run folder or a fields.nc
-    path. ``times``: seconds (default: up to five snapshots evenly spread). ``field``: "phi",
-    "h", "speed" ("|u|"), "u" or "v". ``vrange``: colour range of a mapped field in SI units
-    (default: the data's over the panels, one range for all). ``path``: where to save (PNG, PDF,
-    SVG, ... by suffix). Returns the matplotlib Figure.
+    Parameters
+    ----------
+    ds
+        A dataset from `tiseg.output.netcdf.read_fields`, a run folder or a fields.nc path.
+    times
+        Seconds (default: up to five snapshots evenly spread).
+    field
+        "phi", "h", "speed" ("|u|"), "u" or "v".
+    path
+        Where to save (PNG, PDF, SVG, ... by suffix); None: not saved.
+    shade
+        True, False or a strength in [0, 1] of the relief shading.
+    vrange
+        Colour range of a mapped field in SI units (default: the data's over the panels, one
+        range for all).
+    scale
+        Pixels per cell of the pictures.
+    width
+        Figure width [inches].
+    title
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
     """
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize

@@ -44,10 +44,24 @@ def list_builtin_scenes() -> list[str]:
 def load_scene(name_or_path, overrides=None) -> Scene:
     """Load and validate a scene.
 
-    ``name_or_path``: a built-in scene name (no '/' and no '.toml', see
-    `list_builtin_scenes`), a path to a TOML file, or a `Scene` (then only the
-    overrides are applied). ``overrides``: a dict ``{"section.key": value}`` (a value of None
-    removes the key) or a list of ``"section.key=value"`` strings (``--set``).
+    Parameters
+    ----------
+    name_or_path
+        A built-in scene name (no '/' and no '.toml', see `list_builtin_scenes`), a path to a
+        TOML file, or a `Scene` (then only the overrides are applied).
+    overrides
+        A dict ``{"section.key": value}`` (a value of None removes the key) or a list of
+        ``"section.key=value"`` strings (``--set``).
+
+    Returns
+    -------
+    Scene
+        The validated scene, with the derived values (such as ``flow.u0``) filled in.
+
+    Raises
+    ------
+    InputError
+        In one line, for a missing file, a TOML error, an unknown key or a value out of range.
     """
     if isinstance(name_or_path, Scene):
         return name_or_path.with_overrides(overrides) if overrides else name_or_path
