@@ -34,7 +34,7 @@ MATHJAX_PARTS = ("tex-svg.js", "input/tex/extensions", "ui", "a11y")
 # gallery captions: file stem in assets/figures -> what the picture shows
 FIGURES = {
     "fig12_phi": "Figure 12: the concentration φ as the front breaks into fingers",
-    "fig12_phi_750": "Figure 12 at the paper's grid, 750 cells/m",
+    "fig12_phi_750": "The same times drawn by `tiseg render --panels` from a run at 750 cells/m",
     "fig13_speed": "Figure 13: the speed |u|, fast channels between still levees",
     "fig14_h": "Figure 14: the thickness h",
     "fig15_phi_runs": "Figure 15: φ at t = 7.5 s for other grids and widths",
@@ -83,13 +83,18 @@ def _comment_blocks(text: str) -> list[tuple[str, str]]:
     return [(k, (" " if k == "text" else "\n").join(b)) for k, b in blocks if b]
 
 
-def _picture_note(name: str) -> str:
+def _picture_runs() -> dict[str, tuple[list[str], str]]:
+    """``scene_pictures.RUNS``: scene -> (the overrides of its picture's run, kind of picture)."""
     sys.path.insert(0, str(ROOT / "docs"))
     try:
         from scene_pictures import RUNS
     finally:
         sys.path.pop(0)
-    overrides, kind = RUNS.get(name, ([], ""))
+    return RUNS
+
+
+def _picture_note(name: str) -> str:
+    overrides, kind = _picture_runs().get(name, ([], ""))
     what = {
         "map": "The concentration φ at the end of the run (white fines, brown coarse grains, "
         "turquoise empty chute)",
@@ -101,9 +106,9 @@ def _picture_note(name: str) -> str:
         "the end of the run",
     }.get(kind, "The end of the run")
     grid = (
-        " on a coarser grid than the scene's: " + ", ".join(f"`{o}`" for o in overrides)
+        " from a quick run with " + ", ".join(f"`{o}`" for o in overrides)
         if overrides
-        else " with the scene as it is"
+        else " from a run of the scene as it is"
     )
     return f"{what},{grid} (drawn by `docs/scene_pictures.py`)."
 
@@ -119,15 +124,15 @@ def scene_page(name: str) -> str:
     if (PICTURES / f"{name}.png").exists():
         out += [f"![{name}]({name}.png)", "", f"*{_picture_note(name)}*", ""]
     t_end = data.get("time", {}).get("t_end")
+    quick = _picture_runs().get(name, ([], ""))[0]
+    out += ["## Run it", "", "```sh", f"tiseg run {name}"]
+    if quick:
+        sets = " ".join(f"--set {o}" for o in quick)
+        out.append(f"tiseg run {name} {sets} --out runs/{name}-quick")
     out += [
-        "## Run it",
-        "",
-        "```sh",
-        f"tiseg run {name}",
-        f"tiseg run {name} --set domain.resolution=100 --out runs/{name}-coarse",
         "```",
         "",
-        "The second line runs it on a coarser grid (a quick look). "
+        ("The second line is the quick run of the picture. " if quick else "")
         + (f"The run ends at t = {t_end} s (`time.t_end`). " if t_end is not None else "")
         + "Any value below can be changed with `--set SECTION.KEY=VALUE`; to start your own "
         "scene, save the file below as `my.toml`, edit it and run `tiseg run my.toml`. Every key "
@@ -180,10 +185,12 @@ def _mathjax_root() -> Path:
     return root
 
 
-def _thumbnail(src: Path, width: int = THUMB_WIDTH) -> bytes:
+def _thumbnail(src: Path, width: int = THUMB_WIDTH, last_frame: bool = False) -> bytes:
     from PIL import Image
 
     with Image.open(src) as im:
+        if last_frame:
+            im.seek(getattr(im, "n_frames", 1) - 1)
         im = im.convert("RGB")
         if im.width > width:
             im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
@@ -250,7 +257,7 @@ def _gallery_extra() -> str:
 def on_config(config):
     """Put the scene pages into the navigation, after the scenes reference (or at the end)."""
     entry = {
-        "Built-in scenes": ["scenes/index.md"]
+        "Built-in scenes": [{"Overview": "scenes/index.md"}]
         + [{name: f"scenes/{name}.md"} for name in scene_names()]
     }
     nav = config.nav
@@ -293,7 +300,7 @@ def on_files(files, config):
     gif = ROOT / "assets" / "fingers.gif"
     add("gallery/fingers.gif", src=gif)
     add("gallery/fingers.mp4", _gif_to_mp4(gif))
-    add("gallery/thumbs/fingers.png", _thumbnail(gif, 600))
+    add("gallery/thumbs/fingers.png", _thumbnail(gif, 600, last_frame=True))
     for script in sorted((ROOT / "examples").glob("*.py")):
         add(f"gallery/scripts/{script.name}", src=script)
     return files
