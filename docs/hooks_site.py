@@ -6,6 +6,9 @@
   its description, the comment at its top (what it is for), the picture
   ``docs/scenes/<name>.png`` (drawn by ``docs/scene_pictures.py``), the command and the file;
   the pages are added to the navigation after "Scenes reference";
+* the theme's offline mode loads a Worker shim for the search from the network; the pages
+  load the site's own, ``javascripts/iframe-worker.js``, instead, so the search works from
+  disk;
 * the gallery page (``gallery.md``, written by ``docs/hooks.py``) gets a grid of thumbnails of
   the figures in ``assets/figures`` and the finger movie (``assets/fingers.gif``, also as MP4),
   and the example scripts as downloads.
@@ -54,6 +57,9 @@ FIGURES = {
     "demo_fig14_h": "`tiseg demo`: the thickness",
 }
 THUMB_WIDTH = 360
+# the site's Worker stand-in for pages opened from disk; material's offline plugin adds a
+# network one to extra.polyfills unless an entry there already names "iframe-worker"
+LOCAL_WORKER = "javascripts/iframe-worker.js"
 
 
 def scene_names() -> list[str]:
@@ -254,8 +260,16 @@ def _gallery_extra() -> str:
     return "\n".join(out) + "\n"
 
 
+def local_polyfills(polyfills: list) -> list:
+    """The theme's polyfill scripts with the Worker shim served by the site itself."""
+    kept = [p for p in polyfills if "iframe-worker" not in str(p)]
+    return [*kept, LOCAL_WORKER]
+
+
 def on_config(config):
-    """Put the scene pages into the navigation, after the scenes reference (or at the end)."""
+    """Serve the Worker shim from the site; put the scene pages into the navigation, after
+    the scenes reference (or at the end)."""
+    config.extra["polyfills"] = local_polyfills(config.extra.get("polyfills", []))
     entry = {
         "Built-in scenes": [{"Overview": "scenes/index.md"}]
         + [{name: f"scenes/{name}.md"} for name in scene_names()]

@@ -150,3 +150,17 @@ def test_the_site_needs_no_network():
     handlers = next(p for p in cfg["plugins"] if isinstance(p, dict) and "mkdocstrings" in p)
     options = handlers["mkdocstrings"]["handlers"]["python"]["options"]
     assert options["docstring_style"] == "numpy"
+
+
+def test_the_search_worker_shim_is_served_by_the_site():
+    hooks = _hooks_site()
+    network = "https://unpkg.com/iframe-worker/shim"
+    assert hooks.local_polyfills([network, "javascripts/other.js"]) == [
+        "javascripts/other.js",
+        hooks.LOCAL_WORKER,
+    ]
+    assert hooks.local_polyfills([]) == [hooks.LOCAL_WORKER]
+    # the offline plugin adds its network shim unless an entry names "iframe-worker"
+    assert "iframe-worker" in hooks.LOCAL_WORKER and "://" not in hooks.LOCAL_WORKER
+    shim = (DOCS / hooks.LOCAL_WORKER).read_text()
+    assert "window.Worker = " in shim and 'location.protocol !== "file:"' in shim
