@@ -137,6 +137,7 @@ def test_the_site_needs_no_network():
     yaml = pytest.importorskip("yaml")
     cfg = yaml.safe_load((ROOT / "mkdocs.yml").read_text())
     assert cfg["use_directory_urls"] is False
+    assert cfg["theme"].get("font") is False, "the theme would load its fonts from the network"
     plugins = [p if isinstance(p, str) else next(iter(p)) for p in cfg["plugins"]]
     assert "offline" in plugins
     scripts = cfg["extra_javascript"]
