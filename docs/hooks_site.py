@@ -266,26 +266,39 @@ def local_polyfills(polyfills: list) -> list:
     return [*kept, LOCAL_WORKER]
 
 
-def on_config(config):
-    """Serve the Worker shim from the site; put the scene pages into the navigation, after
-    the scenes reference (or at the end)."""
-    config.extra["polyfills"] = local_polyfills(config.extra.get("polyfills", []))
-    entry = {
-        "Built-in scenes": [{"Overview": "scenes/index.md"}]
-        + [{name: f"scenes/{name}.md"} for name in scene_names()]
-    }
-    nav = config.nav
-    if nav is None:
-        return config
+def _nav_paths(nav) -> set[str]:
+    """Every page path in a navigation (nested lists and dicts)."""
+    if isinstance(nav, str):
+        return {nav}
+    if isinstance(nav, dict):
+        return set().union(*(_nav_paths(v) for v in nav.values()))
+    if isinstance(nav, list):
+        return set().union(set(), *(_nav_paths(v) for v in nav))
+    return set()
+
+
+def add_to_nav(nav: list, entry: dict, after: str) -> None:
+    """Insert ``entry`` after the item whose page is ``after`` (or at the end), unless the
+    navigation already holds its pages (mkdocs.yml may list them itself)."""
+    if _nav_paths(entry) & _nav_paths(nav):
+        return
     at = next(
-        (
-            i + 1
-            for i, item in enumerate(nav)
-            if isinstance(item, dict) and "reference/scenes.md" in item.values()
-        ),
+        (i + 1 for i, item in enumerate(nav) if isinstance(item, dict) and after in item.values()),
         len(nav),
     )
     nav.insert(at, entry)
+
+
+def on_config(config):
+    """Serve the Worker shim from the site; put the scene pages (after the scenes reference)
+    and the viewer page (after the command line) into the navigation where mkdocs.yml does
+    not list them."""
+    config.extra["polyfills"] = local_polyfills(config.extra.get("polyfills", []))
+    if config.nav is not None:
+        scenes = [{"Overview": "scenes/index.md"}]
+        scenes += [{name: f"scenes/{name}.md"} for name in scene_names()]
+        add_to_nav(config.nav, {"Built-in scenes": scenes}, after="reference/scenes.md")
+        add_to_nav(config.nav, {"The live viewer": "viewer.md"}, after="reference/cli.md")
     return config
 
 

@@ -165,3 +165,29 @@ def test_the_search_worker_shim_is_served_by_the_site():
     assert "iframe-worker" in hooks.LOCAL_WORKER and "://" not in hooks.LOCAL_WORKER
     shim = (DOCS / hooks.LOCAL_WORKER).read_text()
     assert "window.Worker = " in shim and 'location.protocol !== "file:"' in shim
+
+
+def test_new_pages_join_the_navigation_once():
+    hooks = _hooks_site()
+    nav = [{"Scenes reference": "reference/scenes.md"}, {"Command line": "reference/cli.md"}]
+    hooks.add_to_nav(nav, {"The live viewer": "viewer.md"}, after="reference/cli.md")
+    assert nav[-1] == {"The live viewer": "viewer.md"}
+    hooks.add_to_nav(nav, {"Viewer": "viewer.md"}, after="reference/scenes.md")  # listed
+    assert len(nav) == 3
+    hooks.add_to_nav(nav, {"S": [{"Overview": "scenes/index.md"}]}, after="reference/scenes.md")
+    assert nav[1] == {"S": [{"Overview": "scenes/index.md"}]}
+
+
+def test_the_viewer_page_names_every_key_and_slider():
+    page = (DOCS / "viewer.md").read_text()
+    app = (ROOT / "tiseg" / "viewer" / "app.py").read_text()
+    keys = re.findall(r'e\.key == "(\w)"', app) + re.findall(r"e\.key == ti\.ui\.(\w+)", app)
+    assert keys, "no key handling found in tiseg/viewer/app.py"
+    names = {"SPACE": "Space", "ESCAPE": "Esc"}
+    for key in keys:
+        label = names.get(key, key.upper())
+        assert f"| {label} |" in page, f"key {key} of the viewer is not on docs/viewer.md"
+    for label in re.findall(r'slider_(?:float|int)\("([^"]+)"', app):
+        assert label in page, f"slider {label!r} of the viewer is not on docs/viewer.md"
+    for label in re.findall(r'w\.button\("([^"{]+)"', app):
+        assert label in page, f"button {label!r} of the viewer is not on docs/viewer.md"
