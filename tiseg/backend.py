@@ -57,15 +57,30 @@ def init(
 ) -> BackendState:
     """Initialise Taichi once for this process.
 
-    arch: "cpu", "gpu" (CUDA or Metal; an error when there is none), "auto" (GPU if present)
-    or "vulkan". Vulkan must be asked for by name: "gpu" and "auto" never pick it, because
-    the Vulkan device of a machine without a GPU is software Vulkan (Mesa's lavapipe), a CPU
-    in disguise that runs several times slower than the CPU backend; it serves to run the GPU
-    code generator (SPIR-V) where there is no GPU.
-    precision: "f64" (default, needed for round-off-level tests) or "f32". A device without
-    64-bit floats (Metal; a Vulkan device without shaderFloat64) refuses f64 with one line.
-    threads: CPU thread count (0 = all cores).
     Calling again with the same settings is a no-op; other settings re-initialise Taichi.
+
+    Parameters
+    ----------
+    arch
+        "cpu", "gpu" (CUDA or Metal; an error when there is none), "auto" (GPU if present)
+        or "vulkan". Vulkan must be asked for by name: "gpu" and "auto" never pick it,
+        because the Vulkan device of a machine without a GPU is software Vulkan (Mesa's
+        lavapipe), a CPU in disguise that runs several times slower than the CPU backend; it
+        serves to run the GPU code generator (SPIR-V) where there is no GPU.
+    precision
+        "f64" (default, needed for round-off-level tests) or "f32". A device without 64-bit
+        floats (Metal; a Vulkan device without shaderFloat64) refuses f64 with one line.
+    threads
+        CPU thread count (0 = all cores).
+    debug
+        Taichi's debug mode (bounds checks in kernels).
+    force
+        Re-initialise even when the settings are the same.
+
+    Returns
+    -------
+    BackendState
+        The settings in force.
     """
     global _state
     if arch not in ARCHS:

@@ -464,7 +464,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         overwrite: bool = False,
         signals: bool = False,
     ) -> RunStats:
-        """Step to t_end (default the scene's) with the registered callbacks, plus for this run:
+        """Step to t_end (default the scene's) with the registered callbacks.
 
         * with ``out_dir``: scene.toml, fields.nc at the output times, diagnostics.csv (a row
           per step), checkpoint.npz (`tiseg.run.run_folder`); a simulation made by

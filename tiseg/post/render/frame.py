@@ -363,13 +363,35 @@ def render_fields(
 ) -> np.ndarray:
     """Render a snapshot of (ny, nx) arrays to an RGB image, uint8 (H, W, 3), row 0 at the top.
 
-    ``fields``: "h" and, as needed, "phi", "u", "v" (a dict as from ``Simulation.fields()`` or one
-    time of ``read_fields``). ``field``: "phi" (experiment colours), "h", "speed" (alias "|u|"),
-    "u" or "v" (viridis). ``shade``: True, False or a strength S in [0, 1]. ``scale``: pixels per
-    cell. ``vrange``: (vmin, vmax) of a colour-mapped field; default the data range of the
-    flowing cells. ``colourbar``: add a colour bar at the right; default for the mapped fields
-    only. ``dx``, ``dy``: cell sizes [m], which set the slopes of the relief shading; by default
-    the spacing of ``fields["x"]`` / ``fields["y"]`` when given, else the paper's 1/750 m.
+    Parameters
+    ----------
+    fields
+        "h" and, as needed, "phi", "u", "v" (a dict as from ``Simulation.fields()`` or one
+        time of ``read_fields``).
+    h_min
+        Thinner cells are drawn as the empty chute [m].
+    field
+        "phi" (experiment colours), "h", "speed" (alias "|u|"), "u" or "v" (viridis).
+    shade
+        True, False or a strength S in [0, 1] of the relief shading.
+    scale
+        Pixels per cell.
+    vrange
+        (vmin, vmax) of a colour-mapped field; default the data range of the flowing cells.
+    colourbar
+        Add a colour bar at the right; default for the mapped fields only.
+    relief
+        Vertical exaggeration of the slopes of h in the relief shading.
+    aspect
+        dy / dx: the picture keeps cells of other shapes true to size.
+    dx, dy
+        Cell sizes [m], which set the slopes of the relief shading; by default the spacing of
+        ``fields["x"]`` / ``fields["y"]`` when given, else the paper's 1/750 m.
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, uint8 (H, W, 3).
     """
     field, h, vrange = checked_fields(fields, field, vrange, h_min)
     ny, nx = h.shape
