@@ -180,13 +180,13 @@ def test_new_pages_join_the_navigation_once():
 
 def test_the_viewer_page_names_every_key_and_slider():
     page = (DOCS / "viewer.md").read_text()
-    app = (ROOT / "tiseg" / "viewer" / "app.py").read_text()
+    app = (ROOT / "tiseg" / "apps" / "viewer" / "app.py").read_text()
     keys = re.findall(r'e\.key == "(\w)"', app) + re.findall(r"e\.key == ti\.ui\.(\w+)", app)
     assert keys, "no key handling found in tiseg/apps/viewer/app.py"
-    names = {"SPACE": "Space", "ESCAPE": "Esc"}
+    names = {"SPACE": "space", "ESCAPE": "Esc"}
     for key in keys:
-        label = names.get(key, key.upper())
-        assert f"| {label} |" in page, f"key {key} of the viewer is not on docs/viewer.md"
+        label = names.get(key, key.lower())
+        assert f"| `{label}` |" in page, f"key {key} of the viewer is not on docs/viewer.md"
     for label in re.findall(r'slider_(?:float|int)\("([^"]+)"', app):
         assert label in page, f"slider {label!r} of the viewer is not on docs/viewer.md"
     for label in re.findall(r'w\.button\("([^"{]+)"', app):
