@@ -27,6 +27,7 @@ COMMAND_MODULES = [
     "sweep",
     "bench",
     "estimate",
+    "scenes",
 ]
 
 

@@ -506,6 +506,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     from .analysis.fingers import analyse_run
     from .output import write_json_atomic
     from .output.manifest import record
+    from .output.numbers import measured_all
     from .output.run_folder import check_fresh_folder
     from .simulation import Simulation
 
@@ -526,7 +527,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     stats = sim.run(
         out_dir=run_dir, progress=False, on_output=report, overwrite=True
     )  # its own folder, without a completion marker
-    metrics = analyse_run(run_dir)
+    metrics = measured_all(analyse_run(run_dir))  # the digits that matter (output.numbers)
     record(run_dir, [FINGERS_FILE, DONE_MARKER])
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
     nx, ny = scene.domain.nx, scene.domain.ny
@@ -552,6 +553,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
         "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
         "metrics": _record_metrics(metrics),
     }
+    rec = measured_all(rec)
     write_json_atomic(run_dir / DONE_MARKER, rec)  # last: its presence means "complete"
     return {**rec, "status": "done"}
 
@@ -569,12 +571,13 @@ def refresh_metrics(run_dir, rec: dict) -> dict:
     rewritten (atomically). A run whose fields cannot be read keeps its old record."""
     from .analysis.fingers import ANALYSIS_VERSION, analyse_run
     from .output import write_json_atomic
+    from .output.numbers import measured_all
 
     if (rec.get("metrics") or {}).get("analysis_version") == ANALYSIS_VERSION:
         return rec
     run_dir = Path(run_dir)
     try:
-        metrics = analyse_run(run_dir)
+        metrics = measured_all(analyse_run(run_dir))
     except InputError as exc:
         log.warning("cannot analyse %s again: %s", run_dir, exc)
         return rec
@@ -1069,10 +1072,12 @@ def _csv_text(cols: list[str], rows: list[dict]) -> str:
 
 
 def _csv_value(v) -> str:
+    from .output.numbers import measured_text
+
     if v is None:
         return ""
     if isinstance(v, float):
-        return "" if not math.isfinite(v) else repr(v)
+        return "" if not math.isfinite(v) else measured_text(v)  # 12 significant digits
     return str(v)
 
 
