@@ -227,6 +227,11 @@ def test_measured_values_lose_their_round_off_tails_and_keep_their_digits():
         "a": [0.3, 2],
         "b": [0.003],
     }
+    times = [0.1 * 3, 7.5 / 75 * 7]  # simulated times name snapshots: kept exactly
+    assert measured_all({"time": times, "wavelength": [0.1 * 3]}) == {
+        "time": times,
+        "wavelength": [0.3],
+    }
 
 
 def test_diagnostics_keep_the_time_exact_and_round_what_was_measured(tmp_path):

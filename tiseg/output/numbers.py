@@ -22,6 +22,8 @@ import numpy as np
 
 MEASURED_DIGITS = 12
 CONSERVED_DIGITS = 15  # DBL_DIG: every 15-digit decimal survives a round trip through a double
+# keys whose values are simulated times: exact, so that they match the times in fields.nc
+EXACT_KEYS = frozenset({"time", "t", "t_end", "t_final"})
 
 
 def measured(value, digits: int = MEASURED_DIGITS):
@@ -41,9 +43,10 @@ def measured(value, digits: int = MEASURED_DIGITS):
 
 def measured_all(obj, digits: int = MEASURED_DIGITS):
     """A copy of ``obj`` (dicts, lists, tuples, NumPy arrays, nested) with every float rounded
-    by :func:`measured`; strings, integers and other values are kept."""
+    by :func:`measured`; strings, integers and other values are kept, and so are the values of
+    the keys in :data:`EXACT_KEYS` (simulated times, which name snapshots of fields.nc)."""
     if isinstance(obj, dict):
-        return {k: measured_all(v, digits) for k, v in obj.items()}
+        return {k: obj[k] if k in EXACT_KEYS else measured_all(v, digits) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [measured_all(v, digits) for v in obj]
     if isinstance(obj, np.ndarray):
@@ -64,6 +67,7 @@ def measured_text(value, digits: int = MEASURED_DIGITS) -> str:
 __all__ = [
     "MEASURED_DIGITS",
     "CONSERVED_DIGITS",
+    "EXACT_KEYS",
     "measured",
     "measured_all",
     "exact_text",
