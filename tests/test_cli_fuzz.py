@@ -115,6 +115,10 @@ CASES = [
     ["bench", "steppers", "{trunc}"],
     ["bench", "steppers", "{edited}"],
     ["bench", "steppers", "{tmp}/nowhere"],
+    ["scenes", "show", "fingrs"],
+    ["scenes", "show", "{deep}"],
+    ["scenes", "show"],
+    ["scenes", "list"],
 ]
 
 

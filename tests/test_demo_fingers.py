@@ -57,6 +57,10 @@ def _assert_prints_its_own_final_diagnostics(out, text) -> None:
     count, wl = re.search(r": (\d+) fingers, wavelength ([\d.]+) cm", line).groups()
     assert int(count) == m["finger_count"][-1] > 0
     assert float(wl) == pytest.approx(100 * m["wavelength"][-1], abs=0.05)
+    # and says what they are: one run, beside the converged values and their source
+    after = text.split(line, 1)[1]
+    assert "one unseeded run at " in after and "converged at t = 7.5 s" in after
+    assert "benchmarks/friction/default.md" in after
     for name in ("fingers.mp4", "fig12_phi.png", "fig13_speed.png", "fig14_h.png"):
         assert (out / name).stat().st_size > 0
 

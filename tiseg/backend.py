@@ -8,6 +8,7 @@ invalidates every field made before (simulations check `generation` to refuse st
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import stat
 import sys
@@ -128,7 +129,9 @@ def init(
         fast_math=False,
         debug=debug,
         offline_cache=True,
-        log_level=ti.WARN,
+        # Taichi's own warnings (a busy kernel cache, ...) only with -v: without it, a user
+        # mistake stays one line on stderr
+        log_level=ti.WARN if _verbose() else ti.ERROR,
     )
     cache = cache_folder()
     clear_stale_lock(cache)
@@ -136,8 +139,9 @@ def init(
         kwargs["offline_cache_file_path"] = cache
     if threads and ti_arch == ti.cpu:
         kwargs["cpu_max_num_threads"] = threads
-    # Taichi prints "[Taichi] Starting on arch=..." on stdout; keep stdout for results (JSON)
-    with contextlib.redirect_stdout(sys.stderr):
+    # Taichi prints "[Taichi] Starting on arch=..." on stdout: on stderr with -v, else nowhere
+    # (stdout is for results and JSON)
+    with contextlib.redirect_stdout(sys.stderr if _verbose() else io.StringIO()):
         ti.init(**kwargs)
     if ti_arch == ti.vulkan:
         _check_vulkan(ti, precision)
@@ -147,6 +151,13 @@ def init(
     generation = 1 if _state is None else _state.generation + 1
     _state = BackendState(resolved, precision, threads, generation)
     return _state
+
+
+def _verbose() -> bool:
+    """Whether the user asked for details (``-v``: the ``tiseg`` logger shows debug lines)."""
+    import logging
+
+    return logging.getLogger("tiseg").isEnabledFor(logging.DEBUG)
 
 
 def cache_folder() -> str:

@@ -16,6 +16,11 @@ look for next to a CSV): per column a title, a description with the unit, the da
 ``wall_time_cumulative`` wall time since the run started, resumed runs included [s]
 ======================== ======================================================================
 
+Floats are written with the digits that matter (`tiseg.output.numbers`): ``time``, ``dt``
+and ``max_speed``, which make the steps (a resume matches the time against its checkpoint), as
+the shortest text that reads back exactly; ``mass`` and ``small_mass`` to 15 significant digits
+(a mass balance stays visible at round-off); ``wall_time_cumulative`` to 12.
+
 Files written before the column was renamed call it ``wall_time``; `read_diagnostics`
 returns both names for either file, and a resumed old run keeps its old header.
 """
@@ -31,6 +36,7 @@ from typing import Sequence
 import numpy as np
 
 from .atomic import replacing
+from .numbers import CONSERVED_DIGITS, MEASURED_DIGITS, measured
 
 DEFAULT_COLUMNS = (
     "time",
@@ -41,6 +47,13 @@ DEFAULT_COLUMNS = (
     "max_speed",
     "wall_time_cumulative",
 )
+# significant digits of a column's floats (columns not named here: exact, shortest repr)
+DIGITS = {
+    "mass": CONSERVED_DIGITS,
+    "small_mass": CONSERVED_DIGITS,
+    "wall_time_cumulative": MEASURED_DIGITS,
+    "wall_time": MEASURED_DIGITS,
+}
 # new name -> the name older files use for the same column
 ALIASES = {"wall_time_cumulative": "wall_time"}
 # column -> (unit in 2D, unit in 1D, description)
@@ -89,7 +102,7 @@ class DiagnosticsWriter:
         unknown = [k for k in values if k not in self.columns]
         if unknown:
             raise ValueError(f"write(): unknown columns {unknown}; columns are {self.columns}")
-        self._writer.writerow([_format(values.get(c)) for c in self.columns])
+        self._writer.writerow([_format(values.get(c), DIGITS.get(c)) for c in self.columns])
         self._fh.flush()
         self.rows += 1
 
@@ -105,7 +118,9 @@ class DiagnosticsWriter:
         self.close()
 
 
-def _format(v) -> str:
+def _format(v, digits: int | None = None) -> str:
+    """A cell: integers as such, floats as the shortest text that reads back exactly, or
+    rounded to ``digits`` significant digits first."""
     if v is None:
         return ""
     if isinstance(v, (bool, np.bool_)):
@@ -113,7 +128,8 @@ def _format(v) -> str:
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
-        return repr(float(v))  # shortest string that round-trips exactly
+        v = float(v) if digits is None else measured(v, digits)
+        return repr(v)  # shortest string that round-trips exactly
     return str(v)
 
 

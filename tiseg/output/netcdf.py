@@ -4,9 +4,11 @@ Layout: dimensions ``time`` (unlimited), ``y``, ``x``; coordinate variables of t
 data variables (time, y, x).
 
 * ``time`` is the simulated time in seconds since t = 0 of the run. CF wants a time coordinate
-  in "<unit> since <date>", so its units are ``seconds since 2000-01-01 00:00:00``, a placeholder
-  date (the ``comment`` attribute says so): xarray decodes it to dates unless opened with
-  ``decode_times=False``, as `read_fields` does.
+  in "<unit> since <date>" (UDUNITS syntax), so its units are ``seconds SINCE 2000-01-01
+  00:00:00``, a placeholder date (the ``comment`` attribute says so). UDUNITS reads the shift
+  keyword in any case, so the CF checker, cf_units, cftime and VTK's CF reader take it as the
+  usual time coordinate; xarray looks for a lower-case "since" only, so ``xr.open_dataset``
+  keeps the time as float seconds and ``ds.sel(time=1.0)`` works (no dates of the year 2000).
 * ``phi`` is missing (``_FillValue``, NaN after xarray's decoding) where h < h_min: there is no
   material there, and 0 would read as pure coarse grains.
 * Data are stored as f8 or f4 (``output.precision``), optionally quantised to
@@ -39,7 +41,8 @@ from .._version import __version__
 from ..errors import InputError
 from ..errors import TisegError
 
-TIME_UNITS = "seconds since 2000-01-01 00:00:00"
+# upper-case SINCE: valid UDUNITS (and CF), but not decoded to dates by xarray (module docstring)
+TIME_UNITS = "seconds SINCE 2000-01-01 00:00:00"
 REFERENCES = (
     "Baker, J. L., Johnson, C. G. & Gray, J. M. N. T. 2016 Segregation-induced finger "
     "formation in granular free-surface flows. J. Fluid Mech. 809, 168-212, "

@@ -6,7 +6,8 @@
 * `refuse_symlinks`: the files of a run are never written through a symbolic link
   (a link inside the output folder could point anywhere).
 * `RunLock`: a lock file per run folder (the maintained ``filelock`` library); a second
-  writer is refused with one line naming the holder (host, process, since when).
+  writer is refused with one line naming the holder (host, process, since when). The lock file
+  exists only while a run holds it: the holder removes it before letting go.
 """
 
 from __future__ import annotations
@@ -60,7 +61,13 @@ class RunLock:
 
     ``acquire()`` refuses at once (no waiting) when another process holds it, naming the
     holder from ``.tiseg.lock.json``. The lock is the operating system's (``filelock``), so a
-    killed holder releases it with its death; the holder file is only a description."""
+    killed holder releases it with its death; the holder file is only a description.
+
+    The holder removes the lock file while it still holds it, so a finished run leaves none
+    behind. A process that opened the file just before and locks it just after holds a lock on
+    a removed file, which protects nothing: `acquire` checks that the file it locked is
+    still the one in the folder, and otherwise lets go and refuses as if the folder were busy
+    (it was, a moment ago)."""
 
     def __init__(self, folder):
         from filelock import FileLock
@@ -82,6 +89,10 @@ class RunLock:
             self._held = True
             if self._lock.lock_counter > 1:
                 return self  # this process holds it already
+            if not self._locked_file_is_current():
+                self._held = False
+                self._lock.release()
+                raise Timeout(str(self.folder / LOCK_NAME))  # its holder removed it meanwhile
         except Timeout:
             raise InputError(
                 f"{str(self.folder)!r} is in use by another tiseg run "
@@ -116,8 +127,26 @@ class RunLock:
             return self.holder()
         except OSError:
             return None
+        self._remove_file()  # a lock file no one holds (a killed run's): tidy it away
         self._lock.release()
         return None
+
+    def _locked_file_is_current(self) -> bool:
+        """Whether the file this process locked is still the folder's lock file (not one that
+        its last holder removed between our open and our lock)."""
+        fd = getattr(getattr(self._lock, "_context", None), "lock_file_fd", None)
+        try:
+            now = os.stat(self.folder / LOCK_NAME)
+            return fd is None or os.path.samestat(os.fstat(fd), now)
+        except OSError:  # removed: ours is a file that is gone
+            return False
+
+    def _remove_file(self) -> None:
+        """Remove the lock file; called while this process holds it."""
+        try:
+            (self.folder / LOCK_NAME).unlink(missing_ok=True)
+        except OSError:
+            pass  # a read-only folder: the empty file stays, harmless
 
     def holder(self) -> str:
         try:
@@ -135,6 +164,7 @@ class RunLock:
                 (self.folder / HOLDER_NAME).unlink(missing_ok=True)
             except OSError:
                 pass
+            self._remove_file()  # before letting go, so no one else's lock file is removed
         self._lock.release()
 
     def __enter__(self) -> "RunLock":

@@ -3,6 +3,10 @@
 Runs the paper's finger experiment (section 6.2, figure 12 set-up) at a reduced resolution,
 writes its movie (coloured like the experiments), the paper-style panels of phi, |u| and h
 (figures 12-14), the finger diagnostics (6.10)-(6.12), and the linear-stability figures 8-11.
+
+The demo's finger count and wavelength are those of one unseeded run at a resolution below the
+one where the statistics converge, so it prints them beside the converged values
+(`CONVERGED`) and says where those come from.
 """
 
 from __future__ import annotations
@@ -16,6 +20,19 @@ from ...errors import InputError
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
 # what the demo writes beside the run's files (a rerun replaces them without asking)
 DEMO_FILES = ("fingers.mp4", "fig12_phi.png", "fig13_speed.png", "fig14_h.png", "stability")
+
+# The converged finger statistics of the fingers scene at t = 7.5 s, with its default numerics:
+# mean and standard deviation over seeded runs (seeds 1-5) at 375 cells/m, where they agree
+# with the finer grids (benchmarks/README.md, sections 5 and 8). The table "375 cells/m",
+# column "projected" (the default friction scheme) of the file named by "source".
+CONVERGED = {
+    "resolution": 375.0,  # cells per metre
+    "time": 7.5,  # s
+    "runs": 5,
+    "finger_count": (10.0, 0.71),  # mean, sd
+    "wavelength_cm": (5.02, 0.36),  # mean, sd; Lambda = Ly / count (6.12)
+    "source": "benchmarks/friction/default.md",
+}
 
 
 def register(sub) -> None:
@@ -46,6 +63,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..figures.stability import make_all
     from ...output import write_json_atomic
+    from ...output.numbers import measured_all
     from ...run.run_folder import check_fresh_folder
     from .common import check_output_folder
     from ...post.render.movie import MovieRecorder
@@ -91,7 +109,7 @@ def run(args) -> int:
             title=f"{field} at {args.resolution:g} cells/m (cf. figure {fig})",
         )
         written.append(path)
-    metrics = analyse_run(out)
+    metrics = measured_all(analyse_run(out))  # 12 significant digits (output.numbers)
     write_json_atomic(out / "fingers.json", metrics)
     written.append(out / "fingers.json")
     written += make_all(out / "stability", scene.material)
@@ -112,9 +130,29 @@ def run(args) -> int:
         f"{cm(last['wavelength'])} (spectral {cm(last['wavelength_spectral'])}), elongation "
         f"{last['elongation'] or 0:.3f} m"
     )
+    print(what_the_numbers_are(args.resolution, last["time"]))
     for p in written:
         print(p)
     return 0
+
+
+def what_the_numbers_are(resolution: float, time: float) -> str:
+    """The lines that say what the demo's finger numbers are: one unseeded run, beside the
+    converged values of `CONVERGED` and their source."""
+    c = CONVERGED
+    (n, n_sd), (wl, wl_sd) = c["finger_count"], c["wavelength_cm"]
+    run = f"  one unseeded run at {resolution:g} cells/m"
+    if abs(time - c["time"]) > 1e-9:
+        run += f" to t = {time:g} s"
+    if resolution < c["resolution"]:
+        run += f", coarser than the {c['resolution']:g} cells/m where the statistics converge"
+    return (
+        f"{run}\n"
+        f"  converged at t = {c['time']:g} s: {n:.0f} ± {n_sd:.1f} fingers, wavelength "
+        f"{wl:.2f} ± {wl_sd:.2f} cm\n"
+        f"  (mean ± sd of {c['runs']} seeded runs at {c['resolution']:g} cells/m; "
+        f"tiseg repository, {c['source']})"
+    )
 
 
 def _is_demo_folder(out: Path) -> bool:

@@ -149,7 +149,9 @@ def run(args) -> int:
     with reading(args.dir):  # a damaged data block: one line
         res = analyse_run(args.dir, time=args.time, **opts)
     if args.json:
-        print_json(res)
+        from ..output.numbers import measured_all
+
+        print_json(measured_all(res))  # 12 significant digits (tiseg.output.numbers)
         return 0
 
     o = res["options"]

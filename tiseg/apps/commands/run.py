@@ -208,7 +208,9 @@ def run(args) -> int:
         summary["movie"] = str(movie.path)
         summary["movie_frames"] = movie.count
     if args.json:
-        print_json(summary)
+        from ..output.numbers import measured_all
+
+        print_json(measured_all(summary))  # 12 significant digits (tiseg.output.numbers)
     else:
         print(
             f"{scene.name}: t = {sim.t:.4g} s in {stats.steps} steps ({stats.stages} operator "

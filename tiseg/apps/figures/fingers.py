@@ -648,7 +648,9 @@ def summary_rows(studies: dict[str, Study | None]) -> list[dict]:
 
 def write_summary(rows: list[dict], out: Path) -> list[Path]:
     from ...output import write_json_atomic, write_text_atomic
+    from ...output.numbers import measured_all
 
+    rows = measured_all(rows)  # 12 significant digits: no round-off tails
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
     w.writeheader()

@@ -23,6 +23,7 @@ from ...output.paths import RunLock
 from ... import backend
 from ...post.analysis.fingers import analyse_run
 from ...output import write_json_atomic
+from ...output.numbers import measured_all
 from ...output.manifest import record
 from ...run.run_folder import check_fresh_folder
 from ...post.analysis.fingers import ANALYSIS_VERSION, RUN_KEYS
@@ -118,7 +119,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     stats = sim.run(
         out_dir=run_dir, progress=False, on_output=report, overwrite=True
     )  # its own folder, without a completion marker
-    metrics = analyse_run(run_dir)
+    metrics = measured_all(analyse_run(run_dir))  # the digits that matter (output.numbers)
     record(run_dir, [FINGERS_FILE, DONE_MARKER])
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
     nx, ny = scene.domain.nx, scene.domain.ny
@@ -144,6 +145,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
         "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
         "metrics": _record_metrics(metrics),
     }
+    rec = measured_all(rec)
     write_json_atomic(run_dir / DONE_MARKER, rec)  # last: its presence means "complete"
     return {**rec, "status": "done"}
 
@@ -163,7 +165,7 @@ def refresh_metrics(run_dir, rec: dict) -> dict:
         return rec
     run_dir = Path(run_dir)
     try:
-        metrics = analyse_run(run_dir)
+        metrics = measured_all(analyse_run(run_dir))
     except InputError as exc:
         log.warning("cannot analyse %s again: %s", run_dir, exc)
         return rec

@@ -21,6 +21,7 @@ from .spec import (
     time_index,
 )
 from ...output import write_json_atomic, write_text_atomic
+from ...output.numbers import measured_text
 
 
 def table_columns(sweep: Sweep) -> list[str]:
@@ -147,7 +148,7 @@ def _csv_value(v) -> str:
     if v is None:
         return ""
     if isinstance(v, float):
-        return "" if not math.isfinite(v) else repr(v)
+        return "" if not math.isfinite(v) else measured_text(v)  # 12 significant digits
     return str(v)
 
 
