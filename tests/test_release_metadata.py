@@ -24,7 +24,9 @@ def _text(name: str) -> str:
 def test_the_version_is_written_once_and_citation_agrees():
     project = tomllib.loads(_text("pyproject.toml"))
     assert "version" not in project["project"] and project["project"]["dynamic"] == ["version"]
-    assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "tiseg._version.__version__"}
+    assert project["tool"]["setuptools"]["dynamic"]["version"] == {
+        "attr": "tiseg._version.__version__"
+    }
     cff = re.search(r'^version:\s*"?([^"\n]+)"?\s*$', _text("CITATION.cff"), re.M)
     assert cff and cff.group(1) == tiseg.__version__
     written = [
