@@ -9,6 +9,7 @@ from .common import print_json
 from ...post.analysis.fingers import analyse_run
 from ...errors import require
 from ...output.netcdf import reading
+from ...output.numbers import measured_all
 
 
 def register(sub) -> None:
@@ -149,8 +150,6 @@ def run(args) -> int:
     with reading(args.dir):  # a damaged data block: one line
         res = analyse_run(args.dir, time=args.time, **opts)
     if args.json:
-        from ..output.numbers import measured_all
-
         print_json(measured_all(res))  # 12 significant digits (tiseg.output.numbers)
         return 0
 

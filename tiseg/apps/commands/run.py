@@ -24,6 +24,7 @@ from ...errors import InputError
 from ... import backend
 from .estimate import print_estimate
 from ...post.render.colours import canonical_field
+from ...output.numbers import measured_all
 
 
 def register(sub) -> None:
@@ -208,8 +209,6 @@ def run(args) -> int:
         summary["movie"] = str(movie.path)
         summary["movie_frames"] = movie.count
     if args.json:
-        from ..output.numbers import measured_all
-
         print_json(measured_all(summary))  # 12 significant digits (tiseg.output.numbers)
     else:
         print(

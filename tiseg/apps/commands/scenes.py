@@ -10,6 +10,8 @@ filled in (what a run writes as its ``scene.toml``).
 from __future__ import annotations
 
 import sys
+from ...data import SCENE_DIR, builtin_file
+from ...errors import InputError
 
 
 def register(sub) -> None:
@@ -54,8 +56,6 @@ def list_scenes(args) -> int:
 
 
 def show_scene(args) -> int:
-    from ...data import SCENE_DIR, builtin_file
-    from ...errors import InputError
     from ...setup.scene import list_builtin_scenes, load_scene
 
     name = args.name
