@@ -284,3 +284,30 @@ def test_python_examples_run(page, tmp_path, monkeypatch):
         RAN.add(("python", src))
         exec(compile(_tiny_python(src), f"{page.name}, Python block {i + 1}", "exec"), {})
         assert (tmp_path / "runs").is_dir()  # each example writes a run folder
+
+
+def _slug(heading: str) -> str:
+    """The anchor MkDocs gives a heading (Python-Markdown's default slugify)."""
+    import unicodedata
+
+    text = unicodedata.normalize("NFKD", heading).encode("ascii", "ignore").decode()
+    text = re.sub(r"[^\w\s-]", "", text).strip().lower()
+    return re.sub(r"[-\s]+", "-", text)
+
+
+def test_readme_links_name_files_and_headings():
+    """Every relative link and picture of the README names a file of the repository, and a
+    `docs/PAGE.md#anchor` link names a heading of that page (the site's link checker sees
+    only the site, not the README)."""
+    readme = (ROOT / "README.md").read_text()
+    links = re.findall(r"!?\[[^\]]*\]\(([^)\s]+)\)", readme)
+    assert len(links) >= 10
+    for target in links:
+        if re.match(r"^[a-z]+:", target):
+            continue
+        path, _, anchor = target.partition("#")
+        assert (ROOT / path).is_file(), f"README links to {path}, which is not a file"
+        if anchor:
+            text = (ROOT / path).read_text()
+            slugs = {_slug(h) for h in re.findall(r"^#+\s+(.*?)\s*$", text, re.M)}
+            assert anchor in slugs, f"README links to {target}: no such heading in {path}"
