@@ -4,9 +4,10 @@
 * ``reference/cli.md`` from the argparse parser (:mod:`tiseg.apps.cli_reference`);
 * ``gallery.md``: every script in ``examples/`` run with its ``GALLERY`` arguments, its
   docstring, code and printed output, and a picture of the run where it writes one;
-* ``verification.md`` and ``benchmarks.md`` from the README's sections and
-  ``benchmarks/README.md``, with their pictures copied in and links to files outside the site
-  turned into plain paths.
+* ``benchmarks.md``, the full benchmark tables, from ``benchmarks/README.md``, with its pictures
+  copied in and links to files outside the site turned into plain paths;
+* the pictures of ``assets/`` (figures and the GIF), which the written pages show as
+  ``assets/...``, copied in under the same path.
 
 A failing example fails the build (``mkdocs build --strict`` in CI).
 """
@@ -25,14 +26,6 @@ from mkdocs.structure.files import File
 
 ROOT = Path(__file__).resolve().parents[1]
 _LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)\s]+)\)")
-
-
-def _section(text: str, heading: str) -> str:
-    """The block of a markdown text from ``## heading`` to the next ``## `` heading."""
-    lines = text.splitlines()
-    start = next(i for i, ln in enumerate(lines) if ln.strip() == f"## {heading}")
-    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
-    return "\n".join(lines[start + 1 : end]).strip() + "\n"
 
 
 def _rewrite(text: str, base: Path, images: set[Path]) -> str:
@@ -161,23 +154,12 @@ def on_files(files, config):
     for site, data in pictures:
         add(site, data)
 
-    readme = (ROOT / "README.md").read_text()
     images: set[Path] = set()
-    ver = [
-        "# Verification",
-        "",
-        "*From the README; every number is asserted by a test in `tests/` or measured by a "
-        "benchmark.*",
-        "",
-        _rewrite(_section(readme, "Verification"), ROOT, images),
-    ]
-    add("verification.md", "\n".join(ver))
     bench = [
-        "# Benchmarks",
+        "# Benchmark tables",
         "",
-        _rewrite(_section(readme, "Cost, accuracy and run-time estimates"), ROOT, images),
-        "",
-        "## benchmarks/README.md",
+        "*The measurements behind [Performance](performance.md), with their dates and "
+        "machines, as kept in `benchmarks/README.md`.*",
         "",
         _rewrite(
             (ROOT / "benchmarks" / "README.md").read_text().split("\n", 1)[1],
@@ -186,6 +168,7 @@ def on_files(files, config):
         ),
     ]
     add("benchmarks.md", "\n".join(bench))
+    images.update(p.relative_to(ROOT) for p in (ROOT / "assets").rglob("*") if p.is_file())
     for rel in sorted(images):
         add(rel.as_posix(), (ROOT / rel).read_bytes())
     return files

@@ -80,7 +80,7 @@ def test_stability_json(capsys):
     assert o["sigma_max"] == pytest.approx(list(d1.sigma_M(bs, [0.1, 1.0, 10.0])), rel=1e-10)
     kM, sM = d1.most_unstable(bs)
     assert o["k_max"] == pytest.approx(kM, rel=1e-8) and o["sigma_Max"] == pytest.approx(sM)
-    assert round(o["sigma_Max"], 5) == 0.06378 and round(o["R"], 3) == 9.299  # NUMERICS
+    assert round(o["sigma_Max"], 5) == 0.06378 and round(o["R"], 3) == 9.299  # prototype
     assert o["sigma_Max_per_s"] == pytest.approx(sM * bs.u0 / bs.h0)
     assert o["wavelength_at_k_max_m"] == pytest.approx(2 * math.pi * 0.002 / kM)
     assert o["k_cutoff"] is None and o["sigma_Max_is_limit"] is False
@@ -91,10 +91,10 @@ def test_stability_cutoff_json(capsys):
         capsys,
         ["stability", "--h0", "0.003", "--phi0", "0.8", "--nu", "0.001", "--k", "3", "--json"],
     )
-    assert round(o["k_cutoff"], 5) == 2.00345  # (A42), NUMERICS section 1
+    assert round(o["k_cutoff"], 5) == 2.00345  # (A42), independent prototype
     assert o["k_cutoff_analytic"]["A42"] == pytest.approx(o["k_cutoff"], rel=1e-9)
     assert o["sigma_max"][0] < 0  # k = 3 > k_c decays
-    # NUMERICS T7 case 2: sigma = -8.22235 - 573.0111 i 1/s at k = 3
+    # independent prototype, linear mode case 2: sigma = -8.22235 - 573.0111 i 1/s at k = 3
     assert o["sigma_max_per_s"][0] == pytest.approx(-8.22235, abs=1e-5)
 
 
@@ -103,7 +103,7 @@ def test_stability_from_froude(capsys):
         capsys, ["stability", "--F", "2.0", "--phi0", "0.8", "--nu", "0.001", "--k", "1", "--json"]
     )
     assert o["F"] == pytest.approx(2.0, rel=1e-14)
-    assert round(o["k_cutoff"], 2) == 4.48  # NUMERICS figure 11 table
+    assert round(o["k_cutoff"], 2) == 4.48  # figure 11 table, independent prototype
 
 
 def test_stability_inviscid(capsys):
@@ -112,7 +112,7 @@ def test_stability_inviscid(capsys):
         ["stability", "--h0", "0.002", "--phi0", "0.8", "--nu", "0", "--k", "1", "100", "--json"],
     )
     assert o["R"] is None and o["k_max"] is None and o["sigma_Max_is_limit"] is True
-    assert round(o["sigma_Max"], 5) == 0.10911  # (5.30), NUMERICS
+    assert round(o["sigma_Max"], 5) == 0.10911  # (5.30), independent prototype
     assert o["k_cutoff"] is None and o["wavelength_at_k_max_m"] is None
     assert max(o["sigma_max"]) < o["sigma_Max"]
 
@@ -149,7 +149,7 @@ def test_stability_2d(capsys):
     grid = o["sigma_max_2d"]
     assert len(grid) == 2 and all(len(row) == 2 for row in grid)
     assert grid[0] == pytest.approx(o["sigma_max"], rel=1e-9)  # ky = 0 is the 1D case
-    assert round(grid[1][0], 5) == 0.02316  # NUMERICS T7
+    assert round(grid[1][0], 5) == 0.02316  # independent prototype (2D linear mode)
     bs = base_state(0.002, 0.8, 0.01)
     assert grid[1][1] == pytest.approx(float(d2.sigma_M(bs, 1.0, 0.24)), rel=1e-10)
 

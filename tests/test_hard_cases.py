@@ -112,8 +112,8 @@ def test_critical_froude_noise_viscous_bounded_inviscid_grows(ti_cpu):
     N = 256 / 512 / 1024 cells on L = 200 h0: nu = 1e-3: 5.60, 6.33, 6.60 (below the linear
     7.31 and converging: +0.73, then +0.27); nu = 0: 5.85, 6.78, 7.87 (+0.93, then +1.09: still
     rising, as linear theory says, whose fastest resolvable mode grows at 17 / 24 / 33 1/s on
-    these grids), so the gap to the viscous run widens: 0.25, 0.45, 1.27. (NUMERICS T8
-    measured the same trend up to N = 2048: 10.7 against 6.5.)"""
+    these grids), so the gap to the viscous run widens: 0.25, 0.45, 1.27. (An independent
+    prototype measured the same trend up to N = 2048: 10.7 against 6.5.)"""
     grids = (256, 512, 1024)
     visc = [_fc_noise_rate(n, 1e-3) for n in grids]
     invisc = [_fc_noise_rate(n, 0.0) for n in grids]
@@ -134,7 +134,7 @@ def test_critical_froude_noise_viscous_bounded_inviscid_grows(ti_cpu):
 def _coulomb_dam_break(
     n: int, stepper: str, t_end: float = 0.2, friction_scheme: str = "regularised"
 ):
-    """NUMERICS T4: reservoir h0 for x < x0 released at rest on a 27 deg slope with Coulomb
+    """Reservoir h0 for x < x0 released at rest on a 27 deg slope with Coulomb
     friction tan(20 deg), no viscosity, no segregation; exact solution (Mangeney et al. 2000)."""
     zeta, delta, h0, x0 = 27.0, 20.0, 0.002, 0.2
     sc = coulomb_scene(
@@ -371,7 +371,7 @@ def test_tiny_viscosity_growth_rate(ti_cpu):
 # ============================================================================== pure phi
 def _transport_scene(n=100, L=0.1, u0=0.2, transport="linear"):
     """h, u exactly uniform (Coulomb friction mu = tan(zeta) balances gravity), so phi alone
-    obeys phi_t + (u0 (phi - G(phi)))_x = 0 (NUMERICS T6)."""
+    obeys phi_t + (u0 (phi - G(phi)))_x = 0 (the characteristics solution)."""
     return scene_from_dict(
         {
             "material": {"transport": transport},

@@ -3,7 +3,8 @@
 The viscous part of the operator is linear in the momenta (hu, hv) for frozen h, so its Jacobian
 is assembled exactly by finite differences of the NumPy reference; its spectral radius must not
 exceed the Gershgorin estimate computed by the Taichi stability kernel, on uniform and on wet/dry
-states (where the harmonic face coefficients matter, NUMERICS finding 5). The same holds for the
+states (where the harmonic face coefficients matter: an arithmetic mean divided by a tiny
+neighbouring h makes the viscous operator far stiffer at margins). The same holds for the
 viscous and friction terms together (the estimate RKC's stage count uses), on states with slow
 margins where the friction is stiffest.
 """

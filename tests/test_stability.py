@@ -1,8 +1,9 @@
 """Linear stability, section 5 and appendices A, B.
 
 References are the paper's numbers, its analytic formulas (re-typed here from the paper, not taken
-from the library) and the independent prototype values of NUMERICS.md section 1. Large-k tails use
-extended precision (NUMERICS finding 2).
+from the library) and the values of an independent prototype of the analysis (a separate
+implementation, computed before this code). Large-k tails use extended precision: in double
+precision the round-off of the eigenvalues swamps the k^-2 and k^-4 tails.
 """
 
 import math
@@ -44,7 +45,7 @@ def bc():
 
 # ---- base state --------------------------------------------------------------------------------
 def test_base_state_numbers(b2):
-    # NUMERICS section 1 (independent prototype), all h0-independent at phi0 = 0.8
+    # independent prototype, all h0-independent at phi0 = 0.8
     expect = {
         "gamma_S": "0.9538",
         "gamma_L": "1.8313",
@@ -224,7 +225,7 @@ def test_inviscid_sqrt_growth_at_critical():
 
 
 def test_inviscid_sup_diverges_at_critical():
-    # NUMERICS: inviscid sup 36.7 at F = Fc +/- 0.001
+    # independent prototype: inviscid sup 36.7 at F = Fc +/- 0.001
     for dF in (-1e-3, 1e-3):
         _, s = d1.most_unstable(base_state_from_froude(FC + dF, PHI0, 0.0))
         assert rounds_to(s, "36.7")
@@ -280,7 +281,7 @@ def test_other_viscous_roots(b2, b3, bc):
 
 
 def test_double_precision_is_not_enough_at_large_k(bc):
-    # NUMERICS finding 2: the true rate at k = 1e4, F = Fc, is ~2e-16; double round-off is larger,
+    # the true rate at k = 1e4, F = Fc, is ~2e-16; double round-off is larger,
     # and the "auto" mode must switch to mpmath there
     s_auto = d1.sigma_M(bc, np.array([1e4]), extended="auto")[0]
     assert s_auto * 1e16 == pytest.approx(2.16402, rel=1e-4)
@@ -309,10 +310,10 @@ def test_sigma_max_and_k_max(which, R, sMax, kM, request):
 
 
 def test_dimensional_growth_rate(b2):
-    # NUMERICS: 6.63 1/s, wavelength 11.5 mm (2 pi h0 / k_M)
+    # independent prototype: 6.63 1/s, wavelength 11.5 mm (2 pi h0 / k_M)
     k_M, s_M = d1.most_unstable(b2)
     assert rounds_to(s_M * b2.u0 / b2.h0, "6.63")
-    # NUMERICS k_M = 1.0965 is 0.6 % off the true (flat) maximum at 1.1028, see test above
+    # the prototype's k_M = 1.0965 is 0.6 % off the true (flat) maximum at 1.1028, see test above
     assert 2 * math.pi * b2.h0 / k_M * 1e3 == pytest.approx(11.5, rel=1e-2)
 
 
@@ -325,7 +326,7 @@ def test_simulation_viscosity_case():
     assert rounds_to(s_M * bs.u0 / bs.h0, "3.86")
 
 
-FIG11 = {  # NUMERICS section 1, figure 11 table (sigma_Max at phi0 = 0.8)
+FIG11 = {  # independent prototype, figure 11 table (sigma_Max at phi0 = 0.8)
     5e-4: ["0.0564", "0.0739", "0.0796", "0.0770", "0.0746", "0.0562", "0.0353"],
     1e-3: ["0.0533", "0.0637", "0.0654", "0.0633", "0.0618", "0.0498", "0.0335"],
     2e-3: ["0.0492", "0.0543", "0.0542", "0.0525", "0.0515", "0.0437", "0.0314"],
@@ -421,7 +422,7 @@ def test_figure11_cutoff(nu):
 
 
 def test_cutoff_just_above_critical():
-    # NUMERICS: 0.006 above Fc (= 1.944 as printed, i.e. F = 1.950) k_c = 13.75, growing as F -> Fc
+    # independent prototype: 0.006 above Fc (= 1.944 as printed, i.e. F = 1.950) k_c = 13.75, growing as F -> Fc
     kc = d1.cutoff(base_state_from_froude(1.950, PHI0, 1e-3))
     assert rounds_to(kc, "13.75")
     assert d1.cutoff(base_state_from_froude(1.947, PHI0, 1e-3)) > kc
@@ -449,7 +450,7 @@ def test_quartic_coefficients_equal_matrix(nu):
 
 
 def test_printed_b5_typos_do_not_match(b2):
-    """The three coefficients of (B5) as printed disagree with the determinant (NUMERICS finding 3)."""
+    """The three coefficients of (B5) as printed disagree with the determinant."""
     kx, ky = 1.3, 0.9
     want = _charpoly(d2.matrix(b2, kx, ky))
     F2, g, dg = b2.F**2, b2.G0, b2.dG0
@@ -554,7 +555,7 @@ def test_cross_slope_modes_b9(nu):
 
 
 def test_2d_oblique_example():
-    # NUMERICS T7: nu = 0.01, h0 = 2 mm, (kx, ky) = (0.24, 0.24): sigma = 0.02316 - 0.34684 i
+    # independent prototype: nu = 0.01, h0 = 2 mm, (kx, ky) = (0.24, 0.24): sigma = 0.02316 - 0.34684 i
     bs = base_state(0.002, PHI0, 1e-2)
     s = d2.roots(bs, 0.24, 0.24)[0]
     assert rounds_to(s.real, "0.02316") and rounds_to(s.imag, "-0.34684")
@@ -634,7 +635,7 @@ def test_2d_cross_slope_b11(b2):
     ],
 )
 def test_t7_reference_rates(h0, nu, k, re, im):
-    # NUMERICS T7 reference growth rates in 1/s (sigma^ u0/h0) used by the nonlinear solver tests
+    # independent prototype: reference growth rates in 1/s (sigma^ u0/h0) used by the nonlinear solver tests
     bs = base_state(h0, PHI0, nu)
     s = d1.roots(bs, k)[0] * bs.u0 / bs.h0
     assert rounds_to(s.real, re)

@@ -117,7 +117,7 @@ def test_rkc_stage_times_end_at_one():
 
 
 def test_rkc_stability_interval_grows_like_s_squared():
-    """beta(s) ~ 0.653 s^2 (NUMERICS section 3): the amplification is <= 1 up to 0.6 s^2 and
+    """beta(s) ~ 0.653 s^2 (Sommeijer, Shampine & Verwer 1997): the amplification is <= 1 up to 0.6 s^2 and
     above 1 beyond 0.7 s^2."""
     for s in (5, 10, 20):
         assert _rkc_amplification(s, -0.60 * s * s) <= 1.0

@@ -1,6 +1,6 @@
 """The transport functions G(phi) of tiseg.model.physics.segregation: (2.17) and (2.18) against their
 definition (2.16) and the paper's statements. The solver with each function against the exact
-solution of the large-particle transport equation: tests/test_hard_cases.py (NUMERICS T6)."""
+solution of the large-particle transport equation: tests/test_hard_cases.py."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,5 @@
-"""Exact solutions of the frictionless shallow-water dam break on a flat bed (NUMERICS T2, T3).
+"""Exact solutions of the frictionless shallow-water dam break on a flat bed: Ritter (dry bed)
+and Stoker (wet bed).
 
 Both start from h = h_l for x < x0 and h = h_r beyond, at rest, with gravity g:
 

@@ -90,7 +90,8 @@ def step_limits(
     SSP steppers multiply it by their SSP coefficient. rho is the spectral radius the steppers
     plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy),
     a Gershgorin bound of the convective Jacobian, whose rows are cells: with the local rule
-    2 rate_local bounds it (NUMERICS finding 6)."""
+    2 rate_local bounds it. Without the dissipation term the SSP steppers' step is too long
+    for their stability interval."""
     rx = ax / scene.dx
     ry = ay / scene.dy if not scene.is_1d else 0.0
     rule = scene.numerics.step_rule

@@ -6,7 +6,7 @@ the scalings (5.1). The growth rate is sigma_M(k) = max Re sigma (5.23).
 
 Precision. ``numpy.linalg.eigvals`` is accurate to about eps * ||A|| ~ eps k^2 / R. For k >~ 50
 this round-off is as large as the true growth rate, which decays like k^-2 (k^-4 at F = Fc), and
-it even fakes a cutoff near k ~ 1e3-1e4 for F <= Fc (NUMERICS finding 2). ``extended=True``
+it even fakes a cutoff near k ~ 1e3-1e4 for F <= Fc. ``extended=True``
 therefore solves the cubic (A1) with the coefficients (A2)-(A7) in mpmath at ~40 digits, and
 ``extended="auto"`` does so only where double precision cannot be trusted (`needs_extended`).
 """
@@ -28,7 +28,7 @@ AUTO_RTOL = 1e8  # ... and where |sigma_M| < AUTO_RTOL * eps * ||A|| (relative e
 
 
 def needs_extended(bs: BaseState, kabs, growth) -> np.ndarray:
-    """Where a double-precision growth rate is not trustworthy (NUMERICS finding 2).
+    """Where a double-precision growth rate is not trustworthy (see the module docstring).
 
     eigvals is backward stable: its absolute error is ~eps ||A|| ~ eps (1 + |k| + |k|^2/R). Where
     the growth rate is not much larger than that (the k^-2, k^-4 tails), or |k| is very large,
@@ -229,11 +229,11 @@ def most_unstable(bs: BaseState):
 def cutoff_analytic(bs: BaseState):
     """(k_c2+, k_c3+) of (A41), (A42); each is None where the square root is not real and positive.
 
-    They are necessary conditions for a cutoff (a purely imaginary root), not sufficient ones
-    (NUMERICS section 1), and both are undefined (None) for the inviscid model.
+    They are necessary conditions for a cutoff (a purely imaginary root), not sufficient ones,
+    and both are undefined (None) for the inviscid model.
 
-    (A41)/(A42) as printed are correct; two intermediate steps have typos that do not propagate
-    (NUMERICS finding 3): (A38) has C f_{2,1} where C f_{1,1} is meant, and the denominator of
+    (A41)/(A42) as printed are correct; two intermediate steps have typos that do not propagate:
+    (A38) has C f_{2,1} where C f_{1,1} is meant, and the denominator of
     (A40) has f_{0,2} where f_{0,4} is meant. (A41) goes with C_1 = 1/F - 1 and (A42) with
     C_2 = -1/F - 1 of (A37): at k_c the neutral root is sigma = i C k_c (tested).
     """

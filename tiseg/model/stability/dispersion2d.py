@@ -2,7 +2,7 @@
 
 Normal modes (h1, u1, v1, phi1) = (H, U, V, Phi) exp(sigma t + i (k_x x + k_y y)) of the 2D
 equations (6.1)-(6.3) linearised about (1, 1, 0, phi0) satisfy A W = sigma W with the 4x4 matrix
-(NUMERICS T7, "2D version"; dimensionless, scalings (5.1))::
+(dimensionless, scalings (5.1))::
 
     H: [ -i kx,             -i kx,                                -i ky,                                0 ]
     U: [ -(mu_h + i kx)/F^2, -mu_u/F^2 - i kx - (kx^2 + ky^2/2)/R,  -kx ky/(2R),                          -mu_phi/F^2 ]
@@ -15,7 +15,7 @@ For k_y = 0 it splits into the 1D matrix (5.21) and the V mode
 sigma = -tan(zeta)/F^2 - i k_x - k_x^2/(2R).
 
 Its characteristic polynomial is the quartic (B2) with the coefficients (B3)-(B5). Three of the
-printed coefficients of (B5) disagree with the determinant of this matrix (NUMERICS finding 3);
+printed coefficients of (B5) disagree with the determinant of this matrix;
 `expansion_coefficients` uses the corrected forms:
 
 * f_{1,1,2}: the printed "-2 mu_u" inside (2 - G0')(tan + 2R - 2 mu_u) must be "+2 mu_u";

@@ -4,7 +4,8 @@ The discretisation (identical in `tiseg.solver.numerics.operator`):
 
 1. Ghost cells from the boundary conditions (inflow (6.8)-(6.9), outflow, periodic, wall).
 2. Cell primitives w = (h, u, v, phi) with Kurganov-Petrova desingularisation
-   u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)) (dimensional h_eps, NUMERICS finding 4).
+   u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)) (a dimensional h_eps:
+   Kurganov-Petrova's eps = dx^4 is not dimensionless and over-damps mm-thick flows in SI units).
 3. Slopes of w per direction: zero (first order), minmod-theta, or a WENO-type weighted slope
    (smoothness indicators made dimensionless with h_ref, u_ref); then limited so that the
    edge values keep h >= 0 and 0 <= phi <= 1.

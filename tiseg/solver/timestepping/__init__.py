@@ -13,7 +13,8 @@ Every stepper advances slot 0 of an operator offering
 split update of slot 0 along direction d, tiseg.solver.numerics.split), and chooses its step from two
 numbers the caller measures on the current state: the convective
 step ``dt_cfl`` and the spectral radius ``rho`` of the operator's Jacobian on the negative real
-axis (viscous + friction + KT dissipation 2 a / dx, NUMERICS finding 6).
+axis (viscous + friction + KT dissipation 2 a / dx: without the dissipation the SSP steps are too
+long for their stability interval).
 """
 
 from .base import STEPPERS, Stepper, make_stepper, stepper_for

@@ -1,7 +1,7 @@
 """Second-order damped Runge-Kutta-Chebyshev (Sommeijer, Shampine & Verwer 1997).
 
 The paper integrates with a Chebyshev-type method (Medovikov 1998); RKC is the better documented
-member of the family (NUMERICS section 3). s stages stretch the real stability interval to
+member of the family. s stages stretch the real stability interval to
 beta(s) ~ 0.653 s^2, so the viscous stiffness costs O(sqrt(rho dt)) evaluations instead of a
 step ~ 1/rho. The step itself is set by the convective CFL; the stage count by
 s = 1 + floor(sqrt(1 + 1.54 dt rho)), which keeps dt rho <= beta(s) with a ~2 % margin.
