@@ -143,6 +143,11 @@ TISEG_RULES = [
         "a benchmark: minutes even with --quick; tests/test_bench.py runs each on tiny cases",
     ),
     Rule(r"^tiseg view\b", None, "opens a window; tests/test_viewer.py drives it under Xvfb"),
+    Rule(
+        r"^python -m (tiseg\.apps\.)?viewer\b",
+        None,
+        "the viewer's window without the CLI; tests/test_viewer.py drives it under Xvfb",
+    ),
     Rule(r"^tiseg .*--help\b", lambda a: a),
     Rule(r"^tiseg (fingers|render|steady|stability|scenes)\b", lambda a: a),
 ]
@@ -195,6 +200,12 @@ def _check_other(cmd: list[str], tmp: Path) -> None:
             subprocess.run([sys.executable, "-m", "venv", "--help"], capture_output=True).returncode
             == 0
         )
+    elif prog == "python" and args[:1] == ["-m"] and args[1] in ("viewer", "tiseg.apps.viewer"):
+        # the viewer's own entry point: its parser must take the arguments (--help stops it)
+        p = subprocess.run(
+            [sys.executable, *args, "--help"], env=ENV, capture_output=True, text=True, cwd=ROOT
+        )
+        assert p.returncode == 0 and "usage:" in p.stdout, f"{cmd}: {p.stderr}"
     elif prog == "python":  # python -m pytest OPTIONS: the options, on an empty test file
         (tmp / "test_nothing.py").write_text("")
         p = subprocess.run(
