@@ -193,8 +193,9 @@ def figure(p: dict, q: dict) -> None:
     ax[1, 0].plot(q["x"], q["H"][j] / h0, "k-", lw=0.8)
     ax[1, 0].set_xlabel("x [m]")
     ax[1, 0].set_ylabel("h / h0")
-    ax[1, 0].set_title(f"forced at {q['scene'].inflow.forcing_frequency:g} Hz: t = "
-                       f"{q['t'][j]:g} s", fontsize=10)
+    ax[1, 0].set_title(
+        f"forced at {q['scene'].inflow.forcing_frequency:g} Hz: t = {q['t'][j]:g} s", fontsize=10
+    )
     xs = [s["x"] for s in q["stations"]]
     amps = np.array([s["amplitude"] for s in q["stations"]]) / h0
     ax[1, 1].semilogy(xs, amps, "ko-", label="peak-to-peak h / h0")

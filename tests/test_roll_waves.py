@@ -15,8 +15,9 @@ the rate at 32 / 64 / 128 cells per wavelength is:
     k = 0.4:   -4.8 %   -0.23 %  +0.12 %
     k = 1.0:   -14 %    -1.5 %   -0.09 %   (above the cut-off k_c = 0.760: decay)
 
-The 2 % target at 128 cells runs in the slow test; the main suite checks 64 cells with 1 %
-for the growing modes and 3 % for the decaying one, twice the measured error, which is
+The 2 % target at 128 cells runs in the slow test (k = 0.1, 0.2, 0.4, 1.0); the main suite
+checks k = 0.2 and 1.0 at 64 cells (0.6 s and 0.3 s of flow, the same errors as over 1 s),
+with 1 % for the growing mode and 3 % for the decaying one, twice the measured error, which is
 spatial (it falls by 10-16x per halving of dx at k = 0.4 and 1.0).
 """
 
@@ -89,8 +90,8 @@ def test_the_scene_is_above_the_roll_wave_threshold_and_has_a_cutoff():
     assert mono.bulk_growth(low, np.array([1e-3, 0.1, 1.0])).max() < 0
 
 
-@pytest.mark.parametrize("k", [0.2, 0.4])
-def test_growth_rate_of_a_mode_matches_the_stability_analysis(ti_cpu, k):
+def test_growth_rate_of_a_mode_matches_the_stability_analysis(ti_cpu):
+    k = 0.2
     sc = mode_scene(k, 64, 0.6)
     sigma = theory(sc, k)
     assert sigma.real > 0
@@ -154,15 +155,11 @@ def test_forced_waves_travel_downslope_at_the_forcing_frequency(ti_cpu):
     assert abs(freqs[np.argmax(spec)] - sc.inflow.forcing_frequency) <= 1.7  # 1.7 Hz bins
     mass, bud = sim.totals()["mass"], sim.budget()
     assert abs(mass - m0 - bud["mass_in"]) <= 1e-11 * mass
-
-
-def test_forcing_is_a_run_time_parameter(ti_cpu):
-    sc = load_scene("roll-waves-forced", {"domain.Lx": 0.05, "domain.resolution": 400})
-    sim = Simulation(sc)
-    sim.advance(0.01)
+    # the forcing is a run-time number: it changes without a new build
     sim.set_parameters({"inflow.forcing_frequency": 8.0, "inflow.forcing_amplitude": 0.02})
     assert sim.scene.inflow.forcing_frequency == 8.0
-    sim.advance(0.02)
+    sim.advance(sc.t_end + 0.05)
+    assert np.all(np.isfinite(sim.conserved()))
 
 
 @pytest.mark.parametrize(

@@ -87,5 +87,7 @@ def test_builtin_scene_runs_tiny(name, ti_cpu, tmp_path):
     if sc.initial.kind == "uniform":
         # the steady uniform state (a small perturbation on top, growing at most a few times
         # in the short run: e^(1.8 / s x 1 s) for the roll waves) stays where it is
+        # (a forced inflow adds its modulation, a few times larger downstream)
         dev = np.max(np.abs(f["h"] / sc.flow.h0 - 1.0))
-        assert dev < max(1e-3, 10.0 * dev0), (dev, dev0)
+        forced = sc.inflow.forcing_amplitude if sc.has_inflow else 0.0
+        assert dev < max(1e-3, 10.0 * dev0, 5.0 * forced), (dev, dev0, forced)
