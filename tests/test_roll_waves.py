@@ -195,3 +195,24 @@ def test_h_noise_is_the_same_long_wave_profile_on_every_grid():
 
     ua, ub = coefficients(a, coarse_x), coefficients(b, fine_x)
     np.testing.assert_allclose(ua / abs(ua), ub / abs(ub), atol=1e-9)
+
+
+def test_wave_diagnostics_on_a_known_train():
+    """Three sawtooth waves of crest 2 h0 and trough 0.5 h0 with small ripples on their backs,
+    shifted by 37.3 cells: three crests (the ripples are not waves), spacing L / 3, and the
+    shift recovered to a fraction of a cell."""
+    from tiseg.post.analysis.roll_waves import train_speed, wave_train
+
+    n, h0, dx = 600, 1e-3, 1e-3
+    x = np.arange(n) * dx
+    phase = (x / (n * dx / 3)) % 1.0
+    h = h0 * (0.5 + 1.5 * phase**2) + 0.01 * h0 * np.sin(2 * np.pi * 40 * x / (n * dx))
+    w = wave_train(h, dx, h0)
+    assert w["waves"] == 3
+    assert abs(w["spacing"] - n * dx / 3) < 1e-12
+    assert abs(w["crest"] - 2.0) < 0.02 and abs(w["trough"] - 0.5) < 0.02
+    shift = 37.3
+    k = np.fft.rfftfreq(n, 1.0)
+    moved = np.fft.irfft(np.fft.rfft(h) * np.exp(-2j * np.pi * k * shift), n=n)
+    # within a tenth of a cell (the nearest whole cell alone would be 0.3 cells off)
+    assert abs(train_speed(h, moved, dx, 0.1, 1.0) - shift * dx / 0.1) < 0.1 * dx / 0.1
