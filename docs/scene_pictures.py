@@ -29,6 +29,8 @@ RUNS: dict[str, tuple[list[str], str]] = {
     "channel": (["domain.resolution=250"], "channel"),
     "dam-break": ([], "profile"),
     "uniform-flow": ([], "mode"),
+    "roll-waves": (["domain.nx=1000", "time.t_end=12"], "profile"),
+    "roll-waves-forced": (["domain.resolution=500", "time.t_end=10"], "profile"),
 }
 
 

@@ -29,7 +29,7 @@ def tiny(name: str):
         over["domain.resolution"] = 40
     else:
         over["domain.nx"] = min(sc.domain.nx, 120)
-    if sc.has_inflow:
+    if sc.has_inflow or sc.initial.kind == "uniform":
         over["time.t_end"] = min(sc.t_end, T_INFLOW)
     return sc.with_overrides(over)
 
@@ -49,6 +49,7 @@ def test_builtin_scene_runs_tiny(name, ti_cpu, tmp_path):
     sc = tiny(name)
     sim = Simulation(sc)
     m0 = sim.totals()["mass"]
+    dev0 = np.max(np.abs(sim.fields()["h"] / sc.flow.h0 - 1.0))
     sim.run(out_dir=tmp_path, progress=False)
     assert sim.t == sc.t_end
     f = sim.fields()
@@ -84,5 +85,9 @@ def test_builtin_scene_runs_tiny(name, ti_cpu, tmp_path):
             assert np.all(v == v[:, :1]), k
         assert np.all(f["v"] == 0.0)
     if sc.initial.kind == "uniform":
-        # the steady uniform state (a small eigenmode on top) stays where it is
-        assert np.max(np.abs(f["h"] / sc.flow.h0 - 1.0)) < 1e-3
+        # the steady uniform state (a small perturbation on top, growing at most a few times
+        # in the short run: e^(1.8 / s x 1 s) for the roll waves) stays where it is
+        # (a forced inflow adds its modulation, a few times larger downstream)
+        dev = np.max(np.abs(f["h"] / sc.flow.h0 - 1.0))
+        forced = sc.inflow.forcing_amplitude if sc.has_inflow else 0.0
+        assert dev < max(1e-3, 10.0 * dev0, 5.0 * forced), (dev, dev0, forced)

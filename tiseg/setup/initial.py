@@ -24,7 +24,12 @@ def _cell_avg_wave(k: float, d: float, centres: np.ndarray) -> np.ndarray:
 
 def eigenmode(scene) -> tuple[complex, np.ndarray]:
     """Most unstable eigenvalue (dimensionless) and eigenvector (H, U[, V], Phi) normalised to
-    H = 1 for the scene's perturbation wavenumbers (k, ky) in the scalings (5.1)."""
+    H = 1 for the scene's perturbation wavenumbers (k, ky) in the scalings (5.1).
+
+    Without segregation phi stays flow.phi0, so the modes are those of the mass and momentum
+    balances alone: the matrix without its Phi row and column (the monodisperse roll-wave
+    problem, `tiseg.model.stability.monodisperse`), and Phi = 0. The least damped of them is
+    taken where none grows (a wavenumber above the viscous cut-off)."""
     from ..model.stability.base import base_state
 
     ini, fl = scene.initial, scene.flow
@@ -37,14 +42,35 @@ def eigenmode(scene) -> tuple[complex, np.ndarray]:
         from ..model.stability.dispersion2d import matrix
 
         A = matrix(bs, np.array([ini.k]), np.array([ini.ky]))[0]
+    if not scene.segregation:
+        A = A[:-1, :-1]  # phi is fixed: no Phi unknown
     lam, vec = np.linalg.eig(A)
     i = int(np.argmax(lam.real))
     v = vec[:, i]
+    if not scene.segregation:
+        v = np.append(v, 0.0)
     if abs(v[0]) == 0:
         raise InputError(
             "the most unstable mode has no thickness component; use initial.mode='phi'"
         )
     return complex(lam[i]), v / v[0]
+
+
+def thickness_noise(x: np.ndarray, dx: float, Lx: float, seed: int) -> np.ndarray:
+    """Unit-RMS random downslope profile r(x) of ``initial.mode = "h-noise"`` (cell averages).
+
+    r = sqrt(2 / N) sum_n cos(2 pi n x / Lx + theta_n), n = 1..N with N = nx // 8 (every
+    wavelength resolved by 8 cells or more), the phases theta_n uniform random from ``seed``
+    and drawn in order of n: on a finer grid the same long waves come first, with the same
+    phases, so runs at different resolutions start from the same long-wave perturbation."""
+    nx = len(x)
+    n_modes = max(1, nx // 8)
+    theta = np.random.default_rng(seed).uniform(0.0, 2.0 * np.pi, n_modes)
+    r = np.zeros(nx)
+    for n in range(1, n_modes + 1):
+        k = 2.0 * np.pi * n / Lx
+        r += np.real(np.exp(1j * theta[n - 1]) * _cell_avg_wave(k, dx, x))
+    return r * np.sqrt(2.0 / n_modes)
 
 
 def channel_fraction(y, dy: float, Ly: float, width: float) -> np.ndarray:
@@ -94,6 +120,9 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
                 h = fl.h0 * (1 + eps * np.real(wave))
             elif ini.mode == "phi":
                 phi = fl.phi0 + eps * np.real(wave)
+            elif ini.mode == "h-noise":
+                r = thickness_noise(x, scene.dx, scene.domain.Lx, ini.seed or 0)
+                h = fl.h0 * (1 + eps * r[:, None])
             elif ini.mode == "noise":
                 rng = np.random.default_rng(ini.seed or 0)
                 phi = fl.phi0 + eps * (rng.random(X.shape) - 0.5)

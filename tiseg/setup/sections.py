@@ -24,6 +24,7 @@ from ..solver.numerics.config import (
     RECONSTRUCTIONS,
     STEP_RULES,
     inflow_concentration,
+    inflow_forcing,
 )
 from ..model.physics.friction import FRICTION_LAWS as LAWS
 from ..model.physics.friction import ConstantsByName
@@ -35,7 +36,7 @@ from .table import MISSING
 OUTPUT_PRECISIONS = ("f8", "f4")
 PRECISIONS = ("f64", "f32")
 RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
-PERTURBATION_MODES = ("eigen", "h", "phi", "noise")
+PERTURBATION_MODES = ("eigen", "h", "phi", "noise", "h-noise")
 INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel")
 
 
@@ -275,10 +276,16 @@ class BoundaryConfig:
 class InflowConfig:
     """Inflow at x = 0, (6.8)-(6.9):
 
-    h(0, y, t) = (1 - exp(-ramp_rate t)) h,  u = u,  v = 0,
+    h(0, y, t) = (1 - exp(-ramp_rate t)) (1 + forcing_amplitude sin(2 pi forcing_frequency t)) h,
+    u = u,  v = 0,
     phi(0, y, t) = phi + perturbation sin(2 pi modes y / Ly) + noise phi r(y),
 
-    switched off (h = 0) for t > stop_time when a finite release is modelled. In a 1D run the
+    switched off (h = 0) for t > stop_time when a finite release is modelled. The forcing
+    (default off) modulates the inflow thickness, and with it the mass flux h u, periodically
+    in time: the controlled inlet perturbation with which roll waves are excited at a chosen
+    frequency (Forterre & Pouliquen 2003). It enters only the host-side inflow thickness of
+    each stage (a run-time number of the kernels), so it costs nothing when zero and can be
+    changed with ``Simulation.set_parameters``. In a 1D run the
     single cell row has its centre at y = Ly/2, where the perturbation sin(pi modes) vanishes.
 
     ``noise`` (default 0) adds a random cross-slope profile r(y) of unit RMS, band-limited to
@@ -305,13 +312,28 @@ class InflowConfig:
         default=0.0, metadata=key("relative RMS amplitude of the random profile", nonneg=True)
     )
     seed: int = field(default=0, metadata=key("realisation of the random profile", lo=0))
+    forcing_frequency: float = field(
+        default=0.0,
+        metadata=key(
+            "[Hz] of the periodic modulation of the inflow thickness (and flux); 0 = none",
+            nonneg=True,
+        ),
+    )
+    forcing_amplitude: float = field(
+        default=0.0,
+        metadata=key(
+            "relative amplitude of that modulation, in [0, 1): h (1 + a sin(2 pi f t))",
+            lo=0.0,
+            hi=1.0,
+        ),
+    )
 
     def thickness(self, t: float) -> float:
-        """Inflow thickness at time t, (6.8a); 0 after ``stop_time``."""
+        """Inflow thickness at time t, (6.8a) times the forcing; 0 after ``stop_time``."""
         if self.stop_time is not None and t > self.stop_time:
             return 0.0
         ramp = 1.0 if self.ramp_rate <= 0 else -math.expm1(-self.ramp_rate * t)
-        return ramp * self.h
+        return ramp * self.h * inflow_forcing(t, self.forcing_frequency, self.forcing_amplitude)
 
     def concentration(self, y, Ly: float):
         """Inflow concentration (6.8d), (6.9) plus the noise at cross-slope positions y [m]."""
@@ -346,7 +368,8 @@ class InitialConfig:
     * uniform: the steady uniform state (h0, u0, phi0) plus a perturbation of relative
       ``amplitude`` with dimensionless wavenumbers ``k`` (downslope) and ``ky`` (cross-slope) in
       the scalings (5.1), i.e. k_SI = k / h0; ``mode`` "eigen" is the most unstable linear mode
-      (computed by the simulation), "h"/"phi" perturb one field, "noise" is random (``seed``).
+      (computed by the simulation), "h"/"phi" perturb one field, "noise" is random in phi,
+      "h-noise" a random downslope profile of h (``seed``; `tiseg.setup.initial.thickness_noise`).
       ``wavelengths`` = Lx k_SI / (2 pi), the number of downslope wavelengths in the domain.
     * dam-break: h = h_left for x < x0, h_right beyond, at rest, concentration ``phi``.
     * release: a block [x0, x1] x [y0, y1] of thickness h and concentration phi, at rest.
@@ -373,12 +396,14 @@ class InitialConfig:
         "uniform: cross-slope wavenumber, (5.1) scalings", _UNIFORM, 0.0, nonneg=True
     )
     mode: str | None = _ini(
-        "uniform: eigen (most unstable mode), h, phi or noise",
+        "uniform: eigen (most unstable mode), h, phi, noise (in phi) or h-noise",
         _UNIFORM,
         "eigen",
         choices=PERTURBATION_MODES,
     )
-    seed: int | None = _ini('uniform: random seed of mode = "noise"', _UNIFORM, 0, lo=0)
+    seed: int | None = _ini(
+        'uniform: random seed of mode = "noise" or "h-noise"', _UNIFORM, 0, lo=0
+    )
     wavelengths: float | None = _ini(
         "uniform: downslope wavelengths in Lx (sets Lx)", _UNIFORM, None, positive=True
     )

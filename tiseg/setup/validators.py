@@ -309,6 +309,16 @@ def read_inflow(
         )
     if v["seed"] >= 2**63:
         raise InputError(f"inflow.seed={v['seed']}: must be below 2**63")
+    if v["forcing_amplitude"] >= 1.0:
+        raise InputError(
+            f"inflow.forcing_amplitude={v['forcing_amplitude']!r}: the inflow thickness "
+            "h (1 + a sin(2 pi f t)) would reach 0; use an amplitude below 1 (0.05 is typical)"
+        )
+    if v["forcing_amplitude"] > 0.0 and v["forcing_frequency"] == 0.0:
+        raise InputError(
+            f"inflow.forcing_amplitude={v['forcing_amplitude']!r} needs "
+            "inflow.forcing_frequency > 0 [Hz] (a modulation at 0 Hz does nothing)"
+        )
     # the random profile never exceeds sqrt(2 N) in magnitude (inflow_noise)
     reach = abs(delta) + noise * phi * math.sqrt(2.0 * noise_modes(domain.Ly))
     if noise and not (0.0 <= phi - reach and phi + reach <= 1.0):
@@ -427,15 +437,16 @@ def _check_uniform(v, wavelengths, domain, boundary, flow, effects) -> None:
         raise InputError(
             f"initial.ky={ky!r}: a 1D run (domain.ny = 1) has no cross-slope wavenumber; use 0"
         )
-    if amplitude > 0 and mode != "noise" and k == 0.0 and ky == 0.0:
+    if amplitude > 0 and mode not in ("noise", "h-noise") and k == 0.0 and ky == 0.0:
         raise InputError(
             f"initial.amplitude={amplitude!r} with initial.mode={mode!r} needs "
             "initial.k > 0 or initial.ky > 0"
         )
-    if mode == "phi" and not effects.segregation:
+    if mode in ("phi", "noise") and not effects.segregation:
         raise InputError(
-            "initial.mode='phi' perturbs the concentration, but "
+            f"initial.mode={mode!r} perturbs the concentration, but "
             "effects.segregation = false has no phi field"
+            + (' (initial.mode = "h-noise" perturbs the thickness)' if mode == "noise" else "")
         )
     if k and boundary.x_lo == "periodic" and not near_integer(wavelengths):
         raise InputError(

@@ -80,6 +80,15 @@ def noise_modes(Ly: float) -> int:
     return max(1, int(math.floor(Ly / NOISE_MIN_WAVELENGTH + 1e-9)))
 
 
+def inflow_forcing(t: float, frequency: float, amplitude: float) -> float:
+    """The factor 1 + amplitude sin(2 pi frequency t) of the forced inflow thickness
+    (``inflow.forcing_frequency`` [Hz], ``inflow.forcing_amplitude``); exactly 1 without
+    forcing, so an unforced inflow is the same number to the last bit."""
+    if amplitude == 0.0 or frequency == 0.0:
+        return 1.0
+    return 1.0 + amplitude * math.sin(2.0 * math.pi * frequency * t)
+
+
 def inflow_concentration(
     y, Ly: float, phi: float, delta: float, modes: int, noise: float = 0.0, seed: int = 0
 ) -> np.ndarray:
@@ -216,6 +225,8 @@ class OperatorConfig:
     inflow_noise: float = 0.0  # relative amplitude of the random profile (inflow.noise)
     inflow_seed: int = 0
     inflow_stop: float = math.inf
+    inflow_forcing_frequency: float = 0.0  # [Hz] (inflow.forcing_frequency)
+    inflow_forcing_amplitude: float = 0.0  # relative (inflow.forcing_amplitude)
 
     def __post_init__(self):
         assert self.friction in _LAWS, self.friction  # the registry now: user laws count
@@ -262,7 +273,8 @@ class OperatorConfig:
         if t > self.inflow_stop:
             return 0.0, 0.0, self.inflow_phi
         ramp = 1.0 if self.inflow_ramp <= 0 else -math.expm1(-self.inflow_ramp * t)
-        return ramp * self.inflow_h, self.inflow_u, self.inflow_phi
+        force = inflow_forcing(t, self.inflow_forcing_frequency, self.inflow_forcing_amplitude)
+        return ramp * force * self.inflow_h, self.inflow_u, self.inflow_phi
 
 
 # OperatorConfig fields the kernels are compiled for -> what the scene calls them
@@ -288,6 +300,8 @@ def config_from_scene(scene) -> OperatorConfig:
             inflow_noise=inflow.noise,
             inflow_seed=inflow.seed,
             inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time,
+            inflow_forcing_frequency=inflow.forcing_frequency,
+            inflow_forcing_amplitude=inflow.forcing_amplitude,
         )
     num = scene.numerics
     return OperatorConfig(
