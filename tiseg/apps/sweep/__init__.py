@@ -75,6 +75,8 @@ from .spec import (  # noqa: F401
     PROGRESS_TOPIC,
     SUMMARY_METRICS,
     SWEEP_KEYS,
+    DEPOSIT_METRICS,
+    OUTPUTS,
     Sweep,
     SweepRun,
     TIME_METRICS,
@@ -108,13 +110,18 @@ from .runner import (  # noqa: F401
     _summary,
     check_sweep_folder,
     run_sweep,
+    write_results,
 )
+from .design import METHODS, Range, Sample, parse_sample  # noqa: F401
+from .dataset import PEAK_FIELDS, dim_name, sweep_dataset, write_dataset  # noqa: F401
+from .sensitivity import indices, sensitivity_rows, sobol_analysis  # noqa: F401
 from .table import (  # noqa: F401
     _cell,
     _csv_text,
     _csv_value,
     _parse,
     _write_outputs,
+    member_outputs,
     read_table,
     summary_columns,
     summary_groups,
