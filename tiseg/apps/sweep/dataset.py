@@ -113,7 +113,7 @@ def sweep_dataset(sweep: Sweep, records: Mapping[str, dict], out: Path | None = 
             coords["design_block"] = (
                 "member",
                 np.array([sample.block(i) for i in range(sample.size)], dtype=object),
-                {"long_name": "block of the Saltelli design: A, B or AB<i> (key i from B)"},
+                {"long_name": "block of the Saltelli design: A, B or AB<i> (the i-th key from B)"},
             )
     shape = tuple(shape)
     runs = np.empty(shape, dtype=object).reshape(-1)

@@ -104,7 +104,8 @@ class Sample:
         return [{r.key: float(c[i]) for r, c in zip(self.ranges, cols)} for i in range(len(u))]
 
     def block(self, member: int) -> str:
-        """The Saltelli block of a "sobol" member ("A", "B", "AB1", ...); "" otherwise."""
+        """The Saltelli block of a "sobol" member: "A", "B" or "AB<i>" (A with the column of
+        the i-th key, counted from 1, taken from B); "" for the other methods."""
         if self.method != "sobol":
             return ""
         k = member // self.n

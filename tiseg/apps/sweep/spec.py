@@ -329,13 +329,17 @@ def sweep_from_dict(
 def _check_sample_keys(scene_ref: str, fixed: dict, sample: Sample, fail) -> None:
     """Each sampled key must be a scene key that takes any number in its range: a float
     (not a whole-number, true/false, text or list key). One line naming the key otherwise."""
-    try:
-        base = load_scene(scene_ref, fixed)
-    except InputError as exc:
-        problem = str(exc)
+    # the base scene, else (a key the scene needs, such as flow.u0 for some friction laws)
+    # the scene at the ranges' lower ends
+    problem = None
+    for extra in ({}, {r.key: r.lo for r in sample.ranges}):
+        try:
+            base = load_scene(scene_ref, {**fixed, **extra})
+        except InputError as exc:
+            problem = problem or str(exc)
+        else:
+            break
     else:
-        problem = None
-    if problem is not None:
         fail(f"the base run: {problem}")
     flat: dict[str, Any] = {}
 
