@@ -327,16 +327,19 @@ def test_dataset_of_a_grid(tmp_path):
         assert str(ds.run.sel(flow_nu=0.01, flow_h0=0.002).values) == "nu-0.01_h0-0.002"
         assert ds.attrs["Conventions"] == "CF-1.8"
         assert "h_max" not in ds  # the members have no fields.nc: no peak fields, no error
-    # the sweep.nc is valid CF where the IOOS checker is installed
-    checker = pytest.importorskip("compliance_checker.runner")
+
+
+def _cf_check(path: Path, tmp_path: Path) -> None:
+    """The IOOS compliance checker finds nothing to fix in ``path`` against CF-1.8."""
+    pytest.importorskip("compliance_checker.runner")
     from compliance_checker.runner import CheckSuite, ComplianceChecker
 
     CheckSuite.load_all_available_checkers()
+    report = tmp_path / "cf.txt"
     ok, errors = ComplianceChecker.run_checker(
-        str(path), ["cf:1.8"], 0, "normal", output_filename=str(tmp_path / "cf.txt")
+        str(path), ["cf:1.8"], 0, "normal", output_filename=str(report)
     )
-    assert ok and not errors, (tmp_path / "cf.txt").read_text()
-    del checker
+    assert ok and not errors, report.read_text()
 
 
 def _fields_file(path: Path, scale: float, names=("h_max", "speed_max", "arrival_time"), nx=3):
@@ -350,6 +353,7 @@ def _fields_file(path: Path, scale: float, names=("h_max", "speed_max", "arrival
         ds["y"].setncatts({"long_name": "cross-slope distance", "units": "m"})
         ds.createVariable("x", "f8", ("x",))[:] = 0.05 * np.arange(nx) + 0.025
         ds["x"].setncatts({"long_name": "downslope distance", "units": "m"})
+        ds.createVariable("peak_time", "f8", ())[:] = 0.5 * scale
         for name in names:
             v = ds.createVariable(name, "f8", ("y", "x"), fill_value=np.nan)
             v.setncatts({"long_name": name, "units": "s" if name == "arrival_time" else "m"})
@@ -374,10 +378,15 @@ def test_dataset_of_a_sample_stacks_the_peak_fields(tmp_path):
         assert ds.h_max.isel(member=2).isnull().all()
         assert ds.speed_max.isel(member=1).isnull().all()
         assert float(ds.arrival_time.isel(member=0, y=0, x=1)) == 1.0
+        assert ds.peak_time.values[:2].tolist() == [0.5, 1.0] and ds.peak_time.attrs["units"] == "s"
+        assert math.isnan(ds.peak_time.values[2]) and "deposit_h" not in ds
         assert ds.flow_nu.attrs["sample_range"].tolist() == [0.01, 0.02]
     # members on different grids cannot be stacked: left out, no error
-    _fields_file(tmp_path / "member-0002" / "fields.nc", 1.0, nx=4)
-    assert "h_max" not in sweep_dataset(sw, records, tmp_path)
+    _fields_file(tmp_path / "other" / "member-0002" / "fields.nc", 1.0, nx=4)
+    for name in ("member-0000", "member-0001"):
+        _fields_file(tmp_path / "other" / name / "fields.nc", 1.0)
+    assert "h_max" not in sweep_dataset(sw, records, tmp_path / "other")
+    _cf_check(path, tmp_path)  # last: skipped where the checker is not installed
 
 
 def test_refresh_fills_the_deposit_from_fingers_json(tmp_path):

@@ -13,10 +13,11 @@ Layout:
   (``_FillValue``) where undefined or not finished; the metrics of `TIME_METRICS` at the
   sweep's extra ``times`` as ``<metric>_at_time`` with the further dimension ``output_time``;
   the run costs; ``run`` (the member's folder) and ``status`` (CF flags).
-* Per-member peak fields: where the members' ``fields.nc`` hold ``h_max``, ``speed_max`` or
-  ``arrival_time`` (2D, without a time axis), they are stacked into variables of the member
-  dimensions and ``y``, ``x`` (NaN for members without them). Members on different grids
-  cannot be stacked: the fields are then left out (logged).
+* Per-member peak fields: where the members' ``fields.nc`` hold ``h_max``, ``speed_max``,
+  ``arrival_time``, ``deposit_h`` or ``deposit_phi`` (2D, without a time axis), they are
+  stacked into variables of the member dimensions and ``y``, ``x`` (NaN for members without
+  them), with each member's ``peak_time`` (the time up to which they hold). Members on
+  different grids cannot be stacked: the fields are then left out (logged).
 """
 
 from __future__ import annotations
@@ -36,7 +37,8 @@ from ...output.atomic import replacing
 from .spec import OUTPUTS, TIME_METRICS, Sweep, _canonical, time_index
 from .table import member_outputs
 
-PEAK_FIELDS = ("h_max", "speed_max", "arrival_time")
+# the 2D fields without a time axis of a run's fields.nc (tiseg.run.peaks)
+PEAK_FIELDS = ("h_max", "speed_max", "arrival_time", "deposit_h", "deposit_phi")
 STATUS_FLAGS = ("pending", "done", "reused", "failed", "busy", "missing")
 COSTS = {
     "wall_s": ("simulation wall time", "s"),
@@ -174,9 +176,15 @@ def sweep_dataset(sweep: Sweep, records: Mapping[str, dict], out: Path | None = 
     if out is not None:
         peaks = _peak_fields(sweep, records, Path(out))
         if peaks is not None:
-            (x, xa), (y, ya), fields = peaks
+            (x, xa), (y, ya), fields, peak_time = peaks
             coords["x"] = ("x", x, xa)
             coords["y"] = ("y", y, ya)
+            if not np.isnan(peak_time).all():
+                data["peak_time"] = (
+                    dims,
+                    peak_time.reshape(shape),
+                    {"long_name": "time up to which the member's peak fields hold", "units": "s"},
+                )
             for k, (arr, attrs) in fields.items():
                 data[k] = ([*dims, "y", "x"], arr.reshape((*shape, y.size, x.size)), attrs)
 
@@ -198,6 +206,7 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
     import netCDF4
 
     found: dict[int, dict] = {}
+    peak_time = np.full(len(sweep.runs), np.nan)
     grid = None
     attrs: dict = {}
     for i, run in enumerate(sweep.runs):
@@ -230,6 +239,8 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
                     )
                     return None
                 found[i] = {}
+                if "peak_time" in ds.variables and ds["peak_time"].size == 1:
+                    peak_time[i] = float(np.ma.filled(ds["peak_time"][:], np.nan).ravel()[0])
                 for n in names:
                     v = ds[n]
                     v.set_auto_mask(True)
@@ -238,7 +249,8 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
                         n,
                         {
                             a: v.getncattr(a)
-                            for a in ("long_name", "units", "standard_name")
+                            # not cell_methods: it names the member file's peak_time
+                            for a in ("long_name", "units", "standard_name", "comment")
                             if a in v.ncattrs()
                         },
                     )
@@ -257,7 +269,7 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
             if n in got:
                 arr[i] = got[n]
         fields[n] = (arr, attrs[n])
-    return (x, xa), (y, ya), fields
+    return (x, xa), (y, ya), fields, peak_time
 
 
 def write_dataset(sweep: Sweep, out: Path, records: Mapping[str, dict]) -> Path:
