@@ -134,10 +134,7 @@ def sensitivity_columns(sweep: Sweep) -> list[str]:
 def plot_sensitivity(sweep: Sweep, rows: list[dict], out: Path, dpi: int = 100) -> list[Path]:
     """Bar charts of S1 and ST with their intervals, one panel per output that has indices:
     ``sensitivity.png`` (or one ``sensitivity-<grid values>.png`` per grid combination)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend is left alone
 
     keys, groups = summary_groups(sweep)
     params = sweep.sample.keys
@@ -151,9 +148,8 @@ def plot_sensitivity(sweep: Sweep, rows: list[dict], out: Path, dpi: int = 100) 
             continue
         ncol = min(3, len(outputs))
         nrow = -(-len(outputs) // ncol)
-        fig, axes = plt.subplots(
-            nrow, ncol, figsize=(3.2 * ncol + 0.6, 2.6 * nrow + 0.6), squeeze=False
-        )
+        fig = Figure(figsize=(3.2 * ncol + 0.6, 2.6 * nrow + 0.6), layout="tight")
+        axes = fig.subplots(nrow, ncol, squeeze=False)
         x = np.arange(len(params))
         for ax, name in zip(axes.flat, outputs):
             by = {r["parameter"]: r for r in mine if r["output"] == name}
@@ -176,7 +172,6 @@ def plot_sensitivity(sweep: Sweep, rows: list[dict], out: Path, dpi: int = 100) 
             f"({int(100 * CONFIDENCE)} % bootstrap intervals, n = {sweep.sample.n})",
             fontsize=10,
         )
-        fig.tight_layout()
         name = (
             "sensitivity.png"
             if not keys
@@ -184,6 +179,5 @@ def plot_sensitivity(sweep: Sweep, rows: list[dict], out: Path, dpi: int = 100) 
         )
         path = out / name
         fig.savefig(path, dpi=dpi)
-        plt.close(fig)
         paths.append(path)
     return paths
