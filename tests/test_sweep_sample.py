@@ -456,6 +456,8 @@ def test_tiny_sample_sweep_on_dask_then_reuse(tmp_path):
     assert nu["ST"] == 0 and nu["ST_low"] <= 0 <= nu["ST_high"]
     assert zeta_row["ST"] > nu["ST"]
     assert (out / "sensitivity.png").stat().st_size > 1000
+    assert [p.name for p in res.results] == ["sweep.nc", "sensitivity.csv", "sensitivity.png"]
+    assert res.as_dict()["results"][0] == str(out / "sweep.nc")
 
     folders = sorted(p.name for p in out.iterdir() if p.is_dir())
     lines.clear()
@@ -463,3 +465,22 @@ def test_tiny_sample_sweep_on_dask_then_reuse(tmp_path):
     assert res2.count("reused") == 8 and res2.count("done") == 0
     assert not any("Dask cluster" in s for s in lines), lines
     assert sorted(p.name for p in out.iterdir() if p.is_dir()) == folders
+
+
+def test_check_lists_the_drawn_values(capsys, tmp_path):
+    from tiseg.apps.cli import main
+
+    assert main(["sweep", str(TINY_SAMPLE), "--check", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "8 runs (sobol sample of n = 2, seed 1), valid" in out
+    lines = [ln for ln in out.splitlines() if "member-" in ln]
+    assert len(lines) == 8 and all("material.zeta_deg = " in ln for ln in lines)
+    sw = load_sweep(TINY_SAMPLE)
+    assert f"flow.nu = {sw.runs[3].values['flow.nu']:.4g}" in lines[3]
+
+
+def test_dataset_of_a_single_run():
+    """A sweep without grid and sample has one run: its outputs are scalars."""
+    sw = _sweep()
+    ds = sweep_dataset(sw, {"base": _record(0.07)})
+    assert ds.x_front_max.dims == () and float(ds.x_front_max) == 0.07

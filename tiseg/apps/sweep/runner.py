@@ -9,7 +9,7 @@ import logging
 import math
 import os
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -32,6 +32,7 @@ class SweepResult:
     out: Path
     table: Path
     records: list[dict]  # one per run, grid order; status done / reused / failed / busy
+    results: list[Path] = field(default_factory=list)  # sweep.nc, sensitivity.csv and .png
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.records if r.get("status") == status)
@@ -54,7 +55,13 @@ class SweepResult:
         counts = {}
         for r in self.records:
             counts[r.get("status", "?")] = counts.get(r.get("status", "?"), 0) + 1
-        return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
+        return {
+            "out": str(self.out),
+            "table": str(self.table),
+            "results": [str(p) for p in self.results],
+            "counts": counts,
+            "runs": runs,
+        }
 
 
 SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv", "sweep.nc")
@@ -170,6 +177,7 @@ def run_sweep(
         out, table, [records.get(r.name, {"name": r.name, "status": "missing"}) for r in sweep.runs]
     )
     written = write_results(sweep, out, records)
+    result.results = written
     say(
         f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
         f"{result.count('failed')} failed; table {table}, ensembles "
