@@ -296,6 +296,25 @@ def test_sensitivity_rows_from_member_records():
     assert sensitivity_rows(lhs, {}) == []
 
 
+def test_sensitivity_per_grid_point(tmp_path):
+    """A sample at each grid point: indices per grid point, and a chart for each."""
+    from tiseg.apps.sweep.sensitivity import plot_sensitivity
+
+    sw = _sobol_sweep(n=2, grid={"flow.h0": [0.002, 0.0025]})
+    assert len(sw.runs) == 2 * 8
+    records = {}
+    for r in sw.runs:  # at h0 = 0.0025 the front ignores the slope and follows nu
+        v = r.values
+        x = v["material.zeta_deg"] if v["flow.h0"] == 0.002 else 100 * v["flow.nu"]
+        records[r.name] = _record(x)
+    rows = [r for r in sensitivity_rows(sw, records) if r["output"] == "x_front_max"]
+    st = {(r["flow.h0"], r["parameter"]): r["ST"] for r in rows}
+    assert st[0.002, "flow.nu"] == 0 and st[0.002, "material.zeta_deg"] > 0
+    assert st[0.0025, "material.zeta_deg"] == 0 and st[0.0025, "flow.nu"] > 0
+    paths = plot_sensitivity(sw, sensitivity_rows(sw, records), tmp_path, dpi=30)
+    assert [p.name for p in paths] == ["sensitivity-h0-0.002.png", "sensitivity-h0-0.0025.png"]
+
+
 def test_table_and_outputs_hold_the_deposit():
     sw = _sweep(grid={"flow.nu": [0.01]})
     rec = _record(0.1, run_out=0.42)

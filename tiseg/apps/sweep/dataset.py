@@ -276,7 +276,7 @@ def write_dataset(sweep: Sweep, out: Path, records: Mapping[str, dict]) -> Path:
     """Write ``OUT/sweep.nc`` (atomically) and return its path."""
     ds = sweep_dataset(sweep, records, out)
     encoding = {
-        name: {"_FillValue": np.nan}
+        name: {"_FillValue": np.nan, **({"zlib": True, "complevel": 4} if var.ndim > 1 else {})}
         for name, var in ds.variables.items()
         if var.dtype.kind == "f" and name not in ds.coords
     }
