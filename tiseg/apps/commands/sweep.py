@@ -17,11 +17,14 @@ from ...log import note
 def register(sub) -> None:
     p = sub.add_parser(
         "sweep",
-        help="run a grid of scene overrides on Dask; writes DIR/sweep.csv",
-        description="Run every combination of a sweep file's [grid] overrides (applied to its "
-        "base scene together with the [set] overrides) as independent tasks on Dask, "
-        "each into its own run folder, and collect the finger metrics and run costs "
-        "into DIR/sweep.csv (and DIR/sweep.json). Finished runs (folders with "
+        help="run a grid or a sample of scene overrides on Dask; writes DIR/sweep.csv and "
+        "DIR/sweep.nc",
+        description="Run every combination of a sweep file's [grid] overrides and every point "
+        "of its [sample] design (applied to its base scene together with the [set] overrides) "
+        "as independent tasks on Dask, each into its own run folder, and collect the finger "
+        "metrics, the deposit and the run costs into DIR/sweep.csv, DIR/sweep.json and the "
+        "dataset DIR/sweep.nc; a Sobol' sample also gives DIR/sensitivity.csv and "
+        "DIR/sensitivity.png. Finished runs (folders with "
         "done.json) are reused, so an interrupted sweep resumes where it stopped. "
         "Every combination is validated before anything runs.",
     )
@@ -29,7 +32,7 @@ def register(sub) -> None:
         "sweep",
         metavar="SWEEP.toml",
         help="sweep file, or the name of a built-in sweep (grid-study, width-study, "
-        "nu-study, finite-release, monodisperse, tiny)",
+        "nu-study, finite-release, monodisperse, tiny, tiny-sample)",
     )
     p.add_argument(
         "--out",
@@ -121,12 +124,21 @@ def run(args) -> int:
     sweep = load_sweep(args.sweep, extra_overrides=extra, grid_overrides=grid)
     out = Path(args.out) if args.out else Path("runs") / "sweeps" / sweep.name
     if args.check:
-        print(f"sweep {sweep.name!r}: base scene {sweep.scene}, {len(sweep.runs)} runs, valid")
+        design = ""
+        if sweep.sample is not None:
+            s = sweep.sample
+            design = f" ({s.method} sample of n = {s.n}, seed {s.seed})"
+        print(
+            f"sweep {sweep.name!r}: base scene {sweep.scene}, {len(sweep.runs)} runs{design}, valid"
+        )
         for r in sweep.runs:
             done = read_marker(out / r.name, r.scene) is not None
+            drawn = ""
+            if sweep.sample is not None:
+                drawn = ", " + ", ".join(f"{k} = {r.values[k]:.4g}" for k in sweep.sample.keys)
             print(
                 f"  {r.name}: {r.scene.domain.nx} x {r.scene.domain.ny} cells, t_end "
-                f"{r.scene.t_end:g} s{' (finished)' if done else ''}"
+                f"{r.scene.t_end:g} s{drawn}{' (finished)' if done else ''}"
             )
         return 0
 

@@ -1,4 +1,4 @@
-"""Parameter sweeps: many runs of one scene, on Dask, collected into one table.
+"""Parameter sweeps: many runs of one scene, on Dask, collected into one table and one dataset.
 
 A sweep file (TOML) names a base scene, overrides applied to every run and a grid of overrides
 whose Cartesian product gives the runs::
@@ -15,6 +15,22 @@ whose Cartesian product gives the runs::
     [grid]                                 # each key takes a non-empty list; runs = product
     "domain.resolution" = [250, 375, 500]
     "flow.nu" = [0.005, 0.01]
+
+Beside the grid (or instead of it), a ``[sample]`` table draws the values of continuous keys
+from a design (`tiseg.apps.sweep.design`: Latin hypercube, Saltelli's Sobol' design, or uniform
+random draws; ranges uniform or log-uniform), run at every grid combination::
+
+    [sample]
+    method = "sobol"                       # "lhs", "sobol" or "random"
+    n = 64                                 # points ("sobol": base points, a power of 2)
+    seed = 1                               # the same seed draws the same design
+    "flow.nu" = {range = [0.005, 0.05], log = true}
+    "material.zeta_deg" = [26.0, 29.0]
+
+A sample's members are named ``member-0000``, ... (after the grid values, if any), so a re-run
+draws the same design, finds the same folders and reuses them. A sampled key must be a numeric
+scene key that takes any value in its range (not a whole-number, true/false or text key: those
+go in ``[grid]``), and in neither ``[set]`` nor ``[grid]``.
 
 Every run writes its own folder ``OUT/<run name>/`` (``scene.toml``, ``fields.nc``,
 ``diagnostics.csv`` as ``tiseg run`` does, ``fingers.json`` with the finger diagnostics of every
@@ -49,6 +65,12 @@ extra ``times`` (``wavelength@7.5``), and the run costs (simulation wall time, t
 operator evaluations, cells). ``OUT/sweep.json`` holds the same plus every run's full time
 series of the finger diagnostics and the sweep definition.
 
+When the members have run, ``OUT/sweep.nc`` holds the results as one CF-1.8 dataset (the grid
+keys as dimensions, the sample as a ``member`` dimension, the outputs with units, the members'
+peak fields stacked: `tiseg.apps.sweep.dataset`), and a "sobol" sample adds
+``OUT/sensitivity.csv`` and ``OUT/sensitivity.png``: first-order and total Sobol' indices of
+each output with bootstrap intervals (`tiseg.apps.sweep.sensitivity`).
+
 Ensembles: runs that differ only in ``inflow.seed`` (a grid key; see the scene's
 ``inflow.noise``) are realisations of one experiment. ``OUT/summary.csv`` has one row per
 combination of the other grid keys, with ``n`` (finished runs) and, for each metric of
@@ -75,6 +97,8 @@ from .spec import (  # noqa: F401
     PROGRESS_TOPIC,
     SUMMARY_METRICS,
     SWEEP_KEYS,
+    DEPOSIT_METRICS,
+    OUTPUTS,
     Sweep,
     SweepRun,
     TIME_METRICS,
@@ -108,13 +132,18 @@ from .runner import (  # noqa: F401
     _summary,
     check_sweep_folder,
     run_sweep,
+    write_results,
 )
+from .design import METHODS, Range, Sample, parse_sample  # noqa: F401
+from .dataset import PEAK_FIELDS, dim_name, sweep_dataset, write_dataset  # noqa: F401
+from .sensitivity import indices, sensitivity_rows, sobol_analysis  # noqa: F401
 from .table import (  # noqa: F401
     _cell,
     _csv_text,
     _csv_value,
     _parse,
     _write_outputs,
+    member_outputs,
     read_table,
     summary_columns,
     summary_groups,

@@ -27,6 +27,7 @@ from ...output.numbers import measured_all
 from ...output.manifest import record
 from ...run.run_folder import check_fresh_folder
 from ...post.analysis.fingers import ANALYSIS_VERSION, RUN_KEYS
+from ...post.analysis.deposit import DEPOSIT_KEYS
 
 log = logging.getLogger(__name__)
 
@@ -151,9 +152,15 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
 
 
 def _record_metrics(metrics: dict) -> dict:
-    """What a completion record keeps of analyse_run's result: every per-time series."""
+    """What a completion record keeps of analyse_run's result: every per-time series and the
+    deposit's numbers (run-out, thickness, ...; None where the flow did not come to rest)."""
 
-    return {"analysis_version": ANALYSIS_VERSION, **{k: metrics[k] for k in RUN_KEYS}}
+    deposit = metrics.get("deposit") or {}
+    return {
+        "analysis_version": ANALYSIS_VERSION,
+        **{k: metrics[k] for k in RUN_KEYS},
+        "deposit": {k: deposit.get(k) for k in DEPOSIT_KEYS},
+    }
 
 
 def refresh_metrics(run_dir, rec: dict) -> dict:
@@ -161,9 +168,23 @@ def refresh_metrics(run_dir, rec: dict) -> dict:
     older ones is analysed again from the run's fields.nc, and fingers.json and done.json are
     rewritten (atomically). A run whose fields cannot be read keeps its old record."""
 
-    if (rec.get("metrics") or {}).get("analysis_version") == ANALYSIS_VERSION:
-        return rec
     run_dir = Path(run_dir)
+    if (rec.get("metrics") or {}).get("analysis_version") == ANALYSIS_VERSION:
+        if "deposit" in rec["metrics"]:
+            return rec
+        # a record of before the deposit was kept: its numbers are in fingers.json
+        try:
+            stored = json.loads((run_dir / FINGERS_FILE).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return rec
+        if stored.get("analysis_version") != ANALYSIS_VERSION or "deposit" not in stored:
+            return rec
+        rec = {
+            **{k: v for k, v in rec.items() if k != "status"},
+            "metrics": _record_metrics(stored),
+        }
+        write_json_atomic(run_dir / DONE_MARKER, rec)
+        return rec
     try:
         metrics = measured_all(analyse_run(run_dir))
     except InputError as exc:

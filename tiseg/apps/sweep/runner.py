@@ -9,7 +9,7 @@ import logging
 import math
 import os
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -19,7 +19,10 @@ from ...backend import available_cores
 from ...log import stderr_line
 from .members import execute_run, read_marker, refresh_metrics, scene_fingerprint
 from .spec import PROGRESS_TOPIC, Sweep, SweepRun, _canonical
-from .table import _write_outputs
+from .table import _csv_text, _write_outputs
+from .dataset import write_dataset
+from .sensitivity import plot_sensitivity, sensitivity_columns, sensitivity_rows
+from ...output import write_text_atomic
 from ...output.diagnostics import json_clean
 from ...backend import threads_problem
 
@@ -29,6 +32,7 @@ class SweepResult:
     out: Path
     table: Path
     records: list[dict]  # one per run, grid order; status done / reused / failed / busy
+    results: list[Path] = field(default_factory=list)  # sweep.nc, sensitivity.csv and .png
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.records if r.get("status") == status)
@@ -51,12 +55,18 @@ class SweepResult:
         counts = {}
         for r in self.records:
             counts[r.get("status", "?")] = counts.get(r.get("status", "?"), 0) + 1
-        return {"out": str(self.out), "table": str(self.table), "counts": counts, "runs": runs}
+        return {
+            "out": str(self.out),
+            "table": str(self.table),
+            "results": [str(p) for p in self.results],
+            "counts": counts,
+            "runs": runs,
+        }
 
 
-SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv")
+SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv", "sweep.nc")
 # what makes two sweeps the same: the runs and what is tabulated (not the file's place or text)
-SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "times")
+SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "sample", "times")
 
 
 def check_sweep_folder(sweep: Sweep, out) -> None:
@@ -72,7 +82,8 @@ def check_sweep_folder(sweep: Sweep, out) -> None:
     hint = "choose a new --out, or pass --overwrite to replace it"
     try:
         stored = json.loads((out / "sweep.json").read_text(encoding="utf-8"))["sweep"]
-        theirs = {k: stored[k] for k in SAME_SWEEP_KEYS}
+        # "sample": absent from the sweep.json of a grid written before samples existed
+        theirs = {k: stored[k] if k != "sample" else stored.get(k) for k in SAME_SWEEP_KEYS}
     except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
         raise InputError(
             f"--out {str(out)!r} holds {', '.join(present)} that no sweep of tiseg's wrote "
@@ -165,12 +176,29 @@ def run_sweep(
     result = SweepResult(
         out, table, [records.get(r.name, {"name": r.name, "status": "missing"}) for r in sweep.runs]
     )
+    written = write_results(sweep, out, records)
+    result.results = written
     say(
         f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
         f"{result.count('failed')} failed; table {table}, ensembles "
-        f"{table.parent / 'summary.csv'}"
+        f"{table.parent / 'summary.csv'}, dataset {', '.join(str(p) for p in written)}"
     )
     return result
+
+
+def write_results(sweep: Sweep, out, records: dict) -> list[Path]:
+    """Write what is drawn from the finished members once the sweep has run: ``sweep.nc``
+    (`tiseg.apps.sweep.dataset`) and, for a "sobol" sample, ``sensitivity.csv`` and its bar
+    charts (`tiseg.apps.sweep.sensitivity`). Returns the paths written."""
+    out = Path(out)
+    paths = [write_dataset(sweep, out, records)]
+    rows = sensitivity_rows(sweep, records)
+    if rows:
+        path = out / "sensitivity.csv"
+        write_text_atomic(path, _csv_text(sensitivity_columns(sweep), rows))
+        paths.append(path)
+        paths += plot_sensitivity(sweep, rows, out)
+    return paths
 
 
 def _run_on_dask(

@@ -21,8 +21,9 @@ from ...output.paths import UNSAFE_CHARS, check_name, safe_name
 from ...setup.scene import Scene, list_builtin_scenes, load_scene
 from ...data import SWEEP_DIR, builtin_names
 from ...data import builtin_file
+from .design import Sample, member_names, parse_sample
 
-SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid")
+SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid", "sample")
 DONE_MARKER = "done.json"
 FINGERS_FILE = "fingers.json"
 PROGRESS_TOPIC = "tiseg-sweep-progress"
@@ -53,6 +54,28 @@ TIME_METRICS = (
     "x_front_min",
     "channel_speed_over_u0",
 )
+# The deposit's numbers (at the time the flow came to rest or settled; None where it did not),
+# tabulated as deposit_<key> (tiseg.post.analysis.deposit.DEPOSIT_KEYS).
+DEPOSIT_METRICS = ("run_out", "thickness_mean", "thickness_max", "stop_time")
+# The numbers of a member that sweep.nc stores and whose sensitivity a Sobol' sample reports:
+# name -> (long name, units). Final-time metrics of FINAL_METRICS, then the deposit's.
+OUTPUTS = {
+    "finger_count": ("number of fingers at the final time", "1"),
+    "wavelength": ("mean finger wavelength Lambda at the final time", "m"),
+    "wavelength_spectral": ("dominant cross-slope wavelength of phi at the final time", "m"),
+    "elongation": ("finger elongation x_l = x_f+ - x_f- (6.12) at the final time", "m"),
+    "x_front_max": ("front position x_f+ (6.10) at the final time", "m"),
+    "x_front_min": ("coarse-front position x_f- (6.11) at the final time", "m"),
+    "front_speed": ("speed of the front x_f+ at the final time", "m s-1"),
+    "max_channel_speed_over_u0": ("largest channel speed over u0 at the final time", "1"),
+    "channel_speed_over_u0": ("median channel speed over u0 at the final time", "1"),
+    "channel_phi": ("mean small-particle concentration in the channels", "1"),
+    "levee_speed_over_u0": ("median levee speed over u0 at the final time", "1"),
+    "deposit_run_out": ("run-out: x_f+ when the flow came to rest or settled", "m"),
+    "deposit_thickness_mean": ("mean deposit thickness", "m"),
+    "deposit_thickness_max": ("largest deposit thickness", "m"),
+    "deposit_stop_time": ("time the flow came to rest", "s"),
+}
 COST_COLUMNS = ("wall_s", "task_s", "steps", "rhs_evaluations", "cell_updates_per_s")
 # Ensemble statistics (summary.csv): over the runs that differ only in these grid keys.
 ENSEMBLE_KEYS = ("inflow.seed",)
@@ -74,12 +97,14 @@ log = logging.getLogger(__name__)
 # =================================================================================================
 @dataclass(frozen=True)
 class SweepRun:
-    """One member of a sweep: its folder name, its grid values and its validated scene."""
+    """One member of a sweep: its folder name, its grid (and sample) values and its validated
+    scene."""
 
     name: str
-    values: dict  # grid key -> value for this run (grid order)
+    values: dict  # grid key -> value for this run (grid order), then the sample keys
     overrides: dict  # fixed overrides and grid values, as applied to the base scene
     scene: Scene
+    member: int | None = None  # index in the sample design (None: a grid sweep)
 
     @property
     def cells(self) -> int:
@@ -103,6 +128,12 @@ class Sweep:
     grid: dict  # dotted key -> list of values
     times: tuple[float, ...]
     runs: tuple[SweepRun, ...]
+    sample: Sample | None = None  # the [sample] design (None: a grid only)
+
+    @property
+    def axes(self) -> list[str]:
+        """The keys that vary between runs: the grid's, then the sample's."""
+        return [*self.grid, *(self.sample.keys if self.sample else [])]
 
     def to_dict(self) -> dict:
         """The definition as plain data (for sweep.json)."""
@@ -113,6 +144,7 @@ class Sweep:
             "scene": self.scene,
             "set": self.fixed,
             "grid": self.grid,
+            "sample": None if self.sample is None else self.sample.to_dict(),
             "times": list(self.times),
             "runs": [r.name for r in self.runs],
         }
@@ -227,7 +259,16 @@ def sweep_from_dict(
             fail(f"grid key {key!r} lists the value {_show(dup)} more than once")
         if key in fixed:
             fail(f"{key!r} is both in [set] and in [grid]; give it in one of them")
-    n_runs = math.prod(len(v) for v in grid.values())
+    sample = None
+    if "sample" in data:
+        sample = parse_sample(data["sample"], fail)
+        for key in sample.keys:
+            if key in grid:
+                fail(f"{key!r} is both in [grid] and in [sample]; give it in one of them")
+            if key in fixed:
+                fail(f"{key!r} is both in [set] and in [sample]; give it in one of them")
+        _check_sample_keys(scene_ref, fixed, sample, fail)
+    n_runs = math.prod(len(v) for v in grid.values()) * (sample.size if sample else 1)
     if n_runs > MAX_RUNS:
         fail(f"the grid multiplies out to {n_runs} runs; at most {MAX_RUNS} are allowed")
 
@@ -243,8 +284,16 @@ def sweep_from_dict(
     keys = list(grid)
     combos = [dict(zip(keys, vals)) for vals in itertools.product(*(grid[k] for k in keys))]
     names = _run_names(combos)
+    members: list[tuple[str, dict, int | None]] = [(n, c, None) for n, c in zip(names, combos)]
+    if sample is not None:
+        points = sample.points()
+        members = [
+            (m, {**c, **p}, i)
+            for n, c in zip(names, combos)
+            for i, (m, p) in enumerate(zip(member_names(n, len(points)), points))
+        ]
     runs = []
-    for run_name, values in zip(names, combos):
+    for run_name, values, member in members:
         overrides = {**fixed, **values}
         label = f"run {run_name!r}" if values else "the base run"
         try:
@@ -263,7 +312,7 @@ def sweep_from_dict(
                     f"{label}: times lists {t:g} s, which is not an output time of the scene; "
                     f"add it to output.times in [set]"
                 )
-        runs.append(SweepRun(run_name, values, overrides, scene))
+        runs.append(SweepRun(run_name, values, overrides, scene, member))
     return Sweep(
         name=name,
         description=description,
@@ -273,7 +322,61 @@ def sweep_from_dict(
         grid=grid,
         times=times,
         runs=tuple(runs),
+        sample=sample,
     )
+
+
+def _check_sample_keys(scene_ref: str, fixed: dict, sample: Sample, fail) -> None:
+    """Each sampled key must be a scene key that takes any number in its range: a float
+    (not a whole-number, true/false, text or list key). One line naming the key otherwise."""
+    # the base scene, else (a key the scene needs, such as flow.u0 for some friction laws)
+    # the scene at the ranges' lower ends
+    problem = None
+    for extra in ({}, {r.key: r.lo for r in sample.ranges}):
+        try:
+            base = load_scene(scene_ref, {**fixed, **extra})
+        except InputError as exc:
+            problem = problem or str(exc)
+        else:
+            break
+    else:
+        fail(f"the base run: {problem}")
+    flat: dict[str, Any] = {}
+
+    def walk(node, prefix):
+        for k, v in node.items():
+            key = f"{prefix}.{k}" if prefix else k
+            if isinstance(v, Mapping):
+                walk(v, key)
+            else:
+                flat[key] = v
+
+    walk(base.to_dict(), "")
+    for r in sample.ranges:
+        if r.key in flat:
+            v = flat[r.key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                kind = "true/false" if isinstance(v, bool) else type(v).__name__
+                fail(
+                    f"[sample] {r.key!r} is a {kind} scene key (now {_show(v)}); only numeric "
+                    f"keys can be sampled: list its values in [grid]"
+                )
+            if isinstance(v, int):
+                fail(
+                    f"[sample] {r.key!r} takes whole numbers (now {v}); a sample draws any "
+                    f"number in its range: list its values in [grid]"
+                )
+            continue
+        # a key without a value in the base scene (an optional one): try both ends
+        for end in (r.lo, r.hi):
+            try:
+                load_scene(scene_ref, {**fixed, r.key: end})
+            except InputError as exc:
+                problem = str(exc)
+            else:
+                problem = None
+            if problem is not None:
+                fail(f"[sample] {r.key!r} = {end:g}: {problem}")
 
 
 def _resolve_scene_ref(ref: str, base_dir) -> str:

@@ -11,7 +11,9 @@ from pathlib import Path
 from typing import Any, Mapping
 from .spec import (
     COST_COLUMNS,
+    DEPOSIT_METRICS,
     ENSEMBLE_KEYS,
+    OUTPUTS,
     FINAL_METRICS,
     SUMMARY_METRICS,
     Sweep,
@@ -25,7 +27,20 @@ from ...output.numbers import measured_text
 
 
 def table_columns(sweep: Sweep) -> list[str]:
-    cols = ["run", *sweep.grid, "status", "nx", "ny", "cells", "dx", "t_final", *FINAL_METRICS]
+    member = ["member", "block"] if sweep.sample is not None else []
+    cols = [
+        "run",
+        *member,
+        *sweep.axes,
+        "status",
+        "nx",
+        "ny",
+        "cells",
+        "dx",
+        "t_final",
+        *FINAL_METRICS,
+    ]
+    cols += [f"deposit_{k}" for k in DEPOSIT_METRICS]
     for t in sweep.times:
         cols += [f"{m}@{t:g}" for m in TIME_METRICS]
     return cols + [*COST_COLUMNS, "dir", "error"]
@@ -39,6 +54,8 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
         row: dict[str, Any] = {
             "run": run.name,
             **{k: _cell(v) for k, v in run.values.items()},
+            "member": run.member,
+            "block": None if sweep.sample is None else sweep.sample.block(run.member),
             "status": "pending" if rec is None else rec.get("status"),
             "nx": run.scene.domain.nx,
             "ny": run.scene.domain.ny,
@@ -53,6 +70,8 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
                 row["t_final"] = times[-1]
                 for k in FINAL_METRICS:
                     row[k] = (m.get(k) or [None])[-1]
+            for k in DEPOSIT_METRICS:
+                row[f"deposit_{k}"] = (m.get("deposit") or {}).get(k)
             for t in sweep.times:
                 i = time_index(times, t)
                 for k in TIME_METRICS:
@@ -63,6 +82,21 @@ def table_rows(sweep: Sweep, records: Mapping[str, dict]) -> list[dict]:
             row["error"] = rec.get("error")
         rows.append(row)
     return rows
+
+
+def member_outputs(rec: Mapping | None) -> dict:
+    """The numbers of `OUTPUTS` of one member's completion record (None where undefined, and
+    all None for a member that has not finished)."""
+    out = dict.fromkeys(OUTPUTS)
+    if rec is None or rec.get("status") not in ("done", "reused"):
+        return out
+    m = rec.get("metrics") or {}
+    deposit = m.get("deposit") or {}
+    for k in OUTPUTS:
+        v = deposit.get(k[8:]) if k.startswith("deposit_") else (m.get(k) or [None])[-1]
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
+            out[k] = float(v)
+    return out
 
 
 def summary_groups(sweep: Sweep) -> tuple[list[str], list[tuple[dict, list[SweepRun]]]]:
