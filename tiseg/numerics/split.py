@@ -55,29 +55,47 @@ class SplitSweeps:
     ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
     which only a split scene allocates)."""
 
-    def sweep(self, d: int, t: float, dt: float) -> None:
+    def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
         """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
-        update of the active range in place, its boundary fluxes into slot 0's budget."""
+        update of the active range in place, its boundary fluxes into slot 0's budget.
+        ``first``, ``last``: the sweep opens or closes its step (both in 1D). With the
+        projected friction the first sweep takes the step's rest mask and initial speeds,
+        and the last one projects the friction of the whole step."""
         self._set_time(t)
         if d == 0 and self.bc[0] == "periodic":
             # the ghosts' draining factors are copied from the edge cells, which the factor
             # pass computes only on the active range (the simulation keeps it whole then)
             assert self.active == (self.gx, self.gx + self.nx), "periodic x: whole range"
+        fr = self.phys.fr_projected
+        if fr and first:
+            self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
         key = (0, t, self.active)
         # what the last preparation left valid in w: everything (a stability pass at t on
         # slot 0), the interior (the last sweep), or nothing
         fresh = 2 if self._prepared == key else (1 if self._interior == (0, self.active) else 0)
         lam = dt / (self.cfg.dx if d == 0 else self.cfg.dy)
-        self._sweep(d, fresh, lam, dt, self.serial_loops())
+        # compile-time flags only where they change the code: with the projected friction
+        first, last = bool(fr and first), bool(fr and last)
+        hold = self._first_of_step(True) if last else False
+        self._sweep(d, fresh, lam, dt, first, last, hold, self.serial_loops())
         self._written(0, primitives=True)
 
     @ti.kernel
     def _sweep(
-        self, d: ti.template(), fresh: ti.template(), lam: float, dt: float, serial: ti.template()
+        self,
+        d: ti.template(),
+        fresh: ti.template(),
+        lam: float,
+        dt: float,
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
     ):
         """Sweep along d in one launch (top-level loops run in order): ghosts and primitives
         as far as ``fresh`` says they are stale, the predicted edges, the face fluxes, the
-        draining factors, the update with its budget."""
+        draining factors, the update with its budget (with the friction projection of the
+        step if ``last``; ``hold``: a law with hysteresis decides which cells it holds)."""
         if ti.static(fresh < 2):
             self._ghosts(0)
             if ti.static(fresh == 1):
@@ -87,7 +105,7 @@ class SplitSweeps:
         self._predict(d, lam, dt, serial)
         self._sweep_faces(d, serial)
         self._drain_factors(d, lam, serial)
-        self._sweep_update(d, lam, dt, serial)
+        self._sweep_update(d, lam, dt, first, last, hold, serial)
 
     # -------------------------------------------------------------- index helpers
     @ti.func
@@ -135,6 +153,12 @@ class SplitSweeps:
             if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
                 pW = qW
                 pE = qE
+            elif ti.static(d == 0 and ph.fr_projected):
+                # the friction of the half step with the gravity it balances: the projection
+                # of each edge over dt/2 at the cell's speed (Physics.project_friction)
+                spd = ph.speed_mag(w0)
+                pW = ph.project_friction(pW, 0.5 * dt, spd)
+                pE = ph.project_friction(pE, 0.5 * dt, spd)
             self.ew[i, j] = self._fast_primitive(pW)
             self.ee[i, j] = self._fast_primitive(pE)
 
@@ -198,7 +222,11 @@ class SplitSweeps:
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.fp, self.nc)
             if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
-                F = self._face_flux(self.ee[i, j], self.ew[i1, j1], d)
+                wl = self.ee[i, j]
+                wr = self.ew[i1, j1]
+                F = self._face_flux(wl, wr, d)
+                # the projected friction's face rules, from the step's rest mask
+                F = self._rest_face(F, wl, wr, d, i, j, i1, j1)
             if ti.static(d == 0):
                 self.fx[i, j] = F
             else:
@@ -306,10 +334,22 @@ class SplitSweeps:
         return out
 
     @ti.func
-    def _sweep_update(self, d: ti.template(), lam, dt, serial: ti.template()):
+    def _sweep_update(
+        self,
+        d: ti.template(),
+        lam,
+        dt,
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
+    ):
         """q := q - lambda (F_{m+1/2} - F_{m-1/2}) with the fluxes scaled by the draining
         factors (+ the gravity source in the x sweep), limited, with its primitives into w;
-        then the boundary fluxes of the sweep times dt into slot 0's budget."""
+        then the boundary fluxes of the sweep times dt into slot 0's budget. With the
+        projected friction: the first sweep of a step keeps the initial speeds (2D), the
+        last one projects the friction over the whole step at those speeds (RestRules._project,
+        where ``hold`` lets a law with hysteresis hold the cells at rest)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         ti.loop_config(serialize=serial)
@@ -326,6 +366,16 @@ class SplitSweeps:
                 # by the trapezoidal rule between the cell's h before and after the fluxes
                 upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
             acc = self._limit(q0 + upd)
+            if ti.static(first or last):
+                spd0 = 0.0 * dt
+                if ti.static(first):
+                    spd0 = self.phys.speed_mag(self.w[i, j])  # (w: the step's initial state)
+                    if ti.static(not last):
+                        self.spd0[i, j] = spd0
+                else:
+                    spd0 = self.spd0[i, j]
+                if ti.static(last):
+                    acc = self._project(acc, dt, i, j, hold, spd0)
             self.w[i, j] = self._fast_primitive(acc)
             self.q[0, i, j] = acc
         # the budget: what entered through the domain's faces along d (as _boundary_rates;
