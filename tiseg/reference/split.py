@@ -32,6 +32,8 @@ def hancock_sweep(
     drain: bool = True,
     fallback: bool = True,
     limit: bool = True,
+    start: np.ndarray | None = None,
+    last: bool = True,
 ) -> dict:
     """Advance q (nc, NX, NY), ghost cells included, by one sweep along d (0 = x, 1 = y) over
     dt, in place, with the ghost cells at time t. Returns what entered through the domain's
@@ -39,7 +41,11 @@ def hancock_sweep(
     spacing in 1D, as the operator's budget).
 
     ``drain``, ``fallback``, ``limit``: the draining-time scaling, the predictor's dry-edge
-    fallback and the stage limiter, each switchable for tests that show what it prevents."""
+    fallback and the stage limiter, each switchable for tests that show what it prevents.
+    With the projected friction: ``start``, the primitives of the step's initial state (its
+    rest mask and speeds; by default q's own, as in a step's first sweep), and ``last``, the
+    sweep closes the step and projects the friction of the whole step (:func:`hancock_step`
+    runs a step of sweeps)."""
     c, lay = ref.cfg, ref.lay
     axis = d + 1
     n = q.shape[axis]
@@ -51,6 +57,8 @@ def hancock_sweep(
 
     ref.fill_ghosts(q, t)
     w = split_primitives(ref, q)
+    if start is None:
+        start = w
     lam = dt / (c.dx if d == 0 else c.dy)
     s = ref.slopes(w, axis)
     wW, wE = w - 0.5 * s, w + 0.5 * s
@@ -72,11 +80,22 @@ def hancock_sweep(
     pW, pE = qW - shift, qE - shift
     bad = ((pW[0] < 0.0) | (pE[0] < 0.0))[None] & fallback  # the predictor would empty an edge
     bad = bad | keep[None]
+    if d == 0 and ref.projected:
+        # the half step's friction on the evolved edges, at the cell's speed
+        spd = ref._magnitude(w)
+        pW, pE = pW.copy(), pE.copy()
+        project(ref, pW, 0.5 * dt, spd)
+        project(ref, pE, 0.5 * dt, spd)
     eW = split_primitives(ref, np.where(bad, qW, pW))
     eE = split_primitives(ref, np.where(bad, qE, pE))
     # the face (m, m + 1) at index m; zero between films thinner than h_min
     H = np.zeros_like(q)
-    H[sl(0, n - 1)] = ref.numerical_flux(eE[sl(0, n - 1)], eW[sl(1, n)], d)
+    wl, wr = eE[sl(0, n - 1)], eW[sl(1, n)]
+    H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d)
+    if ref.projected:  # the face rules of the step's rest mask
+        Hf = H[sl(0, n - 1)]
+        ref.rest_faces(Hf, wl, wr, start, d, sl(0, n - 1)[1:], sl(1, n)[1:])
+        H[sl(0, n - 1)] = Hf
     h = w[0]
     dry = np.zeros(h.shape, dtype=bool)
     dry[sl(0, n - 1)[1:]] = np.maximum(h[sl(0, n - 1)[1:]], h[sl(1, n)[1:]]) < c.h_min
@@ -122,6 +141,15 @@ def hancock_sweep(
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
+    if last and ref.projected:  # the friction of the whole step, at its initial speeds
+        inner_q = q[:, ix, iy]
+        still = start[lay.HU] == 0
+        if not lay.is_1d:
+            still = still & (start[lay.HV] == 0)
+        at_rest = still[ix, iy]
+        held = ref.holds(inner_q, dt, at_rest)
+        project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
+        q[:, ix, iy] = inner_q
     # boundary amounts: the scaled fluxes through the domain's two faces along d
     lo = Hs[sl(g - 1, g)]
     hi = Hs[sl(g + m - 1, g + m)]
@@ -131,3 +159,36 @@ def hancock_sweep(
     mass = float(dt * net[lay.H].sum() * ds)
     small = float(dt * net[lay.HPHI].sum() * ds) if lay.segregation else 0.0
     return {"mass": mass, "small_mass": small}
+
+
+def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) -> None:
+    """Physics.project_friction over tau, in place on conserved states q, with the friction
+    coefficient at the speeds spd0 (ReferenceOperator.project_friction, which takes them
+    from a state); ``held``: cells a law with hysteresis holds at rest."""
+    c, lay = ref.cfg, ref.lay
+    if tau <= 0:
+        return
+    wet, hs, phi = ref._friction_cells(q)
+    m = ref._magnitude(q)
+    imp = tau * c.g_cos * ref.mu_b(hs, spd0, phi) * hs
+    f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
+    f = np.where(wet, f, 1.0)
+    if held is not None:
+        f = np.where(held, 0.0, f)
+    q[lay.HU] *= f
+    if not lay.is_1d:
+        q[lay.HV] *= f
+
+
+def hancock_step(ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs) -> dict:
+    """One step of the split scheme (tiseg.timestepping.split.Hancock): the sweeps along
+    ``dirs`` in order, the first taking the step's initial state (rest mask and speeds of
+    the projected friction), the last projecting the friction. Returns the summed budget."""
+    ref.fill_ghosts(q, t)
+    start = split_primitives(ref, q)
+    out = {"mass": 0.0, "small_mass": 0.0}
+    for k, d in enumerate(dirs):
+        b = hancock_sweep(ref, q, t, dt, d, start=start, last=k == len(dirs) - 1)
+        out["mass"] += b["mass"]
+        out["small_mass"] += b["small_mass"]
+    return out
