@@ -47,6 +47,7 @@ Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sw
 import taichi as ti
 
 from ..physics.pointwise import Params
+from .rest import REST
 
 
 @ti.data_oriented
@@ -224,6 +225,15 @@ class SplitSweeps:
             if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
                 wl = self.ee[i, j]
                 wr = self.ew[i1, j1]
+                if ti.static(self.phys.fr_projected):
+                    if self._both_at_rest(i, j, i1, j1):
+                        # two cells at rest at the step's start meet with no velocity: the
+                        # momentum a sweep gave them is not yet frictioned, and the flux's
+                        # dissipation would trade it between them (the friction's hold must
+                        # see the driving of the step's initial state, as the unsplit
+                        # scheme's first stage does)
+                        wl = self._still(wl)
+                        wr = self._still(wr)
                 F = self._face_flux(wl, wr, d)
                 # the projected friction's face rules, from the step's rest mask
                 F = self._rest_face(F, wl, wr, d, i, j, i1, j1)
@@ -231,6 +241,21 @@ class SplitSweeps:
                 self.fx[i, j] = F
             else:
                 self.fy[i, j] = F
+
+    @ti.func
+    def _both_at_rest(self, i, j, i1, j1):
+        """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
+        r = ti.cast(self.rest[i, j], ti.i32) & ti.cast(self.rest[i1, j1], ti.i32)
+        return (r & REST) != 0
+
+    @ti.func
+    def _still(self, w):
+        """The primitive state w with its velocities zero."""
+        out = w
+        out[1] = 0.0
+        if ti.static(not self.is_1d):
+            out[self.HV] = 0.0
+        return out
 
     @ti.func
     def _across(self, d: ti.template()):

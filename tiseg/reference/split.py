@@ -91,6 +91,17 @@ def hancock_sweep(
     # the face (m, m + 1) at index m; zero between films thinner than h_min
     H = np.zeros_like(q)
     wl, wr = eE[sl(0, n - 1)], eW[sl(1, n)]
+    if ref.projected:  # two cells at rest at the step's start meet with no velocity
+        still = start[lay.HU] == 0
+        if not lay.is_1d:
+            still = still & (start[lay.HV] == 0)
+        both = (still[sl(0, n - 1)[1:]] & still[sl(1, n)[1:]])[None]
+        moving = np.zeros(lay.nc, dtype=bool)
+        moving[lay.HU] = True
+        if not lay.is_1d:
+            moving[lay.HV] = True
+        zero = both & moving[:, None, None]
+        wl, wr = np.where(zero, 0.0, wl), np.where(zero, 0.0, wr)
     H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d)
     if ref.projected:  # the face rules of the step's rest mask
         Hf = H[sl(0, n - 1)]
@@ -143,9 +154,6 @@ def hancock_sweep(
         ref.postprocess(q)
     if last and ref.projected:  # the friction of the whole step, at its initial speeds
         inner_q = q[:, ix, iy]
-        still = start[lay.HU] == 0
-        if not lay.is_1d:
-            still = still & (start[lay.HV] == 0)
         at_rest = still[ix, iy]
         held = ref.holds(inner_q, dt, at_rest)
         project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
