@@ -92,8 +92,10 @@ def main():
             runs.append(_run(a.scene, a.resolution, a.t_end, st))
     coarse = _run(a.scene, a.resolution / 2, a.t_end, "rkc")
     print(f"{a.scene}, {a.resolution:g} cells/m, to {a.t_end:g} s, {a.threads} thread(s)")
-    print("| stepper | wall [s] | steps | evaluations or sweeps | cell updates/s | run-out [m]"
-          " | h_max [mm] | at rest |")
+    print(
+        "| stepper | wall [s] | steps | evaluations or sweeps | cell updates/s | run-out [m]"
+        " | h_max [mm] | at rest |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for r in runs + [coarse]:
         print(

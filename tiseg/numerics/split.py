@@ -57,12 +57,12 @@ class SplitSweeps:
     which only a split scene allocates)."""
 
     def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
-        """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
-        update of the active range in place, its boundary fluxes into slot 0's budget.
+        """One sweep along d (0 = x, 1 = y) of slot 0 over dt from time t: ghost cells (an
+        inflow's at t + dt/2), the update of the active range in place, its boundary fluxes
+        into slot 0's budget.
         ``first``, ``last``: the sweep opens or closes its step (both in 1D). With the
         projected friction the first sweep takes the step's rest mask and initial speeds,
         and the last one projects the friction of the whole step."""
-        self._set_time(t)
         if d == 0 and self.bc[0] == "periodic":
             # the ghosts' draining factors are copied from the edge cells, which the factor
             # pass computes only on the active range (the simulation keeps it whole then)
@@ -70,10 +70,19 @@ class SplitSweeps:
         fr = self.phys.fr_projected
         if fr and first:
             self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
-        key = (0, t, self.active)
-        # what the last preparation left valid in w: everything (a stability pass at t on
-        # slot 0), the interior (the last sweep), or nothing
-        fresh = 2 if self._prepared == key else (1 if self._interior == (0, self.active) else 0)
+        # an inflow's ghost cells hold its state at mid-step, the time of the predicted edges
+        # they face (the ramp of (6.8) to second order; a step that begins when the inflow
+        # stops sees a wall); other ghost cells do not depend on the time
+        tg = t + 0.5 * dt if self.bc[0] == "inflow" else t
+        self._set_time(tg)
+        key = (0, tg, self.active)
+        # what the last preparation left valid in w: everything (a stability pass at tg on
+        # slot 0), the interior (the last sweep, or a stability pass at another time), or
+        # nothing
+        interior = self._interior == (0, self.active) or (
+            self._prepared is not None and self._prepared[::2] == key[::2]
+        )
+        fresh = 2 if self._prepared == key else (1 if interior else 0)
         lam = dt / (self.cfg.dx if d == 0 else self.cfg.dy)
         # compile-time flags only where they change the code: with the projected friction
         first, last = bool(fr and first), bool(fr and last)

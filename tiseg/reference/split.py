@@ -36,7 +36,7 @@ def hancock_sweep(
     last: bool = True,
 ) -> dict:
     """Advance q (nc, NX, NY), ghost cells included, by one sweep along d (0 = x, 1 = y) over
-    dt, in place, with the ghost cells at time t. Returns what entered through the domain's
+    dt from time t, in place, with the ghost cells at time t (an inflow's at t + dt/2). Returns what entered through the domain's
     faces along d over the sweep: {"mass": ..., "small_mass": ...} [m^3] (per unit of y
     spacing in 1D, as the operator's budget).
 
@@ -55,10 +55,13 @@ def hancock_sweep(
         idx[axis] = slice(a, b)
         return tuple(idx)
 
+    if start is None:
+        ref.fill_ghosts(q, t)
+        start = split_primitives(ref, q)
+    # an inflow's ghost cells at mid-step (SplitSweeps.sweep)
+    t = t + 0.5 * dt if c.bc[0] == "inflow" else t
     ref.fill_ghosts(q, t)
     w = split_primitives(ref, q)
-    if start is None:
-        start = w
     lam = dt / (c.dx if d == 0 else c.dy)
     s = ref.slopes(w, axis)
     wW, wE = w - 0.5 * s, w + 0.5 * s
