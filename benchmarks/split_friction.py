@@ -2,7 +2,7 @@
 friction and segregation, side by side in one process.
 
     python benchmarks/split_friction.py [--scene finite-release-deposit] [--resolution 100]
-        [--t-end 20] [--repeat 2] [--threads 1]
+        [--t-end 7.5] [--repeat 2] [--threads 1]
 
 Both runs have the viscosity off (the split sweeps take none); everything else is the
 scene's: the extended friction law as the projection, segregation with mobility feedback, the
@@ -11,8 +11,10 @@ the machine's load falls on both. A third run, unsplit at half the resolution, g
 scale of the discretisation error the distance between the two answers is measured against.
 
 Prints one row per run (wall time, steps, operator evaluations or sweeps, cell updates per
-second) and the answers: run-out (furthest wet cell), largest thickness, whether the
-material is at rest at the end, and the L1 distance of the thickness fields.
+second) and the answers: the front (furthest wet cell), largest thickness, whether the
+material is at rest at the end, the masses, and the L1 distance of the downslope profiles of
+the thickness averaged across the slope. (Without viscosity the release does not stop within
+the scene's 1.5 m: the comparison is of the flow, before it reaches the end.)
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ def _run(scene_name, resolution, t_end, stepper):
         "h_max": float(f["h"].max()),
         "at_rest": bool(np.all(f["u"] == 0) and np.all(f["v"] == 0)),
         "mass": sim.totals()["mass"],
+        "small": sim.totals()["small_mass"],
         "h": f["h"],
         "dx": sim.scene.dx,
         "dy": sim.scene.dy,
@@ -65,21 +68,21 @@ def _run(scene_name, resolution, t_end, stepper):
 
 
 def _l1(a, b, coarse=False):
-    """Relative L1 distance of two thickness fields (b averaged 2x2 onto a's grid if coarse)."""
-    ha, hb = a["h"], b["h"]
+    """Relative L1 distance of two downslope profiles of the thickness averaged across the
+    slope (which the phase of fingers, set by round-off, does not move); b averaged 2 by 2
+    onto a's cells if coarse."""
+    pa, pb = a["h"].mean(axis=0), b["h"].mean(axis=0)
     if coarse:
-        ny, nx = ha.shape
-        ny, nx = min(ny, hb.shape[0] // 2), min(nx, hb.shape[1] // 2)
-        ha = ha[:ny, :nx]
-        hb = hb[: 2 * ny, : 2 * nx].reshape(ny, 2, nx, 2).mean(axis=(1, 3))
-    return float(np.abs(ha - hb).sum() / np.abs(hb).sum())
+        n = min(len(pa), len(pb) // 2)
+        pa, pb = pa[:n], pb[: 2 * n].reshape(n, 2).mean(axis=1)
+    return float(np.abs(pa - pb).sum() / np.abs(pb).sum())
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="finite-release-deposit")
     ap.add_argument("--resolution", type=float, default=100.0)
-    ap.add_argument("--t-end", type=float, default=20.0)
+    ap.add_argument("--t-end", type=float, default=7.5)
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--threads", type=int, default=1)
     a = ap.parse_args()
@@ -107,14 +110,17 @@ def main():
     s = [r for r in runs if r["stepper"] == "hancock"]
     wu, ws = min(r["wall"] for r in u), min(r["wall"] for r in s)
     print(f"\nbest wall: unsplit {wu:.1f} s, split {ws:.1f} s: split/unsplit = {ws / wu:.2f}")
-    print(f"L1(h) split vs unsplit: {_l1(s[0], u[0]):.3g}")
-    print(f"L1(h) unsplit at half resolution vs unsplit: {_l1(coarse, u[0], coarse=True):.3g}")
-    print(f"L1(h) split vs unsplit, both at half resolution scale: {_l1(coarse, s[0], True):.3g}")
+    print(f"L1(mean h) split vs unsplit: {_l1(s[0], u[0]):.3g}")
+    print(f"L1(mean h) unsplit at half resolution vs unsplit: {_l1(coarse, u[0], True):.3g}")
     print(
-        f"run-out difference: {s[0]['run_out'] - u[0]['run_out']:+.4f} m "
+        f"front difference: {s[0]['run_out'] - u[0]['run_out']:+.4f} m "
         f"(half resolution: {coarse['run_out'] - u[0]['run_out']:+.4f} m; dx = {u[0]['dx']:.4f})"
     )
-    print(f"mass: unsplit {u[0]['mass']:.6e}, split {s[0]['mass']:.6e}")
+    print(
+        f"mass: unsplit {u[0]['mass']:.6e}, split {s[0]['mass']:.6e}, "
+        f"half resolution {coarse['mass']:.6e}; small: unsplit {u[0]['small']:.6e}, "
+        f"split {s[0]['small']:.6e}"
+    )
 
 
 if __name__ == "__main__":
