@@ -2,7 +2,7 @@
 friction and segregation, side by side in one process.
 
     python benchmarks/split_friction.py [--scene finite-release-deposit] [--resolution 100]
-        [--t-end 7.5] [--repeat 2] [--threads 1]
+        [--t-end 5] [--repeat 2] [--threads 1]
 
 Both runs have the viscosity off (the split sweeps take none); everything else is the
 scene's: the extended friction law as the projection, segregation with mobility feedback, the
@@ -11,10 +11,12 @@ the machine's load falls on both. A third run, unsplit at half the resolution, g
 scale of the discretisation error the distance between the two answers is measured against.
 
 Prints one row per run (wall time, steps, operator evaluations or sweeps, cell updates per
-second) and the answers: the front (furthest wet cell), largest thickness, whether the
-material is at rest at the end, the masses, and the L1 distance of the downslope profiles of
-the thickness averaged across the slope. (Without viscosity the release does not stop within
-the scene's 1.5 m: the comparison is of the flow, before it reaches the end.)
+second) and the answers: the front (the furthest cell where the thickness averaged across the
+slope is 0.5 mm), the largest thickness, whether the material is at rest at the end, the
+masses, and the L1 distance of the downslope profiles of the thickness averaged across the
+slope. (Without viscosity the release does not stop within the scene's 1.5 m, and after
+about 5 s fast channels run ahead, differently for every change of the scheme or the grid:
+the default end time compares the flow before that.)
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ def _run(scene_name, resolution, t_end, stepper):
     wall = time.perf_counter() - w0
     f = sim.fields()
     x, _ = sim.scene.domain.cell_centres()
-    wet = f["h"] >= sim.cfg.h_min
+    front = f["h"].mean(axis=0) >= 5e-4  # the front: 0.5 mm of thickness averaged across
     cells = sim.layout.nx * sim.layout.ny
     stages = sim.stats.stages - stages0
     return {
@@ -56,7 +58,7 @@ def _run(scene_name, resolution, t_end, stepper):
         "steps": sim.stats.steps - steps0,
         "stages": stages,
         "updates_per_s": cells * stages / wall,
-        "run_out": float(x[wet.any(axis=0)].max()) if wet.any() else float("nan"),
+        "run_out": float(x[front].max()) if front.any() else float("nan"),
         "h_max": float(f["h"].max()),
         "at_rest": bool(np.all(f["u"] == 0) and np.all(f["v"] == 0)),
         "mass": sim.totals()["mass"],
@@ -82,7 +84,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="finite-release-deposit")
     ap.add_argument("--resolution", type=float, default=100.0)
-    ap.add_argument("--t-end", type=float, default=7.5)
+    ap.add_argument("--t-end", type=float, default=5.0)
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--threads", type=int, default=1)
     a = ap.parse_args()

@@ -28,8 +28,8 @@ the state a whole step along one direction from a single flux evaluation. Along 
    scene requires with segregation here, makes the three fluxes of a face run the same way,
    so the factor of the cell the mass leaves is the one all three need);
 5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S, the source (gravity along the slope,
-   g sin(zeta) h, the only one without friction) in the x sweep only, by the trapezoidal rule
-   between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
+   g sin(zeta) h; the friction is projected, below) in the x sweep only, by the trapezoidal
+   rule between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
    momentum in films thinner than h_min).
 
 The sweeps alternate their order from step to step (x then y, then y then x), which makes the
@@ -38,10 +38,30 @@ stable for Courant numbers up to 1 (``numerics.cfl``, with step_rule "max": dt =
 dy/a_y)), against 1/2 for a_x dt/dx + a_y dt/dy of the unsplit scheme's Euler steps. A sweep
 costs about 0.7 of an evaluation of the operator (benchmarks/README.md section 7).
 
-What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
-stability of RKC or the friction projection within stages; a scene with either must use the
-Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sweep is
-:func:`tiseg.reference.split.hancock_sweep`.
+The basal friction (6.4) is the projected one (Physics.project_friction; numerics.friction_scheme
+"projected"), in three places:
+
+* the x predictor projects each evolved edge over dt/2 at its cell's speed, so that the
+  half-step edges see the friction with the gravity it balances;
+* the first sweep of a step takes the step's rest mask (RestRules._mark_rest): no mass or
+  h phi crosses a face between two cells at rest at the step's start, and such a face's flux
+  is computed with both edges' velocities zero (the momentum a sweep gives a resting cell is
+  not yet frictioned, and the flux's dissipation would trade it between the next sweep's
+  cells); the flux floor of a cell moving into a slower one applies as in the unsplit scheme;
+* the last sweep projects the friction of the whole step, over dt, at each cell's speed at
+  the step's start (RestRules._project). The hold then sees the whole step's driving
+  (gravity, pressure along x and along y), and the steady uniform flow (4.3) is kept to
+  round-off whichever sweep comes first. A projection after each sweep would see one
+  direction's driving at a time and could release in y a cell held in x.
+
+Segregation and the mobility feedback need nothing more: the h phi flux is upwinded by the
+mass flux, and the mixture law weights with the cell's phi inside the projection. An inflow's
+ghost cells hold its state at mid-step (t + dt/2), the time of the edges they face.
+
+What it leaves out: the viscosity, whose stiffness needs RKC; a scene with it must use the
+Runge-Kutta steppers (the scene says so when it is read), as one with the regularised
+friction must. The NumPy twins are :func:`tiseg.reference.split.hancock_sweep` and
+:func:`tiseg.reference.split.hancock_step`.
 """
 
 import taichi as ti
