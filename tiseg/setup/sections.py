@@ -499,7 +499,7 @@ class NumericsConfig:
         default="rkc",
         metadata=key(
             'Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler, or "hancock": '
-            "dimensionally split MUSCL-Hancock sweeps (no viscosity, no friction)",
+            "dimensionally split MUSCL-Hancock sweeps (no viscosity; projected friction)",
             choices=lambda: tuple(_STEPPERS),
             compiled="simulation",
         ),
