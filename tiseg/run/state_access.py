@@ -17,7 +17,8 @@ class StateAccess:
     def set_state(self, h, u=None, v=None, phi=None) -> None:
         """Replace the state by primitive fields shaped (ny, nx) as `state` returns them
         (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
-        afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
+        afresh from this state (its mass is the new initial mass, the boundary budget 0), and
+        so do the peak fields (tiseg.run.peaks: arrival at the current time where it is wet)."""
         lay = self.layout
         shape = (lay.ny, lay.nx)
 
@@ -54,6 +55,8 @@ class StateAccess:
         self.op.reset_budget()
         self.initial_totals = self.totals()
         self.guard.keep(self.checkpoint_meta())
+        if self.peaks is not None:
+            self.peaks.start(self.t)
 
     def state(self) -> dict[str, np.ndarray]:
         """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as `fields`)."""
