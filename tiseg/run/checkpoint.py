@@ -119,7 +119,8 @@ def state_arrays(
     op = sim.op
     meta = dict(meta) if meta is not None else sim.checkpoint_meta()
     # the rest mask belongs to the current state only
-    rest = op.rest_state() if q is None else None
+    own = q is None
+    rest = op.rest_state() if own else None
     q = op.get(0) if q is None else q
     budget = op.budget(0) if budget is None else budget
     d = {
@@ -144,8 +145,8 @@ def state_arrays(
     }
     if rest is not None:
         d.update(rest)
-        if sim.peaks is not None:  # (they too belong to the current state only)
-            d.update(sim.peaks.state())
+    if own and sim.peaks is not None:  # (they too belong to the current state only)
+        d.update(sim.peaks.state())
     for k, v in extra.items():
         d[k] = np.asarray(v)
     return d
@@ -238,6 +239,8 @@ def validate(ck: dict, scene, path="checkpoint") -> None:
         raise CheckpointError(f"{path}: initial must hold the two initial masses")
     for k in ("q", "budget", "initial"):
         a = np.asarray(ck[k])
+        if k == "initial" and not scene.segregation:
+            a = a[:1]  # no small particles: their initial mass is NaN (StateAccess.totals)
         if a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):
             raise CheckpointError(
                 f"{path}: {k} holds NaN, Inf or non-numbers: the state is "
