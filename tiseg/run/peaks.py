@@ -36,6 +36,7 @@ precision (`tiseg.run.checkpoint`), so a resumed run ends with the same bits.
 import numpy as np
 import taichi as ti
 
+from ..model.physics.params import Params
 from ..solver.field_tree import FieldTree
 
 REST_SPEED = 1e-6  # [m/s] a wet cell no faster than this is at rest (the deposit)
@@ -63,24 +64,33 @@ class PeakFields:
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
-    def _update(self, t: float, hmin: float, lo: ti.i32, hi: ti.i32, serial: ti.template()):
-        """Fold the state of slot 0 at time t into the peaks on the interior columns [lo, hi)."""
-        gx, gy, ny = ti.static(self.op.gx, self.op.gy, self.op.ny)
+    def _update(self, t: float, whole: ti.template(), serial: ti.template()):
+        """Fold the state of slot 0 at time t into the peaks: on every interior cell
+        (``whole``), else on the active x range and the cells a step writes beside it. The
+        range and h_min are read on the device (the operator's fields): one argument to pass,
+        since a launch's cost on small grids is mostly its arguments and set-up."""
+        gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
+        hmin = self.op.par[Params.H_MIN]
+        lo, hi = gx, gx + nx
+        if ti.static(not whole):
+            lo = ti.max(self.op.act[0] - STENCIL_HALO, gx)
+            hi = ti.min(self.op.act[1] + STENCIL_HALO, gx + nx)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, ny)):
-            v = self.op.q[0, gx + i, gy + j]
+            v = self.op.q[0, i, gy + j]
             h = v[0]
-            if h > self.h_max[i, j]:  # (a NaN compares false: the guard reports it)
-                self.h_max[i, j] = h
+            k = i - gx
+            if h > self.h_max[k, j]:  # (a NaN compares false: the guard reports it)
+                self.h_max[k, j] = h
             if h >= hmin:
                 m2 = v[1] * v[1]
                 if ti.static(not self.op.is_1d):
                     m2 += v[self.op.HV] * v[self.op.HV]
                 s = ti.sqrt(m2) / h
-                if s > self.speed[i, j]:
-                    self.speed[i, j] = s
-                if self.arrival[i, j] < 0.0:
-                    self.arrival[i, j] = t
+                if s > self.speed[k, j]:
+                    self.speed[k, j] = s
+                if self.arrival[k, j] < 0.0:
+                    self.arrival[k, j] = t
 
     # ------------------------------------------------------------------ host side
     def start(self, t: float) -> None:
@@ -88,20 +98,13 @@ class PeakFields:
         self.h_max.fill(0.0)
         self.speed.fill(0.0)
         self.arrival.fill(NEVER)
-        self._launch(t, 0, self.shape[0], whole=True)
+        self._update(float(t), True, self.op.serial_loops(whole=True))
+        self.launches += 1
 
     def update(self, t: float) -> None:
-        """Fold in the state a step just ended with at time t: only the cells it could change."""
-        op = self.op
-        a, b = op.active
-        lo = max(a - STENCIL_HALO, op.gx) - op.gx
-        hi = min(b + STENCIL_HALO, op.gx + op.nx) - op.gx
-        if hi > lo:
-            self._launch(t, lo, hi)
-
-    def _launch(self, t: float, lo: int, hi: int, whole: bool = False) -> None:
-        op = self.op
-        self._update(float(t), float(op.cfg.h_min), lo, hi, op.serial_loops(whole))
+        """Fold in the state a step just ended with at time t: only the cells it could change
+        (the operator's active range, as the step left it, and STENCIL_HALO cells beside it)."""
+        self._update(t, False, self.op.serial_loops())
         self.launches += 1
 
     def arrays(self) -> dict[str, np.ndarray]:
