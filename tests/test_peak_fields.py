@@ -242,3 +242,17 @@ def test_deposit_is_the_material_at_rest_and_matches_the_analysis(ti_cpu, tmp_pa
     assert d["run_out"] == pytest.approx(x[np.isfinite(dep[0])].max())
     assert d["volume"] == pytest.approx(np.nansum(dep) * sim.scene.dx)  # per metre (1D)
     assert d["thickness_max"] == pytest.approx(np.nanmax(dep))
+
+
+def test_a_new_state_starts_the_peak_fields_again(ti_cpu):
+    """set_state replaces the run's state: the peaks start from it at the current time (the
+    mass balance does too), so nothing of the state before is left in them."""
+    sim = Simulation.from_scene("dam-break", DAM)
+    sim.advance(0.05)
+    h = np.zeros((1, sim.layout.nx))
+    h[0, 100:110] = 0.001
+    sim.set_state(h)
+    p = sim.peak_fields()
+    np.testing.assert_array_equal(p["h_max"], h)
+    np.testing.assert_array_equal(np.isfinite(p["arrival_time"]), h > 0)
+    assert np.all(p["arrival_time"][h > 0] == sim.t)

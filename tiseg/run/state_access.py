@@ -55,8 +55,6 @@ class StateAccess:
         self.op.reset_budget()
         self.initial_totals = self.totals()
         self.guard.keep(self.checkpoint_meta())
-        if self.peaks is not None:
-            self.peaks.start(self.t)
 
     def state(self) -> dict[str, np.ndarray]:
         """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as `fields`)."""
@@ -68,10 +66,14 @@ class StateAccess:
         return self.op.get(slot)[:, ix, iy]
 
     def set_conserved(self, q_interior: np.ndarray) -> None:
+        """Replace the interior conserved variables (nc, nx, ny); the peak fields start again
+        from this state (tiseg.run.peaks)."""
         full = self.op.get(0)
         ix, iy = self.layout.interior()
         full[:, ix, iy] = q_interior
         self.op.set(0, full)
+        if self.peaks is not None:
+            self.peaks.start(self.t)
 
     def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
         """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.
