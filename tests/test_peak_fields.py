@@ -256,3 +256,30 @@ def test_a_new_state_starts_the_peak_fields_again(ti_cpu):
     np.testing.assert_array_equal(p["h_max"], h)
     np.testing.assert_array_equal(np.isfinite(p["arrival_time"]), h > 0)
     assert np.all(p["arrival_time"][h > 0] == sim.t)
+
+
+def test_a_checkpoint_without_peak_fields_resumes_with_a_warning(ti_cpu, tmp_path, caplog):
+    """A checkpoint that holds no peak fields (written by a tiseg that kept none) still
+    resumes: the peaks start again from its state, and a warning says so."""
+    sets = {**DAM, "output.interval": 0.05, "output.checkpoint_interval": 0.05}
+    sim = Simulation.from_scene("dam-break", sets)
+
+    class Killed(Exception):
+        pass
+
+    def kill(s):
+        if s.t > 0.12:
+            raise Killed
+
+    sim.add_callback(Callback(kill, TimeInterval(0.05), name="kill", order=1000))
+    with pytest.raises(Killed):
+        sim.run(out_dir=tmp_path, progress=False)
+    path = tmp_path / checkpoint.CHECKPOINT_NAME
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files if not k.startswith("peak_")}
+    checkpoint.write_npz_atomic(path, arrays)
+    resumed = Simulation.resume(tmp_path)
+    assert "holds no peak fields" in caplog.text
+    t = resumed.t
+    arrival = resumed.peak_fields()["arrival_time"]
+    assert np.nanmin(arrival) == t  # (the reservoir was wet from t = 0)
