@@ -283,3 +283,47 @@ def test_a_checkpoint_without_peak_fields_resumes_with_a_warning(ti_cpu, tmp_pat
     t = resumed.t
     arrival = resumed.peak_fields()["arrival_time"]
     assert np.nanmin(arrival) == t  # (the reservoir was wet from t = 0)
+
+
+def test_a_truncated_fields_file_keeps_its_peak_fields(tmp_path):
+    """Resuming trims records written after the checkpoint by copying the file: the 2D peak
+    variables, their CF attributes and peak_time come along; NaN is stored as missing."""
+    from tiseg.output.netcdf import STATIC_ATTRS, FieldsWriter, peak_variables
+
+    x, y = np.arange(4) + 0.5, np.arange(3) + 0.5
+    path = tmp_path / "fields.nc"
+    names = peak_variables(segregation=False)
+    assert "deposit_phi" not in names and "deposit_phi" in peak_variables(segregation=True)
+    peaks = {n: np.full((3, 4), 1.0 + k) for k, n in enumerate(names)}
+    peaks["arrival_time"][0, 0] = np.nan
+    with FieldsWriter(path, x, y, fields=("h", "u"), static=names) as w:
+        for t in (0.0, 1.0, 2.0):
+            w.write(t, h=np.full((3, 4), t), u=np.zeros((3, 4)))
+        w.write_static(2.0, **peaks)
+    FieldsWriter.append(path, keep=2).close()
+    with netCDF4.Dataset(path) as ds:
+        assert ds.dimensions["time"].size == 2
+        assert float(ds["peak_time"][...]) == 2.0
+        for n in names:
+            assert ds[n].dimensions == ("y", "x")
+            assert ds[n].units == STATIC_ATTRS[n]["units"] and ds[n].coordinates == "peak_time"
+            np.testing.assert_array_equal(np.ma.filled(ds[n][:], np.nan), peaks[n])
+        assert ds["arrival_time"][:].mask[0, 0]
+
+
+def test_the_deposit_uses_the_rest_speed_of_the_analysis():
+    """deposit_h is at rest by the same rule as `tiseg fingers`' deposit, and fields.nc says
+    which."""
+    from tiseg.output.netcdf import STATIC_ATTRS
+    from tiseg.post.analysis.deposit import DEFAULT_REST_SPEED
+    from tiseg.run.peaks import REST_SPEED, deposit
+
+    assert REST_SPEED == DEFAULT_REST_SPEED
+    assert f"{REST_SPEED:.0e}" in STATIC_ATTRS["deposit_h"]["comment"]
+    h = np.array([[0.0, 5e-5, 1e-3, 1e-3, 1e-3]])
+    u = np.array([[0.0, 0.0, 0.0, 2e-6, 0.0]])
+    v = np.array([[0.0, 0.0, 0.0, 0.0, -2e-6]])
+    d = deposit({"h": h, "u": u, "v": v, "phi": np.full_like(h, 0.3)}, h_min=1e-4)
+    np.testing.assert_array_equal(d["deposit_h"], [[np.nan, np.nan, 1e-3, np.nan, np.nan]])
+    np.testing.assert_array_equal(d["deposit_phi"], [[np.nan, np.nan, 0.3, np.nan, np.nan]])
+    assert "deposit_phi" not in deposit({"h": h, "u": u}, h_min=1e-4)
