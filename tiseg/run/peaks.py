@@ -10,9 +10,10 @@ the fluxes (section 6.2).
 
 * ``h_max`` [m]: the largest h over the step states from t = 0 on (0 where the chute stayed
   empty);
-* ``speed_max`` [m/s]: the largest |u| = |(hu, hv)| / h (|hu| / h in 1D) over the step states
-  in which the cell was wet; missing where it never was (the speed of a film thinner than
-  h_min is not a speed of the flow);
+* ``speed_max`` [m/s]: the largest |u| = |(hu, hv)| / h (|hu| / h in 1D), the speed of the
+  depth-averaged velocity of (6.1)-(6.2) as fields.nc stores it, over the step states in which
+  the cell was wet; missing where it never was (the speed of a film thinner than h_min is not
+  a speed of the flow);
 * ``arrival_time`` [s]: the end time of the first step (t = 0 for the initial state) after
   which the cell was wet: the first time h >= h_min, to within the step that crossed it;
   missing where the flow never came;
