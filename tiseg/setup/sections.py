@@ -598,6 +598,14 @@ class OutputConfig:
         default=None,
         metadata=key("quantise fields.nc to this many decimal digits", lo=1),
     )
+    peak_fields: bool = field(
+        default=True,
+        metadata=key(
+            "h_max, speed_max, arrival_time and the deposit in fields.nc, exact per step "
+            "(tiseg.run.peaks); false: no peak fields, no work for them",
+            compiled="simulation",
+        ),
+    )
 
     def dtype(self, run_precision: str) -> str:
         """NetCDF type of the stored fields for a run in ``run_precision`` ("f64"/"f32")."""
