@@ -169,8 +169,33 @@ def report(results: list[dict]) -> str:
         "",
         "![erosion-deposition waves](../assets/figures/erosion_deposition.png)",
         "",
+        PAPER,
     ]
     return "\n".join(lines)
+
+
+PAPER = """## Against Edwards & Gray (2015)
+
+What was searched for: the paper's measured and computed wave speed, amplitude and wavelength
+(J. Fluid Mech. 762, 35-67). What was found: only its abstract (Cambridge Core). It says that
+the experiments (carborundum on a rough chute, inflow close to the minimum thickness of steady
+flow) develop unstable waves that coarsen, that their troughs come to rest below a critical
+thickness, that the steadily travelling waves erode the static layer ahead and deposit a
+static layer behind, and that the computed wave amplitude, speed and wavelength agree with
+the experiments. Its numbers (the carborundum friction parameters, the measured speeds,
+amplitudes and wavelengths) were not found, so no number here is compared with the paper's.
+
+What agrees in kind: the wave erodes the static layer ahead of it (the layer ahead is bit for
+bit at rest until the front arrives), carries a crest standing 0.19-0.30 mm above the layer,
+and leaves a deposit at rest behind it, 0.99 h_stop thick for every layer where it was measured, as the paper's
+troughs come to rest. What differs: this scene is one pulse on a layer thicker than the
+deposit, not the paper's periodic train fed by a steady inflow near h_stop. A wave here erodes
+more than it deposits, so it lengthens as it goes (erosion front faster than crest), where the
+paper's periodic waves re-erode what the previous wave deposited and keep their shape; the
+0.80 mm layer, 2 % above h_stop, is the closest to that, and its wave is the shortest and its
+crest decays the most. The deposition point (the upslope end of the moving material) is not
+steady in any run: it is the tail of a draining pulse.
+"""
 
 
 def main() -> None:
