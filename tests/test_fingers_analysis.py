@@ -414,10 +414,75 @@ def test_cli_errors(tmp_path, run_dir, capsys):
 
     from tiseg.output import FieldsWriter
 
-    nophi = tmp_path / "nophi"
+    nophi = tmp_path / "nophi"  # without a stored scene: h_min is unknown
     with FieldsWriter(nophi / "fields.nc", X[:5], Y[:4], fields=("h", "u")) as w:
         w.write(0.0, h=np.zeros((4, 5)), u=np.zeros((4, 5)))
-    _fails(capsys, ["fingers", str(nophi)], "no phi")
+    _fails(capsys, ["fingers", str(nophi)], "no readable scene", "give h_min")
+    nou = tmp_path / "nou"
+    with FieldsWriter(nou / "fields.nc", X[:5], Y[:4], fields=("h",)) as w:
+        w.write(0.0, h=np.zeros((4, 5)))
+    _fails(capsys, ["fingers", str(nou)], "no u field")
+
+
+# ---- a run without segregation: fronts and deposit, no fingers -------------------------------
+@pytest.fixture(scope="module")
+def dam_dir(tmp_path_factory):
+    """A fields.nc of the 1D dam-break scene (no phi) at 100 cells (dx = 3 mm) whose wet front
+    stands on columns 40, 46, 50, 52, 52 at t = 0, 0.1, 0.2, 0.3, 0.4 and stops at t = 0.3."""
+    from tiseg.output import FieldsWriter
+    from tiseg.setup.scene import load_scene
+
+    scene = load_scene("dam-break", {"domain.nx": 100})
+    x, y = scene.domain.cell_centres()
+    cols = np.arange(100)[None, :]
+    d = tmp_path_factory.mktemp("dam")
+    with FieldsWriter(
+        d / "fields.nc", x, y, attrs={"scene": scene.to_toml()}, fields=("h", "u")
+    ) as w:
+        for t, tip in [(0.0, 40), (0.1, 46), (0.2, 50), (0.3, 52), (0.4, 52)]:
+            wet = cols <= tip
+            h = np.where(wet, 0.001, 0.0)
+            u = np.where(wet & (t < 0.3) & (cols > 30), 0.05, 0.0)
+            w.write(t, h=h, u=u)
+    return d
+
+
+def test_a_run_without_phi_has_fronts_and_a_deposit(dam_dir):
+    """x_f^+ and its speed at every time, the deposit's run-out and stop time; every finger
+    number is None and the JSON has every key of a run with phi."""
+    from tiseg.post.analysis.fingers import RUN_KEYS
+
+    dx = 0.003
+    r = analyse_run(dam_dir)
+    assert r["segregation"] is False and r["times"] == 5
+    assert r["x_front_max"] == pytest.approx([(i + 0.5) * dx for i in (40, 46, 50, 52, 52)])
+    assert r["front_speed"] == pytest.approx(
+        [6 * dx / 0.1, 10 * dx / 0.2, 6 * dx / 0.2, 2 * dx / 0.2, 0.0]
+    )
+    for key in set(RUN_KEYS) - {"time", "x_front_max", "front_speed", "front_speed_over_u0"}:
+        assert r[key] == [None] * 5, key
+    d = r["deposit"]
+    assert d["stopped"] and d["stop_time"] == 0.3 and d["moving_until"] == pytest.approx(0.2)
+    assert d["run_out"] == pytest.approx(52.5 * dx)
+    assert d["volume"] == pytest.approx(53 * 0.001 * dx)  # per metre of width (1D)
+    assert d["channel_thickness"] is None and d["levee_thickness"] is None
+
+
+def test_cli_on_a_run_without_phi(dam_dir, capsys):
+    """The table shows the front columns only and the deposit without channels and levees;
+    --json keeps the keys of a run with phi (null finger numbers) and adds segregation."""
+    assert main(["fingers", str(dam_dir)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "no segregation" in out[0] and not any(line.startswith("channels:") for line in out)
+    assert out[1].split() == ["t", "[s]", "x_f+", "[m]", "dx_f+/dt", "[m/s]"]
+    assert len(out) == 2 + 5 + 1
+    assert out[-1].startswith("deposit: at rest between t = 0.2 and 0.3 s; run-out x_f+ = 0.1575")
+    assert "levees" not in out[-1]
+    assert main(["fingers", str(dam_dir), "--json", "--time", "0.2"]) == 0
+    o = json.loads(capsys.readouterr().out)
+    assert o["segregation"] is False and o["finger_count"] == [None]
+    assert o["x_front_max"] == [pytest.approx(50.5 * 0.003)]
+    assert o["deposit"]["run_out"] == pytest.approx(52.5 * 0.003)
 
 
 def test_bad_options():

@@ -50,7 +50,7 @@ def test_projected_is_the_default_friction_scheme():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("stepper", UNSPLIT)
+@pytest.mark.parametrize("stepper", UNSPLIT + ["hancock"])
 def test_projected_block_comes_to_rest_and_stays_there(ti_cpu, stepper):
     """The slump stops within 1 s (0.6 s at the steppers' smaller steps), after which every step leaves the state bit for bit as
     it was (SSPRK(10,4) keeps rest to round-off only: its stages are not all convex)."""
@@ -108,7 +108,10 @@ def test_regularised_block_creeps_below_u_eps_conservatively(ti_cpu, stepper, ca
     assert _mass_rel_error(sim) < 1e-13, stepper
 
 
-def test_split_stepper_refuses_friction_with_either_scheme():
-    for scheme in ("projected", "regularised"):
-        with pytest.raises(InputError, match="effects.friction='coulomb'"):
-            _block("hancock", scheme)
+def test_split_stepper_takes_the_projected_friction_and_refuses_the_regularised():
+    assert _block("hancock", "projected").numerics.friction_scheme == "projected"
+    with pytest.raises(InputError) as e:
+        _block("hancock", "regularised")
+    msg = str(e.value)
+    assert "\n" not in msg and "numerics.friction_scheme='regularised'" in msg
+    assert "'projected'" in msg and "ssprk4_2" in msg

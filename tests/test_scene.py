@@ -216,9 +216,11 @@ def test_other_friction_laws_and_kinds():
     sets = ["effects.friction=coulomb", "effects.coulomb_mu=0.3", "material.zeta_deg=25"]
     c = load_scene("dam-break", sets + ["numerics.stepper=ssprk4_2", "numerics.step_rule=local"])
     assert c.effects.coulomb_mu == 0.3 and c.material.zeta_deg == 25.0
-    # the scene's split sweeps take no friction, and say what to use instead
+    # the scene's split sweeps take the friction as the projection only, and say what to
+    # use for the regularised one
+    assert load_scene("dam-break", sets).numerics.friction_scheme == "projected"
     with pytest.raises(InputError, match="ssprk4_2"):
-        load_scene("dam-break", sets)
+        load_scene("dam-break", sets + ["numerics.friction_scheme=regularised"])
     text = MINIMAL + '[initial]\nkind = "release"\nx0 = 0.01\nx1 = 0.05\ny0 = 0.01\ny1 = 0.04\n'
     text += '[boundary]\nx_lo = "wall"\nx_hi = "outflow"\n'
     r = scene_from_text(text, name="rel")

@@ -2,7 +2,7 @@
 solver: order of accuracy on smooth flows in 1D and 2D (the alternating sweep order is what
 makes 2D second order), positivity and conservation on dry beds at Courant numbers up to 1,
 the exact Stoker and Ritter solutions, phi at 0 and 1, a resumed run's bits, and the scene's
-refusal of stiff terms. Its equality with the NumPy twin is in test_split_reference.py."""
+refusal of stiff terms (friction with the split sweeps: test_split_full_model.py). Its equality with the NumPy twin is in test_split_reference.py."""
 
 import math
 
@@ -270,10 +270,12 @@ def test_scene_refuses_stiff_terms_and_defaults_to_cfl_0_6(caplog):
     assert load_scene("dam-break", {**base, "numerics.cfl": 1.0}).numerics.cfl == 1.0
     with pytest.raises(InputError, match="effects.viscosity.*no stiff terms"):
         load_scene("dam-break", {**base, "effects.viscosity": True, "flow.nu": 1e-3})
-    with pytest.raises(InputError, match="effects.friction.*ssprk4_2"):
-        load_scene("dam-break", {**base, "effects.friction": "coulomb"})
-    with pytest.raises(InputError, match="effects.friction"):
-        load_scene("fingers", {**base, "effects.viscosity": False})
+    # friction only as the projection (tests/test_split_full_model.py)
+    assert load_scene("dam-break", {**base, "effects.friction": "coulomb"}).effects
+    with pytest.raises(InputError, match="numerics.friction_scheme.*'projected'.*ssprk4_2"):
+        over = {"effects.friction": "coulomb", "numerics.friction_scheme": "regularised"}
+        load_scene("dam-break", {**base, **over})
+    assert load_scene("fingers", {**base, "effects.viscosity": False}).effects.segregation
     with pytest.raises(InputError, match="numerics.cfl"):
         load_scene("dam-break", {**base, "numerics.cfl": 1.2})
     # a rule that sums the directions halves its steps for nothing: said, not refused

@@ -351,8 +351,20 @@ def test_dataset_of_a_grid(tmp_path):
 
 
 def _cf_check(path: Path, tmp_path: Path) -> None:
-    """The IOOS compliance checker finds nothing to fix in ``path`` against CF-1.8."""
-    pytest.importorskip("compliance_checker.runner")
+    """The IOOS compliance checker finds nothing to fix in ``path`` against CF-1.8: the checker
+    of this environment if installed, else the one named by TISEG_CF_CHECKER (CI installs it in
+    a venv of its own, whose dependencies clash with the test extra's, and names it)."""
+    import os
+    import subprocess
+
+    exe = os.environ.get("TISEG_CF_CHECKER")
+    if exe:
+        out = subprocess.run(
+            [exe, "--test", "cf:1.8", str(path)], capture_output=True, text=True, timeout=300
+        )
+        assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-2000:]
+        return
+    pytest.importorskip("compliance_checker.runner", reason="no CF checker here (CI has one)")
     from compliance_checker.runner import CheckSuite, ComplianceChecker
 
     CheckSuite.load_all_available_checkers()

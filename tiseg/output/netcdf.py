@@ -17,6 +17,14 @@ data variables (time, y, x).
 HDF5 metadata and data to disk: if the process is killed later, the file still opens with every
 snapshot written before the kill (the run is then restartable from the last snapshot).
 
+Peak fields (`tiseg.run.peaks`, ``output.peak_fields``): 2D variables (y, x) without a time
+axis, ``h_max``, ``speed_max``, ``arrival_time``, ``deposit_h`` and ``deposit_phi``, missing
+(``_FillValue``) where undefined (never reached, not at rest). `FieldsWriter.write_static`
+overwrites them with every snapshot, so they hold the run up to its last snapshot's step, and
+at the end the whole run. That time t is the scalar time coordinate ``peak_time`` of these
+variables; ``h_max`` and ``speed_max`` are maxima over [0, t] (their ``cell_methods``, CF
+section 7.3).
+
 `FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
 (`tiseg.run.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
 after it (and a record left half-written by the kill) by copying the kept records into a new
@@ -57,6 +65,43 @@ FIELD_ATTRS = {
     "phi": {"long_name": "depth-averaged small-particle concentration", "units": "1"},
 }
 
+# CF attributes of the 2D fields without a time axis (tiseg.run.peaks)
+STATIC_ATTRS = {
+    "h_max": {
+        "long_name": "largest flow thickness over the step states",
+        "units": "m",
+        "cell_methods": "peak_time: maximum",
+    },
+    "speed_max": {
+        "long_name": "largest depth-averaged speed over the step states where h >= h_min",
+        "units": "m s-1",
+        "cell_methods": "peak_time: maximum",
+        "comment": "missing where the flow never reached the cell",
+    },
+    "arrival_time": {
+        "long_name": "time of arrival of the flow, the first step state where h >= h_min",
+        "units": "s",
+        "comment": "seconds since t = 0 of the run; missing where the flow never came",
+    },
+    "deposit_h": {
+        "long_name": "thickness of the material at rest at peak_time",
+        "units": "m",
+        "comment": "h where h >= h_min and the material is at rest, |u| <= 1e-06 m s-1 "
+        "(tiseg.run.peaks.REST_SPEED); missing elsewhere",
+    },
+    "deposit_phi": {
+        "long_name": "small-particle concentration of the material at rest at peak_time",
+        "units": "1",
+        "comment": "phi where deposit_h is given; missing elsewhere",
+    },
+}
+
+
+def peak_variables(segregation: bool) -> tuple[str, ...]:
+    """The 2D variables of a run that keeps peak fields (deposit_phi only with segregation)."""
+    return tuple(n for n in STATIC_ATTRS if segregation or n != "deposit_phi")
+
+
 _DTYPES = {"f8": "f8", "f4": "f4", "float64": "f8", "float32": "f4", "f64": "f8", "f32": "f4"}
 
 
@@ -69,7 +114,8 @@ class FieldsWriter:
     variables that exist (a run without segregation passes no "phi"). ``dtype``: "f8" or "f4".
     ``h_min``: phi is written as missing where h < h_min (None: never).
     ``significant_digits``: quantise the data variables to this many decimal digits (None: keep
-    every bit).
+    every bit). ``static``: the 2D variables without a time axis the file holds (names of
+    `STATIC_ATTRS`), written by `write_static`.
     """
 
     def __init__(
@@ -83,12 +129,16 @@ class FieldsWriter:
         atomic: bool = True,
         h_min: float | None = None,
         significant_digits: int | None = None,
+        static: Sequence[str] = (),
     ):
         self.path = Path(path)
         self.fields = tuple(fields)
         unknown = [f for f in self.fields if f not in FIELD_ATTRS]
         if unknown or len(set(self.fields)) != len(self.fields) or not self.fields:
             raise ValueError(f"fields={fields!r}: choose distinct names from {tuple(FIELD_ATTRS)}")
+        self.static = tuple(static)
+        if any(n not in STATIC_ATTRS for n in self.static):
+            raise ValueError(f"static={static!r}: choose names from {tuple(STATIC_ATTRS)}")
         if dtype not in _DTYPES:
             raise ValueError(f"dtype={dtype!r}: choose 'f8' or 'f4'")
         self.dtype = _DTYPES[dtype]
@@ -182,6 +232,41 @@ class FieldsWriter:
                 var.setncattr(
                     "comment", f"missing where h < h_min = {self.h_min:g} m (no material)"
                 )
+        for name in self.static:
+            self._define_static(ds, name)
+
+    @staticmethod
+    def _define_peak_time(ds) -> None:
+        """The scalar time coordinate of the 2D variables: the maxima are over [0, t]."""
+        t = ds.createVariable("peak_time", "f8", ())
+        t.setncatts(
+            {
+                "standard_name": "time",
+                "long_name": "time up to which the peak fields hold, from t = 0 of the run",
+                "units": TIME_UNITS,
+                "calendar": "standard",
+            }
+        )
+
+    def _define_static(self, ds, name: str):
+        """The 2D variable ``name`` (y, x), all missing until `write_static` fills it."""
+        if "peak_time" not in ds.variables:
+            self._define_peak_time(ds)
+        kw = {}
+        if self.significant_digits is not None:
+            kw["significant_digits"] = int(self.significant_digits)
+        var = ds.createVariable(
+            name,
+            self.dtype,
+            ("y", "x"),
+            zlib=True,
+            complevel=4,
+            shuffle=True,
+            fill_value=netCDF4.default_fillvals[self.dtype],
+            **kw,
+        )
+        var.setncatts({**STATIC_ATTRS[name], "coordinates": "peak_time"})
+        return var
 
     @classmethod
     def append(
@@ -207,6 +292,7 @@ class FieldsWriter:
         try:
             with netCDF4.Dataset(path, "r") as ds:
                 fields = tuple(v for v in ds.variables if v in FIELD_ATTRS)
+                static = tuple(v for v in ds.variables if v in STATIC_ATTRS)
                 times = np.ma.filled(ds.variables["time"][:].astype("f8"), np.nan)
                 n = ds.dimensions["time"].size
                 grid = (ds.dimensions["y"].size, ds.dimensions["x"].size)
@@ -237,7 +323,7 @@ class FieldsWriter:
         digits = int(quant[0]) if quant else None
         try:
             if n != keep:
-                _truncate_copy(path, keep, fields, dtype, h_min, digits)
+                _truncate_copy(path, keep, fields, dtype, h_min, digits, static)
             else:  # every kept record must be readable: a damaged block is found now
                 _read_records(path, keep, fields)
         except (OSError, RuntimeError) as exc:
@@ -245,6 +331,7 @@ class FieldsWriter:
         self = cls.__new__(cls)
         self.path = path
         self.fields = fields
+        self.static = static
         self.dtype = _DTYPES.get(dtype, "f8")
         self.h_min = h_min
         self.significant_digits = digits
@@ -297,6 +384,29 @@ class FieldsWriter:
         self.count += 1
         self._last_t = t
 
+    def write_static(self, t: float, **arrays) -> None:
+        """Overwrite the 2D variables without a time axis (names of `STATIC_ATTRS`, each
+        (ny, nx), NaN where missing) with their values at time ``t`` [s] (``peak_time``);
+        a variable the file lacks is added."""
+        if self._ds is None:
+            raise ValueError(f"{self.path}: writer is closed")
+        for name, a in arrays.items():
+            if name not in STATIC_ATTRS:
+                raise ValueError(f"write_static(): {name!r} is not one of {tuple(STATIC_ATTRS)}")
+            a = np.asarray(a, dtype="f8")
+            if a.shape != self.shape and not (self.shape[0] == 1 and a.shape == self.shape[1:]):
+                raise ValueError(
+                    f"write_static(): {name} has shape {a.shape}, expected {self.shape}"
+                )
+            var = self._ds.variables.get(name)
+            if var is None:
+                var = self._define_static(self._ds, name)
+                self.static += (name,)
+            var[:, :] = np.ma.masked_invalid(a.reshape(self.shape))
+        if arrays:
+            self._ds.variables["peak_time"].assignValue(float(t))
+        self._ds.sync()
+
     def close(self) -> None:
         if self._ds is not None:
             self._ds.close()
@@ -320,9 +430,16 @@ class FieldsFileError(Exception):
 
 
 def _truncate_copy(
-    path: Path, keep: int, fields, dtype: str, h_min: float | None = None, digits: int | None = None
+    path: Path,
+    keep: int,
+    fields,
+    dtype: str,
+    h_min: float | None = None,
+    digits: int | None = None,
+    static=(),
 ) -> None:
-    """Replace ``path`` by a copy holding only its first ``keep`` records (atomic replace)."""
+    """Replace ``path`` by a copy holding only its first ``keep`` records and its 2D variables
+    without a time axis (atomic replace)."""
     with replacing(path) as tmp, netCDF4.Dataset(path, "r") as src:
         attrs = {k: src.getncattr(k) for k in src.ncattrs()}
         x = src.variables["x"][:]
@@ -336,10 +453,13 @@ def _truncate_copy(
             atomic=False,
             h_min=h_min,
             significant_digits=digits,
+            static=static,
         )
         try:
             for k, v in attrs.items():  # the original title, history, scene, ...
                 w._ds.setncattr(k, v)
+            for name in static + (("peak_time",) if static else ()):
+                w._ds.variables[name][...] = src.variables[name][...]
             for i in range(keep):
                 w.write(
                     float(src.variables["time"][i]),
@@ -446,4 +566,5 @@ __all__ = [
     "reading",
     "written_times",
     "FIELD_ATTRS",
+    "STATIC_ATTRS",
 ]

@@ -26,6 +26,10 @@ allow_pickle=False)``; no pickles, so loading a checkpoint runs no code). It hol
                active and the wet x range and whether an inflow ran when the mask was taken
                [a, b, wa, wb, on] (on: 1, 0, or -1 for no mask); a checkpoint without them
                resumes with the whole wet range (correct, but not bit for bit)
+``peak_*``     only with ``output.peak_fields`` (`tiseg.run.peaks`): ``peak_h_max``,
+               ``peak_speed_max`` and ``peak_arrival``, the running peaks of the interior cells
+               (nx, ny) in the run's precision (arrival -1 where the flow has not come); a
+               checkpoint without them resumes with peaks that start at its time (a warning)
 ============== =================================================================================
 
 Nothing else is needed: the RKC stepper keeps no state between steps (every slot but 0 is
@@ -79,6 +83,7 @@ from ..errors import InputError, TisegError
 from ..output.atomic import replacing
 from .._version import __version__
 from ..output import DiagnosticsWriter, write_text_atomic
+from ..log import logger
 
 CHECKPOINT_NAME = "checkpoint.npz"
 FORMAT = "tiseg-checkpoint"
@@ -114,7 +119,8 @@ def state_arrays(
     op = sim.op
     meta = dict(meta) if meta is not None else sim.checkpoint_meta()
     # the rest mask belongs to the current state only
-    rest = op.rest_state() if q is None else None
+    own = q is None
+    rest = op.rest_state() if own else None
     q = op.get(0) if q is None else q
     budget = op.budget(0) if budget is None else budget
     d = {
@@ -139,6 +145,8 @@ def state_arrays(
     }
     if rest is not None:
         d.update(rest)
+    if own and sim.peaks is not None:  # (they too belong to the current state only)
+        d.update(sim.peaks.state())
     for k, v in extra.items():
         d[k] = np.asarray(v)
     return d
@@ -231,6 +239,8 @@ def validate(ck: dict, scene, path="checkpoint") -> None:
         raise CheckpointError(f"{path}: initial must hold the two initial masses")
     for k in ("q", "budget", "initial"):
         a = np.asarray(ck[k])
+        if k == "initial" and not scene.segregation:
+            a = a[:1]  # no small particles: their initial mass is NaN (StateAccess.totals)
         if a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):
             raise CheckpointError(
                 f"{path}: {k} holds NaN, Inf or non-numbers: the state is "
@@ -260,6 +270,8 @@ def restore(sim, ck: dict) -> None:
         if np.asarray(ck["rest_mask"]).shape != (op.NX, op.NY) or np.shape(ck["ranges"]) != (5,):
             raise CheckpointError("the checkpoint's rest mask or ranges have the wrong shape")
         op.restore_rest_state(ck["rest_mask"], ck["ranges"])
+    if sim.peaks is not None:
+        _restore_peaks(sim, ck)
     # The state must pass the run's checks as it stands: a checkpoint damaged in a way that
     # leaves its numbers finite would otherwise fail the first check of the resumed run and be
     # reported as the run's own broken mass balance.
@@ -272,6 +284,22 @@ def restore(sim, ck: dict) -> None:
             f"{CHECKPOINT_NAME} is damaged: its state fails the checks of a run "
             f"({v.message()}); start the run again with --overwrite"
         )
+
+
+def _restore_peaks(sim, ck: dict) -> None:
+    """The peak fields of the checkpoint; without them (a checkpoint of a run that kept none)
+    they start again from the checkpoint's state, and a warning says so."""
+    try:
+        if sim.peaks.restore(ck):
+            return
+    except ValueError as exc:
+        raise CheckpointError(f"the checkpoint's peak fields are damaged ({exc})") from None
+    logger.warning(
+        "warning: the checkpoint holds no peak fields; h_max, speed_max and arrival_time "
+        "start again at t=%.9g s",
+        sim.t,
+    )
+    sim.peaks.start(sim.t)
 
 
 # =================================================================================================

@@ -1,7 +1,7 @@
 """The files of one run folder, written by callbacks of the run loop.
 
 ``scene.toml`` (the resolved scene), ``fields.nc`` (snapshots at the output times, a snapshot
-callback), ``diagnostics.csv`` with its units in ``diagnostics.csv-metadata.json`` (a row per
+callback, and with them the peak fields of `tiseg.run.peaks`), ``diagnostics.csv`` with its units in ``diagnostics.csv-metadata.json`` (a row per
 step), ``checkpoint.npz`` (step states, see `tiseg.run.checkpoint`) and ``failure/`` (the states
 a guard failure saves). A resumed run appends to the files of its folder.
 
@@ -34,7 +34,7 @@ from ..output.paths import HOLDER_NAME, LOCK_NAME, RunLock, refuse_symlinks
 from .schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
 from ..output.diagnostics import DiagnosticsWriter, write_text_atomic, write_units
 from ..output.manifest import MANIFEST_NAME, Manifest, record
-from ..output.netcdf import FieldsFileError, FieldsWriter
+from ..output.netcdf import FieldsFileError, FieldsWriter, peak_variables
 from ..log import logger
 
 DIAGNOSTICS = "diagnostics.csv"
@@ -246,6 +246,7 @@ class RunFolder:
                     )
                 except FieldsFileError as exc:
                     self.fields = self._salvage_fields(exc)
+                self._write_peaks()  # the checkpoint's: what the killed run wrote may be later
         except OSError as exc:
             raise InputError(
                 f"cannot write to output folder {str(out)!r}: {exc.strerror or exc}"
@@ -271,7 +272,14 @@ class RunFolder:
     def write_fields(self, snap) -> None:
         with self._writing(self.fields.path):
             self.fields.write(snap.t, **snap.fields())
+            self._write_peaks()
         self.counts()
+
+    def _write_peaks(self) -> None:
+        """The peak fields of the step state (tiseg.run.peaks) into fields.nc, if kept."""
+        sim = self.sim
+        if sim.peaks is not None:
+            self.fields.write_static(sim.t, **sim.peak_fields())
 
     def write_diagnostics(self, sim) -> None:
         info = sim.last_step
@@ -383,6 +391,7 @@ class RunFolder:
             dtype=sim.scene.output.dtype(sim.backend.precision),
             h_min=sim.scene.numerics.h_min,
             significant_digits=sim.scene.output.significant_digits,
+            static=peak_variables(sim.layout.segregation) if sim.peaks is not None else (),
         )
 
     def _salvage_fields(self, exc: Exception) -> FieldsWriter:

@@ -48,6 +48,7 @@ from .failures import FailureChecks, SimulationError
 from .state_access import StateAccess
 from ..errors import InputError, RunInterrupted
 from .guards import StateGuard
+from .peaks import PeakFields, deposit
 from ..setup.initial import initial_state
 from .limits import check_memory
 from ..solver.numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
@@ -187,6 +188,8 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
             self.op.skip_rest and bool(skip_rest) and self.active_region and self.stepper.keeps_rest
         )
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
+        # the peak fields (tiseg.run.peaks), updated after every step; none when switched off
+        self.peaks = PeakFields(self.op) if scene.output.peak_fields else None
         self.callbacks: dict[str, Callback] = {}
         self.check_every = check_every  # registers the guard callback
         self.failure_dir: Path | None = None  # where a guard failure saves its states
@@ -232,6 +235,8 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         self.initial_totals = self.totals()
         self._resume = None
         self.guard.keep(self.checkpoint_meta())
+        if self.peaks is not None:
+            self.peaks.start(self.t)
 
     def set_parameters(self, changes: dict | None = None, *, scene=None) -> None:
         """Change run-time parameters: ``section.key`` overrides of the scene (e.g.
@@ -299,6 +304,18 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         }
         self._io_counts = (int(ck.get("snapshots", 0)), int(ck.get("diag_rows", 0)))
         self.guard.keep(self.checkpoint_meta())
+
+    def peak_fields(self) -> dict:
+        """The peak fields (tiseg.run.peaks) as float64 arrays (ny, nx), NaN where missing:
+        ``h_max``, ``speed_max``, ``arrival_time`` up to the current step, and ``deposit_h``
+        (and ``deposit_phi`` with segregation) of the current state. An InputError when the
+        scene switched them off (``output.peak_fields = false``)."""
+        if self.peaks is None:
+            raise InputError(
+                f"scene {self.scene.name!r} has output.peak_fields = false: this simulation "
+                "keeps no peak fields"
+            )
+        return {**self.peaks.arrays(), **deposit(self.fields(), self.scene.numerics.h_min)}
 
     def wall_time(self) -> float:
         """Cumulative wall time of the run [s] (continues across resumes)."""
@@ -432,6 +449,8 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         self.stepper.index = self.stats.steps  # (a split step's sweep order follows it)
         self.stepper.step(self.op, t0, dt, s)
         self.t = t1
+        if self.peaks is not None:
+            self.peaks.update(t1)  # observes the step state; writes nothing the steps read
         self.stats.steps += 1
         self.stats.stages += s
         self.last_step = StepInfo(t1, dt, s, s)

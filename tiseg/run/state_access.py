@@ -17,7 +17,8 @@ class StateAccess:
     def set_state(self, h, u=None, v=None, phi=None) -> None:
         """Replace the state by primitive fields shaped (ny, nx) as `state` returns them
         (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
-        afresh from this state (its mass is the new initial mass, the boundary budget 0)."""
+        afresh from this state (its mass is the new initial mass, the boundary budget 0), and
+        so do the peak fields (tiseg.run.peaks: arrival at the current time where it is wet)."""
         lay = self.layout
         shape = (lay.ny, lay.nx)
 
@@ -65,10 +66,14 @@ class StateAccess:
         return self.op.get(slot)[:, ix, iy]
 
     def set_conserved(self, q_interior: np.ndarray) -> None:
+        """Replace the interior conserved variables (nc, nx, ny); the peak fields start again
+        from this state (tiseg.run.peaks)."""
         full = self.op.get(0)
         ix, iy = self.layout.interior()
         full[:, ix, iy] = q_interior
         self.op.set(0, full)
+        if self.peaks is not None:
+            self.peaks.start(self.t)
 
     def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
         """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.

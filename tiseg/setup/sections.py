@@ -505,7 +505,7 @@ class NumericsConfig:
         default="rkc",
         metadata=key(
             'Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler, or "hancock": '
-            "dimensionally split MUSCL-Hancock sweeps (no viscosity, no friction)",
+            "dimensionally split MUSCL-Hancock sweeps (no viscosity; projected friction)",
             choices=lambda: tuple(_STEPPERS),
             compiled="simulation",
         ),
@@ -603,6 +603,14 @@ class OutputConfig:
     significant_digits: int | None = field(
         default=None,
         metadata=key("quantise fields.nc to this many decimal digits", lo=1),
+    )
+    peak_fields: bool = field(
+        default=True,
+        metadata=key(
+            "h_max, speed_max, arrival_time and the deposit in fields.nc, exact per step "
+            "(tiseg.run.peaks); false: no peak fields, no work for them",
+            compiled="simulation",
+        ),
     )
 
     def dtype(self, run_precision: str) -> str:

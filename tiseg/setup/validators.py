@@ -549,7 +549,7 @@ def read_numerics(t: Table, flow: FlowConfig, is_1d: bool, effects: EffectsConfi
 
 def _check_friction_scheme(n: NumericsConfig, effects: EffectsConfig) -> None:
     """The regularised friction (an explicit source u / max(|u|, u_eps)) with a law: refused
-    under RKC, a note under the SSP steppers (the split stepper refuses friction itself).
+    under RKC, a note under the SSP steppers (the split stepper refuses it itself).
 
     RKC's inner stages are not positivity preserving: a front that the regularisation keeps
     creeping at about u_eps thins through h_min within a step, its fluxes switch off between
@@ -575,9 +575,10 @@ def _check_friction_scheme(n: NumericsConfig, effects: EffectsConfig) -> None:
 
 
 def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) -> None:
-    """What the split stepper needs (tiseg.solver.numerics.split): no stiff terms, which its single
-    explicit sweep per direction cannot take. (Any step rule is stable with it: "max" is
-    each sweep's own Courant number, "sum" and "local" give shorter steps.)"""
+    """What the split stepper needs (tiseg.solver.numerics.split): no viscosity, which its single
+    explicit sweep per direction cannot take, and friction only as the projection after the
+    step's sweeps (the regularised source is a stiff term). (Any step rule is stable with
+    it: "max" is each sweep's own Courant number, "sum" and "local" give shorter steps.)"""
     why = f"numerics.stepper={n.stepper!r} (dimensionally split sweeps) has no stiff terms"
     require(
         not (effects.viscosity and flow.nu > 0.0),
@@ -586,11 +587,12 @@ def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) ->
         f"{why}: switch the viscosity off (or flow.nu = 0), or use numerics.stepper = 'rkc'",
     )
     require(
-        effects.friction == "none",
-        "effects.friction",
-        effects.friction,
-        f"{why}: use friction = 'none', or an SSP stepper such as numerics.stepper = "
-        "'ssprk4_2' (or 'rkc')",
+        effects.friction == "none" or n.friction_scheme == "projected",
+        "numerics.friction_scheme",
+        n.friction_scheme,
+        f"numerics.stepper={n.stepper!r} applies friction only as the projection: use "
+        "friction_scheme = 'projected', or an SSP stepper such as numerics.stepper = "
+        "'ssprk4_2' for the regularised friction",
     )
     require(
         not effects.segregation or n.phi_flux == "upwind",

@@ -72,7 +72,8 @@ EFFECTS = (
 # =================================================================================================
 def variant_scene(name: str, nx: int, ny: int):
     """The uniform-flow scene with the fingers physics on an nx x ny grid at 750 cells/m,
-    noisy phi (so that slopes and limiters do real work), with one variant's switch."""
+    noisy phi (noisy h without segregation, which has no phi field) so that slopes and
+    limiters do real work, with one variant's switch."""
     from ...setup.scene import load_scene
 
     overrides = dict(next(v[1] for v in VARIANTS if v[0] == name))
@@ -83,7 +84,7 @@ def variant_scene(name: str, nx: int, ny: int):
         "domain.ny": ny,
         "domain.Lx": None,
         "initial.k": 2 * math.pi * 0.002 / (nx / RESOLUTION),  # one wavelength = Lx
-        "initial.mode": "noise",
+        "initial.mode": "noise" if overrides.get("effects.segregation", True) else "h-noise",
         "initial.amplitude": 0.01,
         "initial.seed": 1,
         "numerics.reconstruction": "weno",

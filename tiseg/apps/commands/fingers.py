@@ -23,7 +23,9 @@ def register(sub) -> None:
         "channels between coarse levees in x_f- <= x <= x_f+, joined into 2D "
         "objects (periodic in y) and counted once each if they reach --min-span "
         "of x_l; or the median count on the cross-slope lines of --lines. Once the flow "
-        "has come to rest: when it stopped, the run-out x_f+ and the deposit thickness.",
+        "has come to rest: when it stopped, the run-out x_f+ and the deposit thickness. "
+        "A run without segregation (no phi: a dam break) gets the front, its speed and the "
+        "deposit; its finger numbers are null.",
     )
     p.add_argument("dir", metavar="DIR", help="run folder with fields.nc, or a fields.nc file")
     p.add_argument(
@@ -154,19 +156,19 @@ def run(args) -> int:
         return 0
 
     o = res["options"]
+    seg = res["segregation"]
     u0 = "-" if res["u0"] is None else f"{res['u0']:.4g} m/s"
-    print(
-        f"{res['file']}: phi0 = {res['phi0']:g}, u0 = {u0}, h_min = {res['h_min']:g} m, "
-        f"Ly = {res['Ly']:g} m"
-    )
-    if o["line_fractions"] is None:
-        lines = f"2D channels reaching >= {o['min_span']:g} x_l in [x_f-, x_f+]"
-    else:
-        lines = f"median count on x_f- + {'/'.join(f'{f:g}' for f in o['line_fractions'])} x_l"
-    print(
-        f"channels: wet, phi > {o['phi_threshold']:g}, min width {o['min_width']:.3g} m, "
-        f"min gap {o['min_gap']:.3g} m; {lines}"
-    )
+    phi0 = f"phi0 = {res['phi0']:g}" if seg else "no segregation (no phi: fronts only)"
+    print(f"{res['file']}: {phi0}, u0 = {u0}, h_min = {res['h_min']:g} m, Ly = {res['Ly']:g} m")
+    if seg:
+        if o["line_fractions"] is None:
+            lines = f"2D channels reaching >= {o['min_span']:g} x_l in [x_f-, x_f+]"
+        else:
+            lines = f"median count on x_f- + {'/'.join(f'{f:g}' for f in o['line_fractions'])} x_l"
+        print(
+            f"channels: wet, phi > {o['phi_threshold']:g}, min width {o['min_width']:.3g} m, "
+            f"min gap {o['min_gap']:.3g} m; {lines}"
+        )
     if not res["time"]:
         print("no snapshots")
         return 0
@@ -184,6 +186,8 @@ def run(args) -> int:
         ("|u|_lev/u0", "levee_speed_over_u0", "{:.3f}"),
         ("max|u|/u0", "max_channel_speed_over_u0", "{:.3f}"),
     ]
+    if not seg:  # the columns that exist without phi
+        cols = [c for c in cols if c[1] in ("time", "x_front_max", "front_speed")]
     rows = [
         [(fmt.format(res[key][i]) if res[key][i] is not None else "-") for _, key, fmt in cols]
         for i in range(len(res["time"]))
@@ -192,13 +196,13 @@ def run(args) -> int:
     print("  ".join(title.rjust(w) for (title, _, _), w in zip(cols, widths)))
     for r in rows:
         print("  ".join(cell.rjust(w) for cell, w in zip(r, widths)))
-    print(_deposit_line(res["deposit"], res["time"][-1] if res["time"] else None))
+    print(_deposit_line(res["deposit"], res["time"][-1] if res["time"] else None, seg))
     return 0
 
 
-def _deposit_line(d: dict, t_last) -> str:
+def _deposit_line(d: dict, t_last, segregation: bool = True) -> str:
     """One line on the deposit: when the flow stopped (or settled), its run-out and
-    thickness."""
+    thickness (of its channels and levees too with ``segregation``)."""
     last = d["max_speed"][-1] if d["max_speed"] else None
     if not d["settled"]:
         speed = "no wet cell" if last is None else f"max |u| = {last:.3g} m/s"
@@ -215,10 +219,14 @@ def _deposit_line(d: dict, t_last) -> str:
         return "-" if v is None else f"{1e3 * v:.3g} mm"
 
     bound = " (reaches the domain end: a lower bound)" if d["run_out_at_domain_end"] else ""
+    parts = (
+        f", channels {mm(d['channel_thickness'])}, levees {mm(d['levee_thickness'])}"
+        if segregation
+        else ""
+    )
     line = (
         f"deposit: {state} {since}; run-out x_f+ = {d['run_out']:.4f} m{bound}; thickness "
-        f"mean {mm(d['thickness_mean'])}, max {mm(d['thickness_max'])}, channels "
-        f"{mm(d['channel_thickness'])}, levees {mm(d['levee_thickness'])}; area "
+        f"mean {mm(d['thickness_mean'])}, max {mm(d['thickness_max'])}{parts}; area "
         f"{d['area']:.4g} m^2, volume {d['volume']:.4g} m^3; h changes by at most "
         f"{d['thickness_change']:.3g} m between outputs from then on"
     )

@@ -14,6 +14,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from ...errors import InputError
 from ...post.analysis.fingers import _fields_path, analyse_run
 from ...post.render.colours import CHUTE_RGB, phi_colours
 from ...post.analysis.fingers import _stored_scene
@@ -40,6 +42,11 @@ def deposit_figure(run_dir, out_dir, dpi: int = 90) -> Path:
     from ...output import read_fields
 
     res = analyse_run(run_dir)
+    if not res["segregation"]:  # (tiseg fingers reads such a run: fronts and deposit)
+        raise InputError(
+            f"{str(run_dir)!r} is a run without segregation (no phi): the deposit figure "
+            "draws phi; `tiseg fingers` reports its run-out and thickness"
+        )
     dep = res["deposit"]
     path = _fields_path(run_dir)
     with read_fields(path) as ds:

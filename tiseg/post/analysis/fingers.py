@@ -70,6 +70,14 @@ Speeds
   (t[i+1] - t[i-1])`` through the neighbouring output times, one-sided at the first and last
   time or next to a time without flow.
 
+Runs without segregation
+------------------------
+A run without phi (``effects.segregation = false``: a dam break, a monodisperse flow) has
+fronts, a front speed and a deposit but no fingers: `analyse_run` reports ``x_front_max``,
+``front_speed`` and the deposit as for any run, and every finger number (x_f^-, x_l, the
+count, the wavelengths, the channel and levee numbers) as None; ``segregation`` says which
+kind of run it was.
+
 Undefined quantities are None (JSON null), never NaN.
 """
 
@@ -347,8 +355,11 @@ def analyse_run(
     momentum at most ``settle_fraction`` of its peak), its run-out and thickness
     (`tiseg.post.analysis.deposit.deposit_metrics`, with the per-time ``max_speed`` and
     ``momentum``), over all output times whatever ``time`` says.
+    ``segregation``: whether the file has phi; without it every finger number is None and
+    ``phi0`` and ``options["phi_threshold"]`` are those of the stored scene (or None), the
+    fronts, front speed and deposit are as for any run.
     Raises `tiseg.errors.InputError` for a missing or unreadable file, a file without h
-    or phi, or a time that is not an output time.
+    or u, or a time that is not an output time.
     """
     path = _fields_path(run_dir)
     from ...output import read_fields
@@ -358,13 +369,13 @@ def analyse_run(
     except Exception as exc:  # netCDF4 / HDF5 errors have no common base class
         raise InputError(f"cannot read {str(path)!r} as a NetCDF fields file: {exc}") from None
     with ds:
-        missing = [name for name in ("h", "u", "phi") if name not in ds.variables]
+        missing = [name for name in ("h", "u") if name not in ds.variables]
         if missing:
             raise InputError(
                 f"{str(path)!r} has no {' and no '.join(missing)} field "
-                f"(finger diagnostics need h, u and phi; phi exists only with "
-                f"segregation)"
+                "(the front and deposit analysis needs h and u)"
             )
+        has_phi = "phi" in ds.variables
         if "time" not in ds.variables or "x" not in ds.variables or "y" not in ds.variables:
             raise InputError(f"{str(path)!r} lacks the time, x or y coordinate of a fields file")
         scene = None
@@ -375,8 +386,11 @@ def analyse_run(
             h_min = scene.numerics.h_min if h_min is None else h_min
             u0 = scene.flow.u0 if u0 is None else u0
             Ly = scene.domain.Ly if Ly is None else Ly
-        if phi0 is None or h_min is None:
-            raise InputError(f"{str(path)!r} stores no readable scene: give phi0 and h_min")
+        if h_min is None or (has_phi and phi0 is None):
+            raise InputError(
+                f"{str(path)!r} stores no readable scene: give "
+                + ("phi0 and h_min" if has_phi else "h_min")
+            )
 
         times = np.asarray(ds["time"].values, dtype=float)
         if times.size == 0:
@@ -404,13 +418,13 @@ def analyse_run(
             flow.append(max_speed(h_i, u_i, v_i, h_min))
             moms.append(momentum(h_i, u_i, v_i, h_min, area))
         k = deposit_index(flow, moms, rest_speed, settle_fraction)
-        thr = _settings(_spacing(y), phi0, opts.get("phi_threshold"), None, None)[0]
+        thr = _threshold(phi0, opts.get("phi_threshold"))
         last = times.size - 1
         deposit = deposit_metrics(
             times,
             flow,
             np.asarray(h_all.isel(time=last).values),
-            np.asarray(ds["phi"].isel(time=last).values),
+            np.asarray(ds["phi"].isel(time=last).values) if has_phi else None,
             x,
             y,
             h_min,
@@ -435,9 +449,23 @@ def analyse_run(
                 name: (np.asarray(ds[name].isel(time=i).values) if name in ds.variables else None)
                 for name in ("h", "u", "v", "phi")
             }
-            m = finger_metrics(
-                snap["h"], snap["u"], snap["v"], snap["phi"], x, y, h_min, phi0, u0, Ly=Ly, **opts
-            )
+            if has_phi:
+                m = finger_metrics(
+                    snap["h"],
+                    snap["u"],
+                    snap["v"],
+                    snap["phi"],
+                    x,
+                    y,
+                    h_min,
+                    phi0,
+                    u0,
+                    Ly=Ly,
+                    **opts,
+                )
+            else:  # fronts only: no fingers without phi
+                m = dict.fromkeys(RUN_KEYS)
+                m["x_front_max"] = xf_all[i] if math.isfinite(xf_all[i]) else None
             sp = speeds[i]
             row = dict(
                 m,
@@ -450,12 +478,10 @@ def analyse_run(
 
     # the settings finger_metrics used, resolved (defaults filled in, widths in whole cells)
     dy = _spacing(y)
-    thr, w_cells, g_cells = _settings(
-        dy, phi0, opts.get("phi_threshold"), opts.get("min_width"), opts.get("min_gap")
-    )
+    _, w_cells, g_cells = _settings(dy, 1.0, None, opts.get("min_width"), opts.get("min_gap"))
     fr = opts.get("line_fractions")
     options = {
-        "phi_threshold": thr,
+        "phi_threshold": _threshold(phi0, opts.get("phi_threshold")),
         "line_fractions": None if fr is None else [float(f) for f in fr],
         "min_persistence": opts.get("min_persistence", DEFAULT_MIN_PERSISTENCE),
         "min_span": opts.get("min_span", DEFAULT_MIN_SPAN),
@@ -468,7 +494,8 @@ def analyse_run(
     head = {
         "analysis_version": ANALYSIS_VERSION,
         "file": str(path),
-        "phi0": float(phi0),
+        "segregation": has_phi,
+        "phi0": None if phi0 is None else float(phi0),
         "u0": None if u0 is None else float(u0),
         "h_min": float(h_min),
         "Ly": float(Ly) if Ly is not None else len(y) * _spacing(y),
@@ -498,6 +525,13 @@ def _settings(dy: float, phi0: float, phi_threshold, min_width, min_gap) -> tupl
         return max(1, math.ceil(w / dy - 1e-9))
 
     return thr, cells(min_width), cells(min_gap)
+
+
+def _threshold(phi0, phi_threshold) -> float | None:
+    """The channel threshold on phi: the given one, else phi0/2 (None without either)."""
+    if phi_threshold is not None:
+        return float(phi_threshold)
+    return None if phi0 is None else 0.5 * float(phi0)
 
 
 def _spacing(y) -> float:

@@ -209,7 +209,7 @@ class OperatorConfig:
         default=False, metadata=compiled('numerics.step_rule (to or from "local")')
     )
     # the dimensionally split scheme (numerics.stepper "hancock", tiseg.solver.numerics.split): no
-    # stiff terms (viscosity, friction) allowed
+    # viscosity, and friction only as the projection
     split: bool = False
     # boundaries: x_lo, x_hi, y_lo, y_hi
     bc: tuple = field(
@@ -237,7 +237,8 @@ class OperatorConfig:
         assert self.friction_scheme in FRICTION_SCHEMES, self.friction_scheme
         for b in self.bc:
             assert b in BOUNDARIES, b
-        assert not (self.split and (self.viscous or self.friction != "none")), "split: stiff"
+        regularised = self.friction != "none" and not self.friction_projected
+        assert not (self.split and (self.viscous or regularised)), "split: stiff"
 
     @property
     def friction_projected(self) -> bool:

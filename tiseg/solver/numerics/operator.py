@@ -119,6 +119,10 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         # state in slot 0 (_rest_face). Recomputed at the first preparation after slot 0 is
         # written, so every stage of a step sees the same rest faces.
         self.rest = ft.field(ti.i8, (NX, NY)) if self.phys.fr_projected else None
+        # the split step's friction acts once, after its last sweep, at the speed of the step's
+        # initial state (SplitSweeps.sweep): in 2D that speed is kept from the first sweep
+        spd = self.split and self.phys.fr_projected and not self.is_1d
+        self.spd0 = ft.field(self.fp, (NX, NY)) if spd else None
         self._rest_stale = True
         # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
         # of such cells far from any moving one then need no work at all, and the active range

@@ -28,8 +28,8 @@ the state a whole step along one direction from a single flux evaluation. Along 
    scene requires with segregation here, makes the three fluxes of a face run the same way,
    so the factor of the cell the mass leaves is the one all three need);
 5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S, the source (gravity along the slope,
-   g sin(zeta) h, the only one without friction) in the x sweep only, by the trapezoidal rule
-   between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
+   g sin(zeta) h; the friction is projected, below) in the x sweep only, by the trapezoidal
+   rule between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
    momentum in films thinner than h_min).
 
 The sweeps alternate their order from step to step (x then y, then y then x), which makes the
@@ -38,15 +38,36 @@ stable for Courant numbers up to 1 (``numerics.cfl``, with step_rule "max": dt =
 dy/a_y)), against 1/2 for a_x dt/dx + a_y dt/dy of the unsplit scheme's Euler steps. A sweep
 costs about 0.7 of an evaluation of the operator (benchmarks/README.md section 7).
 
-What it leaves out: stiff terms. The viscosity and the basal friction need the implicit-like
-stability of RKC or the friction projection within stages; a scene with either must use the
-Runge-Kutta steppers (the scene says so when it is read). The NumPy twin of a sweep is
-`tiseg.solver.reference.split.hancock_sweep`.
+The basal friction (6.4) is the projected one (Physics.project_friction; numerics.friction_scheme
+"projected"), in three places:
+
+* the x predictor projects each evolved edge over dt/2 at its cell's speed, so that the
+  half-step edges see the friction with the gravity it balances;
+* the first sweep of a step takes the step's rest mask (RestRules._mark_rest): no mass or
+  h phi crosses a face between two cells at rest at the step's start, and such a face's flux
+  is computed with both edges' velocities zero (the momentum a sweep gives a resting cell is
+  not yet frictioned, and the flux's dissipation would trade it between the next sweep's
+  cells); the flux floor of a cell moving into a slower one applies as in the unsplit scheme;
+* the last sweep projects the friction of the whole step, over dt, at each cell's speed at
+  the step's start (RestRules._project). The hold then sees the whole step's driving
+  (gravity, pressure along x and along y), and the steady uniform flow (4.3) is kept to
+  round-off whichever sweep comes first. A projection after each sweep would see one
+  direction's driving at a time and could release in y a cell held in x.
+
+Segregation and the mobility feedback need nothing more: the h phi flux is upwinded by the
+mass flux, and the mixture law weights with the cell's phi inside the projection. An inflow's
+ghost cells hold its state at mid-step (t + dt/2), the time of the edges they face.
+
+What it leaves out: the viscosity, whose stiffness needs RKC; a scene with it must use the
+Runge-Kutta steppers (the scene says so when it is read), as one with the regularised
+friction must. The NumPy twins are `tiseg.solver.reference.split.hancock_sweep` and
+`tiseg.solver.reference.split.hancock_step`.
 """
 
 import taichi as ti
 
 from ...model.physics.pointwise import Params
+from .rest import REST
 
 
 @ti.data_oriented
@@ -55,29 +76,56 @@ class SplitSweeps:
     ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
     which only a split scene allocates)."""
 
-    def sweep(self, d: int, t: float, dt: float) -> None:
-        """One sweep along d (0 = x, 1 = y) of slot 0 over dt: ghost cells at time t, the
-        update of the active range in place, its boundary fluxes into slot 0's budget."""
-        self._set_time(t)
+    def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
+        """One sweep along d (0 = x, 1 = y) of slot 0 over dt from time t: ghost cells (an
+        inflow's at t + dt/2), the update of the active range in place, its boundary fluxes
+        into slot 0's budget.
+        ``first``, ``last``: the sweep opens or closes its step (both in 1D). With the
+        projected friction the first sweep takes the step's rest mask and initial speeds,
+        and the last one projects the friction of the whole step."""
         if d == 0 and self.bc[0] == "periodic":
             # the ghosts' draining factors are copied from the edge cells, which the factor
             # pass computes only on the active range (the simulation keeps it whole then)
             assert self.active == (self.gx, self.gx + self.nx), "periodic x: whole range"
-        key = (0, t, self.active)
-        # what the last preparation left valid in w: everything (a stability pass at t on
-        # slot 0), the interior (the last sweep), or nothing
-        fresh = 2 if self._prepared == key else (1 if self._interior == (0, self.active) else 0)
+        fr = self.phys.fr_projected
+        if fr and first:
+            self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
+        # an inflow's ghost cells hold its state at mid-step, the time of the predicted edges
+        # they face (the ramp of (6.8) to second order; a step that begins when the inflow
+        # stops sees a wall); other ghost cells do not depend on the time
+        tg = t + 0.5 * dt if self.bc[0] == "inflow" else t
+        self._set_time(tg)
+        key = (0, tg, self.active)
+        # what the last preparation left valid in w: everything (a stability pass at tg on
+        # slot 0), the interior (the last sweep, or a stability pass at another time), or
+        # nothing
+        interior = self._interior == (0, self.active) or (
+            self._prepared is not None and self._prepared[::2] == key[::2]
+        )
+        fresh = 2 if self._prepared == key else (1 if interior else 0)
         lam = dt / (self.cfg.dx if d == 0 else self.cfg.dy)
-        self._sweep(d, fresh, lam, dt, self.serial_loops())
+        # compile-time flags only where they change the code: with the projected friction
+        first, last = bool(fr and first), bool(fr and last)
+        hold = self._first_of_step(True) if last else False
+        self._sweep(d, fresh, lam, dt, first, last, hold, self.serial_loops())
         self._written(0, primitives=True)
 
     @ti.kernel
     def _sweep(
-        self, d: ti.template(), fresh: ti.template(), lam: float, dt: float, serial: ti.template()
+        self,
+        d: ti.template(),
+        fresh: ti.template(),
+        lam: float,
+        dt: float,
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
     ):
         """Sweep along d in one launch (top-level loops run in order): ghosts and primitives
         as far as ``fresh`` says they are stale, the predicted edges, the face fluxes, the
-        draining factors, the update with its budget."""
+        draining factors, the update with its budget (with the friction projection of the
+        step if ``last``; ``hold``: a law with hysteresis decides which cells it holds)."""
         if ti.static(fresh < 2):
             self._ghosts(0)
             if ti.static(fresh == 1):
@@ -87,7 +135,7 @@ class SplitSweeps:
         self._predict(d, lam, dt, serial)
         self._sweep_faces(d, serial)
         self._drain_factors(d, lam, serial)
-        self._sweep_update(d, lam, dt, serial)
+        self._sweep_update(d, lam, dt, first, last, hold, serial)
 
     # -------------------------------------------------------------- index helpers
     @ti.func
@@ -135,6 +183,12 @@ class SplitSweeps:
             if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
                 pW = qW
                 pE = qE
+            elif ti.static(d == 0 and ph.fr_projected):
+                # the friction of the half step with the gravity it balances: the projection
+                # of each edge over dt/2 at the cell's speed (Physics.project_friction)
+                spd = ph.speed_mag(w0)
+                pW = ph.project_friction(pW, 0.5 * dt, spd)
+                pE = ph.project_friction(pE, 0.5 * dt, spd)
             self.ew[i, j] = self._fast_primitive(pW)
             self.ee[i, j] = self._fast_primitive(pE)
 
@@ -198,11 +252,39 @@ class SplitSweeps:
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.fp, self.nc)
             if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
-                F = self._face_flux(self.ee[i, j], self.ew[i1, j1], d)
+                wl = self.ee[i, j]
+                wr = self.ew[i1, j1]
+                if ti.static(self.phys.fr_projected):
+                    if self._both_at_rest(i, j, i1, j1):
+                        # two cells at rest at the step's start meet with no velocity: the
+                        # momentum a sweep gave them is not yet frictioned, and the flux's
+                        # dissipation would trade it between them (the friction's hold must
+                        # see the driving of the step's initial state, as the unsplit
+                        # scheme's first stage does)
+                        wl = self._still(wl)
+                        wr = self._still(wr)
+                F = self._face_flux(wl, wr, d)
+                # the projected friction's face rules, from the step's rest mask
+                F = self._rest_face(F, wl, wr, d, i, j, i1, j1)
             if ti.static(d == 0):
                 self.fx[i, j] = F
             else:
                 self.fy[i, j] = F
+
+    @ti.func
+    def _both_at_rest(self, i, j, i1, j1):
+        """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
+        r = ti.cast(self.rest[i, j], ti.i32) & ti.cast(self.rest[i1, j1], ti.i32)
+        return (r & REST) != 0
+
+    @ti.func
+    def _still(self, w):
+        """The primitive state w with its velocities zero."""
+        out = w
+        out[1] = 0.0
+        if ti.static(not self.is_1d):
+            out[self.HV] = 0.0
+        return out
 
     @ti.func
     def _across(self, d: ti.template()):
@@ -306,10 +388,22 @@ class SplitSweeps:
         return out
 
     @ti.func
-    def _sweep_update(self, d: ti.template(), lam, dt, serial: ti.template()):
+    def _sweep_update(
+        self,
+        d: ti.template(),
+        lam,
+        dt,
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
+    ):
         """q := q - lambda (F_{m+1/2} - F_{m-1/2}) with the fluxes scaled by the draining
         factors (+ the gravity source in the x sweep), limited, with its primitives into w;
-        then the boundary fluxes of the sweep times dt into slot 0's budget."""
+        then the boundary fluxes of the sweep times dt into slot 0's budget. With the
+        projected friction: the first sweep of a step keeps the initial speeds (2D), the
+        last one projects the friction over the whole step at those speeds (RestRules._project,
+        where ``hold`` lets a law with hysteresis hold the cells at rest)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         ti.loop_config(serialize=serial)
@@ -326,6 +420,16 @@ class SplitSweeps:
                 # by the trapezoidal rule between the cell's h before and after the fluxes
                 upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
             acc = self._limit(q0 + upd)
+            if ti.static(first or last):
+                spd0 = 0.0 * dt
+                if ti.static(first):
+                    spd0 = self.phys.speed_mag(self.w[i, j])  # (w: the step's initial state)
+                    if ti.static(not last):
+                        self.spd0[i, j] = spd0
+                else:
+                    spd0 = self.spd0[i, j]
+                if ti.static(last):
+                    acc = self._project(acc, dt, i, j, hold, spd0)
             self.w[i, j] = self._fast_primitive(acc)
             self.q[0, i, j] = acc
         # the budget: what entered through the domain's faces along d (as _boundary_rates;

@@ -198,51 +198,57 @@ class ReferenceOperator:
         wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
         wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
         H = self.numerical_flux(wl, wr, direction)
-        lay = self.lay
         if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
-            lo, hi = sl(0, n - 1)[1:], sl(1, n)[1:]
-            still = w[lay.HU] == 0
-            if not lay.is_1d:
-                still &= w[lay.HV] == 0
-            both = still[lo] & still[hi]  # no mass or h phi crosses
-            # the upwind cell outruns its neighbour: at least f_u - f_d^2 / f_u crosses
-            c_n = lay.HU if direction == 0 else lay.HV
-            un = w[c_n]  # the cells' normal speeds
-            towards_r = (un[lo] > 0) & ~(un[hi] < 0)
-            towards_l = (un[hi] < 0) & ~(un[lo] > 0)
-
-            def bound(fu, fd, sF):
-                # f_u - f_d^2 / f_u where it lies above s F (tested first without the division,
-                # as the kernel does), else no bound (-inf)
-                over = (fu > 0) & (fu * fu - fd * fd > sF * fu)
-                safe = np.where(fu > 0, fu, 1.0)
-                return np.where(over, fu - fd * fd / safe, -np.inf)
-
-            f_lo = bound(
-                wl[lay.H] * np.maximum(wl[c_n], 0.0),
-                wr[lay.H] * np.maximum(wr[c_n], 0.0),
-                H[lay.H],
-            )
-            f_hi = -bound(
-                -wr[lay.H] * np.minimum(wr[c_n], 0.0),
-                -wl[lay.H] * np.minimum(wl[c_n], 0.0),
-                -H[lay.H],
-            )
-            up_r = ~both & towards_r & (f_lo > H[lay.H])
-            up_l = ~both & towards_l & (f_hi < H[lay.H])
-            floor = np.where(up_r, f_lo, np.where(up_l, f_hi, 0.0))  # finite where it applies
-            if lay.segregation:
-                p = np.where(up_r, wl[lay.HPHI], wr[lay.HPHI])  # the upwind cell's phi
-                H[lay.HPHI] = np.where(
-                    both, 0.0, np.where(up_r | up_l, floor * (p - self.G(p)), H[lay.HPHI])
-                )
-            H[lay.H] = np.where(both, 0.0, np.where(up_r | up_l, floor, H[lay.H]))
+            self.rest_faces(H, wl, wr, w, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
         out = np.zeros_like(w)
         out[sl(0, n - 1)] = H
         return out
+
+    def rest_faces(self, H, wl, wr, w, direction, lo, hi) -> None:
+        """The projected friction's face rules (TaichiOperator._rest_face), in place on the
+        face fluxes H between edge states wl | wr along direction: w holds the primitives of
+        the cells whose rest decides (the step's initial state), lo and hi index the cells
+        below and above each face."""
+        lay = self.lay
+        still = w[lay.HU] == 0
+        if not lay.is_1d:
+            still &= w[lay.HV] == 0
+        both = still[lo] & still[hi]  # no mass or h phi crosses
+        # the upwind cell outruns its neighbour: at least f_u - f_d^2 / f_u crosses
+        c_n = lay.HU if direction == 0 else lay.HV
+        un = w[c_n]  # the cells' normal speeds
+        towards_r = (un[lo] > 0) & ~(un[hi] < 0)
+        towards_l = (un[hi] < 0) & ~(un[lo] > 0)
+
+        def bound(fu, fd, sF):
+            # f_u - f_d^2 / f_u where it lies above s F (tested first without the division,
+            # as the kernel does), else no bound (-inf)
+            over = (fu > 0) & (fu * fu - fd * fd > sF * fu)
+            safe = np.where(fu > 0, fu, 1.0)
+            return np.where(over, fu - fd * fd / safe, -np.inf)
+
+        f_lo = bound(
+            wl[lay.H] * np.maximum(wl[c_n], 0.0),
+            wr[lay.H] * np.maximum(wr[c_n], 0.0),
+            H[lay.H],
+        )
+        f_hi = -bound(
+            -wr[lay.H] * np.minimum(wr[c_n], 0.0),
+            -wl[lay.H] * np.minimum(wl[c_n], 0.0),
+            -H[lay.H],
+        )
+        up_r = ~both & towards_r & (f_lo > H[lay.H])
+        up_l = ~both & towards_l & (f_hi < H[lay.H])
+        floor = np.where(up_r, f_lo, np.where(up_l, f_hi, 0.0))  # finite where it applies
+        if lay.segregation:
+            p = np.where(up_r, wl[lay.HPHI], wr[lay.HPHI])  # the upwind cell's phi
+            H[lay.HPHI] = np.where(
+                both, 0.0, np.where(up_r | up_l, floor * (p - self.G(p)), H[lay.HPHI])
+            )
+        H[lay.H] = np.where(both, 0.0, np.where(up_r | up_l, floor, H[lay.H]))
 
     def numerical_flux(self, wl: np.ndarray, wr: np.ndarray, direction: int) -> np.ndarray:
         """The face flux of step 4 between edge states wl | wr (primitives) along direction:

@@ -32,14 +32,20 @@ def hancock_sweep(
     drain: bool = True,
     fallback: bool = True,
     limit: bool = True,
+    start: np.ndarray | None = None,
+    last: bool = True,
 ) -> dict:
     """Advance q (nc, NX, NY), ghost cells included, by one sweep along d (0 = x, 1 = y) over
-    dt, in place, with the ghost cells at time t. Returns what entered through the domain's
+    dt from time t, in place, with the ghost cells at time t (an inflow's at t + dt/2). Returns what entered through the domain's
     faces along d over the sweep: {"mass": ..., "small_mass": ...} [m^3] (per unit of y
     spacing in 1D, as the operator's budget).
 
     ``drain``, ``fallback``, ``limit``: the draining-time scaling, the predictor's dry-edge
-    fallback and the stage limiter, each switchable for tests that show what it prevents."""
+    fallback and the stage limiter, each switchable for tests that show what it prevents.
+    With the projected friction: ``start``, the primitives of the step's initial state (its
+    rest mask and speeds; by default q's own, as in a step's first sweep), and ``last``, the
+    sweep closes the step and projects the friction of the whole step (`hancock_step`
+    runs a step of sweeps)."""
     c, lay = ref.cfg, ref.lay
     axis = d + 1
     n = q.shape[axis]
@@ -49,6 +55,11 @@ def hancock_sweep(
         idx[axis] = slice(a, b)
         return tuple(idx)
 
+    if start is None:
+        ref.fill_ghosts(q, t)
+        start = split_primitives(ref, q)
+    # an inflow's ghost cells at mid-step (SplitSweeps.sweep)
+    t = t + 0.5 * dt if c.bc[0] == "inflow" else t
     ref.fill_ghosts(q, t)
     w = split_primitives(ref, q)
     lam = dt / (c.dx if d == 0 else c.dy)
@@ -72,11 +83,33 @@ def hancock_sweep(
     pW, pE = qW - shift, qE - shift
     bad = ((pW[0] < 0.0) | (pE[0] < 0.0))[None] & fallback  # the predictor would empty an edge
     bad = bad | keep[None]
+    if d == 0 and ref.projected:
+        # the half step's friction on the evolved edges, at the cell's speed
+        spd = ref._magnitude(w)
+        pW, pE = pW.copy(), pE.copy()
+        project(ref, pW, 0.5 * dt, spd)
+        project(ref, pE, 0.5 * dt, spd)
     eW = split_primitives(ref, np.where(bad, qW, pW))
     eE = split_primitives(ref, np.where(bad, qE, pE))
     # the face (m, m + 1) at index m; zero between films thinner than h_min
     H = np.zeros_like(q)
-    H[sl(0, n - 1)] = ref.numerical_flux(eE[sl(0, n - 1)], eW[sl(1, n)], d)
+    wl, wr = eE[sl(0, n - 1)], eW[sl(1, n)]
+    if ref.projected:  # two cells at rest at the step's start meet with no velocity
+        still = start[lay.HU] == 0
+        if not lay.is_1d:
+            still = still & (start[lay.HV] == 0)
+        both = (still[sl(0, n - 1)[1:]] & still[sl(1, n)[1:]])[None]
+        moving = np.zeros(lay.nc, dtype=bool)
+        moving[lay.HU] = True
+        if not lay.is_1d:
+            moving[lay.HV] = True
+        zero = both & moving[:, None, None]
+        wl, wr = np.where(zero, 0.0, wl), np.where(zero, 0.0, wr)
+    H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d)
+    if ref.projected:  # the face rules of the step's rest mask
+        Hf = H[sl(0, n - 1)]
+        ref.rest_faces(Hf, wl, wr, start, d, sl(0, n - 1)[1:], sl(1, n)[1:])
+        H[sl(0, n - 1)] = Hf
     h = w[0]
     dry = np.zeros(h.shape, dtype=bool)
     dry[sl(0, n - 1)[1:]] = np.maximum(h[sl(0, n - 1)[1:]], h[sl(1, n)[1:]]) < c.h_min
@@ -122,6 +155,12 @@ def hancock_sweep(
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
+    if last and ref.projected:  # the friction of the whole step, at its initial speeds
+        inner_q = q[:, ix, iy]
+        at_rest = still[ix, iy]
+        held = ref.holds(inner_q, dt, at_rest)
+        project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
+        q[:, ix, iy] = inner_q
     # boundary amounts: the scaled fluxes through the domain's two faces along d
     lo = Hs[sl(g - 1, g)]
     hi = Hs[sl(g + m - 1, g + m)]
@@ -131,3 +170,36 @@ def hancock_sweep(
     mass = float(dt * net[lay.H].sum() * ds)
     small = float(dt * net[lay.HPHI].sum() * ds) if lay.segregation else 0.0
     return {"mass": mass, "small_mass": small}
+
+
+def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) -> None:
+    """Physics.project_friction over tau, in place on conserved states q, with the friction
+    coefficient at the speeds spd0 (ReferenceOperator.project_friction, which takes them
+    from a state); ``held``: cells a law with hysteresis holds at rest."""
+    c, lay = ref.cfg, ref.lay
+    if tau <= 0:
+        return
+    wet, hs, phi = ref._friction_cells(q)
+    m = ref._magnitude(q)
+    imp = tau * c.g_cos * ref.mu_b(hs, spd0, phi) * hs
+    f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
+    f = np.where(wet, f, 1.0)
+    if held is not None:
+        f = np.where(held, 0.0, f)
+    q[lay.HU] *= f
+    if not lay.is_1d:
+        q[lay.HV] *= f
+
+
+def hancock_step(ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs) -> dict:
+    """One step of the split scheme (tiseg.solver.timestepping.split.Hancock): the sweeps along
+    ``dirs`` in order, the first taking the step's initial state (rest mask and speeds of
+    the projected friction), the last projecting the friction. Returns the summed budget."""
+    ref.fill_ghosts(q, t)
+    start = split_primitives(ref, q)
+    out = {"mass": 0.0, "small_mass": 0.0}
+    for k, d in enumerate(dirs):
+        b = hancock_sweep(ref, q, t, dt, d, start=start, last=k == len(dirs) - 1)
+        out["mass"] += b["mass"]
+        out["small_mass"] += b["small_mass"]
+    return out

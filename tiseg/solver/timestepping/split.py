@@ -12,8 +12,8 @@ class Hancock(Stepper):
     ones (the step's index comes from the simulation, ``index``, so a resumed run sweeps as
     the uninterrupted one did). The step is the convective limit itself: with step_rule
     "max" and numerics.cfl <= 1 (default 0.6) that is each sweep's Courant number. No stiff
-    terms (the scene refuses viscosity and friction with this stepper), so the spectral
-    radius plays no part.
+    terms: the friction is the projected one, after the step's last sweep, and the scene
+    refuses viscosity with this stepper, so the spectral radius plays no part.
 
     ``stages`` counts the sweeps: ``dims``, 2 (1 in 1D). Each moves a wet front by at most
     one cell, as a Runge-Kutta stage does (the simulation's active range relies on it)."""
@@ -22,7 +22,9 @@ class Hancock(Stepper):
     split = True
     slots = 1
     order = 2
-    keeps_rest = True  # (no rest masks: friction is off)
+    # a cell at rest between cells at rest exchanges no mass with them (the face rules of
+    # the step's rest mask) and ends the step projected to rest: its h keeps its bits
+    keeps_rest = True
 
     def __init__(self, dims: int = 2):
         if dims not in (1, 2):
@@ -36,5 +38,5 @@ class Hancock(Stepper):
 
     def step(self, op, t, dt, stages):
         dirs = (0,) if self.stages == 1 else ((0, 1) if self.index % 2 == 0 else (1, 0))
-        for d in dirs:
-            op.sweep(d, t, dt)
+        for k, d in enumerate(dirs):
+            op.sweep(d, t, dt, first=k == 0, last=k == len(dirs) - 1)

@@ -1,0 +1,167 @@
+"""Peak fields of a run: the largest thickness and speed each cell reached, when the flow
+arrived there, and the deposit it left at rest.
+
+Hazard maps are drawn from these (the peak thickness and speed, the arrival time), and they
+cannot be recovered from snapshots, which see the flow only at the output times. `PeakFields`
+therefore updates them on the device after every step, from the step state (slot 0 of the
+`tiseg.solver.numerics.operator.TaichiOperator`), so they are exact per step whatever the
+output schedule. "Wet" means h >= numerics.h_min, the threshold of the fronts (6.10) and of
+the fluxes (section 6.2).
+
+* ``h_max`` [m]: the largest h over the step states from t = 0 on (0 where the chute stayed
+  empty);
+* ``speed_max`` [m/s]: the largest |u| = |(hu, hv)| / h (|hu| / h in 1D), the speed of the
+  depth-averaged velocity of (6.1)-(6.2) as fields.nc stores it, over the step states in which
+  the cell was wet; missing where it never was (the speed of a film thinner than h_min is not
+  a speed of the flow);
+* ``arrival_time`` [s]: the end time of the first step (t = 0 for the initial state) after
+  which the cell was wet: the first time h >= h_min, to within the step that crossed it;
+  missing where the flow never came;
+* ``deposit_h`` [m] and, with segregation, ``deposit_phi``: h and phi of the current state
+  where the material is at rest, wet with |u| <= `REST_SPEED`, the rest speed of the deposit
+  analysis (`tiseg.post.analysis.deposit`); missing elsewhere. Taken from the state at the
+  time the fields are read, so at the end of a run they are its final deposit.
+
+Cost: one launch after each step over the cells the step could change (the active x range
+and the 3 cells either side that a step's combinations write, `SlotAlgebra._combine_cells`),
+a few loads and compares per cell: cells outside keep their bits, so their peaks cannot
+change. With ``output.peak_fields = false`` a simulation has no `PeakFields`: no field is
+allocated and no kernel compiled or run. Nothing here writes to the operator, so the steps
+and the final state are the same bits with the peak fields on or off.
+
+Resume: the three fields are part of a run's state, saved in ``checkpoint.npz`` in the run's
+precision (`tiseg.run.checkpoint`), so a resumed run ends with the same bits.
+"""
+# (no "from __future__ import annotations": Taichi reads kernel annotations as objects)
+
+import numpy as np
+import taichi as ti
+
+from ..model.physics.params import Params
+from ..solver.field_tree import FieldTree
+
+REST_SPEED = 1e-6  # [m/s] a wet cell no faster than this is at rest (the deposit)
+NEVER = -1.0  # the stored arrival time of a cell the flow has not reached
+PEAK_NAMES = ("h_max", "speed_max", "arrival_time")
+CHECKPOINT_KEYS = {"h_max": "peak_h_max", "speed": "peak_speed_max", "arrival": "peak_arrival"}
+STENCIL_HALO = 3  # cells either side of the active range that a step writes
+
+
+@ti.data_oriented
+class PeakFields:
+    """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision."""
+
+    def __init__(self, op):
+        self.op = op
+        lay = op.lay
+        self.shape = (lay.nx, lay.ny)
+        ft = self.field_tree = FieldTree()  # freed with this object
+        self.h_max = ft.field(op.fp, self.shape)
+        self.speed = ft.field(op.fp, self.shape)
+        self.arrival = ft.field(op.fp, self.shape)
+        ft.finalize()
+        ft.free_with(self)
+        self.launches = 0  # kernel launches of update() (a test counts them)
+
+    # ------------------------------------------------------------------ kernels
+    @ti.kernel
+    def _update(self, t: float, whole: ti.template(), serial: ti.template()):
+        """Fold the state of slot 0 at time t into the peaks: on every interior cell
+        (``whole``), else on the active x range and the cells a step writes beside it. The
+        range and h_min are read on the device (the operator's fields): one argument to pass,
+        since a launch's cost on small grids is mostly its arguments and set-up."""
+        gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
+        hmin = self.op.par[Params.H_MIN]
+        lo, hi = gx, gx + nx
+        if ti.static(not whole):
+            lo = ti.max(self.op.act[0] - STENCIL_HALO, gx)
+            hi = ti.min(self.op.act[1] + STENCIL_HALO, gx + nx)
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((lo, hi), (0, ny)):
+            v = self.op.q[0, i, gy + j]
+            h = v[0]
+            k = i - gx
+            if h > self.h_max[k, j]:  # (a NaN compares false: the guard reports it)
+                self.h_max[k, j] = h
+            if h >= hmin:
+                m2 = v[1] * v[1]
+                if ti.static(not self.op.is_1d):
+                    m2 += v[self.op.HV] * v[self.op.HV]
+                s = ti.sqrt(m2) / h
+                if s > self.speed[k, j]:
+                    self.speed[k, j] = s
+                if self.arrival[k, j] < 0.0:
+                    self.arrival[k, j] = t
+
+    # ------------------------------------------------------------------ host side
+    def start(self, t: float) -> None:
+        """Begin anew from the state of slot 0 at time t (every cell)."""
+        self.h_max.fill(0.0)
+        self.speed.fill(0.0)
+        self.arrival.fill(NEVER)
+        self._update(float(t), True, self.op.serial_loops(whole=True))
+        self.launches += 1
+
+    def update(self, t: float) -> None:
+        """Fold in the state a step just ended with at time t: only the cells it could change
+        (the operator's active range, as the step left it, and STENCIL_HALO cells beside it)."""
+        self._update(t, False, self.op.serial_loops())
+        self.launches += 1
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """``h_max``, ``speed_max``, ``arrival_time`` as float64 arrays (ny, nx), NaN where
+        missing (never wet)."""
+        arrival = self.arrival.to_numpy().astype(np.float64).T
+        never = arrival < 0.0
+        speed = self.speed.to_numpy().astype(np.float64).T
+        return {
+            "h_max": self.h_max.to_numpy().astype(np.float64).T.copy(),
+            "speed_max": np.where(never, np.nan, speed),
+            "arrival_time": np.where(never, np.nan, arrival),
+        }
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The fields as stored (nx, ny), in the run's precision: the checkpoint's arrays."""
+        return {
+            CHECKPOINT_KEYS["h_max"]: self.h_max.to_numpy(),
+            CHECKPOINT_KEYS["speed"]: self.speed.to_numpy(),
+            CHECKPOINT_KEYS["arrival"]: self.arrival.to_numpy(),
+        }
+
+    def restore(self, arrays: dict) -> bool:
+        """Inverse of `state`; False (and nothing changed) when ``arrays`` lacks them, a
+        ValueError when one has the wrong shape."""
+        pairs = (("h_max", self.h_max), ("speed", self.speed), ("arrival", self.arrival))
+        if not all(CHECKPOINT_KEYS[key] in arrays for key, _ in pairs):
+            return False
+        data = [np.asarray(arrays[CHECKPOINT_KEYS[key]]) for key, _ in pairs]
+        for (key, _), a in zip(pairs, data):
+            if a.shape != self.shape or a.dtype.kind != "f":
+                raise ValueError(f"{CHECKPOINT_KEYS[key]} is {a.dtype} {a.shape}, not {self.shape}")
+        for (_, f), a in zip(pairs, data):
+            f.from_numpy(a.astype(self.op.np_fp))
+        return True
+
+
+def deposit(fields: dict, h_min: float, rest_speed: float = REST_SPEED) -> dict:
+    """``deposit_h`` (and ``deposit_phi`` when ``fields`` has phi) of one state given as the
+    primitive fields (ny, nx) of `tiseg.run.state_access.StateAccess.fields`: h and phi
+    where the cell is wet (h >= h_min) and at rest (|u| <= rest_speed), NaN elsewhere."""
+    h = np.asarray(fields["h"], dtype=float)
+    speed = np.abs(np.asarray(fields["u"], dtype=float))
+    if "v" in fields:
+        speed = np.hypot(speed, np.asarray(fields["v"], dtype=float))
+    rest = (h >= h_min) & (speed <= rest_speed)
+    out = {"deposit_h": np.where(rest, h, np.nan)}
+    if "phi" in fields:
+        out["deposit_phi"] = np.where(rest, np.asarray(fields["phi"], dtype=float), np.nan)
+    return out
+
+
+__all__ = [
+    "PeakFields",
+    "deposit",
+    "REST_SPEED",
+    "PEAK_NAMES",
+    "CHECKPOINT_KEYS",
+]
