@@ -434,7 +434,8 @@ def _check_layer(layer_h: float, phi: float, effects: EffectsConfig, material: M
     if effects.friction != "pouliquen-extended":
         note(
             f"initial.kind='layer' with effects.friction={effects.friction!r}: only the "
-            "extended law ('pouliquen-extended') holds a layer at rest; this one flows at once"
+            "extended law ('pouliquen-extended') holds a layer at rest below h_start and lets a "
+            "wave set it moving (hysteresis); under this law it flows unless friction holds it"
         )
         return
     h_stop, h_start = layer_thresholds(material, phi)
