@@ -53,6 +53,7 @@ FIGURES = {
     "beyond_monodisperse_phi": "A monodisperse front (φ0 = 1) stays straight",
     "deposit": "The deposit of a finite release that comes to rest",
     "roll_waves": "Roll waves: growth, merging into fewer and larger waves, a forced wave train",
+    "erosion_deposition": "Erosion-deposition waves on static layers of six thicknesses",
     "demo_fig12_phi": "`tiseg demo`: φ at a coarse grid",
     "demo_fig13_speed": "`tiseg demo`: the speed",
     "demo_fig14_h": "`tiseg demo`: the thickness",

@@ -31,6 +31,7 @@ RUNS: dict[str, tuple[list[str], str]] = {
     "uniform-flow": ([], "mode"),
     "roll-waves": (["domain.nx=1000", "time.t_end=12"], "profile"),
     "roll-waves-forced": (["domain.resolution=500", "time.t_end=10"], "profile"),
+    "erosion-deposition": ([], "profile"),
 }
 
 

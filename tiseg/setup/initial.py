@@ -6,7 +6,9 @@
   perturbation is set as exact cell averages (the sinc factor of a cell average of e^{ikx});
 * dam break (h_left | h_right, at rest), e.g. the Ritter problem;
 * release of a finite block of material at rest;
-* a straight channel between levees, at rest (the sharp-contact verification case).
+* a straight channel between levees, at rest (the sharp-contact verification case);
+* a uniform static layer at rest, the erodible bed of erosion-deposition waves (Edwards &
+  Gray 2015).
 """
 
 from __future__ import annotations
@@ -140,6 +142,9 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
         phi[:] = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * channel_fraction(
             Y, scene.dy, scene.domain.Ly, ini.width
         )
+    elif ini.kind == "layer":
+        h[:] = ini.layer_h
+        phi[:] = ini.phi if ini.phi is not None else fl.phi0
     else:  # pragma: no cover - the scene validator allows only the kinds above
         raise InputError(f"initial.kind={ini.kind!r} is not known")
     phi = np.clip(phi, 0.0, 1.0)

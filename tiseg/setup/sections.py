@@ -37,7 +37,7 @@ OUTPUT_PRECISIONS = ("f8", "f4")
 PRECISIONS = ("f64", "f32")
 RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
 PERTURBATION_MODES = ("eigen", "h", "phi", "noise", "h-noise")
-INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel")
+INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel", "layer")
 
 
 # ---- the friction laws' constants ---------------------------------------------------------------
@@ -376,6 +376,9 @@ class InitialConfig:
     * channel: a layer of thickness h at rest, with one straight downslope channel of
       concentration ``phi_channel`` and ``width`` centred at y = Ly/2 between levees of
       ``phi_levee`` (the verification case of sharp contacts, `tiseg.post.problems.steady_channel`).
+    * layer: a uniform static layer of thickness ``layer_h`` and concentration ``phi`` at rest
+      on the whole slope, the erodible bed of erosion-deposition waves (Edwards & Gray 2015);
+      under the extended friction law it is held at rest for h_stop < layer_h < h_start.
 
     The fields are in the order each kind lists its keys; ``kinds`` says which kinds use a key.
     """
@@ -437,9 +440,12 @@ class InitialConfig:
         _h0,
         positive=True,
     )
+    layer_h: float | None = _ini(
+        "layer: thickness of the static layer [m]", ("layer",), positive=True
+    )
     phi: float | None = _ini(
-        "dam-break, release: concentration (default flow.phi0)",
-        ("dam-break", "release"),
+        "dam-break, release, layer: concentration (default flow.phi0)",
+        ("dam-break", "release", "layer"),
         _phi0,
         lo=0.0,
         hi=1.0,

@@ -17,7 +17,7 @@ from ..errors import InputError
 from ..log import note
 from ..model.material import Material, Species
 from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, noise_modes
-from ..model.physics.friction import FRICTION_LAWS as LAWS
+from ..model.physics.friction import FRICTION_LAWS as LAWS, layer_thresholds
 from ..model.steady import steady_state
 from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section
 from .sections import (
@@ -362,6 +362,7 @@ def read_initial(
     boundary: BoundaryConfig,
     flow: FlowConfig,
     effects: EffectsConfig,
+    material: Material | None = None,
 ) -> InitialConfig:
     """The keys of ``kind``, read as declared (with the defaults that kind reads), then the
     rules that tie them to the domain and the flow."""
@@ -407,6 +408,8 @@ def read_initial(
             v["width"],
             f"must be narrower than the chute, Ly={domain.Ly!r}",
         )
+    elif kind == "layer":
+        _check_layer(v["layer_h"], v["phi"], effects, material or Material())
     else:  # release: a block of material at rest
         x0, x1, y0, y1 = v["x0"], v["x1"], v["y0"], v["y1"]
         require(x0 >= 0.0, "initial.x0", t.get("x0"), "must be >= 0")
@@ -423,6 +426,31 @@ def read_initial(
             f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}",
         )
     return InitialConfig(kind=kind, **v)
+
+
+def _check_layer(layer_h: float, phi: float, effects: EffectsConfig, material: Material) -> None:
+    """A static layer is held at rest only by the extended law, and only thinner than
+    h_start; thinner than h_stop it is held too, but thinner than any deposit a flow leaves."""
+    if effects.friction != "pouliquen-extended":
+        note(
+            f"initial.kind='layer' with effects.friction={effects.friction!r}: only the "
+            "extended law ('pouliquen-extended') holds a layer at rest below h_start and lets a "
+            "wave set it moving (hysteresis); under this law it flows unless friction holds it"
+        )
+        return
+    h_stop, h_start = layer_thresholds(material, phi)
+    require(
+        layer_h < h_start,
+        "initial.layer_h",
+        layer_h,
+        f"must be thinner than h_start={h_start:.4g} m at this slope, or the layer is not "
+        "held at rest and starts everywhere at once",
+    )
+    if layer_h <= h_stop:
+        note(
+            f"initial.layer_h={layer_h:g} is not above h_stop={h_stop:.4g} m: it is held at "
+            "rest, but a flow over it deposits h_stop, so waves thicken it as they pass"
+        )
 
 
 def _check_uniform(v, wavelengths, domain, boundary, flow, effects) -> None:

@@ -456,6 +456,40 @@ def h_stop(zeta: float, mu1: float, mu2: float, beta: float, L: float, beta_star
     return L * beta_star / beta * (mu2 - t) / (t - mu1)
 
 
+def layer_thresholds(material, phi: float) -> tuple[float, float]:
+    """(h_stop, h_start) [m] of a layer of concentration ``phi`` at the material's slope under
+    the extended law, each weighted by (3.4) as the law is: h_stop where tan(zeta) equals the
+    mixture's mu_D(h, beta*), h_start where it equals the mixture's start coefficient mu_S(h)
+    (see `PouliquenExtended`). Both coefficients fall as h grows, so each threshold is one root
+    (found by bisection in log h); 0 where the slope is steeper than the coefficient at any
+    thickness (nothing is held), inf where it is gentler (everything is held)."""
+    t = material.tan_zeta
+    sp = (material.small, material.large)
+    w = (phi, 1.0 - phi)
+
+    def mu_d(h):
+        return sum(
+            wi * (s.mu1 + (s.mu2 - s.mu1) / (s.beta * h / (s.L * material.beta_star) + 1.0))
+            for wi, s in zip(w, sp)
+        )
+
+    def mu_s(h):
+        return sum(wi * (s.mu3 + (s.mu2 - s.mu1) * s.L / (s.L + h)) for wi, s in zip(w, sp))
+
+    def root(mu):
+        lo, hi = 1e-9, 1e2  # [m]
+        if mu(lo) <= t:
+            return 0.0
+        if mu(hi) >= t:
+            return math.inf
+        for _ in range(200):
+            mid = math.sqrt(lo * hi)
+            lo, hi = (mid, hi) if mu(mid) > t else (lo, mid)
+        return math.sqrt(lo * hi)
+
+    return root(mu_d), root(mu_s)
+
+
 FRICTION_LAWS: dict[str, FrictionLaw] = {
     law.name: law
     for law in (
