@@ -294,6 +294,10 @@ class InflowConfig:
     symmetry of (6.9) is broken by round-off alone, so the finger pattern of one run is one
     draw that changes with any change of the numerics; with it, runs that differ only in
     ``seed`` are physically different realisations (ensembles, ``tiseg sweep``).
+
+    ``width`` and ``y0`` (default: the whole width) make the inlet a gate of that width centred
+    at y = y0, as in the self-channelised flows of Rocha, Johnson & Gray (2019): the inflow state
+    above enters through the cells of the gate, and the rest of the upslope edge is a wall.
     """
 
     h: float = field(metadata=key("inflow thickness [m] (default flow.h0)", positive=True))
@@ -327,6 +331,27 @@ class InflowConfig:
             hi=1.0,
         ),
     )
+
+    width: float | None = field(
+        default=None,
+        metadata=key(
+            "[m] of a localised inlet centred at y0; None = the whole width", positive=True
+        ),
+    )
+    y0: float | None = field(
+        default=None,
+        metadata=key("[m] cross-slope centre of the inlet (default Ly/2)", nonneg=True),
+    )
+
+    def rows(self, ny: int, dy: float) -> tuple[int, int] | None:
+        """Interior cell rows [lo, hi) of the inlet: the cells between the cell faces nearest
+        y0 -+ width/2; None for the full-width inflow (no width given)."""
+        if self.width is None:
+            return None
+        y0 = ny * dy / 2 if self.y0 is None else self.y0
+        lo = max(0, round((y0 - self.width / 2) / dy))
+        hi = min(ny, round((y0 + self.width / 2) / dy))
+        return (lo, hi)
 
     def thickness(self, t: float) -> float:
         """Inflow thickness at time t, (6.8a) times the forcing; 0 after ``stop_time``."""

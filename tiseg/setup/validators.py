@@ -336,7 +336,29 @@ def read_inflow(
                 f"{MIN_CELLS_PER_PERTURBATION} cells are needed to resolve it (raise "
                 "domain.resolution or domain.ny, or lower inflow.modes)"
             )
+    _check_inlet(v["width"], v["y0"], domain)
     return InflowConfig(**v)
+
+
+def _check_inlet(width, y0, domain: DomainConfig) -> None:
+    """A localised inlet (inflow.width, inflow.y0) lies inside [0, Ly] and covers a cell."""
+    if width is None:
+        if y0 is not None:
+            raise InputError(f"inflow.y0={y0!r} needs inflow.width (the inlet's width) [m]")
+        return
+    if domain.is_1d:
+        raise InputError(f"inflow.width={width!r}: a localised inlet needs a 2D domain (ny > 1)")
+    c = domain.Ly / 2 if y0 is None else y0
+    if c - width / 2 < -1e-9 * domain.Ly or c + width / 2 > domain.Ly * (1 + 1e-9):
+        raise InputError(
+            f"inflow.width={width!r}, inflow.y0={c!r}: the inlet [{c - width / 2:.4g}, "
+            f"{c + width / 2:.4g}] m leaves the domain's width [0, {domain.Ly!r}] m"
+        )
+    if round((c + width / 2) / domain.dy) - round((c - width / 2) / domain.dy) < 1:
+        raise InputError(
+            f"inflow.width={width!r}: the inlet covers no cell of dy={domain.dy:.4g} m; "
+            "widen it or refine domain.resolution"
+        )
 
 
 # ---- initial state ------------------------------------------------------------------------------

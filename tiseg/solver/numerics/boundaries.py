@@ -116,7 +116,9 @@ class Inflow:
     """The inflow of (6.8)-(6.9) at low x: h from the ramp at the stage time (run-time slot
     IN_H), u = inflow.u (IN_U), the concentration profile per row (the operator's
     ``inflow_prof`` field, with segregation), on the interior rows; nothing in the corners.
-    Once the inflow stops (IN_ON = 0) it is a wall: no material leaks upstream."""
+    Once the inflow stops (IN_ON = 0) it is a wall: no material leaks upstream. A localised
+    inlet (``cfg.inflow_rows``, inflow.width and inflow.y0) fills only its rows so; the other
+    interior rows are a wall. The full-width inlet compiles to the same kernel as without."""
 
     name = "inflow"
     mirrors = False
@@ -129,18 +131,35 @@ class Inflow:
         wall = BOUNDARIES["wall"].taichi(ti, op, d, side)
         q, par, fp, lay = op.q, op.par, op.fp, op.lay
         g, gy, ny, nc, seg, P = lay.gx, lay.gy, lay.ny, lay.nc, lay.segregation, lay.HPHI
+        rows = op.cfg.inflow_rows
+        full = rows is None
+        lo, hi = (0, ny) if full else rows
 
         @ti.func
         def fill(s, k, m):
             if par[Params.IN_ON] > 0.5:
-                v = ti.Vector.zero(fp, nc)
-                if gy <= m < gy + ny:
-                    h = par[Params.IN_H]
-                    v[0] = h
-                    v[1] = h * par[Params.IN_U]
-                    if ti.static(seg):
-                        v[P] = h * op.inflow_prof[m]
-                q[s, g - 1 - k, m] = v
+                if ti.static(full):
+                    v = ti.Vector.zero(fp, nc)
+                    if gy <= m < gy + ny:
+                        h = par[Params.IN_H]
+                        v[0] = h
+                        v[1] = h * par[Params.IN_U]
+                        if ti.static(seg):
+                            v[P] = h * op.inflow_prof[m]
+                    q[s, g - 1 - k, m] = v
+                else:
+                    if gy + lo <= m < gy + hi:
+                        v = ti.Vector.zero(fp, nc)
+                        h = par[Params.IN_H]
+                        v[0] = h
+                        v[1] = h * par[Params.IN_U]
+                        if ti.static(seg):
+                            v[P] = h * op.inflow_prof[m]
+                        q[s, g - 1 - k, m] = v
+                    elif gy <= m < gy + ny:
+                        wall(s, k, m)
+                    else:
+                        q[s, g - 1 - k, m] = ti.Vector.zero(fp, nc)
             else:
                 wall(s, k, m)
 
@@ -153,12 +172,19 @@ class Inflow:
             return
         il = lay.gx - 1 - k
         h, u, phi = c.inflow_state(t)
-        q[:, il] = 0.0
-        ys = slice(lay.gy, lay.gy + lay.ny)
+        if c.inflow_rows is not None:  # the wall first, then the inlet's rows over it
+            BOUNDARIES["wall"].fill_np(ref, q, t, d, side, k)
+            q[:, il, : lay.gy] = 0.0
+            q[:, il, lay.gy + lay.ny :] = 0.0
+        else:
+            q[:, il] = 0.0
+        lo, hi = (0, lay.ny) if c.inflow_rows is None else c.inflow_rows
+        ys = slice(lay.gy + lo, lay.gy + hi)
+        q[:, il, ys] = 0.0
         q[lay.H, il, ys] = h
         q[lay.HU, il, ys] = h * u
         if lay.segregation:
-            q[lay.HPHI, il, ys] = h * c.inflow_phi_profile(ref.y)
+            q[lay.HPHI, il, ys] = h * c.inflow_phi_profile(ref.y)[lo:hi]
 
 
 BOUNDARIES: dict[str, Inflow | Outflow | Periodic | Wall] = {

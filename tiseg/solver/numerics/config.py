@@ -227,6 +227,8 @@ class OperatorConfig:
     inflow_stop: float = math.inf
     inflow_forcing_frequency: float = 0.0  # [Hz] (inflow.forcing_frequency)
     inflow_forcing_amplitude: float = 0.0  # relative (inflow.forcing_amplitude)
+    # the inlet's interior rows [lo, hi) (inflow.width, inflow.y0); None = every row
+    inflow_rows: tuple | None = field(default=None, metadata=compiled("inflow.width and inflow.y0"))
 
     def __post_init__(self):
         assert self.friction in _LAWS, self.friction  # the registry now: user laws count
@@ -303,6 +305,7 @@ def config_from_scene(scene) -> OperatorConfig:
             inflow_stop=math.inf if inflow.stop_time is None else inflow.stop_time,
             inflow_forcing_frequency=inflow.forcing_frequency,
             inflow_forcing_amplitude=inflow.forcing_amplitude,
+            inflow_rows=inflow.rows(scene.domain.ny, scene.domain.dy),
         )
     num = scene.numerics
     return OperatorConfig(
