@@ -95,7 +95,13 @@ def _rel(cfg, a, b):
 # -------------------------------------------------------------------------------- the twin
 @pytest.mark.parametrize(
     "law,bc",
-    [(LAWS[0], BCS[0]), (LAWS[1], BCS[1]), (LAWS[2], BCS[2]), (LAWS[3], BCS[1])],
+    [
+        (LAWS[0], BCS[0]),
+        (LAWS[1], BCS[1]),
+        # the other two laws and boundaries: the longer regression set (CI runs it too)
+        pytest.param(LAWS[2], BCS[2], marks=pytest.mark.slow),
+        pytest.param(LAWS[3], BCS[1], marks=pytest.mark.slow),
+    ],
     ids=["coulomb-inflow", "mixture-walls", "extended-periodic-x", "small-walls"],
 )
 def test_sweeps_with_friction_and_segregation_match_the_twin(ti_cpu, law, bc):
@@ -143,6 +149,7 @@ def test_friction_and_the_face_rules_change_the_twin_where_they_should(ti_cpu):
 
 
 # ----------------------------------------------------------------------- effects switched off
+@pytest.mark.slow  # a long regression run: CI runs it after the main set
 def test_friction_code_is_in_the_sweeps_and_nothing_else_is(ti_cpu):
     """Each number of the friction law, poisoned with NaN or inf, changes a split step's
     result (the projection compares the momentum with the friction impulse, so a poisoned
@@ -171,6 +178,7 @@ def test_friction_code_is_in_the_sweeps_and_nothing_else_is(ti_cpu):
     assert slot_bases(off)["end"] == slot_bases(off)["friction"]
 
 
+@pytest.mark.slow  # a long regression run: CI runs it after the main set
 def test_feedback_off_the_split_friction_ignores_phi(ti_cpu):
     """Without mobility feedback the momentum after a split step does not depend on the local
     phi; with it, it does (the mixture law weights with phi inside the projection)."""
@@ -358,6 +366,7 @@ def test_chute_conserves_mass_and_small_particles_with_bounded_phi(ti_cpu):
     assert 0.0 <= phi.min() and phi.max() <= 1.0
 
 
+@pytest.mark.slow  # a long regression run: CI runs it after the main set
 def test_resumed_run_ends_on_the_bits_of_the_uninterrupted_one(ti_cpu, tmp_path):
     """The chute with the extended law (a law with hysteresis: the hold and the rest mask):
     saved after an odd number of steps and restored into a fresh simulation, the run ends on
@@ -415,6 +424,7 @@ def test_skipped_resting_columns_get_the_bits_of_a_full_computation(ti_cpu):
     assert narrowest < 0.75, narrowest
 
 
+@pytest.mark.slow  # a long regression run: CI runs it after the main set
 def test_serial_and_parallel_loops_give_the_same_bits(ti_cpu):
     """The split steps with friction (a law with hysteresis), segregation, an inflow and a
     partial active range, with every loop on one thread and with parallel loops: the same
