@@ -134,3 +134,63 @@ def test_every_import_of_tiseg_names_a_module_that_exists():
     modules = {mod for mod, _, _ in _modules()}
     missing = sorted(f"{a} -> {b}" for a, b, _ in _imports() if b not in modules)
     assert not missing, "imports of modules that do not exist:\n" + "\n".join(missing)
+
+
+def _module_level_graph() -> dict[str, set[str]]:
+    """importer -> the tiseg modules it imports when it is loaded: module-level imports only
+    (not in functions, not under `if TYPE_CHECKING:`), `from pkg import sub` read as the
+    submodule `pkg.sub`."""
+    modules = {mod for mod, _, _ in _modules()}
+    graph: dict[str, set[str]] = {}
+    for mod, is_pkg, path in _modules():
+        package = mod.split(".") if is_pkg else mod.split(".")[:-1]
+        body = list(ast.parse(path.read_text(encoding="utf-8")).body)
+        while body:
+            node = body.pop()
+            if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+                continue
+            if isinstance(node, (ast.If, ast.Try)):
+                body.extend(node.body + node.orelse + getattr(node, "finalbody", []))
+                for handler in getattr(node, "handlers", []):
+                    body.extend(handler.body)
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package[: len(package) - node.level + 1]
+                    target = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    target = node.module or ""
+                for alias in node.names:
+                    sub = f"{target}.{alias.name}"
+                    hit = sub if sub in modules else target
+                    if hit in modules and hit != mod:
+                        graph.setdefault(mod, set()).add(hit)
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name in modules:
+                        graph.setdefault(mod, set()).add(alias.name)
+    return graph
+
+
+def test_no_import_cycles_when_modules_load():
+    """No module waits, while it loads, on a module that waits on it (a circle would make the
+    import order matter). The package root's lazy attributes are not imports."""
+    graph = _module_level_graph()
+    graph.pop("tiseg", None)
+    state: dict[str, int] = {}
+    cycles = []
+
+    def walk(node, path):
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if nxt == "tiseg" or nxt in ("tiseg." + p for p in ("_aliases",)):
+                continue
+            if state.get(nxt) == 1:
+                cycles.append(" -> ".join(path[path.index(nxt) :] + [nxt]))
+            elif nxt not in state:
+                walk(nxt, [*path, nxt])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            walk(node, [node])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
