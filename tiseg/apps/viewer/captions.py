@@ -28,6 +28,7 @@ from functools import lru_cache
 import numpy as np
 
 from tiseg.post.render import colours as C
+from tiseg.post.render.lengths import format_length, nice_length
 
 # =================================================================================================
 # Keys
@@ -157,15 +158,6 @@ class ScaleBar:
     label: str  # "5 cm"
 
 
-def format_length(metres: float) -> str:
-    """A length in the unit that keeps its number between 1 and 999: "2 m", "5 cm", "1 mm"."""
-    if metres >= 1.0:
-        return f"{metres:g} m"
-    if metres >= 0.01:
-        return f"{round(metres * 100, 9):g} cm"
-    return f"{round(metres * 1000, 9):g} mm"
-
-
 def scale_bar(
     map_width_px: int, metres_per_px: float, lo: float = 0.1, hi: float = 0.25
 ) -> ScaleBar | None:
@@ -178,13 +170,7 @@ def scale_bar(
         return None
     span = map_width_px * metres_per_px
     top = hi * span
-    e = math.floor(math.log10(top))
-    length = 10.0**e
-    for m in (5.0, 2.0, 1.0):
-        if m * 10.0**e <= top * (1 + 1e-9):
-            length = m * 10.0**e
-            break
-    length = float(f"{length:.12g}")  # 5e-2, not 0.05000000000000001
+    length = float(f"{nice_length(top):.12g}")  # 5e-2, not 0.05000000000000001
     pixels = int(round(length / metres_per_px))
     if pixels < 2:
         return None

@@ -39,6 +39,7 @@ import taichi as ti
 from ... import backend
 from ...solver import field_tree
 from . import colours as C
+from .lengths import format_length, nice_length  # noqa: F401  (also used from here)
 from .raster import (  # noqa: F401  (image_size and the constants are also used from here)
     DEFAULT_RELIEF,
     DEFAULT_SHADE,
@@ -585,25 +586,6 @@ def draw_text(
     ImageDraw.Draw(pil).text((x, baseline), s, font=_font(size), fill=fill, anchor="ls")
     img[...] = np.asarray(pil)
     return x + text_width(s, size)
-
-
-def nice_length(target: float) -> float:
-    """The largest 1, 2 or 5 x 10^k not above target (> 0): a scale-bar length."""
-    if not (target > 0 and math.isfinite(target)):
-        return 0.0
-    e = math.floor(math.log10(target))
-    for m in (5.0, 2.0, 1.0):
-        if m * 10.0**e <= target * (1 + 1e-9):
-            return m * 10.0**e
-    return 10.0**e
-
-
-def format_length(metres: float) -> str:
-    if metres >= 1.0:
-        return f"{metres:g} m"
-    if metres >= 0.01:
-        return f"{metres * 100:g} cm"
-    return f"{metres * 1000:g} mm"
 
 
 def annotate(
