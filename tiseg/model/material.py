@@ -25,6 +25,9 @@ GRAVITY = 9.81
 DEFAULT_START_GAP_DEG = 1.0  # zeta3 - zeta1 when a species gives no zeta3_deg
 DEFAULT_BETA_STAR = 0.136  # Pouliquen & Forterre (2002), as in Edwards & Gray (2015)
 DEFAULT_KAPPA = 1e-3  # Pouliquen & Forterre (2002)
+# [m/s] a wet cell no faster than this is at rest: the deposit of the peak fields
+# (tiseg.run.peaks) and of the run-out analysis (tiseg.post.analysis.deposit)
+REST_SPEED = 1e-6
 
 
 @dataclass(frozen=True)

@@ -87,7 +87,7 @@ STATIC_ATTRS = {
         "long_name": "thickness of the material at rest at peak_time",
         "units": "m",
         "comment": "h where h >= h_min and the material is at rest, |u| <= 1e-06 m s-1 "
-        "(tiseg.run.peaks.REST_SPEED); missing elsewhere",
+        "(tiseg.model.material.REST_SPEED); missing elsewhere",
     },
     "deposit_phi": {
         "long_name": "small-particle concentration of the material at rest at peak_time",

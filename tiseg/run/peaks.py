@@ -37,10 +37,10 @@ precision (`tiseg.run.checkpoint`), so a resumed run ends with the same bits.
 import numpy as np
 import taichi as ti
 
+from ..model.material import REST_SPEED
 from ..model.physics.params import Params
 from ..solver.field_tree import FieldTree
 
-REST_SPEED = 1e-6  # [m/s] a wet cell no faster than this is at rest (the deposit)
 NEVER = -1.0  # the stored arrival time of a cell the flow has not reached
 PEAK_NAMES = ("h_max", "speed_max", "arrival_time")
 CHECKPOINT_KEYS = {"h_max": "peak_h_max", "speed": "peak_speed_max", "arrival": "peak_arrival"}

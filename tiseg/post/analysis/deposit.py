@@ -39,7 +39,9 @@ import math
 
 import numpy as np
 
-DEFAULT_REST_SPEED = 1e-6  # [m/s] the flow is at rest where no wet cell is faster
+from ...model.material import REST_SPEED
+
+DEFAULT_REST_SPEED = REST_SPEED  # [m/s] the flow is at rest where no wet cell is faster
 # the flow has settled where its momentum is at most this fraction of its largest value
 DEFAULT_SETTLE_FRACTION = 1e-5
 DEPOSIT_KEYS = (
