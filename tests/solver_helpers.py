@@ -179,3 +179,15 @@ def child_env(**extra) -> dict:
     env.update(TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0", MPLBACKEND="Agg")
     env.update(extra)
     return env
+
+
+def tiny_fingers(t_end: float, interval: float | None = None) -> list[str]:
+    """The command line of a tiny fingers run (40 cells/m on 0.3 x 0.1 m, no progress bar) to
+    t_end, with snapshots every ``interval`` s if given."""
+    args = ["run", "fingers"]
+    keys = ["domain.resolution=40", "domain.Lx=0.3", "domain.Ly=0.1", f"time.t_end={t_end}"]
+    if interval is not None:
+        keys.append(f"output.interval={interval}")
+    for k in keys:
+        args += ["--set", k]
+    return [*args, "--no-progress"]

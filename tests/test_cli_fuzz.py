@@ -8,6 +8,8 @@ import shutil
 
 import pytest
 
+from solver_helpers import tiny_fingers
+
 from tiseg.apps.cli import build_parser, main
 
 
@@ -20,21 +22,9 @@ def places(tmp_path_factory, ti_cpu):
     assert (
         main(
             [
-                "run",
-                "fingers",
-                "--set",
-                "domain.resolution=40",
-                "--set",
-                "domain.Lx=0.3",
-                "--set",
-                "domain.Ly=0.1",
-                "--set",
-                "time.t_end=0.1",
-                "--set",
-                "output.interval=0.05",
+                *tiny_fingers(0.1, interval=0.05),
                 "--out",
                 str(run),
-                "--no-progress",
             ]
         )
         == 0

@@ -6,6 +6,8 @@ import json
 import subprocess
 import sys
 
+from solver_helpers import tiny_fingers
+
 from tiseg import __version__
 from tiseg.apps.cli import main
 
@@ -24,20 +26,7 @@ def test_version_is_written_once():
     assert version("tiseg") == __version__
 
 
-RUN = [
-    "run",
-    "fingers",
-    "--set",
-    "domain.resolution=40",
-    "--set",
-    "domain.Lx=0.3",
-    "--set",
-    "domain.Ly=0.1",
-    "--set",
-    "time.t_end=0.05",
-    "--no-progress",
-    "--overwrite",
-]
+RUN = [*tiny_fingers(0.05), "--overwrite"]
 
 
 def test_quiet_hides_notes_and_keeps_results(ti_cpu, tmp_path, capsys):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from solver_helpers import child_env, exit_code
+from solver_helpers import child_env, exit_code, tiny_fingers
 
 from tiseg.data import SCENE_DIR
 from tiseg.output.numbers import measured, measured_all
@@ -26,22 +26,8 @@ from tiseg.setup.scene import list_builtin_scenes, load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# a tiny fingers run with snapshots at 0, 0.5 and 1 s (30 x 10 cells)
-TINY = [
-    "run",
-    "fingers",
-    "--set",
-    "domain.resolution=40",
-    "--set",
-    "domain.Lx=0.3",
-    "--set",
-    "domain.Ly=0.1",
-    "--set",
-    "time.t_end=1.0",
-    "--set",
-    "output.interval=0.5",
-    "--no-progress",
-]
+# a tiny fingers run with snapshots at 0, 0.5 and 1 s
+TINY = tiny_fingers(1.0, interval=0.5)
 
 
 def has_tail(text: str) -> bool:
