@@ -21,6 +21,8 @@ from .spec import Calibration
 PENALTY = 1e3
 # The finite-difference step of the local sensitivity, as a fraction of each range.
 FD_STEP = 0.05
+# The search ends when its points are this close, as a fraction of each range.
+XATOL = 1e-5
 
 
 @dataclass
@@ -235,7 +237,8 @@ def search(cal: Calibration, ev: Evaluator) -> tuple[list[Evaluation], str]:
     One parameter: scipy's bounded Brent method (`scipy.optimize.minimize_scalar`, "bounded").
     Several: a Latin hypercube (`scipy.stats.qmc.LatinHypercube`, seeded) evaluated at once,
     then Nelder-Mead with bounds (`scipy.optimize.minimize`) from its best point. Both work in
-    unit coordinates (log ones for a log range). Each is deterministic, so a calibration run
+    unit coordinates (log ones for a log range) and end at `XATOL` of the ranges, at a run
+    that reproduces the targets exactly, or when the budget is spent. Each is deterministic, so a calibration run
     again asks for the same points and finds them finished."""
     from scipy import optimize
     from scipy.stats import qmc
@@ -256,6 +259,8 @@ def search(cal: Calibration, ev: Evaluator) -> tuple[list[Evaluation], str]:
             raise _Spent
         e = ev.evaluate([values], "search")[0]
         seen.append(e)
+        if e.misfit == 0.0:  # the targets reproduced exactly: nothing left to find
+            raise _Spent
         return e.misfit
 
     if len(params) == 1:
@@ -265,7 +270,7 @@ def search(cal: Calibration, ev: Evaluator) -> tuple[list[Evaluation], str]:
                 lambda u: f([u]),
                 bounds=(0.0, 1.0),
                 method="bounded",
-                options={"xatol": 1e-7, "maxiter": 20 * cal.budget},
+                options={"xatol": XATOL, "maxiter": 20 * cal.budget},
             )
         except _Spent:
             pass
@@ -280,6 +285,8 @@ def search(cal: Calibration, ev: Evaluator) -> tuple[list[Evaluation], str]:
     for e in first:
         if all(e.name != s.name for s in seen):
             seen.append(e)
+    if any(e.misfit == 0.0 for e in first):
+        return seen, method
     best = min(range(n0), key=lambda i: first[i].misfit)
     u0 = np.array([p.unit(first[best].values[p.key]) for p in params])
     simplex = [u0]
@@ -296,7 +303,7 @@ def search(cal: Calibration, ev: Evaluator) -> tuple[list[Evaluation], str]:
             options={
                 "initial_simplex": np.array(simplex),
                 "maxfev": 20 * cal.budget,
-                "xatol": 1e-7,
+                "xatol": XATOL,
                 "fatol": 1e-12,
             },
         )
