@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from ...backend import threads_problem
 from ...errors import InputError
 from ...log import stderr_line
 from ...output import write_json_atomic
@@ -85,7 +86,7 @@ def run_calibration(
     """Search the parameters of ``cal`` that reproduce its targets, with each point a member
     folder under ``out`` (run on Dask as a sweep's members are, reused when finished), then
     the uncertainty around the best point; writes ``out/calibration.json`` (also after every
-    batch of runs, with ``"complete": false``) and ``out/misfit.png``.
+    finished run, with ``"complete": false``) and ``out/misfit.png``.
 
     The options are those of `tiseg.apps.sweep.run_sweep`; ``execute`` runs the members in
     this process with that function instead of `tiseg.apps.sweep.execute_run` on Dask."""
@@ -95,6 +96,10 @@ def run_calibration(
         raise InputError(f"--workers={workers}: must be at least 1")
     if threads_per_task is not None and threads_per_task < 0:
         raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
+    if threads_per_task and scheduler is None:
+        problem = threads_problem(threads_per_task, "--threads-per-task")
+        if problem:
+            raise InputError(problem)
     if not overwrite:
         check_calibration_folder(cal, out)
     try:

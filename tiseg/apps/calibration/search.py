@@ -10,6 +10,7 @@ from typing import Callable
 
 import numpy as np
 
+from ...backend import available_cores
 from ...errors import TisegError
 from ..sweep.members import execute_run, read_marker, refresh_metrics
 from ..sweep.runner import member_spec, open_dask, progress_handler
@@ -105,7 +106,7 @@ class Evaluator:
         self.overwrite, self.execute = overwrite, execute
         self.done: dict[str, Evaluation] = {}  # by member name
         self.order: list[Evaluation] = []  # first evaluation of each member
-        self.on_batch: Callable[[], None] = lambda: None
+        self.on_batch: Callable[[], None] = lambda: None  # after each finished run
         self._client = self._cluster = self._threads = None
 
     def evaluate(self, points: list[dict], purpose: str) -> list[Evaluation]:
@@ -125,7 +126,7 @@ class Evaluator:
         if pending:
             for name, rec in self._run(list(pending.values())):
                 self._record(pending[name], rec, purpose)
-            self.on_batch()
+                self.on_batch()  # calibration.json so far: it survives an interruption
         return [self.done[r.name] for r in runs]
 
     def _record(self, run: SweepRun, rec: dict, purpose: str) -> None:
@@ -161,7 +162,7 @@ class Evaluator:
         from distributed import as_completed
 
         if self._client is None:
-            n = self.workers or max(1, min(os.cpu_count() or 1, self._widest_batch()))
+            n = self.workers or max(1, min(available_cores(), self._widest_batch()))
             self._client, self._cluster, self._threads, where = open_dask(
                 self.scheduler,
                 n if self.scheduler is None else None,
