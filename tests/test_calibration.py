@@ -47,13 +47,14 @@ class Model:
         self.runs.append(spec["name"])
         if self.kill_at is not None and len(self.runs) == self.kill_at:
             raise KeyboardInterrupt
-        per_time, deposit = self.numbers(scene_from_text(spec["scene_toml"]))
+        scene = scene_from_text(spec["scene_toml"])
+        per_time, deposit = self.numbers(scene)
         rec = {
             "marker_version": MARKER_VERSION,
             "name": spec["name"],
             "metrics": {
                 "analysis_version": ANALYSIS_VERSION,
-                "time": [0.1, 0.2],
+                "time": [0.1, scene.t_end],
                 **{k: [None, v] for k, v in per_time.items()},
                 "deposit": deposit,
             },
@@ -140,6 +141,34 @@ def test_two_parameters_and_their_covariance(tmp_path):
     assert unc["initial.h_left"]["half_width"] == pytest.approx(math.sqrt(a11 / det), rel=1e-6)
     sens = data["uncertainty"]["sensitivity"]
     assert sens["initial.h_left"]["deposit.thickness_mean"] == pytest.approx(-2.0, rel=1e-6)
+
+
+def test_the_seeds_spread_adds_to_the_tolerance(tmp_path):
+    """With --seeds 3 the best point runs again with inflow.seed 1 and 2; the wavelength's
+    spread over the three (sd 0.002) and the tolerance (0.0015) add in quadrature, and the
+    interval is that spread over dLambda/dnu = 2."""
+
+    def wavelength(scene):
+        return {"wavelength": 0.05 + 2.0 * (scene.flow.nu - 0.01) + 0.002 * scene.inflow.seed}, {}
+
+    cal = calibration_from_args(
+        "fingers",
+        ["flow.nu=0.002:0.05:log"],
+        ["wavelength=0.05+-0.0015"],
+        fixed={"inflow.noise": 1e-4, "domain.resolution": 20},
+        budget=12,
+        seeds=3,
+    )
+    res = run_calibration(cal, tmp_path, echo=None, execute=Model(wavelength))
+    assert res.best["flow.nu"] == pytest.approx(0.01, rel=1e-3)
+    unc = res.result["uncertainty"]
+    assert unc["spread"]["wavelength"]["source"] == "tolerance + seeds (3)"
+    assert unc["spread"]["wavelength"]["value"] == pytest.approx(math.hypot(0.0015, 0.002))
+    half = unc["params"]["flow.nu"]["half_width"]
+    assert half == pytest.approx(math.hypot(0.0015, 0.002) / 2.0, rel=1e-6)
+    seeds = [e for e in res.result["evaluations"] if e["purpose"] == "seed"]
+    assert [e["values"]["inflow.seed"] for e in seeds] == [1, 2]
+    assert all((tmp_path / e["member"] / DONE_MARKER).is_file() for e in seeds)
 
 
 def test_a_killed_calibration_resumes_without_rerunning_or_duplicating(tmp_path):

@@ -30,8 +30,9 @@ MISFIT_TEXT = (
 UNCERTAINTY_TEXT = (
     "linearised least squares at the best point: the sensitivity J_ij = dm_i/dp_j by central "
     f"differences over {FD_STEP:g} of each range (one-sided at its ends), the spread s_i of "
-    "each target (its tolerance if given, else the standard deviation over the seeds with "
-    "--seeds, else the best run's residual |m_i - y_i|), the covariance (J^T S^-2 J)^-1 with "
+    "each target (its tolerance and the standard deviation over the seeds of --seeds, added "
+    "in quadrature where given, else the best run's residual |m_i - y_i|), the covariance "
+    "(J^T S^-2 J)^-1 with "
     "S = diag(s_i), and the interval p_j +- sqrt(C_jj), cut to the range"
 )
 

@@ -323,9 +323,9 @@ def uncertainty(cal: Calibration, ev: Evaluator, best: Evaluation) -> dict:
 
     The sensitivity J_ij = d m_i / d p_j of each target to each parameter by central
     differences over `FD_STEP` of its range around the best point (one-sided at a range's
-    end); the spread s_i of each target: its tolerance if given, else the sample standard
-    deviation of the target over the seeds (``--seeds N``: the best point run with N seeds),
-    else the best run's residual |m_i - y_i|. The covariance of the parameters is
+    end); the spread s_i of each target: its tolerance and the sample standard deviation of
+    the target over the seeds (``--seeds N``: the best point run with N seeds) added in
+    quadrature, where given, else the best run's residual |m_i - y_i|. The covariance of the parameters is
     (J^T S^-2 J)^-1, S = diag(s_i), and the interval of p_j is p_j +- sqrt of its diagonal,
     cut to the range. For one parameter and one target this is p +- s / |dm/dp|."""
     params, targets = cal.params, cal.targets
@@ -355,16 +355,21 @@ def uncertainty(cal: Calibration, ev: Evaluator, best: Evaluation) -> dict:
         runs = ev.evaluate([{**best.values, cal.seed_key: s} for s in seeds], "seed")
         seed_values = {n: [best.outputs.get(n)] + [r.outputs.get(n) for r in runs] for n in names}
     for t in targets:
+        parts, kinds = [], []
         if t.tolerance:
-            spread.append(t.tolerance)
-            source.append("tolerance")
-        elif seed_values is not None and None not in seed_values[t.name]:
-            spread.append(float(np.std(seed_values[t.name], ddof=1)))
-            source.append(f"seeds ({cal.seeds})")
-        else:
+            parts.append(t.tolerance)
+            kinds.append("tolerance")
+        if seed_values is not None and None not in seed_values[t.name]:
+            parts.append(float(np.std(seed_values[t.name], ddof=1)))
+            kinds.append(f"seeds ({cal.seeds})")
+        if not parts:
             m = best.outputs.get(t.name)
-            spread.append(abs(m - t.value) if m is not None else math.nan)
-            source.append("residual")
+            parts.append(abs(m - t.value) if m is not None else math.nan)
+            kinds.append("residual")
+        # independent sources of spread (the measurement's, the model's realisations) add in
+        # quadrature
+        spread.append(float(math.sqrt(sum(x * x for x in parts))))
+        source.append(" + ".join(kinds))
 
     result = {
         "sensitivity": {
