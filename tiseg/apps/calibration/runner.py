@@ -234,7 +234,12 @@ def plot_misfit(cal: Calibration, result: dict, path: Path) -> Path:
     if evals:
         fig.colorbar(sc, ax=axes[0].tolist(), label="search run")
     fig.suptitle(
-        "calibration: " + ", ".join(f"{t.name} = {t.value:g}" for t in cal.targets), fontsize=9
+        "calibration: "
+        + ", ".join(
+            f"{t.name} = {t.value:g}" + (f" ± {t.tolerance:g}" if t.tolerance else "")
+            for t in cal.targets
+        ),
+        fontsize=9,
     )
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
