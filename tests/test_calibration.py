@@ -335,3 +335,23 @@ def test_a_hidden_friction_coefficient_is_recovered_from_its_run_out(ti_cpu, tmp
     lo, hi = res.result["uncertainty"]["params"]["effects.coulomb_mu"]["interval"]
     assert lo <= 0.15 <= hi
     assert np.isfinite(res.result["best"]["misfit"])
+
+
+def test_the_command_prints_calibration_json(tmp_path, capsys, monkeypatch):
+    """`tiseg calibrate ... --json` passes its options through and prints calibration.json."""
+    import tiseg.apps.commands.calibrate as command
+
+    real = command.run_calibration
+    monkeypatch.setattr(
+        command,
+        "run_calibration",
+        lambda cal, out, **kw: real(cal, out, **{**kw, "execute": Model(run_out_of_mu)}),
+    )
+    argv = ["calibrate", SCENE, "--param", "effects.coulomb_mu=0.1:0.4", "--target"]
+    argv += ["runout=0.15+-0.001", "--budget", "12", "--json", "--out", str(tmp_path), "-q"]
+    assert main([*argv, "--set", "effects.friction=coulomb", "--set", "domain.nx=40"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed == json.loads((tmp_path / "calibration.json").read_text())
+    assert printed["calibration"]["budget"] == 12
+    assert printed["calibration"]["set"] == FIXED
+    assert printed["best"]["values"]["effects.coulomb_mu"] == pytest.approx(0.2, rel=1e-3)
