@@ -27,6 +27,7 @@ COMMAND_MODULES = [
     "view",
     "demo",
     "sweep",
+    "calibrate",
     "bench",
     "estimate",
     "scenes",

@@ -214,65 +214,18 @@ def _run_on_dask(
     progress_interval,
     overwrite=False,
 ) -> None:
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise TisegError(
-            "sweeps need Dask: pip install 'tiseg[sweep]' (dask[distributed])"
-        ) from None
-    cores = available_cores()
-    cluster = None
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
-            first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
-            raise InputError(
-                f"cannot connect to the Dask scheduler at {scheduler!r}: "
-                f"{first.strip()} (give an address like tcp://host:8786)"
-            ) from None
-        # None: each task takes as many threads as its worker runs (its --nthreads)
-        threads = threads_per_task
-        where = f"Dask scheduler {scheduler}"
-    else:
-        n = workers or max(1, min(cores, len(pending)))
-        threads = max(1, cores // n) if threads_per_task is None else threads_per_task
-        # processes=True: Taichi's runtime is per process, one run per worker at a time.
-        # The scheduler always serves HTTP; ":0" picks a free port so that several sweeps
-        # (or other Dask users) on one machine never collide on 8787.
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=logging.ERROR,
-        )
-        client = Client(cluster)
-        where = f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)"
-        say(f"Dask dashboard: {client.dashboard_link}")
+    client, cluster, threads, where = open_dask(
+        scheduler, workers, threads_per_task, len(pending), say
+    )
     per = "the worker's" if threads is None else (threads or "all")
     say(
         f"running {len(pending)} runs on the {where}, {per} Taichi thread"
         f"{'' if threads == 1 else 's'} per run"
     )
 
-    last_report: dict[str, float] = {}
+    on_progress = progress_handler(say, progress_interval)
 
-    def on_progress(event) -> None:
-        # event = (timestamp, msg); throttled per run so long sweeps stay readable
-        msg = event[1] if isinstance(event, tuple) else event
-        try:
-            name, now = msg["run"], _time.monotonic()
-            if now - last_report.get(name, -math.inf) < progress_interval:
-                return
-            last_report[name] = now
-            say(
-                f"  running {name}: t = {msg['t']:.2f} / {msg['t_end']:.2f} s "
-                f"({100 * msg['t'] / msg['t_end']:.0f} %), {msg['steps']} steps, "
-                f"{msg['wall']:.0f} s"
-            )
-        except Exception:
-            pass
+    from distributed import as_completed
 
     futures = {}
     try:
@@ -281,17 +234,7 @@ def _run_on_dask(
         except Exception:  # older distributed: no events, only completion lines
             pass
         for run in sorted(pending, key=lambda r: -r.cost):  # longest first: better packing
-            spec = {
-                "name": run.name,
-                "dir": str((out / run.name).resolve()),
-                "scene_toml": run.scene.to_toml(),
-                "scene_name": run.scene.name,
-                "fingerprint": scene_fingerprint(run.scene),
-                "arch": arch,
-                "threads": threads,
-                "report": True,
-                "overwrite": overwrite,
-            }
+            spec = member_spec(run, out, arch, threads, overwrite)
             # retries=1: a transient failure (a worker lost, ti.init briefly out of resources)
             # is tried once more; a run's own error fails again and is reported
             fut = client.submit(
@@ -334,6 +277,93 @@ def _run_on_dask(
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def progress_handler(say, progress_interval: float):
+    """A handler of the members' progress events (topic `PROGRESS_TOPIC`): one line per run
+    at most every ``progress_interval`` seconds."""
+    last_report: dict[str, float] = {}
+
+    def on_progress(event) -> None:
+        # event = (timestamp, msg); throttled per run so long sweeps stay readable
+        msg = event[1] if isinstance(event, tuple) else event
+        try:
+            name, now = msg["run"], _time.monotonic()
+            if now - last_report.get(name, -math.inf) < progress_interval:
+                return
+            last_report[name] = now
+            say(
+                f"  running {name}: t = {msg['t']:.2f} / {msg['t_end']:.2f} s "
+                f"({100 * msg['t'] / msg['t_end']:.0f} %), {msg['steps']} steps, "
+                f"{msg['wall']:.0f} s"
+            )
+        except Exception:
+            pass
+
+    return on_progress
+
+
+def open_dask(scheduler, workers, threads_per_task, n_runs: int, say):
+    """The Dask client the members run on: ``(client, cluster, threads, where)``.
+
+    ``scheduler``: the address of an existing scheduler (``cluster`` is then None and
+    ``threads`` is ``threads_per_task``: None lets each task take its worker's thread count);
+    else a local cluster of ``workers`` processes (default: the cores, at most ``n_runs``), one
+    task each, with ``threads`` Taichi threads per task (default cores / workers). The caller
+    closes the client and the cluster. ``where`` names it for the progress lines."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise TisegError(
+            "sweeps need Dask: pip install 'tiseg[sweep]' (dask[distributed])"
+        ) from None
+    cores = available_cores()
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
+            first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
+            raise InputError(
+                f"cannot connect to the Dask scheduler at {scheduler!r}: "
+                f"{first.strip()} (give an address like tcp://host:8786)"
+            ) from None
+        # None: each task takes as many threads as its worker runs (its --nthreads)
+        return client, None, threads_per_task, f"Dask scheduler {scheduler}"
+    n = workers or max(1, min(cores, n_runs))
+    threads = max(1, cores // n) if threads_per_task is None else threads_per_task
+    # processes=True: Taichi's runtime is per process, one run per worker at a time.
+    # The scheduler always serves HTTP; ":0" picks a free port so that several sweeps
+    # (or other Dask users) on one machine never collide on 8787.
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
+    client = Client(cluster)
+    say(f"Dask dashboard: {client.dashboard_link}")
+    return (
+        client,
+        cluster,
+        threads,
+        f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)",
+    )
+
+
+def member_spec(run: SweepRun, out, arch: str, threads, overwrite: bool = False) -> dict:
+    """The task of one member for `execute_run`: its folder ``out/<run name>`` and scene."""
+    return {
+        "name": run.name,
+        "dir": str((Path(out) / run.name).resolve()),
+        "scene_toml": run.scene.to_toml(),
+        "scene_name": run.scene.name,
+        "fingerprint": scene_fingerprint(run.scene),
+        "arch": arch,
+        "threads": threads,
+        "report": True,
+        "overwrite": overwrite,
+    }
 
 
 def _summary(rec: dict) -> str:

@@ -1,0 +1,156 @@
+"""`tiseg calibrate SCENE`: the parameter values whose run reproduces target numbers."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ...backend import ARCHS
+from ...errors import InputError
+from ...log import info
+from ...setup.scene import parse_override
+from ..calibration import calibration_from_args, run_calibration
+from .common import print_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "calibrate",
+        help="find the parameter values whose run reproduces target numbers; writes "
+        "DIR/calibration.json and DIR/misfit.png",
+        description="Search the box of the --param ranges for the values whose run of SCENE "
+        "gives the --target numbers: any number 'tiseg fingers --json' reports, per time "
+        "(at --time) or in its deposit block (deposit.run_out, ...). The misfit is the RMS of "
+        "the residuals over the tolerances (else relative); the search is scipy's bounded "
+        "Brent method for one parameter, a Latin hypercube then Nelder-Mead for several. "
+        "Each point is a sweep member folder in DIR run on Dask; finished ones are reused, "
+        "so a killed calibration resumes. Then the interval of each parameter from the "
+        "sensitivity of the targets around the best point and their spread (tolerance, "
+        "seeds or residual). Every input is checked before any run.",
+    )
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml file")
+    p.add_argument(
+        "--param",
+        dest="params",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=LO:HI",
+        help="a scene key to calibrate and its range LO < HI; append :log to search it "
+        "log-uniformly (repeatable)",
+    )
+    p.add_argument(
+        "--target",
+        dest="targets",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a number to reproduce, NAME=VALUE or NAME=VALUE+-TOLERANCE, e.g. "
+        "deposit.run_out=0.22 or wavelength=0.05+-0.004 (repeatable)",
+    )
+    p.add_argument(
+        "--time",
+        type=float,
+        default=None,
+        metavar="T",
+        help="output time of the per-time targets [s] (default: the last output time)",
+    )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="override a scene key in every run, e.g. --set domain.nx=200 (repeatable)",
+    )
+    p.add_argument(
+        "--budget",
+        type=int,
+        default=None,
+        metavar="N",
+        help="at most N runs for the search (default 12 per parameter); the interval adds 2 "
+        "per parameter and --seeds N - 1 more",
+    )
+    p.add_argument(
+        "--seeds",
+        type=int,
+        default=0,
+        metavar="N",
+        help="run the best point with N seeds (scenes with inflow.noise) and take the spread "
+        "of the targets over them for the interval (default 0: none)",
+    )
+    p.add_argument(
+        "--design-seed",
+        type=int,
+        default=0,
+        metavar="S",
+        help="seed of the Latin hypercube that starts a search of several parameters (default 0)",
+    )
+    p.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="output folder (default: runs/calibrations/<scene name>)",
+    )
+    p.add_argument("--json", action="store_true", help="print calibration.json on stdout")
+    g = p.add_argument_group("where the runs go (as for tiseg sweep)")
+    g.add_argument(
+        "--scheduler", default=None, metavar="ADDRESS", help="an existing Dask scheduler"
+    )
+    g.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: CPU cores, at most the runs asked for at once)",
+    )
+    g.add_argument(
+        "--threads-per-task",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Taichi CPU threads per run (default: cores / workers; 0 = all cores)",
+    )
+    g.add_argument(
+        "--arch", choices=ARCHS, default="cpu", help="Taichi backend of each run (default cpu)"
+    )
+    g.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into a DIR that holds a calibration of another scene or other --set "
+        "overrides, and replace files in member folders that tiseg did not write",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    if args.time is not None and not (math.isfinite(args.time) and args.time >= 0):
+        raise InputError(f"--time={args.time!r}: give a time in seconds >= 0")
+    fixed = {}
+    for text in args.overrides:
+        key, value = parse_override(text)
+        fixed[key] = value
+    cal = calibration_from_args(
+        args.scene,
+        args.params,
+        args.targets,
+        time=args.time,
+        fixed=fixed,
+        budget=args.budget,
+        seeds=args.seeds,
+        design_seed=args.design_seed,
+    )
+    name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
+    out = Path(args.out) if args.out else Path("runs") / "calibrations" / name
+    result = run_calibration(
+        cal,
+        out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        threads_per_task=args.threads_per_task,
+        arch=args.arch,
+        echo=info,
+        overwrite=args.overwrite,
+    )
+    if args.json:
+        print_json(result.result)
+    return 0
