@@ -15,11 +15,11 @@ Over these N members, per cell:
   (strictly above);
 * ``p_speed_max_above(speed_threshold, y, x)``: the fraction with speed_max > threshold; a
   member the flow never reached there (speed_max missing) counts as not above;
-* ``h_max_mean(y, x)`` and ``h_max_quantile(quantile, y, x)``: the mean and the 5 %, 50 % and
+* ``h_max_mean(y, x)`` and ``h_max_quantile(quantile_level, y, x)``: the mean and the 5 %, 50 % and
   95 % quantiles of h_max over all N members (h_max is 0 where a member stayed empty);
 * ``p_arrival(y, x)``: the fraction of members in which the flow reached the cell
   (arrival_time given);
-* ``arrival_time_mean(y, x)`` and ``arrival_time_quantile(quantile, y, x)``: the mean and the
+* ``arrival_time_mean(y, x)`` and ``arrival_time_quantile(quantile_level, y, x)``: the mean and the
   quantiles of arrival_time over the members in which the flow reached the cell only (the
   arrival time given that it arrives), missing where it reached the cell in no member. Read
   them with ``p_arrival``: a 5 % quantile of 0.2 s where p_arrival = 0.1 says that in the few
@@ -279,8 +279,8 @@ ATTRS = {
 DIMS = {
     "p_h_max_above": ("h_threshold", "y", "x"),
     "p_speed_max_above": ("speed_threshold", "y", "x"),
-    "h_max_quantile": ("quantile", "y", "x"),
-    "arrival_time_quantile": ("quantile", "y", "x"),
+    "h_max_quantile": ("quantile_level", "y", "x"),
+    "arrival_time_quantile": ("quantile_level", "y", "x"),
 }
 
 
@@ -298,8 +298,8 @@ def probability_dataset(sweep, records: Mapping[str, dict], out: Path):
     coords = {
         "x": ("x", x, xa),
         "y": ("y", y, ya),
-        "quantile": (
-            "quantile",
+        "quantile_level": (
+            "quantile_level",
             np.asarray(QUANTILES),
             {"long_name": "probability level of the quantile over the members", "units": "1"},
         ),

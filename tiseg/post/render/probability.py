@@ -72,11 +72,11 @@ def _rows(ds) -> list[dict]:
         ("arrival_time", "arrival time", 1.0, "s"),
     ):
         panels = [(f"mean {label}", ds[f"{name}_mean"].values * factor)]
-        for q in ds["quantile"].values:
+        for q in ds["quantile_level"].values:
             panels.append(
                 (
                     f"{_quantile_label(float(q))} of {label}",
-                    ds[f"{name}_quantile"].sel(quantile=q).values * factor,
+                    ds[f"{name}_quantile"].sel(quantile_level=q).values * factor,
                 )
             )
         finite = np.concatenate([v[np.isfinite(v)].ravel() for _, v in panels])
@@ -92,7 +92,7 @@ def _rows(ds) -> list[dict]:
                 "range": (lo, hi),
                 "label": f"{label} [{unit}]",
                 "kind": name,
-                "quantiles": [float(q) for q in ds["quantile"].values],
+                "quantiles": [float(q) for q in ds["quantile_level"].values],
             }
         )
     return rows
