@@ -78,7 +78,7 @@ def test_bad_probability_tables_are_one_line_errors(table, message):
     assert message in str(err.value) and "\n" not in str(err.value)
 
 
-def test_a_probability_table_from_toml(tmp_path):
+def test_a_probability_table_from_toml(tmp_path, capsys):
     f = tmp_path / "p.toml"
     f.write_text(
         'scene = "dam-break"\n[set]\n"domain.nx" = 40\n[grid]\n"initial.h_left" = [0.001, 0.002]\n'
@@ -88,6 +88,10 @@ def test_a_probability_table_from_toml(tmp_path):
     assert sw.probability.h_thresholds == (0.001, 0.002)  # sorted
     assert sw.probability.speed_thresholds == ()
     assert sw.to_dict()["probability"]["h_thresholds"] == [0.001, 0.002]
+    from tiseg.apps.cli import main
+
+    assert main(["sweep", str(f), "--check", "--out", str(tmp_path / "o")]) == 0
+    assert "2 runs, probability maps of h_max > 0.001, 0.002 m, valid" in capsys.readouterr().out
     f.write_text(f.read_text().replace("0.002, 0.001]", "0.002, nan]"))
     with pytest.raises(InputError, match="h_thresholds lists nan"):
         load_sweep(f)
