@@ -123,6 +123,20 @@ def test_probability_needs_one_grid_and_the_peak_fields():
     assert len(_sweep(grid={"initial.x0": [0.1, 0.12]}).runs) == 6
 
 
+def test_adding_probability_keeps_a_finished_sweep_folder(tmp_path):
+    """[probability] changes no run: a folder of the same sweep without it is taken up (its
+    members reused), and one with other thresholds too."""
+    from tiseg.apps.sweep import check_sweep_folder
+    from tiseg.apps.sweep.table import _write_outputs
+
+    _write_outputs(_sweep(probability=None), tmp_path, {})
+    check_sweep_folder(_sweep(), tmp_path)
+    _write_outputs(_sweep(), tmp_path, {})
+    check_sweep_folder(_sweep(probability={"speed_thresholds": [0.3]}), tmp_path)
+    with pytest.raises(InputError, match="holds another sweep"):
+        check_sweep_folder(_sweep(sample={**BASE["sample"], "seed": 4}), tmp_path)
+
+
 # ------------------------------------------------------------------ the maps of real members
 def _in_process(calls):
     """A stand-in for the Dask submission: run the pending members here, one after another."""

@@ -18,7 +18,7 @@ Over these N members, per cell:
 * ``h_max_mean(y, x)`` and ``h_max_quantile(quantile_level, y, x)``: the mean and the 5 %, 50 % and
   95 % quantiles of h_max over all N members (h_max is 0 where a member stayed empty);
 * ``p_arrival(y, x)``: the fraction of members in which the flow reached the cell
-  (arrival_time given);
+  (arrival_time given: h >= numerics.h_min at some step, the wet threshold of section 6.2);
 * ``arrival_time_mean(y, x)`` and ``arrival_time_quantile(quantile_level, y, x)``: the mean and the
   quantiles of arrival_time over the members in which the flow reached the cell only (the
   arrival time given that it arrives), missing where it reached the cell in no member. Read
