@@ -328,3 +328,34 @@ def test_maps_of_a_2d_sample_render_as_maps(tmp_path):
     assert "95 % quantile of arrival time" in titles
     assert any(ax.get_xlabel() == "x [m]" for ax in fig.axes)
     assert (tmp_path / "maps.png").stat().st_size > 10_000
+
+
+def test_the_builtin_gate_probability_sweep_is_valid():
+    sw = load_sweep("gate-probability")
+    assert len(sw.runs) == 6 and sw.probability.h_thresholds == (0.0005, 0.001, 0.002)
+    assert {(r.scene.domain.nx, r.scene.domain.ny) for r in sw.runs} == {(50, 30)}
+
+
+@pytest.mark.slow
+def test_the_builtin_gate_probability_sweep_on_dask(tmp_path):
+    """The built-in example of docs/probability.md on a local Dask cluster (about a minute on
+    two cores): probability.nc beside sweep.nc, the flow certain at the gate, never in the
+    plane's corners, a margin of probabilities between; a re-run reuses every member and
+    writes the same maps."""
+    import xarray as xr
+
+    out = tmp_path / "gate"
+    res = run_sweep(load_sweep("gate-probability"), out, workers=2, threads_per_task=1, echo=None)
+    assert res.count("done") == 6 and [p.name for p in res.results][:2] == [
+        "sweep.nc",
+        "probability.nc",
+    ]
+    with xr.open_dataset(out / "probability.nc") as ds:
+        first = ds.load()
+    p = first.p_arrival.values
+    assert p[15, 0] == 1 and p[0, -1] == 0 and np.any((p > 0) & (p < 1))
+    assert first.attrs["members"] == 6
+    res = run_sweep(load_sweep("gate-probability"), out, workers=2, echo=None)
+    assert res.count("reused") == 6
+    with xr.open_dataset(out / "probability.nc") as ds:
+        xr.testing.assert_identical(ds.drop_attrs(), first.drop_attrs())
