@@ -20,7 +20,7 @@ from tiseg.apps.sweep import sweep_from_dict, write_results
 from tiseg.apps.sweep.probability import QUANTILES
 from tiseg.errors import InputError
 
-from test_sweep_sample import _cf_check
+from test_sweep_sample import _cf_check, _fields_file
 
 ROOT = Path(__file__).resolve().parents[1]
 H_THR = [0.0005, 0.001, 0.0015]
@@ -135,6 +135,35 @@ def test_adding_probability_keeps_a_finished_sweep_folder(tmp_path):
     check_sweep_folder(_sweep(probability={"speed_thresholds": [0.3]}), tmp_path)
     with pytest.raises(InputError, match="holds another sweep"):
         check_sweep_folder(_sweep(sample={**BASE["sample"], "seed": 4}), tmp_path)
+
+
+def test_members_that_cannot_be_stacked_give_no_maps(tmp_path, caplog):
+    """Fields files made here: a member without peak fields is left out (one line naming it);
+    members whose files have different grids give no probability.nc (one line saying why)."""
+    from tiseg.apps.sweep.probability import write_probability
+
+    sw = _sweep()
+    records = {r.name: {"status": "reused"} for r in sw.runs}
+    names = [r.name for r in sw.runs]
+    _fields_file(tmp_path / names[0] / "fields.nc", 1.0)
+    _fields_file(tmp_path / names[1] / "fields.nc", 2.0)
+    _fields_file(tmp_path / names[2] / "fields.nc", 3.0, names=("h_max",))
+    path = write_probability(sw, tmp_path, records)
+    assert "member member-0002 is left out: its fields.nc has no speed_max" in caplog.text
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        assert ds.run.values.tolist() == names[:2]
+        # h_max = scale * [[0, 1, 2], [3, 4, 5]] m: above 0.001 m everywhere but cell 0
+        assert ds.p_h_max_above.isel(y=0, x=0).values.tolist() == [0, 0, 0]
+        assert ds.p_h_max_above.isel(y=1, x=2).values.tolist() == [1, 1, 1]
+        assert float(ds.h_max_mean.isel(y=1, x=2)) == 7.5
+    path.unlink()
+    caplog.clear()
+    _fields_file(tmp_path / names[2] / "fields.nc", 3.0, nx=4)
+    assert write_probability(sw, tmp_path, records) is None and not path.exists()
+    assert "no probability.nc: the members' grids differ (member member-0002)" in caplog.text
+    assert write_probability(_sweep(probability=None), tmp_path, records) is None
 
 
 # ------------------------------------------------------------------ the maps of real members
