@@ -3,7 +3,7 @@ the maps of real dam-break members checked against NumPy on the members' own fie
 rewrite of a resumed sweep without duplicated members, the CF check and the figure.
 
 The members run in this process on the test session's Taichi runtime (no Dask cluster: the
-cluster is `tests/test_sweep.py`'s subject), one compile for the four of them."""
+cluster is `tests/test_sweep.py`'s subject), one compile for the three of them."""
 
 from __future__ import annotations
 
