@@ -149,6 +149,12 @@ TISEG_RULES = [
         "the viewer's window without the CLI; tests/test_viewer.py drives it under Xvfb",
     ),
     Rule(r"^tiseg .*--help\b", lambda a: a),
+    Rule(
+        r"^tiseg render runs/sweeps/",
+        None,
+        "draws the probability.nc of a sweep, which the page's sweep (not run here) writes; "
+        "tests/test_sweep_probability.py renders one",
+    ),
     Rule(r"^tiseg (fingers|render|steady|stability|scenes)\b", lambda a: a),
 ]
 OTHER_RULES = [

@@ -1,4 +1,5 @@
-"""`tiseg render RUN_DIR`: movies, PNG frames, GIFs and paper-style panels of a finished run."""
+"""`tiseg render RUN_DIR`: movies, PNG frames, GIFs and paper-style panels of a finished run;
+`tiseg render SWEEP_DIR` (or its probability.nc): the figure of a sweep's probability maps."""
 
 from __future__ import annotations
 
@@ -14,14 +15,23 @@ from ...post.render.colours import canonical_field
 def register(sub) -> None:
     p = sub.add_parser(
         "render",
-        help="render a run's snapshots to mp4 / GIF / PNG frames / panels",
+        help="render a run's snapshots to mp4 / GIF / PNG frames / panels, or a sweep's "
+        "probability maps",
         description="Render the snapshots in RUN_DIR/fields.nc (written by "
         "`tiseg run`) with the experiment-like colours of figure 12 "
         "(white fines, brown coarse grains, turquoise empty chute) or "
-        "a viridis map of h, |u|, u or v. Needs no display or Vulkan.",
+        "a viridis map of h, |u|, u or v. Given a sweep folder with probability.nc (a sweep "
+        "with a [probability] table) or that file, draw its maps instead: a panel per "
+        "threshold of P(h_max > threshold) and P(speed_max > threshold), the probability of "
+        "arrival, and the mean and quantiles of h_max and of the arrival time, into "
+        "SWEEP_DIR/probability.png (or --panels OUT.png). Needs no display or Vulkan.",
     )
-    p.add_argument("run_dir", metavar="RUN_DIR", help="run folder (or its fields.nc)")
-    p.add_argument("--field", default="phi", help="phi (default), h, speed (or |u|), u or v")
+    p.add_argument(
+        "run_dir",
+        metavar="RUN_DIR",
+        help="run folder (or its fields.nc), or a sweep folder with probability.nc (or the file)",
+    )
+    p.add_argument("--field", default=None, help="phi (default), h, speed (or |u|), u or v")
     p.add_argument("--movie", default=None, metavar="OUT.mp4", help="write an mp4 movie")
     p.add_argument("--gif", default=None, metavar="OUT.gif", help="write an animated GIF")
     p.add_argument("--frames", default=None, metavar="DIR", help="write PNG frames into DIR")
@@ -63,9 +73,13 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ...post.render.movie import refuse_link, render_run
+    from ...post.render.probability import probability_source
 
+    source = probability_source(args.run_dir)
+    if source is not None:
+        return _render_probability(args, source)
     try:
-        field = canonical_field(args.field)
+        field = canonical_field(args.field or "phi")
     except ValueError as exc:
         raise InputError(str(exc)) from None
     if args.scale is not None and not (args.scale > 0 and math.isfinite(args.scale)):
@@ -121,4 +135,39 @@ def run(args) -> int:
             print(f"rendered {summary['frames']} frames of {field} ({w} x {h} px)")
         for out in summary["outputs"]:
             print(f"wrote {out}")
+    return 0
+
+
+def _render_probability(args, source: Path) -> int:
+    """The figure of a sweep's probability.nc (`tiseg.post.render.probability`)."""
+    from ...post.render.movie import refuse_link
+    from ...post.render.probability import plot_probability
+
+    given = [
+        flag
+        for flag, value in (
+            ("--field", args.field),
+            ("--movie", args.movie),
+            ("--gif", args.gif),
+            ("--frames", args.frames),
+            ("--times", args.times),
+            ("--max-frames", args.max_frames),
+            ("--vmin", args.vmin),
+            ("--vmax", args.vmax),
+        )
+        if value is not None
+    ]
+    if given:
+        raise InputError(
+            f"{', '.join(given)}: not for probability maps ({source} holds maps, not "
+            "snapshots); give --panels OUT.png or nothing"
+        )
+    target = Path(args.panels) if args.panels else source.parent / "probability.png"
+    refuse_link(target)
+    with reading(source):  # a damaged data block: one line, not a traceback
+        plot_probability(source, target, scale_bar=not args.no_annotate)
+    if args.json:
+        print_json({"probability": str(source), "outputs": [str(target)]})
+    else:
+        print(f"wrote {target}")
     return 0

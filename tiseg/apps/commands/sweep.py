@@ -24,7 +24,9 @@ def register(sub) -> None:
         "as independent tasks on Dask, each into its own run folder, and collect the finger "
         "metrics, the deposit and the run costs into DIR/sweep.csv, DIR/sweep.json and the "
         "dataset DIR/sweep.nc; a Sobol' sample also gives DIR/sensitivity.csv and "
-        "DIR/sensitivity.png. Finished runs (folders with "
+        "DIR/sensitivity.png, and a [probability] table DIR/probability.nc (per-cell "
+        "probabilities of exceeding thresholds of h_max and speed_max, means and quantiles of "
+        "h_max and of the arrival time; `tiseg render DIR` draws them). Finished runs (folders with "
         "done.json) are reused, so an interrupted sweep resumes where it stopped. "
         "Every combination is validated before anything runs.",
     )
@@ -32,7 +34,7 @@ def register(sub) -> None:
         "sweep",
         metavar="SWEEP.toml",
         help="sweep file, or the name of a built-in sweep (grid-study, width-study, "
-        "nu-study, finite-release, monodisperse, tiny, tiny-sample)",
+        "nu-study, finite-release, monodisperse, tiny, tiny-sample, gate-probability)",
     )
     p.add_argument(
         "--out",
@@ -128,6 +130,17 @@ def run(args) -> int:
         if sweep.sample is not None:
             s = sweep.sample
             design = f" ({s.method} sample of n = {s.n}, seed {s.seed})"
+        if sweep.probability is not None:
+            pr = sweep.probability
+            parts = [
+                f"{name} > {', '.join(f'{t:g}' for t in ts)} {unit}"
+                for name, ts, unit in (
+                    ("h_max", pr.h_thresholds, "m"),
+                    ("speed_max", pr.speed_thresholds, "m/s"),
+                )
+                if ts
+            ]
+            design += f", probability maps of {' and '.join(parts)}"
         print(
             f"sweep {sweep.name!r}: base scene {sweep.scene}, {len(sweep.runs)} runs{design}, valid"
         )

@@ -71,6 +71,17 @@ peak fields stacked: `tiseg.apps.sweep.dataset`), and a "sobol" sample adds
 ``OUT/sensitivity.csv`` and ``OUT/sensitivity.png``: first-order and total Sobol' indices of
 each output with bootstrap intervals (`tiseg.apps.sweep.sensitivity`).
 
+A ``[probability]`` table (`tiseg.apps.sweep.probability`) adds ``OUT/probability.nc``: per
+cell, the fraction of the finished members whose peak thickness and peak speed exceed each
+threshold, and the mean and quantiles of h_max and of the arrival time::
+
+    [probability]
+    h_thresholds = [0.0005, 0.001]         # [m]
+    speed_thresholds = [0.1, 0.2]          # [m/s]
+
+The members must share one grid: a sweep over ``domain.resolution`` with ``[probability]`` is
+refused before anything runs.
+
 Ensembles: runs that differ only in ``inflow.seed`` (a grid key; see the scene's
 ``inflow.noise``) are realisations of one experiment. ``OUT/summary.csv`` has one row per
 combination of the other grid keys, with ``n`` (finished runs) and, for each metric of

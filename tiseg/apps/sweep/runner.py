@@ -21,6 +21,7 @@ from .members import execute_run, read_marker, refresh_metrics, scene_fingerprin
 from .spec import PROGRESS_TOPIC, Sweep, SweepRun, _canonical
 from .table import _csv_text, _write_outputs
 from .dataset import write_dataset
+from .probability import write_probability
 from .sensitivity import plot_sensitivity, sensitivity_columns, sensitivity_rows
 from ...output import write_text_atomic
 from ...output.diagnostics import json_clean
@@ -188,10 +189,14 @@ def run_sweep(
 
 def write_results(sweep: Sweep, out, records: dict) -> list[Path]:
     """Write what is drawn from the finished members once the sweep has run: ``sweep.nc``
-    (`tiseg.apps.sweep.dataset`) and, for a "sobol" sample, ``sensitivity.csv`` and its bar
-    charts (`tiseg.apps.sweep.sensitivity`). Returns the paths written."""
+    (`tiseg.apps.sweep.dataset`), with ``[probability]`` ``probability.nc``
+    (`tiseg.apps.sweep.probability`) and, for a "sobol" sample, ``sensitivity.csv`` and its
+    bar charts (`tiseg.apps.sweep.sensitivity`). Returns the paths written."""
     out = Path(out)
     paths = [write_dataset(sweep, out, records)]
+    prob = write_probability(sweep, out, records)
+    if prob is not None:
+        paths.append(prob)
     rows = sensitivity_rows(sweep, records)
     if rows:
         path = out / "sensitivity.csv"

@@ -22,8 +22,18 @@ from ...setup.scene import Scene, list_builtin_scenes, load_scene
 from ...data import SWEEP_DIR, builtin_names
 from ...data import builtin_file
 from .design import Sample, member_names, parse_sample
+from .probability import Probability, check_probability, parse_probability
 
-SWEEP_KEYS = ("name", "description", "scene", "times", "set", "grid", "sample")
+SWEEP_KEYS = (
+    "name",
+    "description",
+    "scene",
+    "times",
+    "set",
+    "grid",
+    "sample",
+    "probability",
+)
 DONE_MARKER = "done.json"
 FINGERS_FILE = "fingers.json"
 PROGRESS_TOPIC = "tiseg-sweep-progress"
@@ -129,6 +139,7 @@ class Sweep:
     times: tuple[float, ...]
     runs: tuple[SweepRun, ...]
     sample: Sample | None = None  # the [sample] design (None: a grid only)
+    probability: Probability | None = None  # the [probability] maps asked for (None: none)
 
     @property
     def axes(self) -> list[str]:
@@ -145,6 +156,7 @@ class Sweep:
             "set": self.fixed,
             "grid": self.grid,
             "sample": None if self.sample is None else self.sample.to_dict(),
+            "probability": None if self.probability is None else self.probability.to_dict(),
             "times": list(self.times),
             "runs": [r.name for r in self.runs],
         }
@@ -268,6 +280,9 @@ def sweep_from_dict(
             if key in fixed:
                 fail(f"{key!r} is both in [set] and in [sample]; give it in one of them")
         _check_sample_keys(scene_ref, fixed, sample, fail)
+    probability = None
+    if "probability" in data:
+        probability = parse_probability(data["probability"], fail)
     n_runs = math.prod(len(v) for v in grid.values()) * (sample.size if sample else 1)
     if n_runs > MAX_RUNS:
         fail(f"the grid multiplies out to {n_runs} runs; at most {MAX_RUNS} are allowed")
@@ -313,6 +328,8 @@ def sweep_from_dict(
                     f"add it to output.times in [set]"
                 )
         runs.append(SweepRun(run_name, values, overrides, scene, member))
+    if probability is not None:
+        check_probability(runs, fail)
     return Sweep(
         name=name,
         description=description,
@@ -323,6 +340,7 @@ def sweep_from_dict(
         times=times,
         runs=tuple(runs),
         sample=sample,
+        probability=probability,
     )
 
 

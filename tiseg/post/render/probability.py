@@ -1,0 +1,242 @@
+"""The probability maps of a sweep (``probability.nc``, `tiseg.apps.sweep.probability`) as one
+figure: a panel per threshold of P(h_max > threshold) and of P(speed_max > threshold), the
+probability that the flow arrives, and the mean and quantiles of h_max and of the arrival time.
+
+A 2D sweep gives maps (axes in metres, a scale bar, one colour bar with its units per row, cells
+without a value in the empty-chute grey of the renderer's maps); a 1D sweep (ny = 1) gives
+curves against x, the quantiles as a band around the median.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import InputError, TisegError
+from . import colours as C
+from .lengths import format_length, nice_length
+from .movie import _remove_file, refuse_link
+
+# a variable that only probability.nc holds: how `probability_source` recognises the file
+MARKER_VARIABLE = "p_arrival"
+H_FACTOR, H_UNIT = 1e3, "mm"  # h_max in mm, as the renderer's thickness maps (colours.FIELD_LABELS)
+
+
+def probability_source(path) -> Path | None:
+    """The probability.nc that ``path`` names: the file itself (any .nc holding the maps) or a
+    sweep folder with probability.nc and no fields.nc of a run; None otherwise."""
+    p = Path(path)
+    if p.is_dir():
+        if (p / "fields.nc").exists() or not (p / "probability.nc").is_file():
+            return None
+        return p / "probability.nc"
+    if not p.is_file() or p.suffix != ".nc" or p.name == "fields.nc":
+        return None
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(p, "r") as ds:
+            return p if MARKER_VARIABLE in ds.variables else None
+    except OSError:
+        return None  # not NetCDF: the run renderer says so
+
+
+def _quantile_label(q: float) -> str:
+    return f"{100 * q:g} % quantile"
+
+
+def _rows(ds) -> list[dict]:
+    """The figure's rows: panels (title, values (ny, nx)) sharing a colour range and a label."""
+    rows = []
+    probs = []
+    if "p_h_max_above" in ds:
+        for t in ds["h_threshold"].values:
+            v = ds["p_h_max_above"].sel(h_threshold=t).values
+            probs.append((f"P(h_max > {format_length(float(t))})", v))
+    probs.append(("P(flow arrives)", ds["p_arrival"].values))
+    rows.append({"panels": probs, "range": (0.0, 1.0), "label": "probability [1]", "kind": "p"})
+    if "p_speed_max_above" in ds:
+        speeds = [
+            (
+                f"P(speed_max > {float(t):g} m/s)",
+                ds["p_speed_max_above"].sel(speed_threshold=t).values,
+            )
+            for t in ds["speed_threshold"].values
+        ]
+        rows.append(
+            {"panels": speeds, "range": (0.0, 1.0), "label": "probability [1]", "kind": "p"}
+        )
+    for name, label, factor, unit in (
+        ("h_max", "h_max", H_FACTOR, H_UNIT),
+        ("arrival_time", "arrival time", 1.0, "s"),
+    ):
+        panels = [(f"mean {label}", ds[f"{name}_mean"].values * factor)]
+        for q in ds["quantile_level"].values:
+            panels.append(
+                (
+                    f"{_quantile_label(float(q))} of {label}",
+                    ds[f"{name}_quantile"].sel(quantile_level=q).values * factor,
+                )
+            )
+        finite = np.concatenate([v[np.isfinite(v)].ravel() for _, v in panels])
+        hi = float(finite.max()) if finite.size else 1.0
+        lo = 0.0
+        if name == "arrival_time" and finite.size:
+            lo = float(finite.min())
+        if not hi > lo:
+            hi = lo + 1.0
+        rows.append(
+            {
+                "panels": panels,
+                "range": (lo, hi),
+                "label": f"{label} [{unit}]",
+                "kind": name,
+                "quantiles": [float(q) for q in ds["quantile_level"].values],
+            }
+        )
+    return rows
+
+
+def plot_probability(source, path=None, width: float | None = None, scale_bar: bool = True):
+    """Draw ``source`` (a probability.nc path, a sweep folder holding one, or an open
+    `xarray.Dataset`) and save it to ``path`` (PNG, PDF, SVG, ... by suffix) if given.
+    Returns the matplotlib Figure."""
+    import xarray as xr
+
+    opened = False
+    if hasattr(source, "data_vars"):
+        ds = source
+    else:
+        p = probability_source(source)
+        if p is None:
+            raise InputError(
+                f"no probability maps at {str(source)!r}: give a sweep folder with "
+                "probability.nc (a sweep with a [probability] table) or the file itself"
+            )
+        ds = xr.open_dataset(p)
+        opened = True
+    try:
+        if MARKER_VARIABLE not in ds:
+            raise InputError("this dataset holds no probability maps (no p_arrival)")
+        fig = _curves(ds, width) if ds.sizes["y"] == 1 else _maps(ds, width, scale_bar)
+        if path is not None:
+            path = Path(path)
+            refuse_link(path)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fig.savefig(path, dpi=150)
+            except OSError as exc:
+                _remove_file(path)
+                raise TisegError(
+                    f"cannot write the figure {str(path)!r}: {exc.strerror or exc}"
+                ) from None
+        return fig
+    finally:
+        if opened:
+            ds.close()
+
+
+def _title(fig, ds) -> None:
+    n = int(ds.attrs.get("members", ds.sizes.get("member", 0)))
+    name = str(ds.attrs.get("title", "probability maps")).replace("tiseg probability maps of ", "")
+    fig.suptitle(f"{name}: {n} members", fontsize=11)
+
+
+def _maps(ds, width, scale_bar: bool):
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    rows = _rows(ds)
+    x, y = ds["x"].values, ds["y"].values
+    dx = float(x[1] - x[0]) if x.size > 1 else 1.0
+    dy = float(y[1] - y[0]) if y.size > 1 else dx
+    Lx, Ly = float(x[-1] + 0.5 * dx), float(y[-1] + 0.5 * dy)
+    ncols = max(len(r["panels"]) for r in rows)
+    width = width or min(4.0 * ncols, 16.0)
+    panel_w = width / ncols
+    panel_h = max(panel_w * 0.85 * Ly / Lx, 0.8) + 0.55
+    fig = Figure(figsize=(width, len(rows) * panel_h + 0.5), layout="constrained")
+    axes = fig.subplots(len(rows), ncols, squeeze=False)
+    bar = nice_length(0.2 * Lx)
+    for r, row in enumerate(rows):
+        cmap = C.matplotlib_cmap("h").with_extremes(bad=C.EMPTY_MAP_RGB)
+        norm = Normalize(*row["range"])
+        im = None
+        for c in range(ncols):
+            ax = axes[r, c]
+            if c >= len(row["panels"]):
+                ax.set_visible(False)
+                continue
+            title, values = row["panels"][c]
+            im = ax.imshow(
+                np.ma.masked_invalid(values),
+                origin="lower",
+                extent=(0.0, Lx, 0.0, Ly),
+                interpolation="nearest",
+                cmap=cmap,
+                norm=norm,
+            )
+            ax.set_title(title, fontsize=9)
+            ax.set_xlabel("x [m]", fontsize=8)
+            if c == 0:
+                ax.set_ylabel("y [m]", fontsize=8)
+            ax.tick_params(labelsize=7)
+            if scale_bar and 0 < bar <= Lx:
+                sizebar = AnchoredSizeBar(
+                    ax.transData,
+                    bar,
+                    format_length(bar),
+                    "lower right",
+                    pad=0.2,
+                    borderpad=0.3,
+                    color="black",
+                    frameon=True,
+                    size_vertical=0.015 * Ly,
+                    fontproperties={"size": 7},
+                )
+                sizebar.patch.set_alpha(0.7)
+                ax.add_artist(sizebar)
+        cb = fig.colorbar(im, ax=list(axes[r, :]), shrink=0.9, pad=0.01)
+        cb.set_label(row["label"], fontsize=8)
+        cb.ax.tick_params(labelsize=7)
+    _title(fig, ds)
+    return fig
+
+
+def _curves(ds, width):
+    """1D members: each row one axes, the probabilities as curves, the quantiles as a band."""
+    from matplotlib.figure import Figure
+
+    rows = _rows(ds)
+    x = ds["x"].values
+    width = width or 7.0
+    fig = Figure(figsize=(width, 2.0 * len(rows) + 0.5), layout="constrained")
+    axes = fig.subplots(len(rows), 1, squeeze=False, sharex=True)[:, 0]
+    for ax, row in zip(axes, rows):
+        panels = row["panels"]
+        if row["kind"] == "p":
+            for title, values in panels:
+                ax.plot(x, values[0], drawstyle="steps-mid", label=title)
+            ax.set_ylim(-0.02, 1.02)
+        else:
+            (mean_t, mean), *qs = panels
+            lo, mid, hi = (v[0] for _, v in qs)
+            ax.fill_between(
+                x,
+                lo,
+                hi,
+                step="mid",
+                alpha=0.3,
+                label=f"{100 * row['quantiles'][0]:g} % to "
+                f"{100 * row['quantiles'][-1]:g} % quantiles",
+            )
+            ax.plot(x, mid, drawstyle="steps-mid", label=qs[1][0])
+            ax.plot(x, mean[0], drawstyle="steps-mid", linestyle="--", label=mean_t)
+        ax.set_ylabel(row["label"], fontsize=9)
+        ax.legend(fontsize=7, loc="best")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("x [m]")
+    _title(fig, ds)
+    return fig
