@@ -238,7 +238,6 @@ def test_a_resume_never_undoes_a_run_that_went_on_meanwhile(runs, tmp_path):
 
 
 def test_a_signal_during_cleanup_leaves_no_holder_file(ti_cpu, tmp_path, monkeypatch):
-    import os
     import signal
 
     from tiseg.output.diagnostics import DiagnosticsWriter
@@ -246,7 +245,7 @@ def test_a_signal_during_cleanup_leaves_no_holder_file(ti_cpu, tmp_path, monkeyp
     closing = DiagnosticsWriter.close
 
     def interrupted_close(self):
-        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C while the files are being closed
+        signal.raise_signal(signal.SIGINT)  # Ctrl-C while the files are being closed
         closing(self)
 
     monkeypatch.setattr(DiagnosticsWriter, "close", interrupted_close)

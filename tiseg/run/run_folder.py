@@ -140,7 +140,6 @@ def _signals_deferred():
     """SIGINT and SIGTERM that arrive in the block are held back and sent again when it ends
     (their own handlers act then). Python handlers, not a signal mask: the signal may reach any
     thread of the process (Taichi's), its Python handler always runs in the main thread."""
-    import os
     import signal
     import threading
 
@@ -159,7 +158,10 @@ def _signals_deferred():
         for sig, handler in old.items():
             signal.signal(sig, handler)
         for sig in dict.fromkeys(caught):
-            os.kill(os.getpid(), sig)
+            # to this thread (raise(3)), so its handler acts here, before the block's caller
+            # goes on: os.kill may hand a process-wide signal to another (Taichi's) thread,
+            # which a loaded machine can schedule after the caller has moved past
+            signal.raise_signal(sig)
 
 
 class OutputError(TisegError):
