@@ -104,6 +104,7 @@ def init(
 
     import taichi as ti
 
+    _memoise_source_positions()
     if arch == "cpu":
         ti_arch = ti.cpu
     elif arch == "vulkan":
@@ -151,6 +152,50 @@ def init(
     generation = 1 if _state is None else _state.generation + 1
     _state = BackendState(resolved, precision, threads, generation)
     return _state
+
+
+def _memoise_source_positions() -> None:
+    """Make Taichi's compile step remember the source positions it formats.
+
+    For every node of a kernel's syntax tree, each time a kernel is instantiated (once per
+    simulation object), Taichi formats the node's source lines into the text of a possible
+    error message (``ASTTransformerContext.get_pos_info``, with textwrap): about a quarter of
+    the time to set up a small simulation. The text depends only on the function's source and
+    the node's position, so the same node gives the same text every time: a dictionary returns
+    it, and what Taichi builds (and its kernel cache keys) stays the same. Taichi is pinned
+    (pyproject.toml); if its internals move, nothing is patched."""
+    try:
+        from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
+    except ImportError:
+        return
+    formatter = getattr(ASTTransformerContext, "get_pos_info", None)
+    if formatter is None or getattr(formatter, "tiseg_memo", False):
+        return
+    texts: dict = {}
+
+    def get_pos_info(ctx, node):
+        try:
+            key = (
+                ctx.file,
+                ctx.lineno_offset,
+                ctx.indent,
+                ctx.func.func.__name__,
+                len(ctx.src),
+                type(node).__name__,
+                node.lineno,
+                node.col_offset,
+                node.end_lineno,
+                node.end_col_offset,
+            )
+        except AttributeError:
+            return formatter(ctx, node)
+        text = texts.get(key)
+        if text is None:
+            text = texts[key] = formatter(ctx, node)
+        return text
+
+    get_pos_info.tiseg_memo = True
+    ASTTransformerContext.get_pos_info = get_pos_info
 
 
 def _verbose() -> bool:
