@@ -54,6 +54,7 @@ FIGURES = {
     "deposit": "The deposit of a finite release that comes to rest",
     "roll_waves": "Roll waves: growth, merging into fewer and larger waves, a forced wave train",
     "erosion_deposition": "Erosion-deposition waves on static layers of six thicknesses",
+    "levees_channel": "A self-channelised flow from a gate: cross-sections at three mass fluxes",
     "demo_fig12_phi": "`tiseg demo`: φ at a coarse grid",
     "demo_fig13_speed": "`tiseg demo`: the speed",
     "demo_fig14_h": "`tiseg demo`: the thickness",

@@ -202,3 +202,63 @@ def test_a_film_flowing_into_a_resting_or_slow_cell_feeds_it(ti_cpu, axis, sign,
     # across the periodic face the movers leave the other layer: the central flux draws mass
     # out of it, as before
     assert rate[7 if sign > 0 else 0] < 0.0
+
+
+# ------------------------------------------------- a face wet at the step's start, all its stages
+@pytest.mark.parametrize("axis", [0, 1])
+def test_a_face_wet_at_the_step_start_keeps_its_flux_through_the_step(ti_cpu, axis):
+    """A film just above h_min flows into a dry cell at the step's start; at a later stage of
+    the step it has thinned below h_min and the dry cell holds a trace. Their face still
+    carries mass in that stage: switched off mid-step, the face's flux lived on in the step's
+    first rate alone, which RKC's last stage weighs negatively, and the fed cell went below
+    zero (the clip then made mass: the levees scene at 150 cells/m). The Taichi stage rate
+    equals the NumPy reference's given the step's initial state, and the fed cell gains mass;
+    the next step, from a state whose cells are all below h_min, moves none."""
+    from tiseg.solver.numerics.operator import TaichiOperator
+    from tiseg.solver.reference import ReferenceOperator
+
+    cfg = make_config(
+        6 if axis == 0 else 4,
+        4 if axis == 0 else 6,
+        segregation=False,
+        reconstruction="weno",
+        bc=("periodic",) * 4,
+        friction_scheme="projected",
+        friction="pouliquen-extended",
+    )
+    lay = cfg.layout
+    g = lay.gx
+    normal = lay.HU if axis == 0 else lay.HV
+    film, fed = ((g + 2, g + 1), (g + 3, g + 1)) if axis == 0 else ((g + 1, g + 2), (g + 1, g + 3))
+    start = np.zeros((lay.nc, lay.NX, lay.NY))
+    start[lay.H][film] = 1.05 * cfg.h_min
+    start[normal][film] = 1e-3 * start[lay.H][film]  # towards the dry cell
+    later = np.zeros_like(start)
+    later[lay.H][film] = 0.95 * cfg.h_min  # the limiter took its momentum below h_min
+    later[lay.H][fed] = 1e-7
+    op = TaichiOperator(cfg, nslots=4)
+    op.set(0, start)
+    op.rhs(0, 1, 0.0)  # the step's first evaluation: the step's wet cells
+    op.set(2, later)
+    op.rhs(2, 3, 0.0)  # a later stage of the same step
+    r_ti = op.get(3)
+    ref = ReferenceOperator(cfg)
+    r_np = ref.rhs(later.copy(), 0.0, start=start.copy())
+    ix, iy = lay.interior()
+    assert r_ti[lay.H][fed] > 0.0 and r_ti[lay.H][film] < 0.0
+    # the film feeds its four neighbours (its faces were wet at the step's start), no others
+    fi, fj = film
+    near = [(fi - 1, fj), (fi + 1, fj), (fi, fj - 1), (fi, fj + 1)]
+    assert all(r_ti[lay.H][c] > 0.0 for c in near)
+    rest = r_ti[lay.H][ix, iy].copy()
+    for c in near + [film]:
+        rest[c[0] - g, c[1] - g] = 0.0
+    assert np.all(rest == 0.0)
+    rates = [r_ti[lay.H][c] for c in near]
+    assert sum(rates) == pytest.approx(-r_ti[lay.H][film], rel=1e-12)  # no mass made
+    scale = np.abs(r_np[lay.H]).max()
+    assert np.all(np.abs(r_ti - r_np)[:, ix, iy] <= 1e-12 * scale)
+    op.set(0, later)  # the next step starts below h_min everywhere: no face carries mass
+    op.rhs(0, 1, 0.0)
+    assert np.all(op.get(1)[lay.H] == 0.0)
+    assert np.all(ref.rhs(later.copy(), 0.0)[lay.H] == 0.0)

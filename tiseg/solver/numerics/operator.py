@@ -35,7 +35,7 @@ from .fluxes import FLUXES, PHI_FLUXES
 from .reconstruction import RECONSTRUCTIONS
 from .ranges import SERIAL_CELLS, ActiveRange  # noqa: F401 (public name)
 from .reductions import NSTAB, StabilityNumbers, StepReductions  # noqa: F401 (public names)
-from .rest import HELD, REST, X_NEG, X_POS, Y_NEG, Y_POS, RestRules  # noqa: F401
+from .rest import HELD, REST, WET, X_NEG, X_POS, Y_NEG, Y_POS, RestRules  # noqa: F401
 from .slots import MAX_TERMS, NBUDGET, SlotAlgebra  # noqa: F401 (public names)
 from .split import SplitSweeps
 from ...errors import TisegError
@@ -365,6 +365,17 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         self._boundary_rates(d)
 
     @ti.func
+    def _face_wet(self, w0, w1, hmin, i0, j0, i1, j1):
+        """Whether the face between cells (i0, j0) and (i1, j1), primitives w0 and w1, carries
+        a convective flux: one of the cells is at least h_min thick; with the projected
+        friction also where one of them was at the step's start (RestRules._wet_at_start)."""
+        wet = ti.max(w0[0], w1[0]) >= hmin
+        if ti.static(self.phys.fr_projected):
+            if not wet:
+                wet = self._wet_at_start(i0, j0, i1, j1)
+        return wet
+
+    @ti.func
     def _x_face(self, i, j):
         """Flux through the face between cells (i, j) and (i + 1, j): convective plus viscous."""
         hmin = self.par[Params.H_MIN]
@@ -372,7 +383,7 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         w0 = self.w[i, j]
         w1 = self.w[i + 1, j]
         F = ti.Vector.zero(self.fp, self.nc)
-        if ti.max(w0[0], w1[0]) >= hmin:
+        if self._face_wet(w0, w1, hmin, i, j, i + 1, j):
             wl = w0
             wr = w1
             if ti.static(not self.rec_first):
@@ -403,7 +414,7 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         w0 = self.w[i, j]
         w1 = self.w[i, j + 1]
         F = ti.Vector.zero(self.fp, self.nc)
-        if ti.max(w0[0], w1[0]) >= hmin:
+        if self._face_wet(w0, w1, hmin, i, j, i, j + 1):
             wl = w0
             wr = w1
             if ti.static(not self.rec_first):

@@ -7,9 +7,12 @@ that projection (`tiseg.model.physics.pointwise.Physics`) this module keeps a de
 bitwise:
 
 * the rest mask of a step's start (``rest``: REST where u = v = 0, else the signs of u and v;
-  HELD where a law with hysteresis holds the cell for the whole step), `RestRules._mark_rest`;
+  HELD where a law with hysteresis holds the cell for the whole step; WET where h >= h_min),
+  `RestRules._mark_rest`;
 * the face rules (`RestRules._rest_face`): no mass between two cells at rest, and at least
-  the upwind cell's outrunning flux where it moves into a slower neighbour;
+  the upwind cell's outrunning flux where it moves into a slower neighbour; and a face next
+  to a cell that was wet at the step's start keeps its flux through all the step's stages
+  (`RestRules._wet_at_start`);
 * the projection of a limited stage (`RestRules._project`) and the exact rest of
   `RestRules._keep_rest`;
 * the skipping of quiescent regions (`RestRules._quiescent`, the wet scan
@@ -27,6 +30,7 @@ from ...model.physics.params import Params
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
 X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
+WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: _wet_at_start)
 
 
 @ti.data_oriented
@@ -34,9 +38,11 @@ class RestRules:
     @ti.kernel
     def _mark_rest(self, serial: ti.template()):
         """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
-        (X_POS / X_NEG, Y_POS / Y_NEG), on the cells the faces near the active range read
-        (further out no face flux is computed). With a law with hysteresis the step's first
-        stage then adds HELD to the cells the static friction holds (_project)."""
+        (X_POS / X_NEG, Y_POS / Y_NEG), and WET where h >= h_min, on the cells the faces near
+        the active range read (further out no face flux is computed). With a law with
+        hysteresis the step's first stage then adds HELD to the cells the static friction
+        holds (_project)."""
+        hmin = self.par[Params.H_MIN]
         lo = ti.max(self.act[0] - 4, 0)
         hi = ti.min(self.act[1] + 4, self.NX)
         ti.loop_config(serialize=serial)
@@ -58,7 +64,24 @@ class RestRules:
                         flag |= Y_POS
                     elif w[self.HV] < 0.0:
                         flag |= Y_NEG
+            if w[0] >= hmin:
+                flag |= WET
             self.rest[i, j] = ti.cast(flag, ti.i8)
+
+    @ti.func
+    def _wet_at_start(self, i0, j0, i1, j1):
+        """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) at the step's start: their
+        face then carries its flux in every stage of the step, even where both cells have
+        thinned below h_min since (_x_face, _y_face), so that the step's rates are one smooth
+        function, as for the rest rules (_rest_face). Switched off mid-step, the face's flux
+        stayed in the rate of the step's start only, which RKC's last stage weighs with a
+        negative coefficient (about -1.6 dt at 2 stages): a thin cell fed through that face
+        was emptied below zero, and the stage limiter's clip to h = 0 then created mass
+        (a relative 1e-6 in one step at the margin of a flow spreading from a narrow
+        inlet, the levees scene at 150 cells/m). A face that becomes wet mid-step switches on
+        as before."""
+        r = ti.cast(self.rest[i0, j0], ti.i32) | ti.cast(self.rest[i1, j1], ti.i32)
+        return (r & WET) != 0
 
     @ti.func
     def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):

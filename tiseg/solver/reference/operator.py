@@ -10,7 +10,8 @@ The discretisation (identical in `tiseg.solver.numerics.operator`):
    (smoothness indicators made dimensionless with h_ref, u_ref); then limited so that the
    edge values keep h >= 0 and 0 <= phi <= 1.
 4. A central flux at each face (``numerics.flux``), zero where both neighbouring cells are
-   thinner than h_min:
+   thinner than h_min (with the projected friction: and were so at the step's start, see
+   `ReferenceOperator.rhs`):
 
    * ``kt``, Kurganov-Tadmor (2000): H = (f(q_L) + f(q_R))/2 - a/2 (q_R - q_L), with the local
      speed a = max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) over both edge states
@@ -182,10 +183,13 @@ class ReferenceOperator:
         return s
 
     # ------------------------------------------------------------------ the operator
-    def face_fluxes(self, w: np.ndarray, axis: int) -> np.ndarray:
+    def face_fluxes(self, w: np.ndarray, axis: int, start: np.ndarray | None = None) -> np.ndarray:
         """Numerical flux (step 4) at faces between cells m and m+1 along axis; shape like w with the
-        face m+1/2 stored at index m (last index unused)."""
+        face m+1/2 stored at index m (last index unused). ``start``: the primitives of the
+        step's initial state, whose rest and wet cells decide the projected friction's face
+        rules (default w itself, the step's first evaluation)."""
         c = self.cfg
+        start = w if start is None else start
         direction = axis - 1
         s = self.slopes(w, axis)
         n = w.shape[axis]
@@ -199,9 +203,12 @@ class ReferenceOperator:
         wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
         H = self.numerical_flux(wl, wr, direction)
         if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
-            self.rest_faces(H, wl, wr, w, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
+            self.rest_faces(H, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
         hc = w[0]
         dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
+        if self.projected:  # a face next to a cell wet at the step's start keeps its flux
+            h0 = start[0]
+            dry &= np.maximum(h0[sl(0, n - 1)[1:]], h0[sl(1, n)[1:]]) < c.h_min
         H = np.where(dry[None], 0.0, H)
         out = np.zeros_like(w)
         out[sl(0, n - 1)] = H
@@ -359,13 +366,24 @@ class ReferenceOperator:
             r &= w[lay.HV] == 0
         return r
 
-    def rhs(self, q: np.ndarray, t: float) -> np.ndarray:
-        """dq/dt on interior cells (ghost entries of the result are zero); fills q's ghosts."""
+    def rhs(self, q: np.ndarray, t: float, start: np.ndarray | None = None) -> np.ndarray:
+        """dq/dt on interior cells (ghost entries of the result are zero); fills q's ghosts.
+
+        ``start``: the step's initial state (ghost cells filled here, at t), for a later stage
+        of a step. With the projected friction its cells decide the face rules: which cells
+        are at rest (`rest_faces`), and which faces carry a flux although both their cells are
+        now thinner than h_min (one of them was not at the step's start:
+        TaichiOperator._face_wet). Default: q itself, the step's first evaluation."""
         c, lay = self.cfg, self.lay
         self.fill_ghosts(q, t)
         w = self.primitives(q)
-        Fx = self.face_fluxes(w, 1)
-        Fy = None if lay.is_1d else self.face_fluxes(w, 2)
+        w0 = None
+        if start is not None:
+            s0 = np.array(start, dtype=float)
+            self.fill_ghosts(s0, t)
+            w0 = self.primitives(s0)
+        Fx = self.face_fluxes(w, 1, w0)
+        Fy = None if lay.is_1d else self.face_fluxes(w, 2, w0)
         if c.viscous:
             Px, Py = self.viscous_fluxes(w)
             Fx = Fx - Px
