@@ -138,6 +138,12 @@ def init(
     clear_stale_lock(cache)
     if cache != os.environ.get("TI_OFFLINE_CACHE_FILE_PATH"):
         kwargs["offline_cache_file_path"] = cache
+    if ti_arch == ti.cpu:
+        # LLVM's lighter code generation: on this package's kernels it compiles about 10x
+        # faster (most of a small run's set-up), runs as fast (memory-bound stencils) and
+        # gives the same bits (16 pinned cases, benchmarks/timings.md); GPUs keep Taichi's
+        # default
+        kwargs["opt_level"] = 0
     if threads and ti_arch == ti.cpu:
         kwargs["cpu_max_num_threads"] = threads
     # Taichi prints "[Taichi] Starting on arch=..." on stdout: on stderr with -v, else nowhere
