@@ -161,47 +161,62 @@ def init(
 
 
 def _memoise_source_positions() -> None:
-    """Make Taichi's compile step remember the source positions it formats.
+    """Make Taichi's compile step remember what it reads and formats from the source.
 
-    For every node of a kernel's syntax tree, each time a kernel is instantiated (once per
-    simulation object), Taichi formats the node's source lines into the text of a possible
-    error message (``ASTTransformerContext.get_pos_info``, with textwrap): about a quarter of
-    the time to set up a small simulation. The text depends only on the function's source and
-    the node's position, so the same node gives the same text every time: a dictionary returns
-    it, and what Taichi builds (and its kernel cache keys) stays the same. Taichi is pinned
-    (pyproject.toml); if its internals move, nothing is patched."""
+    Each time a kernel is instantiated (once per simulation object) Taichi reads the kernel's
+    source lines again (inspect, which tokenises the file) and, for every node of its syntax
+    tree, formats the node's lines into the text of a possible error message
+    (``ASTTransformerContext.get_pos_info``, with textwrap): together about a quarter of the
+    time to set up a small simulation. Both depend only on the source and the node's position,
+    so dictionaries return them, and what Taichi builds (and its kernel cache keys) stays the
+    same. Taichi is pinned (pyproject.toml); if its internals move, nothing is patched."""
     try:
+        from taichi.lang import kernel_impl
         from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
     except ImportError:
         return
     formatter = getattr(ASTTransformerContext, "get_pos_info", None)
-    if formatter is None or getattr(formatter, "tiseg_memo", False):
-        return
-    texts: dict = {}
+    if formatter is not None and not getattr(formatter, "tiseg_memo", False):
+        texts: dict = {}
 
-    def get_pos_info(ctx, node):
-        try:
-            key = (
-                ctx.file,
-                ctx.lineno_offset,
-                ctx.indent,
-                ctx.func.func.__name__,
-                len(ctx.src),
-                type(node).__name__,
-                node.lineno,
-                node.col_offset,
-                node.end_lineno,
-                node.end_col_offset,
-            )
-        except AttributeError:
-            return formatter(ctx, node)
-        text = texts.get(key)
-        if text is None:
-            text = texts[key] = formatter(ctx, node)
-        return text
+        def get_pos_info(ctx, node):
+            try:
+                key = (
+                    ctx.file,
+                    ctx.lineno_offset,
+                    ctx.indent,
+                    ctx.func.func.__name__,
+                    len(ctx.src),
+                    type(node).__name__,
+                    node.lineno,
+                    node.col_offset,
+                    node.end_lineno,
+                    node.end_col_offset,
+                )
+            except AttributeError:
+                return formatter(ctx, node)
+            text = texts.get(key)
+            if text is None:
+                text = texts[key] = formatter(ctx, node)
+            return text
 
-    get_pos_info.tiseg_memo = True
-    ASTTransformerContext.get_pos_info = get_pos_info
+        get_pos_info.tiseg_memo = True
+        ASTTransformerContext.get_pos_info = get_pos_info
+    reader = getattr(kernel_impl, "getsourcelines", None)
+    if callable(reader) and not getattr(reader, "tiseg_memo", False):
+        sources: dict = {}
+
+        def getsourcelines(obj):
+            code = getattr(obj, "__code__", None)
+            if code is None:
+                return reader(obj)
+            if code not in sources:
+                sources[code] = reader(obj)
+            lines, start = sources[code]
+            return list(lines), start
+
+        getsourcelines.tiseg_memo = True
+        kernel_impl.getsourcelines = getsourcelines
 
 
 def _verbose() -> bool:
