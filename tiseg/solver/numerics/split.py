@@ -458,3 +458,173 @@ class SplitSweeps:
             width = self.par[Params.DY] if ti.static(d == 0) else self.par[Params.DX]
             self.bud[0, 2 * d] += dt * mass * width
             self.bud[0, 2 * d + 1] += dt * small * width
+
+    # -------------------------------------------------------------- the viscous sub-step
+    def viscous_stage(
+        self,
+        src: int,
+        prev2: int,
+        dst: int,
+        coeffs: tuple[float, float, float, float],
+        t: float,
+        tau: float = 0.0,
+        first: bool = False,
+        last: bool = False,
+    ) -> None:
+        """One stage of the viscous sub-step V of a split step (the RKC stages of
+        tiseg.solver.timestepping.split.Hancock), in one launch, on the cells a sweep updates:
+
+            slot dst := Y0 + mu (Y_src - Y0) + nu (Y_prev2 - Y0) + ct V(Y_src) + cg F0
+
+        with Y0 = slot 0 (the state V started from), F0 = slot 1 and ``coeffs`` = (mu, nu, ct,
+        cg). ``src`` = 0 (with ``prev2`` < 0) is the first stage, which also stores V(Y0) in
+        slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter, and
+        with ``last`` the friction projection of the whole step over ``tau``). V is the
+        divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
+        only the momenta change, and a cell whose rates are zero at every stage keeps its bits
+        (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
+        ghost cells); ``first``: the sub-step opens the step (the rest mask and the speeds
+        of the step's initial state, as a first sweep)."""
+        fr = self.phys.fr_projected
+        one = src == 0
+        assert one == (prev2 < 0) and (dst != 0 or not one), (src, prev2, dst)
+        if fr and first:
+            assert one
+            self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
+        self._set_time(t)
+        key = (src, t, self.active)
+        interior = self._interior == (src, self.active) or (
+            self._prepared is not None and self._prepared[::2] == key[::2]
+        )
+        fresh = 2 if self._prepared == key else (1 if interior else 0)
+        first, last = bool(fr and first), bool(fr and last and dst == 0)
+        hold = self._first_of_step(True) if last else False
+        mu, nu, ct, cg = (float(c) for c in coeffs)
+        self._viscous(
+            src,
+            max(prev2, 0),
+            dst,
+            mu,
+            nu,
+            ct,
+            cg,
+            tau,
+            fresh,
+            one,
+            dst == 0,
+            first,
+            last,
+            hold,
+            self.serial_loops(),
+        )
+        self._written(dst, primitives=True)
+
+    @ti.kernel
+    def _viscous(
+        self,
+        src: ti.i32,
+        prev2: ti.i32,
+        dst: ti.i32,
+        mu: float,
+        nu: float,
+        ct: float,
+        cg: float,
+        tau: float,
+        fresh: ti.template(),
+        one: ti.template(),
+        final: ti.template(),
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
+    ):
+        """A stage of V (viscous_stage): ghosts and primitives of slot src as far as
+        ``fresh`` says they are stale, the viscous face stresses, the stage's combination."""
+        if ti.static(fresh < 2):
+            self._ghosts(src)
+            if ti.static(fresh == 1):
+                self._edge_primitives(src, serial)
+            else:
+                self._primitives(src, serial)
+        self._viscous_faces(serial)
+        self._viscous_update(
+            src, prev2, dst, mu, nu, ct, cg, tau, one, final, first, last, hold, serial
+        )
+
+    @ti.func
+    def _viscous_faces(self, serial: ti.template()):
+        """The viscous stresses alone through the faces a sweep's update reads: x faces
+        (i, i + 1) for i in [a - 1, b) on the interior rows, y faces (j, j + 1) for j in
+        [gy - 1, gy + ny) on the columns [a, b), in fx and fy."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        if ti.static(self.is_1d):
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
+                zero = ti.Vector.zero(self.fp, self.nc)
+                self.fx[i, j] = self._x_viscous(zero, i, j, self.w[i, j], self.w[i + 1, j])
+        else:
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
+                zero = ti.Vector.zero(self.fp, self.nc)
+                w0 = self.w[i, j]
+                if j >= gy:
+                    self.fx[i, j] = self._x_viscous(zero, i, j, w0, self.w[i + 1, j])
+                if i >= a:
+                    self.fy[i, j] = self._y_viscous(zero, i, j, w0, self.w[i, j + 1])
+
+    @ti.func
+    def _viscous_update(
+        self,
+        src,
+        prev2,
+        dst,
+        mu,
+        nu,
+        ct,
+        cg,
+        tau,
+        one: ti.template(),
+        final: ti.template(),
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
+    ):
+        """The stage's combination on the interior rows of the x range [a - 3, b + 3) that
+        the next stage's primitives read (the rate is zero outside the active range [a, b),
+        so there every stage equals Y0), with the primitives of the result into w; the last
+        stage writes slot 0 on [a, b) only."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
+            y0 = self.q[0, i, j]
+            r = ti.Vector.zero(self.fp, self.nc)
+            inside = a <= i < b
+            if inside:
+                r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
+                if ti.static(not self.is_1d):
+                    r -= (self.fy[i, j] - self.fy[i, j - 1]) * idy
+            acc = y0
+            if ti.static(one):
+                self.q[1, i, j] = r  # F0
+                acc = y0 + ct * r
+                if ti.static(first):
+                    self.spd0[i, j] = self.phys.speed_mag(self.w[i, j])  # (the step's start)
+            else:
+                inc = mu * (self.q[src, i, j] - y0) + nu * (self.q[prev2, i, j] - y0)
+                acc = y0 + (inc + ct * r + cg * self.q[1, i, j])
+            if ti.static(final):
+                if inside:
+                    acc = self._limit(acc)
+                    if ti.static(last):
+                        acc = self._project(acc, tau, i, j, hold, self.spd0[i, j])
+                    self.q[0, i, j] = acc
+                else:
+                    acc = y0
+            else:
+                self.q[dst, i, j] = acc
+            self.w[i, j] = self._fast_primitive(acc)
