@@ -58,10 +58,28 @@ Segregation and the mobility feedback need nothing more: the h phi flux is upwin
 mass flux, and the mixture law weights with the cell's phi inside the projection. An inflow's
 ghost cells hold its state at mid-step (t + dt/2), the time of the edges they face.
 
-What it leaves out: the viscosity, whose stiffness needs RKC; a scene with it must use the
-Runge-Kutta steppers (the scene says so when it is read), as one with the regularised
-friction must. The NumPy twins are `tiseg.solver.reference.split.hancock_sweep` and
-`tiseg.solver.reference.split.hancock_step`.
+The viscous stress of (6.2) is a third operator V, split from the sweeps in the same
+alternating way: x, y, V on even steps and V, y, x on odd ones (x, V and V, x in 1D), each
+sub-step over the whole dt, so two steps are symmetric and the splitting error is second
+order. V (`viscous_stage`) moves only the momenta: the divergence of the unsplit operator's
+viscous face stresses (TaichiOperator._x_viscous, _y_viscous: harmonic face coefficients,
+cross derivatives over four cells), integrated by s RKC stages (the stepper,
+tiseg.solver.timestepping.split, picks s from dt rho_visc as RKC does, at least 2), so the
+step stays the convective one where the explicit viscous limit is shorter. The stages are
+summed as increments, Y_j = Y0 + (mu (Y_j-1 - Y0) + nu (Y_j-2 - Y0) + ...), so a cell whose
+viscous rates are zero at every stage keeps its bits (rest among rest, a uniform flow) and
+h and h phi are never touched. The friction projection closes the step after its last
+sub-step, V or a sweep, with the rest mask and speeds of the step's initial state (taken by
+whichever sub-step opens the step), so the hold sees the whole step's driving, viscous force
+included. Chosen by measurement (docs/numerics.md, "Viscosity"): on a smooth 2D flow the
+alternation is second order and as accurate as the symmetric V(dt/2) x y V(dt/2), which
+costs twice its viscous stages, while a fixed order x, y, V falls to order 1.3 in hv; viscous
+fluxes inside the sweeps would see the cross terms only lagged (first order in time) and
+would bind the step to the explicit viscous limit.
+
+A scene with the regularised friction must use the Runge-Kutta steppers (the scene says so
+when it is read). The NumPy twins are `tiseg.solver.reference.split.hancock_sweep`,
+`tiseg.solver.reference.split.viscous_substep` and `tiseg.solver.reference.split.hancock_step`.
 """
 
 import taichi as ti
