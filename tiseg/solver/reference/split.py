@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..numerics.boundaries import inlet_rows
 from ..timestepping.rkc import rkc_coefficients
 from .operator import SQRT2, ReferenceOperator
 
@@ -187,10 +188,17 @@ def project_step(ref: ReferenceOperator, q: np.ndarray, dt: float, start: np.nda
 
 def viscous_rate(ref: ReferenceOperator, q: np.ndarray, t: float) -> np.ndarray:
     """V(q): the divergence of the viscous stresses of (6.2) alone on the interior cells, zero
-    elsewhere (SplitSweeps._viscous_faces); fills q's ghost cells at time t."""
+    elsewhere (SplitSweeps._viscous_faces), with no stress through a running inlet; fills
+    q's ghost cells at time t."""
     c, lay = ref.cfg, ref.lay
     ref.fill_ghosts(q, t)
-    Px, Py = ref.viscous_fluxes(split_primitives(ref, q))
+    w = split_primitives(ref, q)
+    if c.bc[0] == "inflow" and not t > c.inflow_stop:
+        # no viscous stress through a running inlet (SplitSweeps._inlet_velocities)
+        ys = slice(*inlet_rows(lay, c.inflow_rows))
+        for comp in (lay.HU,) if lay.is_1d else (lay.HU, lay.HV):
+            w[comp, : lay.gx, ys] = w[comp, lay.gx, ys][None]
+    Px, Py = ref.viscous_fluxes(w)
     ix, iy = lay.interior()
     ixm = slice(ix.start - 1, ix.stop - 1)
     out = np.zeros_like(q)
