@@ -71,7 +71,9 @@ viscous rates are zero at every stage keeps its bits (rest among rest, a uniform
 h and h phi are never touched. The friction projection closes the step after its last
 sub-step, V or a sweep, with the rest mask and speeds of the step's initial state (taken by
 whichever sub-step opens the step), so the hold sees the whole step's driving, viscous force
-included. Chosen by measurement (docs/numerics.md, "Viscosity"): on a smooth 2D flow the
+included. Through a running inlet V takes no stress (`_inlet_velocities`): its prescribed
+state is one the friction balances, while V after the sweeps sees their state before the
+friction. Chosen by measurement (docs/numerics.md, "Viscosity"): on a smooth 2D flow the
 alternation is second order and as accurate as the symmetric V(dt/2) x y V(dt/2), which
 costs twice its viscous stages, while a fixed order x, y, V falls to order 1.3 in hv; viscous
 fluxes inside the sweeps would see the cross terms only lagged (first order in time) and
