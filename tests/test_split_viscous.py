@@ -468,3 +468,32 @@ def test_steady_inflow_into_the_uniform_flow_is_kept(ti_cpu):
     f = sim.fields()
     assert np.abs(f["h"] / h0 - 1.0).max() < 1e-12
     assert np.abs(f["u"] / u0 - 1.0).max() < 1e-12
+
+
+@pytest.mark.slow
+def test_coulomb_block_with_viscosity_stops_and_keeps_its_bits_in_1d(ti_cpu):
+    """The Coulomb block of tests/test_split_full_model.py (1D, mu = 0.47 on 21 degrees) with
+    viscosity: it slumps, stops exactly (u = 0 everywhere by 1.5 s), and then every step,
+    x, V and V, x in turn, leaves every bit as it was."""
+    o = {
+        "material.zeta_deg": 21.0,
+        "effects.friction": "coulomb",
+        "effects.coulomb_mu": 0.47,
+        "initial.h_left": 0.006,
+        "domain.nx": 60,
+        "numerics.stepper": "hancock",
+        "time.t_end": 3.0,
+        "effects.viscosity": True,
+        "flow.nu": 0.01,
+    }
+    sim = Simulation(load_scene("dam-break", o), check_every=1)
+    assert sim.stepper.viscous and sim.layout.is_1d
+    sim.advance(0.1)
+    assert np.abs(sim.fields()["u"]).max() > 1e-3
+    sim.advance(1.5)
+    assert np.all(sim.fields()["u"] == 0.0)
+    before = sim.conserved().copy()
+    steps = sim.stats.steps
+    sim.advance(3.0)
+    assert sim.stats.steps > steps + 20
+    assert np.array_equal(sim.conserved(), before)
