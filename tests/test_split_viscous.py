@@ -6,8 +6,10 @@ What must hold: the kernels equal their NumPy twin (tiseg.solver.reference.split
 with "v"); V changes only the momenta (h and h phi keep their bits); the step is second order
 in time on a smooth coupled problem and the shear wave decays at the exact viscous rate with
 second-order convergence; mass to round-off, h >= 0 and 0 <= phi <= 1 at the largest stable
-step; the lake at rest and the steady uniform flow (4.3) kept with viscosity on; a resumed
-run ends on the bits of the uninterrupted one; the scene takes hancock with viscosity.
+step; the lake at rest, a stopped block and the steady uniform flow (4.3), in a periodic box
+and fed by the inflow, kept with viscosity on; a resumed run ends on the bits of the
+uninterrupted one; the skipping of resting regions and parallel loops stay exact; the scene
+takes hancock with viscosity.
 """
 
 from __future__ import annotations
