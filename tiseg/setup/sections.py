@@ -530,7 +530,8 @@ class NumericsConfig:
         default="rkc",
         metadata=key(
             'Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler, or "hancock": '
-            "dimensionally split MUSCL-Hancock sweeps (no viscosity; projected friction)",
+            "dimensionally split MUSCL-Hancock sweeps (projected friction; the viscosity as "
+            "a sub-step of RKC stages)",
             choices=lambda: tuple(_STEPPERS),
             compiled="simulation",
         ),

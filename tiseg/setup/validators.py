@@ -598,17 +598,11 @@ def _check_friction_scheme(n: NumericsConfig, effects: EffectsConfig) -> None:
 
 
 def _check_split(n: NumericsConfig, flow: FlowConfig, effects: EffectsConfig) -> None:
-    """What the split stepper needs (tiseg.solver.numerics.split): no viscosity, which its single
-    explicit sweep per direction cannot take, and friction only as the projection after the
-    step's sweeps (the regularised source is a stiff term). (Any step rule is stable with
-    it: "max" is each sweep's own Courant number, "sum" and "local" give shorter steps.)"""
-    why = f"numerics.stepper={n.stepper!r} (dimensionally split sweeps) has no stiff terms"
-    require(
-        not (effects.viscosity and flow.nu > 0.0),
-        "effects.viscosity",
-        effects.viscosity,
-        f"{why}: switch the viscosity off (or flow.nu = 0), or use numerics.stepper = 'rkc'",
-    )
+    """What the split stepper needs (tiseg.solver.numerics.split): friction only as the
+    projection after the step's sub-steps (the regularised source is a stiff term that no
+    sweep can take; the viscosity is a sub-step of its own, with RKC stages). (Any step rule
+    is stable with it: "max" is each sweep's own Courant number, "sum" and "local" give
+    shorter steps.)"""
     require(
         effects.friction == "none" or n.friction_scheme == "projected",
         "numerics.friction_scheme",

@@ -208,8 +208,8 @@ class OperatorConfig:
     local_step_rate: bool = field(
         default=False, metadata=compiled('numerics.step_rule (to or from "local")')
     )
-    # the dimensionally split scheme (numerics.stepper "hancock", tiseg.solver.numerics.split): no
-    # viscosity, and friction only as the projection
+    # the dimensionally split scheme (numerics.stepper "hancock", tiseg.solver.numerics.split):
+    # friction only as the projection; a viscosity is its own sub-step
     split: bool = False
     # boundaries: x_lo, x_hi, y_lo, y_hi
     bc: tuple = field(
@@ -240,7 +240,7 @@ class OperatorConfig:
         for b in self.bc:
             assert b in BOUNDARIES, b
         regularised = self.friction != "none" and not self.friction_projected
-        assert not (self.split and (self.viscous or regularised)), "split: stiff"
+        assert not (self.split and regularised), "split: friction only as the projection"
 
     @property
     def friction_projected(self) -> bool:

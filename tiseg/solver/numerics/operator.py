@@ -121,7 +121,8 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         self.rest = ft.field(ti.i8, (NX, NY)) if self.phys.fr_projected else None
         # the split step's friction acts once, after its last sweep, at the speed of the step's
         # initial state (SplitSweeps.sweep): in 2D that speed is kept from the first sweep
-        spd = self.split and self.phys.fr_projected and not self.is_1d
+        # (in 1D as well when a viscous sub-step may open the step)
+        spd = self.split and self.phys.fr_projected and (not self.is_1d or self.visc)
         self.spd0 = ft.field(self.fp, (NX, NY)) if spd else None
         self._rest_stale = True
         # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
@@ -379,7 +380,6 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
     def _x_face(self, i, j):
         """Flux through the face between cells (i, j) and (i + 1, j): convective plus viscous."""
         hmin = self.par[Params.H_MIN]
-        idx = self.par[Params.INV_DX]
         w0 = self.w[i, j]
         w1 = self.w[i + 1, j]
         F = ti.Vector.zero(self.fp, self.nc)
@@ -392,25 +392,32 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
             F = self._face_flux(wl, wr, 0)
             F = self._rest_face(F, wl, wr, 0, i, j, i + 1, j)
         if ti.static(self.visc):  # the viscous stress (tiseg.model.physics.viscosity)
-            ph = self.phys
-            K = ph.face_K(w0[0], w1[0])
-            F[1] -= ph.normal_stress(K, w1[1] - w0[1], idx)
-            if ti.static(not self.is_1d):
-                HV = ti.static(self.HV)
-                idy = self.par[Params.INV_DY]
-                # paired differences: exactly zero for y-independent data
-                dudy = (
-                    (self.w[i, j + 1][1] - self.w[i, j - 1][1])
-                    + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])
-                ) * (0.25 * idy)
-                F[HV] -= ph.shear_stress(K, w1[HV] - w0[HV], idx, dudy)
+            F = self._x_viscous(F, i, j, w0, w1)
+        return F
+
+    @ti.func
+    def _x_viscous(self, F, i, j, w0, w1):
+        """F minus the viscous stress of (6.2) through the x face (i, j) | (i + 1, j), whose
+        cells' primitives are w0, w1 (the cross derivative from the rows j -+ 1 of w)."""
+        ph = self.phys
+        idx = self.par[Params.INV_DX]
+        K = ph.face_K(w0[0], w1[0])
+        F[1] -= ph.normal_stress(K, w1[1] - w0[1], idx)
+        if ti.static(not self.is_1d):
+            HV = ti.static(self.HV)
+            idy = self.par[Params.INV_DY]
+            # paired differences: exactly zero for y-independent data
+            dudy = (
+                (self.w[i, j + 1][1] - self.w[i, j - 1][1])
+                + (self.w[i + 1, j + 1][1] - self.w[i + 1, j - 1][1])
+            ) * (0.25 * idy)
+            F[HV] -= ph.shear_stress(K, w1[HV] - w0[HV], idx, dudy)
         return F
 
     @ti.func
     def _y_face(self, i, j):
         """Flux through the face between cells (i, j) and (i, j + 1) (2D only)."""
         hmin = self.par[Params.H_MIN]
-        HV = ti.static(self.HV)
         w0 = self.w[i, j]
         w1 = self.w[i, j + 1]
         F = ti.Vector.zero(self.fp, self.nc)
@@ -423,16 +430,23 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
             F = self._face_flux(wl, wr, 1)
             F = self._rest_face(F, wl, wr, 1, i, j, i, j + 1)
         if ti.static(self.visc):
-            ph = self.phys
-            idx = self.par[Params.INV_DX]
-            idy = self.par[Params.INV_DY]
-            K = ph.face_K(w0[0], w1[0])
-            F[HV] -= ph.normal_stress(K, w1[HV] - w0[HV], idy)
-            dvdx = (
-                (self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
-                + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])
-            ) * (0.25 * idx)
-            F[1] -= ph.shear_stress(K, w1[1] - w0[1], idy, dvdx)
+            F = self._y_viscous(F, i, j, w0, w1)
+        return F
+
+    @ti.func
+    def _y_viscous(self, F, i, j, w0, w1):
+        """F minus the viscous stress of (6.2) through the y face (i, j) | (i, j + 1) (2D)."""
+        HV = ti.static(self.HV)
+        ph = self.phys
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
+        K = ph.face_K(w0[0], w1[0])
+        F[HV] -= ph.normal_stress(K, w1[HV] - w0[HV], idy)
+        dvdx = (
+            (self.w[i + 1, j][HV] - self.w[i - 1, j][HV])
+            + (self.w[i + 1, j + 1][HV] - self.w[i - 1, j + 1][HV])
+        ) * (0.25 * idx)
+        F[1] -= ph.shear_stress(K, w1[1] - w0[1], idy, dvdx)
         return F
 
     @ti.func

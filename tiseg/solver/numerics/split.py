@@ -58,15 +58,36 @@ Segregation and the mobility feedback need nothing more: the h phi flux is upwin
 mass flux, and the mixture law weights with the cell's phi inside the projection. An inflow's
 ghost cells hold its state at mid-step (t + dt/2), the time of the edges they face.
 
-What it leaves out: the viscosity, whose stiffness needs RKC; a scene with it must use the
-Runge-Kutta steppers (the scene says so when it is read), as one with the regularised
-friction must. The NumPy twins are `tiseg.solver.reference.split.hancock_sweep` and
-`tiseg.solver.reference.split.hancock_step`.
+The viscous stress of (6.2) is a third operator V, split from the sweeps in the same
+alternating way: x, y, V on even steps and V, y, x on odd ones (x, V and V, x in 1D), each
+sub-step over the whole dt, so two steps are symmetric and the splitting error is second
+order. V (`viscous_stage`) moves only the momenta: the divergence of the unsplit operator's
+viscous face stresses (TaichiOperator._x_viscous, _y_viscous: harmonic face coefficients,
+cross derivatives over four cells), integrated by s RKC stages (the stepper,
+tiseg.solver.timestepping.split, picks s from dt rho_visc as RKC does, at least 2), so the
+step stays the convective one where the explicit viscous limit is shorter. The stages are
+summed as increments, Y_j = Y0 + (mu (Y_j-1 - Y0) + nu (Y_j-2 - Y0) + ...), so a cell whose
+viscous rates are zero at every stage keeps its bits (rest among rest, a uniform flow) and
+h and h phi are never touched. The friction projection closes the step after its last
+sub-step, V or a sweep, with the rest mask and speeds of the step's initial state (taken by
+whichever sub-step opens the step), so the hold sees the whole step's driving, viscous force
+included. Through a running inlet V takes no stress (`_inlet_velocities`): its prescribed
+state is one the friction balances, while V after the sweeps sees their state before the
+friction. Chosen by measurement (docs/numerics.md, "Viscosity"): on a smooth 2D flow the
+alternation is second order and as accurate as the symmetric V(dt/2) x y V(dt/2), which
+costs twice its viscous stages, while a fixed order x, y, V falls to order 1.3 in hv; viscous
+fluxes inside the sweeps would see the cross terms only lagged (first order in time) and
+would bind the step to the explicit viscous limit.
+
+A scene with the regularised friction must use the Runge-Kutta steppers (the scene says so
+when it is read). The NumPy twins are `tiseg.solver.reference.split.hancock_sweep`,
+`tiseg.solver.reference.split.viscous_substep` and `tiseg.solver.reference.split.hancock_step`.
 """
 
 import taichi as ti
 
 from ...model.physics.pointwise import Params
+from .boundaries import inlet_rows
 from .rest import REST
 
 
@@ -458,3 +479,199 @@ class SplitSweeps:
             width = self.par[Params.DY] if ti.static(d == 0) else self.par[Params.DX]
             self.bud[0, 2 * d] += dt * mass * width
             self.bud[0, 2 * d + 1] += dt * small * width
+
+    # -------------------------------------------------------------- the viscous sub-step
+    def viscous_stage(
+        self,
+        src: int,
+        prev2: int,
+        dst: int,
+        coeffs: tuple[float, float, float, float],
+        t: float,
+        tau: float = 0.0,
+        first: bool = False,
+        last: bool = False,
+    ) -> None:
+        """One stage of the viscous sub-step V of a split step (the RKC stages of
+        tiseg.solver.timestepping.split.Hancock), in one launch, on the cells a sweep updates:
+
+            slot dst := Y0 + mu (Y_src - Y0) + nu (Y_prev2 - Y0) + ct V(Y_src) + cg F0
+
+        with Y0 = slot 0 (the state V started from), F0 = slot 1 and ``coeffs`` = (mu, nu, ct,
+        cg). ``src`` = 0 (with ``prev2`` < 0) is the first stage, which also stores V(Y0) in
+        slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter, and
+        with ``last`` the friction projection of the whole step over ``tau``). V is the
+        divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
+        only the momenta change, and a cell whose rates are zero at every stage keeps its bits
+        (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
+        ghost cells); ``first``: the sub-step opens the step (the rest mask and the speeds
+        of the step's initial state, as a first sweep)."""
+        fr = self.phys.fr_projected
+        one = src == 0
+        assert one == (prev2 < 0) and (dst != 0 or not one), (src, prev2, dst)
+        if fr and first:
+            assert one
+            self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
+        self._set_time(t)
+        key = (src, t, self.active)
+        interior = self._interior == (src, self.active) or (
+            self._prepared is not None and self._prepared[::2] == key[::2]
+        )
+        fresh = 2 if self._prepared == key else (1 if interior else 0)
+        first, last = bool(fr and first), bool(fr and last and dst == 0)
+        hold = self._first_of_step(True) if last else False
+        mu, nu, ct, cg = (float(c) for c in coeffs)
+        # the inlet's rows of w (_inlet_velocities; inflow.width and inflow.y0 are compiled
+        # in), the ghost rows where it reaches the domain's side: the cross derivatives at
+        # the inlet's faces read them
+        self.inlet_rows = inlet_rows(self.cfg.layout, self.cfg.inflow_rows)
+        self._viscous(
+            src,
+            max(prev2, 0),
+            dst,
+            mu,
+            nu,
+            ct,
+            cg,
+            tau,
+            fresh,
+            one,
+            dst == 0,
+            first,
+            last,
+            hold,
+            self.serial_loops(),
+        )
+        self._written(dst, primitives=True)
+
+    @ti.kernel
+    def _viscous(
+        self,
+        src: ti.i32,
+        prev2: ti.i32,
+        dst: ti.i32,
+        mu: float,
+        nu: float,
+        ct: float,
+        cg: float,
+        tau: float,
+        fresh: ti.template(),
+        one: ti.template(),
+        final: ti.template(),
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
+    ):
+        """A stage of V (viscous_stage): ghosts and primitives of slot src as far as
+        ``fresh`` says they are stale, the viscous face stresses, the stage's combination."""
+        if ti.static(fresh < 2):
+            self._ghosts(src)
+            if ti.static(fresh == 1):
+                self._edge_primitives(src, serial)
+            else:
+                self._primitives(src, serial)
+        if ti.static(self.bcs[0].prescribed):
+            self._inlet_velocities()
+        self._viscous_faces(serial)
+        self._viscous_update(
+            src, prev2, dst, mu, nu, ct, cg, tau, one, final, first, last, hold, serial
+        )
+
+    @ti.func
+    def _inlet_velocities(self):
+        """While an inflow runs, its ghost cells' velocities in w are those of the interior
+        cells next to them: no viscous stress through the inlet. The prescribed state is one
+        that the friction balances, while V after the sweeps (even steps) acts on their
+        state before the friction: a prescribed ghost velocity would drag the inlet cells by
+        the step's whole gravity impulse every other step (on the fingers scene at 250
+        cells/m it left h 0.35 % low down the whole chute, with waves from the inlet). A
+        uniform inflow has no such stress in the unsplit scheme either."""
+        gx = ti.static(self.gx)
+        lo, hi = ti.static(self.inlet_rows)
+        if self.par[Params.IN_ON] > 0.5:
+            ti.loop_config(serialize=self.strip_serial)  # the inlet's ghost columns
+            for k, m in ti.ndrange(gx, (lo, hi)):
+                g = self.w[gx - 1 - k, m]
+                g[1] = self.w[gx, m][1]
+                if ti.static(not self.is_1d):
+                    g[self.HV] = self.w[gx, m][self.HV]
+                self.w[gx - 1 - k, m] = g
+
+    @ti.func
+    def _viscous_faces(self, serial: ti.template()):
+        """The viscous stresses alone through the faces a sweep's update reads: x faces
+        (i, i + 1) for i in [a - 1, b) on the interior rows, y faces (j, j + 1) for j in
+        [gy - 1, gy + ny) on the columns [a, b), in fx and fy."""
+        gy, ny = ti.static(self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        if ti.static(self.is_1d):
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
+                zero = ti.Vector.zero(self.fp, self.nc)
+                self.fx[i, j] = self._x_viscous(zero, i, j, self.w[i, j], self.w[i + 1, j])
+        else:
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
+                zero = ti.Vector.zero(self.fp, self.nc)
+                w0 = self.w[i, j]
+                if j >= gy:
+                    self.fx[i, j] = self._x_viscous(zero, i, j, w0, self.w[i + 1, j])
+                if i >= a:
+                    self.fy[i, j] = self._y_viscous(zero, i, j, w0, self.w[i, j + 1])
+
+    @ti.func
+    def _viscous_update(
+        self,
+        src,
+        prev2,
+        dst,
+        mu,
+        nu,
+        ct,
+        cg,
+        tau,
+        one: ti.template(),
+        final: ti.template(),
+        first: ti.template(),
+        last: ti.template(),
+        hold: ti.template(),
+        serial: ti.template(),
+    ):
+        """The stage's combination on the interior rows of the x range [a - 3, b + 3) that
+        the next stage's primitives read (the rate is zero outside the active range [a, b),
+        so there every stage equals Y0), with the primitives of the result into w; the last
+        stage writes slot 0 on [a, b) only."""
+        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        a, b = self.act[0], self.act[1]
+        idx = self.par[Params.INV_DX]
+        idy = self.par[Params.INV_DY]
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
+            y0 = self.q[0, i, j]
+            r = ti.Vector.zero(self.fp, self.nc)
+            inside = a <= i < b
+            if inside:
+                r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
+                if ti.static(not self.is_1d):
+                    r -= (self.fy[i, j] - self.fy[i, j - 1]) * idy
+            acc = y0
+            if ti.static(one):
+                self.q[1, i, j] = r  # F0
+                acc = y0 + ct * r
+                if ti.static(first):
+                    self.spd0[i, j] = self.phys.speed_mag(self.w[i, j])  # (the step's start)
+            else:
+                inc = mu * (self.q[src, i, j] - y0) + nu * (self.q[prev2, i, j] - y0)
+                acc = y0 + (inc + ct * r + cg * self.q[1, i, j])
+            if ti.static(final):
+                if inside:
+                    acc = self._limit(acc)
+                    if ti.static(last):
+                        acc = self._project(acc, tau, i, j, hold, self.spd0[i, j])
+                    self.q[0, i, j] = acc
+                else:
+                    acc = y0
+            else:
+                self.q[dst, i, j] = acc
+            self.w[i, j] = self._fast_primitive(acc)

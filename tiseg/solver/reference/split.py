@@ -1,12 +1,15 @@
 """NumPy twin of a sweep of the dimensionally split MUSCL-Hancock scheme
 (`tiseg.solver.numerics.split`, whose docstring gives the steps), built from the pieces of the
 reference operator (`tiseg.solver.reference.operator.ReferenceOperator`): ghost cells,
-primitives, slopes, physical and numerical fluxes, source and stage limiter."""
+primitives, slopes, physical and numerical fluxes, source, viscous stresses and stage
+limiter; and of the viscous sub-step of a split step with viscosity (`viscous_substep`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..numerics.boundaries import inlet_rows
+from ..timestepping.rkc import rkc_coefficients
 from .operator import SQRT2, ReferenceOperator
 
 
@@ -156,11 +159,7 @@ def hancock_sweep(
     if limit:
         ref.postprocess(q)
     if last and ref.projected:  # the friction of the whole step, at its initial speeds
-        inner_q = q[:, ix, iy]
-        at_rest = still[ix, iy]
-        held = ref.holds(inner_q, dt, at_rest)
-        project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
-        q[:, ix, iy] = inner_q
+        project_step(ref, q, dt, start)
     # boundary amounts: the scaled fluxes through the domain's two faces along d
     lo = Hs[sl(g - 1, g)]
     hi = Hs[sl(g + m - 1, g + m)]
@@ -170,6 +169,74 @@ def hancock_sweep(
     mass = float(dt * net[lay.H].sum() * ds)
     small = float(dt * net[lay.HPHI].sum() * ds) if lay.segregation else 0.0
     return {"mass": mass, "small_mass": small}
+
+
+def project_step(ref: ReferenceOperator, q: np.ndarray, dt: float, start: np.ndarray) -> None:
+    """The friction of a whole split step over dt, in place on q's interior cells, at the
+    speeds of the step's initial primitives ``start``, the cells at rest there held where a
+    law with hysteresis holds them (the last sub-step's projection)."""
+    lay = ref.lay
+    ix, iy = lay.interior()
+    still = start[lay.HU] == 0
+    if not lay.is_1d:
+        still = still & (start[lay.HV] == 0)
+    inner_q = q[:, ix, iy]
+    held = ref.holds(inner_q, dt, still[ix, iy])
+    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
+    q[:, ix, iy] = inner_q
+
+
+def viscous_rate(ref: ReferenceOperator, q: np.ndarray, t: float) -> np.ndarray:
+    """V(q): the divergence of the viscous stresses of (6.2) alone on the interior cells, zero
+    elsewhere (SplitSweeps._viscous_faces), with no stress through a running inlet; fills
+    q's ghost cells at time t."""
+    c, lay = ref.cfg, ref.lay
+    ref.fill_ghosts(q, t)
+    w = split_primitives(ref, q)
+    if c.bc[0] == "inflow" and not t > c.inflow_stop:
+        # no viscous stress through a running inlet (SplitSweeps._inlet_velocities)
+        ys = slice(*inlet_rows(lay, c.inflow_rows))
+        for comp in (lay.HU,) if lay.is_1d else (lay.HU, lay.HV):
+            w[comp, : lay.gx, ys] = w[comp, lay.gx, ys][None]
+    Px, Py = ref.viscous_fluxes(w)
+    ix, iy = lay.interior()
+    ixm = slice(ix.start - 1, ix.stop - 1)
+    out = np.zeros_like(q)
+    div = (Px[:, ix, iy] - Px[:, ixm, iy]) / c.dx
+    if not lay.is_1d:
+        iym = slice(iy.start - 1, iy.stop - 1)
+        div = div + (Py[:, ix, iy] - Py[:, ix, iym]) / c.dy
+    out[:, ix, iy] = div
+    return out
+
+
+def viscous_substep(
+    ref: ReferenceOperator,
+    q: np.ndarray,
+    t: float,
+    dt: float,
+    stages: int,
+    start: np.ndarray | None = None,
+    last: bool = False,
+) -> None:
+    """The viscous sub-step V of a split step (SplitSweeps.viscous_stage), in place: ``stages``
+    RKC stages (rkc_coefficients) over dt from t, the recurrence written for the increments
+    Y_j - Y0, on the interior cells; then the stage limiter, and with ``last`` (and the
+    projected friction) the friction of the whole step at the speeds of ``start``."""
+    mu_t1, coeffs, cs = rkc_coefficients(stages)
+    ix, iy = ref.lay.interior()
+    y0 = q.copy()
+    f0 = viscous_rate(ref, y0.copy(), t)
+    prev2, prev1 = y0, y0 + mu_t1 * dt * f0
+    for j in range(2, stages + 1):
+        mu, nu, mu_t, gamma_t = coeffs[j - 2]
+        f = viscous_rate(ref, prev1.copy(), t + cs[j - 1] * dt)
+        inc = mu * (prev1 - y0) + nu * (prev2 - y0) + mu_t * dt * f + gamma_t * dt * f0
+        prev2, prev1 = prev1, y0 + inc
+    q[:, ix, iy] = prev1[:, ix, iy]
+    ref.postprocess(q)
+    if last and ref.projected:
+        project_step(ref, q, dt, start)
 
 
 def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) -> None:
@@ -191,15 +258,23 @@ def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) 
         q[lay.HV] *= f
 
 
-def hancock_step(ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs) -> dict:
-    """One step of the split scheme (tiseg.solver.timestepping.split.Hancock): the sweeps along
-    ``dirs`` in order, the first taking the step's initial state (rest mask and speeds of
-    the projected friction), the last projecting the friction. Returns the summed budget."""
+def hancock_step(
+    ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs, visc_stages: int = 2
+) -> dict:
+    """One step of the split scheme (tiseg.solver.timestepping.split.Hancock): the sub-steps
+    ``dirs`` in order, sweeps along 0 (x) and 1 (y) and "v" the viscous sub-step of
+    ``visc_stages`` RKC stages, the first taking the step's initial state (rest mask and
+    speeds of the projected friction), the last projecting the friction. Returns the summed
+    budget (the viscous sub-step moves no mass)."""
     ref.fill_ghosts(q, t)
     start = split_primitives(ref, q)
     out = {"mass": 0.0, "small_mass": 0.0}
     for k, d in enumerate(dirs):
-        b = hancock_sweep(ref, q, t, dt, d, start=start, last=k == len(dirs) - 1)
+        last = k == len(dirs) - 1
+        if d == "v":
+            viscous_substep(ref, q, t, dt, visc_stages, start=start, last=last)
+            continue
+        b = hancock_sweep(ref, q, t, dt, d, start=start, last=last)
         out["mass"] += b["mass"]
         out["small_mass"] += b["small_mass"]
     return out

@@ -49,15 +49,21 @@ class Stepper:
         raise NotImplementedError
 
 
-def stepper_for(numerics, name: str | None = None, is_1d: bool = False) -> Stepper:
+def stepper_for(
+    numerics, name: str | None = None, is_1d: bool = False, viscous: bool = False
+) -> Stepper:
     """The stepper of a scene's [numerics] (or the one named), with the scene's RKC stage cap
-    (and, for the split sweeps, how many directions there are)."""
+    (and, for the split sweeps, how many directions there are and whether they take the
+    viscous sub-step, ``viscous``)."""
     name = name or numerics.stepper
     kw = {}
     if name == "rkc":
         kw["max_stages"] = numerics.max_stages
     if getattr(STEPPERS.get(name), "split", False):
         kw["dims"] = 1 if is_1d else 2
+        if viscous:
+            kw["viscous"] = True
+            kw["max_stages"] = numerics.max_stages
     return make_stepper(name, **kw)
 
 
