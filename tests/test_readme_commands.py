@@ -138,6 +138,12 @@ TISEG_RULES = [
         "tests/test_sweep.py runs the built-in sweeps",
     ),
     Rule(
+        r"^tiseg calibrate ",
+        None,
+        "starts a Dask cluster and runs a search of several members; tests/test_calibration.py "
+        "recovers a friction coefficient this way (slow set) and checks the search on stand-ins",
+    ),
+    Rule(
         r"^tiseg bench (throughput|accuracy|steppers)\b",
         None,
         "a benchmark: minutes even with --quick; tests/test_bench.py runs each on tiny cases",
