@@ -406,3 +406,20 @@ def test_figure_series_are_ensemble_means_with_sd():
     assert list(s.x) == [0.01, 0.02] and list(s.runs) == [3, 2] and list(s.n) == [3, 1]
     assert s.mean == pytest.approx([0.06, 0.1]) and s.std == pytest.approx([0.01, 0.0])
     assert s.undefined == 1
+
+
+def test_a_failed_connection_leaves_dask_as_it_was(tmp_path):
+    """A scheduler address Dask cannot use is one error, and Dask's default scheduler is
+    left as it was: a later sweep in the same process can still write its datasets (xarray asks
+    Dask for the scheduler of every write)."""
+    import dask
+    import numpy as np
+    import xarray as xr
+
+    from tiseg.apps.sweep.runner import open_dask
+
+    before = dask.config.get("scheduler", None)
+    with pytest.raises(InputError, match="cannot connect to the Dask scheduler"):
+        open_dask("foo", None, None, 1, lambda *a: None)
+    assert dask.config.get("scheduler", None) == before
+    xr.Dataset({"a": ("x", np.arange(3.0))}).to_netcdf(tmp_path / "a.nc", engine="netcdf4")
