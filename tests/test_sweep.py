@@ -422,4 +422,11 @@ def test_a_failed_connection_leaves_dask_as_it_was(tmp_path):
     with pytest.raises(InputError, match="cannot connect to the Dask scheduler"):
         open_dask("foo", None, None, 1, lambda *a: None)
     assert dask.config.get("scheduler", None) == before
+    from distributed import default_client
+
+    try:
+        left = default_client()  # the client that failed must not be the default one
+    except ValueError:
+        left = None
+    assert left is None or left.status == "running"
     xr.Dataset({"a": ("x", np.arange(3.0))}).to_netcdf(tmp_path / "a.nc", engine="netcdf4")

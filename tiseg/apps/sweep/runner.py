@@ -324,16 +324,12 @@ def open_dask(scheduler, workers, threads_per_task, n_runs: int, say):
         ) from None
     cores = available_cores()
     if scheduler:
-        import dask
-
-        before = dask.config.get("scheduler", None)
         try:
-            client = Client(scheduler, timeout="10s")
+            # not Dask's default client: one that fails to connect would stay the default
+            # (and the default scheduler) for every later Dask or xarray computation in this
+            # process, which then tried to reach it (writing sweep.nc, probability.nc)
+            client = Client(scheduler, timeout="10s", set_as_default=False)
         except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
-            # the client names itself Dask's default scheduler before it connects and a failed
-            # connection leaves it so: every later Dask or xarray computation in this process
-            # (writing sweep.nc, probability.nc) would then ask for a client that is not there
-            dask.config.set(scheduler=before)
             first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
             raise InputError(
                 f"cannot connect to the Dask scheduler at {scheduler!r}: "
