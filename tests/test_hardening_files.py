@@ -249,8 +249,14 @@ def test_a_signal_during_cleanup_leaves_no_holder_file(ti_cpu, tmp_path, monkeyp
         closing(self)
 
     monkeypatch.setattr(DiagnosticsWriter, "close", interrupted_close)
-    with pytest.raises(KeyboardInterrupt):
-        Simulation(scene()).run(out_dir=tmp_path / "r", progress=False, t_end=0.025)
+    # Python's own Ctrl-C handler, as in a terminal: a test process started in the background
+    # by a shell without job control inherits SIGINT ignored, and nothing would be raised
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            Simulation(scene()).run(out_dir=tmp_path / "r", progress=False, t_end=0.025)
+    finally:
+        signal.signal(signal.SIGINT, before)
     assert not (tmp_path / "r" / HOLDER_NAME).exists()
 
 
