@@ -189,7 +189,7 @@ class Evaluator:
                     retries=1,
                 )
                 futures[fut] = run
-            for fut in as_completed(list(futures)):
+            for fut in as_completed(list(futures), loop=self._client.loop):
                 run = futures[fut]
                 try:
                     rec = fut.result()

@@ -252,7 +252,7 @@ def _run_on_dask(
             )
             futures[fut] = run
         done = 0
-        for fut in as_completed(list(futures)):
+        for fut in as_completed(list(futures), loop=client.loop):
             run = futures[fut]
             done += 1
             try:
