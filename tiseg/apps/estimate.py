@@ -15,7 +15,10 @@ ingredients:
    rho = max(rho_visc, rho_fric) + 2 (a_x/dx + a_y/dy), rho_visc the Gershgorin bound of the
    viscous term for uniform h_max and rho_fric = g cos(zeta) tan(zeta) / u_slow (the run bounds
    the two terms together cell by cell, and they peak in different cells: viscosity in thick
-   channels, friction in slow thin levees, so the larger one stands for both). Output times do
+   channels, friction in slow thin levees, so the larger one stands for both). A split
+   stepper's step is its sweeps and, with viscosity, s viscous stages from dt * rho_visc alone
+   (the counts the run reports); its calibrated stage is a sweep, and the viscous stages are
+   priced inside the measured per-step work. Output times do
    not shorten steps (snapshots are interpolated, `tiseg.run.callbacks`): the steps are
    counted over [0, t_end] in one piece, whose last step lands on t_end.
 
@@ -269,7 +272,8 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
 
     model = model or flow_model(scene)
     num = scene.numerics
-    stepper = stepper_for(num, is_1d=scene.is_1d)
+    # (with viscosity a split step adds its viscous stages, counted as the run counts them)
+    stepper = stepper_for(num, is_1d=scene.is_1d, viscous=bool(scene.viscous))
     t_end = scene.t_end if t_end is None else t_end
     times = [t for t in scene.output_times if 1e-12 < t <= t_end + 1e-12]
     if not times or times[-1] < t_end - 1e-12:
@@ -293,6 +297,8 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
             dt_cfl, rho = step_limits(ax, ay, max(rv, rf), scene)
             if not math.isfinite(dt_cfl) and rho == 0:
                 dt_cfl = b - a
+            if stepper.split:  # the viscous sub-step's stages follow the viscous stiffness
+                rho = rv  # alone (Simulation.plan)
             dt, s = stepper.plan(dt_cfl, rho, t1 - t0)
             n = (b - a) / dt
             frac_total += n
@@ -616,9 +622,14 @@ def estimate(
     wall_steps = idle_steps = diag = 0.0
     evals = 0.0
     dts, act_sum, n_sum = [], 0.0, 0.0
+    # a split step's calibrated stage is a sweep; its viscous stages are part of the measured
+    # per-step work (calibrate), so only the sweeps are priced as stages
+    base = stepper_for(scene.numerics, is_1d=scene.is_1d)
+    sweeps = base.stages if base.split else None
     for _tm, dt, s, active, n in pred["profile"]:
-        wall_steps += n * (cal.overhead(active) + s * cal.stage(active))
-        idle_steps += n * (cal.overhead(active, True) + s * cal.stage(active, True))
+        priced = s if sweeps is None else sweeps
+        wall_steps += n * (cal.overhead(active) + priced * cal.stage(active))
+        idle_steps += n * (cal.overhead(active, True) + priced * cal.stage(active, True))
         if output:
             diag += n * cal.diagnostics_s
         evals += n * s
