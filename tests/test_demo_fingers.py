@@ -60,7 +60,7 @@ def _assert_prints_its_own_final_diagnostics(out, text) -> None:
     # and says what they are: one run, beside the converged values and their source
     after = text.split(line, 1)[1]
     assert "one unseeded run at " in after and "converged at t = 7.5 s" in after
-    assert "benchmarks/friction/default.md" in after
+    assert "benchmarks/split_fingers/README.md" in after
     for name in ("fingers.mp4", "fig12_phi.png", "fig13_speed.png", "fig14_h.png"):
         assert (out / name).stat().st_size > 0
 

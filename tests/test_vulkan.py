@@ -158,7 +158,7 @@ def test_fingers_run_on_vulkan_matches_the_cpu(tmp_path):
     for prec, mass_tol, field_tol in (("f32", 1e-5, 1e-3), ("f64", 1e-13, 1e-12)):
         dv = read_diagnostics(tmp_path / f"vulkan-{prec}" / "diagnostics.csv")
         dc = read_diagnostics(tmp_path / f"cpu-{prec}" / "diagnostics.csv")
-        assert len(dv["time"]) == len(dc["time"]) > 50  # the same steps
+        assert len(dv["time"]) == len(dc["time"]) > 30  # the same steps
         assert abs(int(dv["stages"].sum()) - int(dc["stages"].sum())) <= 1
         np.testing.assert_allclose(dv["mass"][-1], dc["mass"][-1], rtol=mass_tol)
         with (
