@@ -65,5 +65,5 @@ def test_wheel_finds_its_scenes_and_sweeps_outside_the_tree(tmp_path):
     assert Path(got["file"]).resolve().is_relative_to(site.resolve())
     assert {"fingers", "channel", "dam-break", "finite-release"} <= set(got["scenes"])
     assert {"grid-study", "nu-study", "width-study", "tiny"} <= set(got["sweeps"])
-    assert got["fingers_nx"] == 1125 and got["grid_runs"] == 12
+    assert got["fingers_nx"] == 1125 and got["grid_runs"] == 20
     assert {"transport", "ritter", "growth", "fingers", "channel"} <= set(got["problems"])
