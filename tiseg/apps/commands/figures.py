@@ -78,7 +78,7 @@ def _fingers_options(q) -> None:
         type=float,
         default=None,
         metavar="R",
-        help="resolution of the domain-width study (sweep file: 250)",
+        help="resolution of the domain-width study (sweep file: 375)",
     )
     g.add_argument(
         "--nu-resolution",
