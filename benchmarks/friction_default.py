@@ -17,30 +17,17 @@ its 95 % Welch interval. A difference whose interval holds 0 is not resolved by 
 from __future__ import annotations
 
 import csv
-import math
 import sys
 from pathlib import Path
 
-from scipy import stats
+from ensemble_stats import FINGER_METRICS, summary, sweep_rows, welch
 
 METRICS = [
-    ("finger_count@7.5", "fingers at 7.5 s", 1.0),
-    ("wavelength@7.5", "Λ at 7.5 s [cm]", 100.0),
-    ("wavelength_spectral@7.5", "spectral Λ at 7.5 s [cm]", 100.0),
-    ("elongation@2.5", "x_l at 2.5 s [m]", 1.0),
-    ("elongation@5", "x_l at 5 s [m]", 1.0),
-    ("elongation@7.5", "x_l at 7.5 s [m]", 1.0),
-    ("channel_speed_over_u0", "channel speed / u0", 1.0),
-    ("channel_phi", "channel φ", 1.0),
+    *FINGER_METRICS,
     ("rhs_evaluations", "operator evaluations", 1.0),
     ("steps", "steps", 1.0),
 ]
 HERE = Path(__file__).resolve().parent / "friction"
-
-
-def _rows(folder: Path) -> list[dict]:
-    with open(folder / "sweep.csv", newline="") as f:
-        return [r for r in csv.DictReader(f) if r["status"] in ("done", "reused")]
 
 
 def _values(rows, res, key, scale):
@@ -51,29 +38,8 @@ def _values(rows, res, key, scale):
     return out
 
 
-def _summary(v):
-    n = len(v)
-    mean = sum(v) / n
-    sd = math.sqrt(sum((x - mean) ** 2 for x in v) / (n - 1)) if n > 1 else float("nan")
-    return mean, sd, n
-
-
-def _welch(a, b):
-    """Difference of the means a - b and its 95 % Welch interval."""
-    ma, sa, na = _summary(a)
-    mb, sb, nb = _summary(b)
-    va, vb = sa * sa / na, sb * sb / nb
-    d = ma - mb
-    se = math.sqrt(va + vb)
-    if se == 0.0:
-        return d, d, d
-    dof = (va + vb) ** 2 / (va * va / (na - 1) + vb * vb / (nb - 1))
-    q = stats.t.ppf(0.975, dof)
-    return d, d - q * se, d + q * se
-
-
 def main(projected: str, regularised: str) -> None:
-    p, r = _rows(Path(projected)), _rows(Path(regularised))
+    p, r = sweep_rows(Path(projected)), sweep_rows(Path(regularised))
     resolutions = sorted({x["domain.resolution"] for x in p}, key=float)
     table, lines = [], []
     lines.append("# Projected against regularised friction: fingers ensembles\n")
@@ -94,8 +60,9 @@ def main(projected: str, regularised: str) -> None:
             a, b = _values(p, res, key, scale), _values(r, res, key, scale)
             if len(a) < 2 or len(b) < 2:
                 continue
-            (ma, sa, na), (mb, sb, nb) = _summary(a), _summary(b)
-            d, lo, hi = _welch(a, b)
+            (ma, sa, na), (mb, sb, nb) = summary(a), summary(b)
+            d, hw = welch(a, b)
+            lo, hi = d - hw, d + hw
             lines.append(
                 f"| {label} | {ma:.4g} ± {sa:.2g} ({na}) | {mb:.4g} ± {sb:.2g} ({nb}) | "
                 f"{d:+.3g} ({lo:+.3g}, {hi:+.3g}) |"

@@ -34,18 +34,12 @@ import math
 from collections import defaultdict
 from pathlib import Path
 
+from ensemble_stats import FINGER_METRICS, summary, sweep_rows, welch
 from scipy import stats
 
 # (column of sweep.csv, label, scale for display)
 METRICS = [
-    ("finger_count@7.5", "fingers at 7.5 s", 1.0),
-    ("wavelength@7.5", "Λ at 7.5 s [cm]", 100.0),
-    ("wavelength_spectral@7.5", "spectral Λ at 7.5 s [cm]", 100.0),
-    ("elongation@2.5", "x_l at 2.5 s [m]", 1.0),
-    ("elongation@5", "x_l at 5 s [m]", 1.0),
-    ("elongation@7.5", "x_l at 7.5 s [m]", 1.0),
-    ("channel_speed_over_u0", "channel speed / u0", 1.0),
-    ("channel_phi", "channel φ", 1.0),
+    *FINGER_METRICS,
     ("steps", "steps", 1.0),
     ("rhs_evaluations", "evaluations (sweeps + viscous stages)", 1.0),
     ("wall_s", "wall per run [s]", 1.0),
@@ -61,13 +55,6 @@ AGREE = (
 LY = 0.5  # the fingers scene's width [m]
 
 
-def rows_of(path: Path) -> list[dict]:
-    """The finished runs of a sweep (its sweep.csv, or the file itself)."""
-    f = path / "sweep.csv" if path.is_dir() else path
-    with open(f, newline="") as fh:
-        return [r for r in csv.DictReader(fh) if r["status"] in ("done", "reused")]
-
-
 def values(rows, res: int, key: str) -> list[float]:
     out = []
     for r in rows:
@@ -76,30 +63,9 @@ def values(rows, res: int, key: str) -> list[float]:
     return out
 
 
-def summary(v: list[float]) -> tuple[float, float, int]:
-    n = len(v)
-    m = sum(v) / n
-    sd = math.sqrt(sum((x - m) ** 2 for x in v) / (n - 1)) if n > 1 else math.nan
-    return m, sd, n
-
-
 def ci_half(sd: float, n: int) -> float:
     """Half-width of the 95 % interval of a mean of n draws."""
     return stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n) if n > 1 else math.nan
-
-
-def welch(a: list[float], b: list[float]) -> tuple[float, float]:
-    """Difference of the means a - b and the half-width of its 95 % Welch interval."""
-    ma, sa, na = summary(a)
-    mb, sb, nb = summary(b)
-    if na < 2 or nb < 2:
-        return ma - mb, math.nan
-    va, vb = sa * sa / na, sb * sb / nb
-    se = math.sqrt(va + vb)
-    if se == 0.0:
-        return ma - mb, 0.0
-    dof = (va + vb) ** 2 / (va * va / (na - 1) + vb * vb / (nb - 1))
-    return ma - mb, stats.t.ppf(0.975, dof) * se
 
 
 def quantum(key: str, ref_count: float, res: int, ref_res: int) -> float:
@@ -125,7 +91,7 @@ def main(argv=None) -> int:
     data: dict[str, list[dict]] = defaultdict(list)
     for item in a.ensembles:
         label, _, path = item.partition("=")
-        data[label] += rows_of(Path(path))
+        data[label] += sweep_rows(Path(path))
     groups = sorted(
         {(lab, int(float(r["domain.resolution"]))) for lab, rs in data.items() for r in rs},
         key=lambda g: (g[1], g[0]),
