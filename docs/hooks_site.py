@@ -44,6 +44,7 @@ FIGURES = {
     "fig16_grid_width": "Figure 16: wavelength and elongation against the grid",
     "fig17_nu": "Figure 17: the effect of the viscosity ν",
     "fig18_fronts": "Figure 18: the front positions x_f⁺ and x_f⁻",
+    "inviscid_limit": "The ill-posed limit: with ν = 0 the fingers keep narrowing on finer grids",
     "fig08_froude": "Figure 8: the steady Froude number F(h0, φ0)",
     "fig09_growth_rates": "Figure 9: linear growth rates σ_M(k)",
     "fig10_critical": "Figure 10: growth rates near the critical Froude number",

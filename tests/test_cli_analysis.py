@@ -236,3 +236,20 @@ def test_bad_arguments_usage_error(capsys, argv):
     assert rc == 2
     assert "Traceback" not in err
     assert sum("error:" in ln for ln in err.splitlines()) == 1, err
+
+
+def test_figures_assets_folder_is_the_checkouts(capsys, tmp_path, monkeypatch):
+    """--assets copies into the source checkout's assets/figures (the README's media)."""
+    from pathlib import Path
+
+    from tiseg.apps.commands import figures as cmd
+
+    repo = Path(__file__).resolve().parents[1]
+    assert cmd.ASSETS_DIR == repo / "assets" / "figures"
+    # the copy itself, into a stand-in checkout
+    (tmp_path / "pyproject.toml").write_text("")
+    monkeypatch.setattr(cmd, "ASSETS_DIR", tmp_path / "assets" / "figures")
+    rc = main(["figures", "stability", "--out", str(tmp_path / "out"), "--dpi", "30", "--assets"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert (tmp_path / "assets" / "figures" / "fig09_growth_rates.png").stat().st_size > 1000

@@ -181,6 +181,33 @@ def test_fingers_figures_from_sweep_results(tiny_sweep, tmp_path):
     assert all(r["finger_count"] == 0 and r["steps"] > 0 for r in rows)
 
 
+def test_inviscid_limit_figure_and_nu_column(tiny_sweep, tmp_path):
+    """The inviscid study is drawn beside the grid study, and a run with the viscous term
+    switched off is tabulated with nu = 0, whatever flow.nu holds."""
+    import shutil
+
+    from tiseg.apps.figures.fingers import StudyRun, _nu, make_all
+    from tiseg.setup.scene import load_scene
+
+    out, _, _ = tiny_sweep
+    runs = tmp_path / "runs"
+    for name in ("grid-study", "inviscid-study"):
+        shutil.copytree(out, runs / name)
+    paths = make_all(tmp_path / "figs", runs, run=False, echo=None, dpi=40)
+    assert "inviscid_limit.png" in {p.name for p in paths}
+    rows = read_table(tmp_path / "figs" / "fingers_studies.csv")
+    assert [r["study"] for r in rows].count("inviscid-study") == 2
+
+    scene = load_scene("fingers", overrides={"effects.viscosity": False})
+    assert scene.flow.nu == 0.01
+    run_dir = tmp_path / "inviscid-run"
+    run_dir.mkdir()
+    (run_dir / "scene.toml").write_text(scene.to_toml())
+    assert _nu(StudyRun("inviscid", {}, run_dir, {})) == 0.0
+    (run_dir / "scene.toml").write_text(load_scene("fingers").to_toml())
+    assert _nu(StudyRun("viscous", {}, run_dir, {})) == 0.01
+
+
 # ------------------------------------------------------------------ validation
 BASE = {
     "scene": "fingers",

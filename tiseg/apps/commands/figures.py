@@ -2,7 +2,8 @@
 
 * ``stability``: figures 8-11 (linear stability, sections 4-5);
 * ``fingers``: figures 12-18 (the finger simulations and the grid / width / viscosity studies
-  of sections 6.2-6.3), computed from sweep results that are run first where missing.
+  of sections 6.2-6.3) and the inviscid limit, computed from sweep results that are run first
+  where missing.
 
 Each set registers in `FIGURE_SETS` as (help text, handler, its own options or None).
 """
@@ -17,7 +18,7 @@ from ...errors import InputError
 from ...errors import require
 
 # the repository's README media (a source checkout or an editable install only)
-ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets" / "figures"
+ASSETS_DIR = Path(__file__).resolve().parents[3] / "assets" / "figures"
 
 
 def _assets_dir() -> Path:
@@ -56,7 +57,7 @@ def _fingers_options(q) -> None:
         default=None,
         metavar="DIR",
         help="folder of the study sweeps (DIR/grid-study, DIR/width-study, "
-        "DIR/nu-study, ...); default runs/sweeps, or runs/sweeps-quick with "
+        "DIR/nu-study, DIR/inviscid-study, ...); default runs/sweeps, or runs/sweeps-quick with "
         "--quick",
     )
     g.add_argument(
@@ -71,7 +72,8 @@ def _fingers_options(q) -> None:
         nargs="+",
         default=None,
         metavar="R",
-        help="grid-study resolutions [cells/m] (sweep file: 250 375 500 750)",
+        help="resolutions [cells/m] of the grid study (sweep file: 250 375 500 750) and of "
+        "the inviscid study (sweep file: 250 375 500)",
     )
     g.add_argument(
         "--width-resolution",
@@ -127,7 +129,8 @@ def _run_fingers(args) -> int:
             all(20 <= r <= 3000 for r in args.resolutions),
             "--resolutions: choose resolutions between 20 and 3000 cells per metre",
         )
-        settings["grid"] = {"grid": {"domain.resolution": sorted(set(args.resolutions))}}
+        resolutions = {"grid": {"domain.resolution": sorted(set(args.resolutions))}}
+        settings["grid"] = settings["inviscid"] = resolutions
     for key, value in (("width", args.width_resolution), ("nu", args.nu_resolution)):
         if value is not None:
             require(
@@ -194,7 +197,7 @@ FIGURE_SETS = {
         add_material_options,
     ),
     "fingers": (
-        "figures 12-18: finger panels, grid/width/viscosity studies (from sweeps)",
+        "figures 12-18: finger panels, grid/width/viscosity/inviscid studies (from sweeps)",
         _run_fingers,
         _fingers_options,
     ),

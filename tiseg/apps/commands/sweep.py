@@ -34,7 +34,8 @@ def register(sub) -> None:
         "sweep",
         metavar="SWEEP.toml",
         help="sweep file, or the name of a built-in sweep (grid-study, width-study, "
-        "nu-study, finite-release, monodisperse, tiny, tiny-sample, gate-probability)",
+        "nu-study, inviscid-study, finite-release, monodisperse, tiny, tiny-sample, "
+        "gate-probability)",
     )
     p.add_argument(
         "--out",

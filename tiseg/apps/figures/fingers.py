@@ -7,11 +7,14 @@
   against the grid resolution and against the domain width Ly;
 * figure 17: Lambda and x_l at t = 7.5 s against the viscosity coefficient nu;
 * figure 18: x_f+, x_f- and x_l against time for every nu, with the finger onset marked;
+* the ill-posed limit: Lambda and the finger count against the grid resolution with nu = 0.01
+  (the grid study) and nu = 0 (the inviscid study, Woodhouse et al. 2012), side by side;
 * beyond the paper (``beyond=True``): the finite release (inflow stopped, figures 3b/4b) and the
   monodisperse front (figure 5).
 
 The numbers come from sweeps (`tiseg.apps.sweep`) over the built-in sweep files in
-``tiseg/data/sweeps`` (grid-study, width-study, nu-study, finite-release, monodisperse), kept
+``tiseg/data/sweeps`` (grid-study, width-study, nu-study, inviscid-study, finite-release,
+monodisperse), kept
 under one runs folder (``RUNS/<sweep name>/``). A study whose folder has a ``sweep.json`` is
 taken as it is (and resumed if it was interrupted); a missing one is run first, with the
 sweep file's settings or the cheaper ones asked for (``settings``, or ``quick``). The finger
@@ -47,10 +50,11 @@ STUDIES = {
     "grid": "grid-study",
     "width": "width-study",
     "nu": "nu-study",
+    "inviscid": "inviscid-study",
     "finite": "finite-release",
     "mono": "monodisperse",
 }
-PAPER_STUDIES = ("grid", "width", "nu")
+PAPER_STUDIES = ("grid", "width", "nu", "inviscid")
 BEYOND_STUDIES = ("finite", "mono")
 
 # --quick: the same studies at resolutions that fit in a few minutes on 2 cores (fingers need
@@ -59,6 +63,7 @@ QUICK_SETTINGS = {
     "grid": {"grid": {"domain.resolution": [100, 150, 200]}},
     "width": {"set": {"domain.resolution": 150}, "grid": {"domain.Ly": [0.25, 0.5]}},
     "nu": {"set": {"domain.resolution": 150}},
+    "inviscid": {"grid": {"domain.resolution": [100, 150, 200]}},
     "finite": {"set": {"domain.resolution": 150}},
     "mono": {"grid": {"domain.resolution": [150]}},
 }
@@ -71,6 +76,7 @@ FILES = {
     "fig16": "fig16_grid_width.png",
     "fig17": "fig17_nu.png",
     "fig18": "fig18_fronts.png",
+    "inviscid": "inviscid_limit.png",
     "finite_phi": "beyond_finite_release_phi.png",
     "finite_fronts": "beyond_finite_release_fronts.png",
     "mono_phi": "beyond_monodisperse_phi.png",
@@ -286,7 +292,7 @@ def _phi_stack(items, path: Path, dpi: int, title: str) -> Path:
 
 def _run_key(run: StudyRun):
     sc = run.scene
-    return (sc.domain.nx, sc.domain.ny, sc.domain.Lx, sc.domain.Ly, sc.flow.nu)
+    return (sc.domain.nx, sc.domain.ny, sc.domain.Lx, sc.domain.Ly, _nu(run))
 
 
 def fig15(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path | None:
@@ -424,7 +430,9 @@ def fig16(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path 
 
 
 def _nu(run: StudyRun) -> float:
-    return run.scene.flow.nu
+    """The viscosity coefficient the run solved with: 0 where the viscous term is off."""
+    sc = run.scene
+    return sc.flow.nu if sc.viscous else 0.0
 
 
 def fig17(nu: Study | None, out: Path, dpi: int) -> Path | None:
@@ -504,6 +512,35 @@ def _fronts(
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
     return _save(fig, path, dpi)
+
+
+def fig_inviscid(grid: Study | None, inviscid: Study | None, out: Path, dpi: int) -> Path | None:
+    """Lambda and the finger count against the resolution, nu = 0.01 beside nu = 0: the
+    viscous wavelength converges, the inviscid one keeps shrinking (section 6.3)."""
+    studies = [
+        (s, lab, fmt)
+        for s, lab, fmt in (
+            (grid, "ν = 0.01", "ko-"),
+            (inviscid, "ν = 0 (inviscid)", "rs--"),
+        )
+        if s is not None and s.runs
+    ]
+    if inviscid is None or not inviscid.runs:
+        return None
+    fig, axes = _figure(1, 2, size=(8.0, 3.2))
+    for study, label, fmt in studies:
+        wl = _series(study.runs, _resolution, "wavelength", FINAL_TIME)
+        _plot_series(axes[0, 0], wl, 100, fmt=fmt, label=f"{label}, {_ensemble_label(wl)}")
+        count = _series(study.runs, _resolution, "finger_count", FINAL_TIME)
+        _plot_series(axes[0, 1], count, fmt=fmt, label=label)
+    axes[0, 0].set_ylabel(f"wavelength Λ at t = {FINAL_TIME:g} s [cm]")
+    axes[0, 1].set_ylabel(f"fingers at t = {FINAL_TIME:g} s")
+    for ax in axes[0]:
+        ax.set_xlabel("grid resolution $N_x/L_x$ [1/m]")
+        ax.set_ylim(bottom=0)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.suptitle("The ill-posed limit: the viscous terms set the finger scale", fontsize=10)
+    return _save(fig, out / FILES["inviscid"], dpi)
 
 
 def fig18(nu: Study | None, out: Path, dpi: int) -> Path | None:
@@ -617,7 +654,7 @@ def summary_rows(studies: dict[str, Study | None]) -> list[dict]:
                     "run": run.name,
                     "resolution": _resolution(run),
                     "Ly": sc.domain.Ly,
-                    "nu": sc.flow.nu,
+                    "nu": _nu(run),
                     "stop_time": sc.inflow.stop_time if sc.inflow else None,
                     "seed": sc.inflow.seed if sc.inflow else None,
                     "t_final": m["time"][-1] if m.get("time") else None,
@@ -701,7 +738,8 @@ def make_all(
     echo: Callable[[str], None] | None = print,
     **run_kwargs,
 ) -> list[Path]:
-    """Obtain the studies (running missing sweeps) and draw figures 12-18 (and, with
+    """Obtain the studies (running missing sweeps) and draw figures 12-18 and the inviscid
+    limit (and, with
     ``beyond``, the finite-release and monodisperse figures) into ``out``. ``settings``:
     per-study sweep overrides (``{"grid": {"grid": {"domain.resolution": [...]}}}``);
     ``quick``: `QUICK_SETTINGS` for the studies without settings. Returns the files."""
@@ -721,6 +759,7 @@ def make_all(
                     f"{runs_root / STUDIES[key]}: its figures are left out"
                 )
     grid, width, nu = studies["grid"], studies["width"], studies["nu"]
+    inviscid = studies["inviscid"]
     paths: list[Path | None] = []
     if grid is not None and grid.runs:
         paths += fig12_14(grid, out, dpi)
@@ -729,6 +768,7 @@ def make_all(
         fig16(grid, width, out, dpi),
         fig17(nu, out, dpi),
         fig18(nu, out, dpi),
+        fig_inviscid(grid, inviscid, out, dpi),
     ]
     if beyond:
         paths += beyond_figures(studies["finite"], studies["mono"], out, dpi)
