@@ -63,3 +63,27 @@ def test_sweep_json_on_stdout_progress_on_stderr(tmp_path, capsys):
     summary = json.loads(cap.out)  # stdout is the JSON alone
     assert summary["counts"] == {"done": 2} and len(summary["runs"]) == 2
     assert "Dask dashboard: http" in cap.err and "[2/2]" in cap.err
+
+
+def test_a_second_command_starts_on_a_fresh_runtime_unless_fields_are_held(ti_cpu, tmp_path):
+    """Taichi's kernel cache keys hold SNode ids, which only a reset numbers from the start
+    again: a command after one that made simulations starts on a fresh runtime (its kernels
+    then load from the cache instead of compiling), but never while something holds fields."""
+    from tiseg import backend
+    from tiseg.solver import field_tree
+
+    assert main(["-q"] + RUN + ["--out", str(tmp_path / "a")]) == 0
+    assert field_tree.made_since_init() > 0
+    before = backend.generation()
+    assert main(["-q"] + RUN + ["--out", str(tmp_path / "b")]) == 0
+    assert backend.generation() == before + 1  # renewed, then the run made its trees
+
+    class Holder:  # stands for a renderer or a window with plain Taichi fields
+        pass
+
+    held = Holder()
+    field_tree.track(held)
+    before = backend.generation()
+    assert main(["-q"] + RUN + ["--out", str(tmp_path / "c")]) == 0
+    assert backend.generation() == before  # the held fields stay valid
+    del held

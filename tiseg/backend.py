@@ -410,6 +410,11 @@ def is_initialised() -> bool:
     return _state is not None
 
 
+def generation() -> int:
+    """How many times this process initialised Taichi (0 before the first)."""
+    return 0 if _state is None else _state.generation
+
+
 def conflict(arch: str | None, precision: str, threads: int = 0) -> str | None:
     """None when the initialised backend serves ``arch`` (None: any), ``precision`` and
     ``threads`` (0: any), else one line saying what differs and what to do. A simulation

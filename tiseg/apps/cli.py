@@ -143,6 +143,7 @@ def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     configure(-1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0)), 1))
+    _renew_idle_runtime()
     try:
         result = args.func(args)
     except RunInterrupted as exc:
@@ -155,6 +156,28 @@ def _main(argv: list[str] | None) -> int:
         sys.stderr.write("tiseg: interrupted\n")
         return 130
     return int(result or 0)
+
+
+def _renew_idle_runtime() -> None:
+    """Start this command on a fresh Taichi runtime when an earlier command in this process
+    (``main`` called again, as scripts and tests do) made field trees and nothing holds Taichi
+    fields any more. Taichi's offline cache keys hold the fields' SNode ids, which grow with
+    every tree a runtime makes and start again from the same numbers only after a reset: a
+    second run in a used runtime compiles its kernels again (about 2 s for a small fingers
+    run), one in a fresh runtime loads them from the cache. The reset (0.1 s) keeps the
+    settings in force; the first command of a process finds nothing made and skips it."""
+    from .. import backend
+    from ..solver import field_tree
+
+    if field_tree.made_since_init() == 0:
+        return
+    if field_tree.live():
+        import gc
+
+        gc.collect()  # simulations that only reference cycles still hold
+    if field_tree.live() == 0:
+        st = backend.state()
+        backend.init(backend.requested_arch(st.arch), st.precision, st.threads, force=True)
 
 
 if __name__ == "__main__":  # pragma: no cover

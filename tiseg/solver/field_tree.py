@@ -20,6 +20,7 @@ from .. import backend
 
 
 _made = 0  # field trees made in this process (tests reset Taichi after a test that made one)
+_made_by_generation: dict[int, int] = {}  # field trees made under each Taichi runtime
 # what holds Taichi fields now: the live trees, and the objects with plain fields that
 # registered through track() (renderers, the viewer's window)
 _holders: weakref.WeakSet = weakref.WeakSet()
@@ -28,6 +29,11 @@ _holders: weakref.WeakSet = weakref.WeakSet()
 def made() -> int:
     """How many field trees this process has made so far."""
     return _made
+
+
+def made_since_init() -> int:
+    """How many field trees this process made under the current Taichi runtime."""
+    return _made_by_generation.get(backend.generation(), 0)
 
 
 def track(obj) -> None:
@@ -55,6 +61,7 @@ class FieldTree:
         self._builder = ti.FieldsBuilder()
         self._tree = None
         self._generation = backend.state().generation
+        _made_by_generation[self._generation] = _made_by_generation.get(self._generation, 0) + 1
 
     def _place(self, f, shape):
         shape = (shape,) if isinstance(shape, int) else tuple(int(n) for n in shape)
