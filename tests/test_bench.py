@@ -228,6 +228,7 @@ def test_variant_scenes_switch_one_effect_each():
 
 
 # ------------------------------------------------------------------------------------ estimate
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_estimate_predicts_a_small_fingers_run(ti_cpu, tmp_path, capsys):
     """`tiseg estimate` on a small fingers run against the real run in this process: steps and
     operator evaluations within a factor 1.5. (Wall time is compared in the benchmark report,

@@ -105,7 +105,10 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsy
         assert "resumed" in nc.history
 
 
-@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+@pytest.mark.parametrize(
+    "sig, code",
+    [(signal.SIGTERM, 143), pytest.param(signal.SIGINT, 130, marks=pytest.mark.slow)],
+)
 def test_a_signal_stops_at_a_step_with_a_checkpoint(tmp_path, reference, capsys, sig, code):
     """SIGTERM / SIGINT let the step finish, write a checkpoint of it, say how to resume and
     exit 128 + the signal; the resumed run is bitwise the uninterrupted one."""
@@ -151,6 +154,7 @@ def _run_until(sim, out, steps: int) -> None:
     sim.remove_callback("stop")
 
 
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_resume_drops_output_written_after_the_checkpoint(tmp_path, reference):
     """A run killed after writing snapshots and diagnostics rows its last checkpoint does not
     know of (and half a CSV line): the resume drops them (rewriting the files atomically)

@@ -65,25 +65,30 @@ def test_sweep_json_on_stdout_progress_on_stderr(tmp_path, capsys):
     assert "Dask dashboard: http" in cap.err and "[2/2]" in cap.err
 
 
-def test_a_second_command_starts_on_a_fresh_runtime_unless_fields_are_held(ti_cpu, tmp_path):
+def test_a_second_command_starts_on_a_fresh_runtime_unless_fields_are_held(tmp_path):
     """Taichi's kernel cache keys hold SNode ids, which only a reset numbers from the start
     again: a command after one that made simulations starts on a fresh runtime (its kernels
-    then load from the cache instead of compiling), but never while something holds fields."""
-    from tiseg import backend
-    from tiseg.solver import field_tree
-
-    assert main(["-q"] + RUN + ["--out", str(tmp_path / "a")]) == 0
-    assert field_tree.made_since_init() > 0
-    before = backend.generation()
-    assert main(["-q"] + RUN + ["--out", str(tmp_path / "b")]) == 0
-    assert backend.generation() == before + 1  # renewed, then the run made its trees
-
-    class Holder:  # stands for a renderer or a window with plain Taichi fields
-        pass
-
-    held = Holder()
-    field_tree.track(held)
-    before = backend.generation()
-    assert main(["-q"] + RUN + ["--out", str(tmp_path / "c")]) == 0
-    assert backend.generation() == before  # the held fields stay valid
-    del held
+    then load from the cache instead of compiling), but never while something holds fields.
+    In a process of its own: what other tests leave alive must not decide it."""
+    script = f"""
+import sys
+from tiseg import backend
+from tiseg.apps.cli import main
+from tiseg.solver import field_tree
+run = {RUN!r} + ["-q", "--out"]
+out = {str(tmp_path)!r}
+assert main(run + [out + "/a"]) == 0 and field_tree.made_since_init() > 0
+g = backend.generation()
+assert main(run + [out + "/b"]) == 0
+renewed = backend.generation() - g
+class Holder:  # stands for a renderer or a window with plain Taichi fields
+    pass
+held = Holder()
+field_tree.track(held)
+g = backend.generation()
+assert main(run + [out + "/c"]) == 0
+print(renewed, backend.generation() - g)
+"""
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split()[-2:] == ["1", "0"], p.stdout  # renewed once; held: kept

@@ -76,6 +76,7 @@ def test_bad_noise_keys_are_one_line_errors(over, words):
     assert words in str(err.value) and "\n" not in str(err.value)
 
 
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_seeds_give_different_runs_and_a_seed_reproduces(ti_cpu, tmp_path):
     """Three tiny runs of the fingers scene: the same seed gives bitwise the same fields, another
     seed other fields."""

@@ -147,6 +147,7 @@ def test_dry_dam_break_arrival_follows_the_front(ti_cpu):
     assert 0.65 * contour < speed < contour < 2 * c0
 
 
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_peak_fields_change_nothing_and_cost_nothing_when_off(ti_cpu, tmp_path, monkeypatch):
     """With peak fields on or off the steps and the final state are the same bits. Off, the
     simulation has no PeakFields (none is built: building one fails here), fields.nc and the

@@ -6,6 +6,7 @@ that must change no bit, and a resumed run must skip what the run it continues s
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from tiseg.run import checkpoint
 from tiseg.setup.scene import load_scene
@@ -58,6 +59,7 @@ def test_skipped_columns_get_the_bits_a_full_computation_gives(ti_cpu):
     assert narrowest < 0.75, narrowest  # a good part of the deposit left out
 
 
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_a_deposit_at_rest_costs_nothing_until_something_wakes_it(ti_cpu):
     """The whole run with and without skipping: the same deposit up to the truncation error of
     the different steps they take, and once nothing moves (by ~65 s) the skipping run
@@ -106,6 +108,7 @@ def test_a_deposit_at_rest_costs_nothing_until_something_wakes_it(ti_cpu):
     assert np.mean(q[1][wet] != 0) > 0.97 and q[1][wet].sum() > 0
 
 
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_a_resumed_run_skips_what_the_run_it_continues_skipped(ti_cpu, tmp_path):
     """A checkpoint taken while the rear of the deposit is skipped keeps the rest mask and the
     ranges: the resumed run takes the same steps to the same bits."""

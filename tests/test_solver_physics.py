@@ -329,6 +329,7 @@ def test_small_fingers_run_forms_coarse_rich_front(ti_cpu, tmp_path, opt):
     assert (tmp_path / "fields.nc").exists() and (tmp_path / "diagnostics.csv").exists()
 
 
+@pytest.mark.slow  # a long regression run: CI runs it in the slow set
 def test_active_region_is_exact(ti_cpu):
     """Skipping the dry chute ahead of the front changes nothing: the same fingers run with and
     without the active x range gives the same state to round-off."""
