@@ -368,3 +368,17 @@ def test_text_is_drawn_where_asked_with_pillow():
     assert ink[0].min() >= 40 - 14 and ink[0].max() <= 40 + 4
     assert end - 20 == text_width("t = 7.50 s", 14) > text_width("t = 7.5", 14) > 0
     assert img.max() == 255 and (img[..., 0] == img[..., 2]).all()  # white, no tint
+
+
+def test_the_painter_cache_does_not_hold_the_runtime(ti_cpu):
+    """render_fields keeps a painter per grid size and runtime; that cache rebuilds itself
+    after a Taichi reset, so it must not count as holding fields: it kept every later test
+    and command in the process from a fresh runtime (and so from the kernel cache)."""
+    from tiseg.post.render.frame import render_fields
+    from tiseg.solver import field_tree
+
+    before = field_tree.live()
+    h = np.full((6, 9), 2e-3)
+    img = render_fields({"h": h, "phi": np.full_like(h, 0.5)}, h_min=1e-4)
+    assert img.ndim == 3 and img.shape[2] == 3
+    assert field_tree.live() == before

@@ -41,6 +41,12 @@ def track(obj) -> None:
     _holders.add(obj)
 
 
+def untrack(obj) -> None:
+    """Stop counting ``obj`` (a cache that rebuilds itself for a new runtime need not hold
+    the current one)."""
+    _holders.discard(obj)
+
+
 def live() -> int:
     """How many field trees and tracked objects are alive: 0 means a Taichi reset invalidates
     nothing anyone holds."""

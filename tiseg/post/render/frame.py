@@ -345,7 +345,12 @@ def _array_painter(nx: int, ny: int) -> _Painter:
     if key not in _painters:
         for k in [k for k in _painters if k[2] != gen]:
             del _painters[k]  # fields of an old runtime are gone
-        _painters[key] = _Painter(_ArraySource(nx, ny))
+        painter = _Painter(_ArraySource(nx, ny))
+        # a cache, rebuilt above for a new runtime: it must not keep Taichi from being reset
+        # (tiseg.apps.cli renews an idle runtime so that kernels load from the offline cache)
+        field_tree.untrack(painter)
+        field_tree.untrack(painter.src)
+        _painters[key] = painter
     return _painters[key]
 
 
