@@ -33,7 +33,7 @@ from .boundaries import BOUNDARIES
 from .config import OperatorConfig
 from .fluxes import FLUXES, PHI_FLUXES
 from .reconstruction import RECONSTRUCTIONS
-from .ranges import SERIAL_CELLS, ActiveRange  # noqa: F401 (public name)
+from .ranges import SERIAL_CELLS, ActiveRange, row_pieces  # noqa: F401 (public name)
 from .reductions import NSTAB, StabilityNumbers, StepReductions  # noqa: F401 (public names)
 from .rest import HELD, REST, WET, X_NEG, X_POS, Y_NEG, Y_POS, RestRules  # noqa: F401
 from .slots import MAX_TERMS, NBUDGET, SlotAlgebra  # noqa: F401 (public names)
@@ -105,6 +105,12 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         # rows reduced by one thread before one atomic (_stability, _wet_extent): a row in 2D,
         # 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
         self.rows_per_block = max(1, 256 // NY)
+        # ... and each row cut into this many pieces along y, reduced one by one: Taichi's
+        # CPU backend hands a parallel loop to its threads in equal chunks of at least 512
+        # iterations, so a loop over the ~500 rows of a fingers run's active range ran on
+        # one thread; the pieces give the smallest range that runs in parallel
+        # (SERIAL_CELLS cells) 512 iterations per thread. On a GPU, many threads.
+        self.row_pieces = row_pieces(lay, threads, st.arch == "cpu")
         self._prepared = None  # (slot, t, active range) whose primitives are in w
         # (slot, active range) whose interior primitives a limited combine left in w (ghost
         # cells and slopes still to do)

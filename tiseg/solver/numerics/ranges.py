@@ -77,3 +77,18 @@ class ActiveRange:
         or on the whole grid (``whole``). Both modes give the same bits
         (tests/test_determinism.py)."""
         return self._serial_whole if whole else self._serial_active
+
+
+def row_pieces(lay, threads: int, on_cpu: bool) -> int:
+    """How many pieces along y a reduction over rows cuts each row into (2D; 1 in 1D, whose
+    blocks of rows are already short): enough that the smallest range whose loops run in
+    parallel, SERIAL_CELLS cells, gives each of ``threads`` CPU threads 512 iterations
+    (Taichi's least chunk of a parallel loop on the CPU), or 8 cells a piece on a GPU; at
+    least 4 cells a piece."""
+    if lay.is_1d or lay.ny < 8:
+        return 1
+    if not on_cpu:
+        return max(1, lay.ny // 8)
+    rows = max(1, SERIAL_CELLS // lay.NY)  # of the smallest range with parallel loops
+    want = -(-512 * max(1, threads) // rows)
+    return max(1, min(want, lay.ny // 4))

@@ -48,7 +48,7 @@ class StepReductions:
         self.nx, self.ny, self.gx, self.gy = op.nx, op.ny, op.gx, op.gy
         self.is_1d, self.seg, self.visc, self.HPHI = op.is_1d, op.seg, op.visc, op.HPHI
         self.local_rate = op.local_rate
-        self.rows_per_block = op.rows_per_block
+        self.rows_per_block, self.row_pieces = op.rows_per_block, op.row_pieces
         self.q, self.w, self.par, self.act, self.phys = op.q, op.w, op.par, op.act, op.phys
         # step_rule "local": each cell's wave speeds along x and y, for the stability pass
         self.spd = ft.vector(2, self.fp, (op.NX, op.NY)) if self.local_rate else None
@@ -90,10 +90,11 @@ class StepReductions:
     @ti.func
     def _stability_body(self, serial: ti.template()):
         """Max wave speeds, Gershgorin bound of the viscous Jacobian and friction stiffness
-        from the primitives of the current state. Blocks of rows run in parallel and reduce
-        locally, so there is one atomic per block (maxima are order independent:
-        deterministic); a block is one row in 2D and 256 cells of the row in 1D, where an
-        atomic per cell would serialise the threads on one address.
+        from the primitives of the current state. Pieces of blocks of rows run in parallel
+        and reduce locally, so there is at most one atomic per piece (maxima are order
+        independent: deterministic); a block is one row in 2D, cut into ``row_pieces``
+        pieces along y (tiseg.solver.numerics.ranges.row_pieces), and 256 cells of the row
+        in 1D, where an atomic per cell would serialise the threads on one address.
 
         The friction Jacobian is local to a cell (a 2 x 2 block in (hu, hv) bounded by the
         friction rate), so it adds to the diagonal of that cell's viscous rows: Gershgorin's
@@ -125,8 +126,12 @@ class StepReductions:
             for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.NY)):
                 w = self.w[i, j]
                 self.spd[i, j] = ti.Vector([self.phys.speed(w, 0), self.phys.speed(w, 1)])
+        P = ti.static(self.row_pieces)
+        L = ti.static((ny + P - 1) // P)  # cells of a piece of a row
         ti.loop_config(serialize=serial)
-        for blk in range((hi - lo + B - 1) // B):
+        for it in range((hi - lo + B - 1) // B * P):
+            blk = it // P
+            j0 = gy + (it % P) * L
             m0 = 0.0
             m1 = 0.0
             m2 = 0.0
@@ -137,7 +142,7 @@ class StepReductions:
             for r in range(B):
                 i = lo + blk * B + r
                 if i < hi:
-                    for j in range(gy, gy + ny):
+                    for j in range(j0, ti.min(j0 + L, gy + ny)):
                         w = self.w[i, j]
                         if ti.static(self.local_rate):
                             sp = self.spd[i, j]
@@ -177,13 +182,12 @@ class StepReductions:
                                 )
                                 m2 = ti.max(m2, rho)
                         m5 = ti.max(m5, rho + fr)
-            ti.atomic_max(self.red[0], m0)
-            ti.atomic_max(self.red[1], m1)
-            ti.atomic_max(self.red[2], m2)
-            ti.atomic_max(self.red[3], m3)
-            ti.atomic_max(self.red[4], m4)
-            ti.atomic_max(self.red[5], m5)
-            ti.atomic_max(self.red[6], m6)
+            # an atomic only where it raises the maximum: a stale read can only be lower (the
+            # maxima only grow), so the atomic is never skipped where it is needed, and the
+            # threads no longer take turns on one cache line for every piece
+            for k, m in ti.static(enumerate((m0, m1, m2, m3, m4, m5, m6))):
+                if m > self.red[k]:
+                    ti.atomic_max(self.red[k], m)
         return ti.Vector([self.red[k] for k in ti.static(range(NSTAB))])
 
     @ti.kernel

@@ -262,8 +262,12 @@ class RestRules:
         llo = ti.max(self.act[0] - 3, self.gx)
         lhi = ti.min(self.act[1] + 3, self.gx + self.nx)
         B = ti.static(self.rows_per_block)
+        P = ti.static(self.row_pieces)  # pieces of a row, as in _stability
+        L = ti.static((self.ny + P - 1) // P)
         ti.loop_config(serialize=serial)
-        for blk in range((hi - lo + B - 1) // B):
+        for it in range((hi - lo + B - 1) // B * P):
+            blk = it // P
+            j0 = self.gy + (it % P) * L
             first = self.NX
             last = -1
             lfirst = self.NX
@@ -272,7 +276,7 @@ class RestRules:
                 i = lo + blk * B + r
                 if i < hi:
                     scan_live = llo <= i < lhi
-                    for j in range(self.gy, self.gy + self.ny):
+                    for j in range(j0, ti.min(j0 + L, self.gy + self.ny)):
                         if self.q[s, i, j][0] >= hmin:
                             first = ti.min(first, i)
                             last = ti.max(last, i)
@@ -281,12 +285,17 @@ class RestRules:
                                 if self._quiescent(s, i, j, hmin) == 0:
                                     lfirst = ti.min(lfirst, i)
                                     llast = ti.max(llast, i)
-            if last >= 0:  # one atomic per block of rows (see _stability)
-                ti.atomic_min(self.wet[0], first)
-                ti.atomic_max(self.wet[1], last)
+            # an atomic per piece only where it moves a bound (see _stability)
+            if last >= 0:
+                if first < self.wet[0]:
+                    ti.atomic_min(self.wet[0], first)
+                if last > self.wet[1]:
+                    ti.atomic_max(self.wet[1], last)
             if llast >= 0:
-                ti.atomic_min(self.wet[2], lfirst)
-                ti.atomic_max(self.wet[3], llast)
+                if lfirst < self.wet[2]:
+                    ti.atomic_min(self.wet[2], lfirst)
+                if llast > self.wet[3]:
+                    ti.atomic_max(self.wet[3], llast)
         return ti.Vector([self.wet[0], self.wet[1], self.wet[2], self.wet[3]])
 
     @ti.func
