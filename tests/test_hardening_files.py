@@ -23,7 +23,7 @@ from tiseg.setup.scene import load_scene
 from tiseg.run.simulation import Simulation
 
 SETS = {
-    "domain.resolution": 40,
+    "domain.resolution": 80,
     "domain.Lx": 0.3,
     "domain.Ly": 0.1,
     "time.t_end": 0.1,

@@ -21,9 +21,9 @@ from tiseg.run.simulation import Simulation
 
 # the frictionless dam break onto a dry bed (Ritter), 1D, 150 cells: 35 steps to 0.2 s
 DAM = {"domain.nx": 150, "time.t_end": 0.2, "output.interval": 0.1}
-# a small 2D fingers run (24 x 8 cells: inflow, segregation, viscosity, RKC)
+# a small 2D fingers run (48 x 16 cells: inflow, segregation, viscosity, the split sweeps)
 FINGERS = {
-    "domain.resolution": 40,
+    "domain.resolution": 80,
     "domain.Lx": 0.6,
     "domain.Ly": 0.2,
     "time.t_end": 0.3,

@@ -109,7 +109,9 @@ def test_snapshot_mass_balance_holds(ti_cpu):
     ]
     assert any(0 < th < 1 for _, th, _, _ in got)
     for t, _, mass, mass_in in got:
-        assert mass > 0 and abs(mass - mass_in) <= 1e-12 * mass, t
+        assert abs(mass - mass_in) <= 1e-12 * mass, t
+    # (the ramped inflow starts at h = 0; the first step, 0.088 s here, admits nothing)
+    assert all(mass > 0 for t, _, mass, _ in got if t > 0.1)
 
 
 def test_resume_from_a_step_state_is_bitwise(ti_cpu, tmp_path):
@@ -123,7 +125,7 @@ def test_resume_from_a_step_state_is_bitwise(ti_cpu, tmp_path):
     whole = Simulation(sc)
     whole.run(progress=False)
     n_stop = 2 * whole.stats.steps // 3  # past a few output times (checkpoints)
-    assert n_stop > 10
+    assert n_stop > 5
 
     def stop(sim):
         if sim.stats.steps == n_stop:
@@ -341,7 +343,7 @@ def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
     sim = Simulation(small(**{"output.interval": None}), check_every=0)
 
     def poison(s):
-        if s.stats.steps == 12:
+        if s.stats.steps == 4:
             s.op.par[Params.G_SIN] = float("nan")
 
     sim.add_callback(poison, IterationInterval(1))
@@ -349,7 +351,7 @@ def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
         sim.run(out_dir=tmp_path, progress=False, checkpoint_wall=0.0)
     ck = checkpoint.load(tmp_path / checkpoint.CHECKPOINT_NAME)
     checkpoint.validate(ck, sim.scene)  # finite: the last good step
-    assert ck["steps"] == 12
+    assert ck["steps"] == 4
 
 
 def test_bad_callbacks_are_refused_before_the_folder_is_touched(ti_cpu, tmp_path):

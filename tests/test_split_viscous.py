@@ -1,10 +1,11 @@
-"""The split MUSCL-Hancock step with viscosity (numerics.stepper = "hancock"): the viscous
-term of (6.2) as a third sub-step V, last on even steps (x, y, V) and first on odd ones
-(V, y, x), integrated by RKC stages (tiseg.solver.timestepping.split, SplitSweeps.viscous_stage).
+"""The split MUSCL-Hancock step with viscosity (numerics.stepper = "hancock"): two half steps
+of sweeps (x, y and y, x, over dt/2 each) around the viscous term of (6.2) as the sub-step V
+over the whole dt, integrated by RKC stages (tiseg.solver.timestepping.split,
+SplitSweeps.viscous_stage).
 
-What must hold: the kernels equal their NumPy twin (tiseg.solver.reference.split.hancock_step
-with "v"); V changes only the momenta (h and h phi keep their bits); the step is second order
-in time on a smooth coupled problem and the shear wave decays at the exact viscous rate with
+What must hold: the kernels equal their NumPy twin (tiseg.solver.reference.split.hancock_pair);
+V changes only the momenta (h and h phi keep their bits); the step is second order in time on
+a smooth coupled problem and the shear wave decays at the exact viscous rate with
 second-order convergence; mass to round-off, h >= 0 and 0 <= phi <= 1 at the largest stable
 step; the lake at rest, a stopped block and the steady uniform flow (4.3), in a periodic box
 and fed by the inflow, kept with viscosity on; a resumed run ends on the bits of the
@@ -26,7 +27,7 @@ from tiseg.run import checkpoint
 from tiseg.run.simulation import Simulation
 from tiseg.setup.scene import load_scene
 from tiseg.solver.reference import ReferenceOperator
-from tiseg.solver.reference.split import hancock_step, viscous_substep
+from tiseg.solver.reference.split import hancock_pair, hancock_step, viscous_substep
 from tiseg.solver.timestepping import make_stepper
 from tiseg.solver.timestepping import split as split_stepping
 
@@ -63,17 +64,17 @@ def _operator(cfg):
     return TaichiOperator(cfg, nslots=4)
 
 
-def _taichi_steps(cfg, q, index, stages, dt=DT, t=0.05, n=1, op=None):
-    """n steps of the split stepper with viscosity from q, the first of parity ``index``,
-    each with ``stages`` viscous stages: (state, budget)."""
+def _taichi_steps(cfg, q, stages, dt=DT, t=0.05, n=1, op=None):
+    """n steps of the split stepper with viscosity from q, each with ``stages`` viscous
+    stages: (state, budget)."""
     op = op or _operator(cfg)
     op.set(0, q)
     op.reset_budget()
     dims = 1 if cfg.layout.is_1d else 2
     st = make_stepper("hancock", dims=dims, viscous=True)
     for k in range(n):
-        st.index = index + k
-        st.step(op, t + k * dt, dt, dims + stages)
+        st.index = k
+        st.step(op, t + k * dt, dt, 2 * dims + stages)
     return op.get(0), op.budget(0)
 
 
@@ -89,26 +90,26 @@ def _rel(cfg, a, b):
     "ny,rows", [(9, None), (9, (0, 4)), (1, None)], ids=["2d", "2d-localised-inlet", "1d"]
 )
 def test_viscous_split_step_matches_the_twin(ti_cpu, ny, rows):
-    """A step of each parity (x, y, V and V, y, x; in 1D x, V and V, x) from a wet-dry state
-    with a patch at rest, friction, segregation and an inflow (in 2D across the whole width
-    or on rows at one side): the kernels equal the twin to 1e-12, and the viscous sub-step
-    did change the result (against a step without it)."""
+    """A step (x, y | V | y, x; in 1D x | V | x) from a wet-dry state with a patch at rest,
+    friction, segregation and an inflow (in 2D across the whole width or on rows at one
+    side), with 2 and 4 viscous stages: the kernels equal the twin to 1e-12, and the viscous
+    sub-step did change the result (against the same halves without it)."""
     rng = np.random.default_rng(11)
     bc = ("inflow", "outflow", "periodic", "periodic") if ny > 1 else ("wall", "outflow")
     cfg = _config(14, ny, bc=bc + ("periodic",) * (4 - len(bc)), inflow_rows=rows)
     q = _resting_patch(cfg, random_state(cfg.layout, rng, wet_dry=True))
     dirs = (0,) if ny == 1 else (0, 1)
     op = _operator(cfg)  # (one operator: its kernels are compiled once)
-    for index, subs in ((0, dirs + ("v",)), (1, ("v",) + dirs[::-1])):
-        for s in (2, 4):
-            a, bud = _taichi_steps(cfg, q, index, s, op=op)
-            b = q.copy()
-            books = hancock_step(ReferenceOperator(cfg), b, 0.05, DT, subs, visc_stages=s)
-            assert _rel(cfg, a, b).max() < 1e-12, (subs, s)
-            assert abs(bud[0] + bud[2] - books["mass"]) <= 1e-12 * max(abs(books["mass"]), 1e-9)
-        inviscid = q.copy()
-        hancock_step(ReferenceOperator(cfg), inviscid, 0.05, DT, [d for d in subs if d != "v"])
-        assert _rel(cfg, a, inviscid)[1] > 1e-6  # (the momentum felt the viscosity)
+    for s in (2, 4):
+        a, bud = _taichi_steps(cfg, q, s, op=op)
+        b = q.copy()
+        books = hancock_pair(ReferenceOperator(cfg), b, 0.05, DT, dirs, visc_stages=s)
+        assert _rel(cfg, a, b).max() < 1e-12, s
+        assert abs(bud[0] + bud[2] - books["mass"]) <= 1e-12 * max(abs(books["mass"]), 1e-9)
+    inviscid = q.copy()
+    hancock_step(ReferenceOperator(cfg), inviscid, 0.05, DT / 2, dirs)
+    hancock_step(ReferenceOperator(cfg), inviscid, 0.05 + DT / 2, DT / 2, dirs[::-1])
+    assert _rel(cfg, a, inviscid)[1] > 1e-6  # (the momentum felt the viscosity)
 
 
 def test_viscous_substep_changes_only_the_momenta(ti_cpu):
@@ -135,18 +136,20 @@ def test_viscous_substep_changes_only_the_momenta(ti_cpu):
 # ------------------------------------------------------------------------------ the scene
 def test_scene_takes_hancock_with_viscosity_and_the_stepper_its_stages():
     """The fingers scene (nu = 0.01) loads with the split stepper, which then has a viscous
-    sub-step and 4 slots; its plan takes the RKC stage count of dt rho_visc on top of the 2
-    sweeps (at least 2), and a fixed count below 2 + 2 is refused in one line."""
+    sub-step and 4 slots; its plan makes the step two convective limits (one per half) and
+    takes the RKC stage count of dt rho_visc on top of the 4 sweeps (at least 2), and a
+    fixed count below 4 + 2 is refused in one line."""
     sc = load_scene("fingers", {"numerics.stepper": "hancock"})
     assert sc.viscous and sc.numerics.stepper == "hancock"
     st = make_stepper("hancock", dims=2, viscous=True)
     assert st.slots == 4
-    assert st.plan(0.01, 0.0, 1.0) == (0.01, 4)
-    assert st.plan(0.01, 1000.0, 1.0) == (0.01, 2 + 5)  # dt rho = 10: 5 RKC stages
+    assert st.plan(0.01, 0.0, 1.0) == (0.02, 6)
+    assert st.plan(0.005, 1000.0, 1.0) == (0.01, 4 + 5)  # dt rho = 10: 5 RKC stages
+    assert st.plan(0.01, 0.0, 0.015) == (0.015, 6)  # (a stop time inside the pair)
     dt, s = make_stepper("hancock", dims=2, viscous=True, max_stages=3).plan(0.01, 1e4, 1.0)
-    assert s == 5 and dt * 1e4 <= 0.653 * 9  # the cap shortens the step to fit 3 stages
+    assert s == 7 and dt * 1e4 <= 0.653 * 9  # the cap shortens the step to fit 3 stages
     with pytest.raises(InputError, match="at least 2 viscous stages") as e:
-        st.plan(0.01, 0.0, 1.0, stages=3)
+        st.plan(0.01, 0.0, 1.0, stages=5)
     assert "\n" not in str(e.value)
     assert make_stepper("hancock", dims=2).slots == 1  # without viscosity: as before
 
@@ -167,7 +170,7 @@ def test_uniform_flow_with_viscosity_stays_uniform_to_round_off(ti_cpu):
     assert sim.stepper.viscous
     q0 = sim.conserved().copy()
     sim.advance(0.1)
-    assert sim.stats.steps > 10 and sim.stats.stages >= 4 * sim.stats.steps
+    assert sim.stats.steps > 5 and sim.stats.stages >= 6 * sim.stats.steps  # (> 10 halves)
     assert_kept_to_round_off(q0, sim.conserved())
 
 
@@ -203,7 +206,7 @@ def test_lake_and_deposit_at_rest_keep_their_bits_with_viscosity(ti_cpu):
             sim.set_state(h, phi=np.full_like(h, 0.6))
         q0 = sim.conserved().copy()
         sim.advance(0.3)
-        assert sim.stats.steps > 10
+        assert sim.stats.steps > 5  # (> 10 halves)
         assert np.array_equal(sim.conserved(), q0), h_right
 
 
@@ -247,8 +250,8 @@ def test_chute_at_the_largest_stable_step_conserves_and_keeps_bounds(ti_cpu):
 @pytest.mark.slow  # a long regression run: CI runs it after the main set
 def test_resumed_viscous_run_ends_on_the_bits_of_the_uninterrupted_one(ti_cpu, tmp_path):
     """The chute with viscosity and the extended law (the hold and the rest mask), saved
-    after an odd number of steps (the next step opens with V) and restored into a fresh
-    simulation: the run ends on the bits of the run that never stopped."""
+    after 7 steps and restored into a fresh simulation: the run ends on the bits of the run
+    that never stopped."""
     over = {"effects.friction": "pouliquen-extended", "time.t_end": 0.3}
     whole = _chute(**over)
     for _ in range(7):
@@ -264,10 +267,10 @@ def test_resumed_viscous_run_ends_on_the_bits_of_the_uninterrupted_one(ti_cpu, t
     assert np.array_equal(again.conserved(), whole.conserved())
 
 
-def _smooth_run(n, index_of, L=0.16, T=0.24, nu=0.05):
-    """The smooth periodic 2D problem of the order test on n x n cells at dt = 0.096 / n
-    (Courant about 0.5 per sweep), flat, frictionless, with viscosity nu; the steps' parities
-    from index_of(k). Returns the interior state."""
+def _smooth_run(n, L=0.16, T=0.24, nu=0.05):
+    """The smooth periodic 2D problem of the order test on n x n cells in steps of
+    dt = 0.192 / n (halves of Courant about 0.5 per sweep), flat, frictionless, with
+    viscosity nu. Returns the interior state."""
     from tiseg.solver.timestepping.rkc import stages_for
 
     dx = L / n
@@ -294,12 +297,12 @@ def _smooth_run(n, index_of, L=0.16, T=0.24, nu=0.05):
     h = 0.002 * (1 + 0.2 * np.sin(k * X) * np.cos(k * Y))
     q = np.stack([h, h * (0.1 + 0.05 * np.cos(k * Y)), h * 0.03 * np.sin(k * X + 0.3)])
     op.set(0, q)
-    dt = 0.096 / n
+    dt = 0.192 / n
     s = stages_for(1.2 * dt * op.stability(0, 0.0).rho_visc)
     st = make_stepper("hancock", dims=2, viscous=True)
     for m in range(int(round(T / dt))):
-        st.index = index_of(m)
-        st.step(op, m * dt, dt, 2 + s)
+        st.index = m
+        st.step(op, m * dt, dt, 4 + s)
     ix, iy = lay.interior()
     return op.get(0)[:, ix, iy]
 
@@ -313,19 +316,13 @@ def _coarsened(a, f):
 def test_split_step_with_viscosity_is_second_order(ti_cpu):
     """A smooth periodic 2D flow (h, u, v all varying, nu = 0.05 so that the viscous and the
     convective rates are alike) on 16, 32 cells against 128 cells, dt refined with dx: the
-    L1 errors of h, hu, hv fall by 2^1.8 or more per halving with the alternating order;
-    with the sub-steps always in the order x, y, V the splitting error of hv shows (its
-    error at 32 cells is larger)."""
-    ref = _smooth_run(128, lambda m: m)
-    err = {}
-    for name, index_of in (("alternating", lambda m: m), ("fixed", lambda m: 0)):
-        err[name] = [
-            np.abs(_smooth_run(n, index_of) - _coarsened(ref, 128 // n)).mean(axis=(1, 2))
-            for n in (16, 32)
-        ]
-    e16, e32 = err["alternating"]
+    L1 errors of h, hu, hv fall by 2^1.8 or more per halving (Strang's symmetric pair of
+    halves around V)."""
+    ref = _smooth_run(128)
+    e16, e32 = (
+        np.abs(_smooth_run(n) - _coarsened(ref, 128 // n)).mean(axis=(1, 2)) for n in (16, 32)
+    )
     assert np.all(np.log2(e16 / e32) > 1.8), np.log2(e16 / e32)
-    assert err["fixed"][1][2] > 1.3 * e32[2]
 
 
 def test_shear_wave_decays_at_the_viscous_rate(ti_cpu):
@@ -369,7 +366,7 @@ def test_shear_wave_decays_at_the_viscous_rate(ti_cpu):
         st = make_stepper("hancock", dims=2, viscous=True)
         for m in range(int(round(T / dt))):
             st.index = m
-            st.step(op, m * dt, dt, 2 + s)
+            st.step(op, m * dt, dt, 4 + s)
         decay = math.exp(-nu * math.sqrt(h0) / 2 * k * k * T)
         ix, iy = lay.interior()
         exact = h0 * U * decay * avg[iy]
@@ -380,7 +377,7 @@ def test_shear_wave_decays_at_the_viscous_rate(ti_cpu):
 
 @pytest.mark.slow
 def test_serial_and_parallel_viscous_steps_give_the_same_bits(ti_cpu):
-    """Split steps with viscosity (both parities), friction with hysteresis, segregation, an
+    """Split steps with viscosity, friction with hysteresis, segregation, an
     inflow and a partial active range, with every loop on one thread and with parallel loops:
     the same bits (each cell's stage writes its own cells)."""
     from tiseg.solver.numerics.operator import TaichiOperator
@@ -398,7 +395,7 @@ def test_serial_and_parallel_viscous_steps_give_the_same_bits(ti_cpu):
         st = make_stepper("hancock", dims=2, viscous=True)
         for k in range(3):
             st.index = k
-            st.step(op, 0.05 + k * 1e-3, 1e-3, 2 + 3)
+            st.step(op, 0.05 + k * 1e-3, 1e-3, 4 + 3)
         out[serial] = (op.get(0), op.budget(0))
     assert np.array_equal(out[True][0], out[False][0])
     assert np.array_equal(out[True][1], out[False][1])
@@ -466,7 +463,7 @@ def test_steady_inflow_into_the_uniform_flow_is_kept(ti_cpu):
     shape = (sim.layout.ny, sim.layout.nx)
     sim.set_state(np.full(shape, h0), u=np.full(shape, u0))
     sim.advance(0.3)
-    assert sim.stats.steps > 10
+    assert sim.stats.steps > 5  # (> 10 halves)
     f = sim.fields()
     assert np.abs(f["h"] / h0 - 1.0).max() < 1e-12
     assert np.abs(f["u"] / u0 - 1.0).max() < 1e-12

@@ -20,7 +20,7 @@ from tiseg.apps.viewer.app import display_problem, vulkan_problem
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"domain.resolution": 40, "time.t_end": 0.3, "output.times": []}
-TINY_ARGS = ["--set", "domain.resolution=40", "--set", "time.t_end=0.3", "--set", "output.times=[]"]
+TINY_ARGS = ["--set", "domain.resolution=40", "--set", "time.t_end=0.6", "--set", "output.times=[]"]
 
 VULKAN = vulkan_problem()
 needs_vulkan = pytest.mark.skipif(VULKAN is not None, reason=f"no Vulkan: {VULKAN}")

@@ -158,7 +158,7 @@ def test_fingers_run_on_vulkan_matches_the_cpu(tmp_path):
     for prec, mass_tol, field_tol in (("f32", 1e-5, 1e-3), ("f64", 1e-13, 1e-12)):
         dv = read_diagnostics(tmp_path / f"vulkan-{prec}" / "diagnostics.csv")
         dc = read_diagnostics(tmp_path / f"cpu-{prec}" / "diagnostics.csv")
-        assert len(dv["time"]) == len(dc["time"]) > 30  # the same steps
+        assert len(dv["time"]) == len(dc["time"]) > 15  # the same steps (each two halves)
         assert abs(int(dv["stages"].sum()) - int(dc["stages"].sum())) <= 1
         np.testing.assert_allclose(dv["mass"][-1], dc["mass"][-1], rtol=mass_tol)
         with (
@@ -314,7 +314,7 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
             assert r["arch"] == "vulkan" and r["rhs_speedup_vs_cpu"] > 0
     run = rep["fingers_run"]
     assert run["ok"] and run["resolved_arch"] == "vulkan" and run["precision"] == "f64"
-    assert run["steps"] > 10 and abs(run["mass_balance_error"]) < 1e-15
+    assert run["steps"] > 5 and abs(run["mass_balance_error"]) < 1e-15
     view = rep["viewer"]
     assert view["ok"] and view["steps"] > 0 and view["sim_s_per_wall_s"] > 0
     md = (tmp_path / "gpu_check.md").read_text()

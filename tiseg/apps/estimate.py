@@ -448,7 +448,7 @@ def calibrate(
             op.combine(spare, terms, limit=True)
 
     # the step at a fixed stage count: its time less that many stages is the per-step work
-    s_cal = 2 if rkc else stepper.stages
+    s_cal = 2 if rkc else (stepper.sweeps if stepper.split else stepper.stages)
     far = sim.t + 1e9  # a target never reached: no trimmed steps
 
     fixed = s_cal if rkc else None
@@ -624,8 +624,8 @@ def estimate(
     dts, act_sum, n_sum = [], 0.0, 0.0
     # a split step's calibrated stage is a sweep; its viscous stages are part of the measured
     # per-step work (calibrate), so only the sweeps are priced as stages
-    base = stepper_for(scene.numerics, is_1d=scene.is_1d)
-    sweeps = base.stages if base.split else None
+    base = stepper_for(scene.numerics, is_1d=scene.is_1d, viscous=bool(scene.viscous))
+    sweeps = base.sweeps if base.split else None
     for _tm, dt, s, active, n in pred["profile"]:
         priced = s if sweeps is None else sweeps
         wall_steps += n * (cal.overhead(active) + priced * cal.stage(active))

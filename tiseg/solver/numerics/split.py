@@ -58,30 +58,30 @@ Segregation and the mobility feedback need nothing more: the h phi flux is upwin
 mass flux, and the mixture law weights with the cell's phi inside the projection. An inflow's
 ghost cells hold its state at mid-step (t + dt/2), the time of the edges they face.
 
-The viscous stress of (6.2) is a third operator V, split from the sweeps in the same
-alternating way: x, y, V on even steps and V, y, x on odd ones (x, V and V, x in 1D), each
-sub-step over the whole dt, so two steps are symmetric and the splitting error is second
-order. V (`viscous_stage`) moves only the momenta: the divergence of the unsplit operator's
+The viscous stress of (6.2) is a third operator V: with viscosity a step of dt is the
+symmetric pair of half steps x(dt/2) y(dt/2) | V(dt) | y(dt/2) x(dt/2) (x | V | x in 1D),
+Strang's splitting, so the splitting error is second order. V (`viscous_stage`) moves only
+the momenta: the divergence of the unsplit operator's
 viscous face stresses (TaichiOperator._x_viscous, _y_viscous: harmonic face coefficients,
 cross derivatives over four cells), integrated by s RKC stages (the stepper,
 tiseg.solver.timestepping.split, picks s from dt rho_visc as RKC does, at least 2), so the
 step stays the convective one where the explicit viscous limit is shorter. The stages are
 summed as increments, Y_j = Y0 + (mu (Y_j-1 - Y0) + nu (Y_j-2 - Y0) + ...), so a cell whose
 viscous rates are zero at every stage keeps its bits (rest among rest, a uniform flow) and
-h and h phi are never touched. The friction projection closes the step after its last
-sub-step, V or a sweep, with the rest mask and speeds of the step's initial state (taken by
-whichever sub-step opens the step), so the hold sees the whole step's driving, viscous force
-included. Through a running inlet V takes no stress (`_inlet_velocities`): its prescribed
-state is one the friction balances, while V after the sweeps sees their state before the
-friction. Chosen by measurement (docs/numerics.md, "Viscosity"): on a smooth 2D flow the
-alternation is second order and as accurate as the symmetric V(dt/2) x y V(dt/2), which
-costs twice its viscous stages, while a fixed order x, y, V falls to order 1.3 in hv; viscous
-fluxes inside the sweeps would see the cross terms only lagged (first order in time) and
-would bind the step to the explicit viscous limit.
+h and h phi are never touched. The friction projection closes each half over dt/2, after
+its last sweep, with the rest mask and speeds of the half's initial state (taken by the
+first sweep, or by V, which opens the second half), so the hold sees its half's driving,
+the viscous force included in the second. Through a running inlet V takes no stress
+(`_inlet_velocities`). Chosen by measurement (docs/numerics.md, "Viscosity"): on a smooth
+2D flow the pair is second order and as accurate as two steps x, y, V and V, y, x with a V of
+dt/2 each, at one stability pass and s(dt) ~ sqrt(2) s(dt/2) viscous stages instead of two
+passes and 2 s(dt/2) stages; viscous fluxes inside the sweeps would see the cross terms only
+lagged (first order in time) and would bind the step to the explicit viscous limit.
 
 A scene with the regularised friction must use the Runge-Kutta steppers (the scene says so
 when it is read). The NumPy twins are `tiseg.solver.reference.split.hancock_sweep`,
-`tiseg.solver.reference.split.viscous_substep` and `tiseg.solver.reference.split.hancock_step`.
+`tiseg.solver.reference.split.viscous_substep`, `tiseg.solver.reference.split.hancock_step`
+and, with viscosity, `tiseg.solver.reference.split.hancock_pair`.
 """
 
 import taichi as ti
@@ -504,8 +504,9 @@ class SplitSweeps:
         divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
         only the momenta change, and a cell whose rates are zero at every stage keeps its bits
         (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
-        ghost cells); ``first``: the sub-step opens the step (the rest mask and the speeds
-        of the step's initial state, as a first sweep)."""
+        ghost cells); ``first``: the sub-step opens a step or, in the split step with
+        viscosity, its second half (the rest mask and the speeds of the state it starts
+        from, as a first sweep)."""
         fr = self.phys.fr_projected
         one = src == 0
         assert one == (prev2 < 0) and (dst != 0 or not one), (src, prev2, dst)
@@ -581,12 +582,12 @@ class SplitSweeps:
     @ti.func
     def _inlet_velocities(self):
         """While an inflow runs, its ghost cells' velocities in w are those of the interior
-        cells next to them: no viscous stress through the inlet. The prescribed state is one
-        that the friction balances, while V after the sweeps (even steps) acts on their
-        state before the friction: a prescribed ghost velocity would drag the inlet cells by
-        the step's whole gravity impulse every other step (on the fingers scene at 250
-        cells/m it left h 0.35 % low down the whole chute, with waves from the inlet). A
-        uniform inflow has no such stress in the unsplit scheme either."""
+        cells next to them: no viscous stress through the inlet, as a uniform inflow has none
+        in the unsplit scheme. The prescribed state is one that the friction balances, and
+        the inlet cells V sees are not that state within a step (the sweeps' gravity
+        impulse and the projection of the half step act on them): a prescribed ghost
+        velocity would drag them toward it at every V (with V after the sweeps, before the
+        friction, it left the fingers chute at 250 cells/m 0.35 % thin all the way down)."""
         gx = ti.static(self.gx)
         lo, hi = ti.static(self.inlet_rows)
         if self.par[Params.IN_ON] > 0.5:

@@ -278,3 +278,25 @@ def hancock_step(
         out["mass"] += b["mass"]
         out["small_mass"] += b["small_mass"]
     return out
+
+
+def hancock_pair(
+    ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs, visc_stages: int = 2
+) -> dict:
+    """One step of the split scheme with viscosity (tiseg.solver.timestepping.split.Hancock
+    with ``viscous``), in place: the half step of sweeps ``dirs`` over dt/2 from t (friction
+    projected over its half at its end), the viscous sub-step of ``visc_stages`` RKC stages
+    over the whole dt from t, then the sweeps ``dirs`` reversed over dt/2 from t + dt/2, whose
+    rest mask and speeds are those of the state V started from, the last projecting the
+    friction of the second half. Returns the summed budget."""
+    half = 0.5 * dt
+    out = hancock_step(ref, q, t, half, dirs)
+    ref.fill_ghosts(q, t)
+    start = split_primitives(ref, q)
+    viscous_substep(ref, q, t, dt, visc_stages)
+    back = list(dirs)[::-1]
+    for k, d in enumerate(back):
+        b = hancock_sweep(ref, q, t + half, half, d, start=start, last=k == len(back) - 1)
+        out["mass"] += b["mass"]
+        out["small_mass"] += b["small_mass"]
+    return out

@@ -30,6 +30,9 @@ class Stepper:
     keeps_rest = True
     # advances by dimensionally split sweeps (tiseg.solver.numerics.split) rather than stages of L
     split = False
+    # how many convective limits a step may span: 2 for the split step with viscosity (two
+    # half steps of sweeps, each at most the limit), else 1
+    halves = 1
     # how many steps the run has taken before this one, set by the simulation before each
     # step: a stepper whose steps differ by their parity (the split step's sweep order) reads
     # it, so that a resumed run steps as the run it continues

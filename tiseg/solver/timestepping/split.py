@@ -17,17 +17,26 @@ class Hancock(Stepper):
     "max" and numerics.cfl <= 1 (default 0.6) that is each sweep's Courant number. The
     friction is the projected one, after the step's last sub-step.
 
-    With viscosity (``viscous``) the viscous term of (6.2) is a third sub-step V, last on even
-    steps (x, y, V) and first on odd ones (V, y, x), integrated over the whole step by the
-    RKC stages of tiseg.solver.timestepping.rkc (in increment form,
-    SplitSweeps.viscous_stage) with as many stages as the viscous spectral radius asks for:
-    s = stages_for(dt rho_visc), at least 2, so the step stays the convective one.
-    ``rho`` given to `plan` is then the viscous (+ friction, zero when projected) stiffness
-    alone: the sweeps need no share of it. It uses slots 0-3 (Y0, F0 and two stages).
+    With viscosity (``viscous``) a step is a symmetric pair of half steps of dt/2 each, with
+    the viscous term of (6.2) as the sub-step V over the whole dt between them:
 
-    ``stages`` counts the sweeps, ``dims`` (2, or 1 in 1D), plus the viscous stages. Each
-    moves a wet front by at most one cell, as a Runge-Kutta stage does (the simulation's
-    active range relies on it); V moves no mass, and its stages only widen that range."""
+        x(dt/2) y(dt/2) | V(dt) | y(dt/2) x(dt/2)     (in 1D: x | V | x)
+
+    Strang's splitting, second order. Each half projects the friction over its dt/2 at its
+    end, as a step without viscosity does, and each sweep's Courant number is that of dt/2,
+    so `plan` makes dt twice the convective limit. V is integrated by the RKC stages of
+    tiseg.solver.timestepping.rkc (in increment form, SplitSweeps.viscous_stage) with as many
+    stages as the viscous spectral radius asks for over dt: s = stages_for(dt rho_visc), at
+    least 2. Two half steps with a V of dt/2 each (x y V | V y x) cost two stability passes
+    and 2 s(dt/2) viscous stages where this costs one pass and s(dt) ~ sqrt(2) s(dt/2) stages
+    (benchmarks/split_fingers/README.md). ``rho`` given to `plan` is the viscous (+
+    friction, zero when projected) stiffness alone: the sweeps need no share of it. V uses
+    slots 0-3 (Y0, F0 and two stages).
+
+    ``stages`` counts the sweeps, ``dims`` (2, or 1 in 1D) or twice that with viscosity,
+    plus the viscous stages. Each sweep moves a wet front by at most one cell, as a
+    Runge-Kutta stage does (the simulation's active range relies on it); V moves no mass, and
+    its stages only widen that range."""
 
     name = "hancock"
     split = True
@@ -47,19 +56,30 @@ class Hancock(Stepper):
         if self.viscous:
             self.slots = 4
 
+    @property
+    def halves(self) -> int:
+        """Half steps of sweeps per step: 2 with viscosity (around V), else 1."""
+        return 2 if self.viscous else 1
+
+    @property
+    def sweeps(self) -> int:
+        """Sweeps per step: one per direction and half step."""
+        return self.halves * self.dims
+
     def plan(self, dt_cfl, rho, dt_max, stages=None):
-        dt = min(dt_cfl, dt_max)
         if not self.viscous:
             if stages is not None and stages != self.stages:
                 raise InputError(
                     f"stages={stages!r}: {self.name} always takes {self.stages} sweeps"
                 )
-            return dt, self.stages
+            return min(dt_cfl, dt_max), self.stages
+        # two halves, each sweep at most the convective limit
+        dt = min(self.halves * dt_cfl, dt_max)
         if stages is not None:
-            if not (isinstance(stages, int) and stages >= self.dims + 2):
+            if not (isinstance(stages, int) and stages >= self.sweeps + 2):
                 raise InputError(
-                    f"stages={stages!r}: {self.name} with viscosity takes {self.dims} sweeps "
-                    "and at least 2 viscous stages"
+                    f"stages={stages!r}: {self.name} with viscosity takes {self.sweeps} "
+                    "sweeps and at least 2 viscous stages"
                 )
             return dt, stages
         s = stages_for(dt * rho)
@@ -67,30 +87,42 @@ class Hancock(Stepper):
             # the stage cap binds: shorten the step so that dt rho fits beta(max_stages)
             s = self.max_stages
             dt = min(dt, ((s - 1) ** 2 - 1) / (1.54 * rho))
-        return dt, self.dims + s
+        return dt, self.sweeps + s
 
     def substeps(self) -> tuple:
-        """This step's sub-steps in order: directions 0 (x), 1 (y) and VISCOUS."""
+        """This step's sub-steps in order: directions 0 (x), 1 (y) and VISCOUS (with
+        viscosity the halves' sweeps, each over dt/2, around V)."""
+        if self.viscous:
+            dirs = (0,) if self.dims == 1 else (0, 1)
+            return dirs + (VISCOUS,) + dirs[::-1]
         even = self.index % 2 == 0
-        dirs = (0,) if self.dims == 1 else ((0, 1) if even else (1, 0))
-        if not self.viscous:
-            return dirs
-        return dirs + (VISCOUS,) if even else (VISCOUS,) + dirs
+        return (0,) if self.dims == 1 else ((0, 1) if even else (1, 0))
 
     def step(self, op, t, dt, stages):
-        subs = self.substeps()
-        for k, d in enumerate(subs):
-            first, last = k == 0, k == len(subs) - 1
-            if d == VISCOUS:
-                viscous_substep(op, t, dt, stages - self.dims, first, last)
-            else:
-                op.sweep(d, t, dt, first=first, last=last)
+        if not self.viscous:
+            subs = self.substeps()
+            for k, d in enumerate(subs):
+                op.sweep(d, t, dt, first=k == 0, last=k == len(subs) - 1)
+            return
+        half = 0.5 * dt
+        dirs = (0,) if self.dims == 1 else (0, 1)
+        # the first half from t: its first sweep takes the step's rest mask and speeds, its
+        # last projects the friction over dt/2
+        for k, d in enumerate(dirs):
+            op.sweep(d, t, half, first=k == 0, last=k == len(dirs) - 1)
+        # V over the whole step from t (its stage times span [t, t + dt]); it opens the
+        # second half: the rest mask and speeds of the state it starts from
+        viscous_substep(op, t, dt, stages - self.sweeps, first=True, last=False)
+        for k, d in enumerate(dirs[::-1]):
+            op.sweep(d, t + half, half, first=False, last=k == len(dirs) - 1)
 
 
 def viscous_substep(op, t: float, dt: float, s: int, first: bool, last: bool) -> None:
     """V over dt from t by s RKC stages (rkc_coefficients; RKC.step's recurrence written for
     the increments Y_j - Y0): slot 0 holds Y0 and then the result, slot 1 F0 = V(Y0), slots
-    2 and 3 the last two stages. ``first``, ``last``: V opens or closes the step."""
+    2 and 3 the last two stages. ``first``: V opens a step or a half (its rest mask and
+    speeds); ``last``: V closes a step (the friction projection over dt; Hancock's V sits
+    between its halves and closes none)."""
     mu_t1, coeffs, c = rkc_coefficients(s)
     Y0, A, B = 0, 2, 3
     op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, tau=dt, first=first)
