@@ -20,7 +20,8 @@ Cases:
   the viscous sub-step, to t = 7.5 s;
 * ``fingersR-rkc``, ``fingersR-hancock`` (R = 375, 750): the fingers scene at R cells/m to
   7.5 s with the unsplit KT + RKC scheme at the sum rule (the scene's numerics before issue
-  34) and with the split sweeps at the max rule, cfl 0.6.
+  34) and with the split sweeps at the max rule, cfl 0.6; ``fingersR-hancock-cfl0.9``: the
+  split sweeps at cfl 0.9 per sweep (the documented trade of benchmarks/split_fingers).
 """
 
 from __future__ import annotations
@@ -66,6 +67,11 @@ for _res in (375, 750):
         'numerics.stepper="hancock"',
         "--set",
         'numerics.step_rule="max"',
+    ]
+    CASES[f"fingers{_res}-hancock-cfl0.9"] = [
+        *CASES[f"fingers{_res}-hancock"],
+        "--set",
+        "numerics.cfl=0.9",
     ]
 
 
