@@ -216,13 +216,11 @@ def viscous_substep(
     t: float,
     dt: float,
     stages: int,
-    start: np.ndarray | None = None,
-    last: bool = False,
 ) -> None:
     """The viscous sub-step V of a split step (SplitSweeps.viscous_stage), in place: ``stages``
     RKC stages (rkc_coefficients) over dt from t, the recurrence written for the increments
-    Y_j - Y0, on the interior cells; then the stage limiter, and with ``last`` (and the
-    projected friction) the friction of the whole step at the speeds of ``start``."""
+    Y_j - Y0, on the interior cells; then the stage limiter. V closes no step, so it projects
+    no friction (`hancock_pair`)."""
     mu_t1, coeffs, cs = rkc_coefficients(stages)
     ix, iy = ref.lay.interior()
     y0 = q.copy()
@@ -235,8 +233,6 @@ def viscous_substep(
         prev2, prev1 = prev1, y0 + inc
     q[:, ix, iy] = prev1[:, ix, iy]
     ref.postprocess(q)
-    if last and ref.projected:
-        project_step(ref, q, dt, start)
 
 
 def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) -> None:
@@ -258,22 +254,16 @@ def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) 
         q[lay.HV] *= f
 
 
-def hancock_step(
-    ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs, visc_stages: int = 2
-) -> dict:
-    """One step of the split scheme (tiseg.solver.timestepping.split.Hancock): the sub-steps
-    ``dirs`` in order, sweeps along 0 (x) and 1 (y) and "v" the viscous sub-step of
-    ``visc_stages`` RKC stages, the first taking the step's initial state (rest mask and
-    speeds of the projected friction), the last projecting the friction. Returns the summed
-    budget (the viscous sub-step moves no mass)."""
+def hancock_step(ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs) -> dict:
+    """One step of the split scheme without viscosity (tiseg.solver.timestepping.split.Hancock)
+    or a half step of one with it (`hancock_pair`): sweeps along ``dirs`` in order, 0 (x) and
+    1 (y), the first taking the step's initial state (rest mask and speeds of the projected
+    friction), the last projecting the friction. Returns the summed budget."""
     ref.fill_ghosts(q, t)
     start = split_primitives(ref, q)
     out = {"mass": 0.0, "small_mass": 0.0}
     for k, d in enumerate(dirs):
         last = k == len(dirs) - 1
-        if d == "v":
-            viscous_substep(ref, q, t, dt, visc_stages, start=start, last=last)
-            continue
         b = hancock_sweep(ref, q, t, dt, d, start=start, last=last)
         out["mass"] += b["mass"]
         out["small_mass"] += b["small_mass"]

@@ -6,8 +6,6 @@ from ...errors import InputError
 from .base import Stepper, register
 from .rkc import rkc_coefficients, stages_for
 
-VISCOUS = "v"  # the viscous sub-step among a step's sub-steps
-
 
 @register
 class Hancock(Stepper):
@@ -89,40 +87,32 @@ class Hancock(Stepper):
             dt = min(dt, ((s - 1) ** 2 - 1) / (1.54 * rho))
         return dt, self.sweeps + s
 
-    def substeps(self) -> tuple:
-        """This step's sub-steps in order: directions 0 (x), 1 (y) and VISCOUS (with
-        viscosity the halves' sweeps, each over dt/2, around V)."""
-        if self.viscous:
-            dirs = (0,) if self.dims == 1 else (0, 1)
-            return dirs + (VISCOUS,) + dirs[::-1]
-        even = self.index % 2 == 0
-        return (0,) if self.dims == 1 else ((0, 1) if even else (1, 0))
-
     def step(self, op, t, dt, stages):
+        dirs = (0,) if self.dims == 1 else (0, 1)
         if not self.viscous:
-            subs = self.substeps()
-            for k, d in enumerate(subs):
-                op.sweep(d, t, dt, first=k == 0, last=k == len(subs) - 1)
+            if self.index % 2:  # y, x on odd steps
+                dirs = dirs[::-1]
+            for k, d in enumerate(dirs):
+                op.sweep(d, t, dt, first=k == 0, last=k == len(dirs) - 1)
             return
         half = 0.5 * dt
-        dirs = (0,) if self.dims == 1 else (0, 1)
         # the first half from t: its first sweep takes the step's rest mask and speeds, its
         # last projects the friction over dt/2
         for k, d in enumerate(dirs):
             op.sweep(d, t, half, first=k == 0, last=k == len(dirs) - 1)
         # V over the whole step from t (its stage times span [t, t + dt]); it opens the
         # second half: the rest mask and speeds of the state it starts from
-        viscous_substep(op, t, dt, stages - self.sweeps, first=True, last=False)
+        viscous_substep(op, t, dt, stages - self.sweeps, first=True)
         for k, d in enumerate(dirs[::-1]):
             op.sweep(d, t + half, half, first=False, last=k == len(dirs) - 1)
 
 
-def viscous_substep(op, t: float, dt: float, s: int, first: bool, last: bool) -> None:
+def viscous_substep(op, t: float, dt: float, s: int, first: bool) -> None:
     """V over dt from t by s RKC stages (rkc_coefficients; RKC.step's recurrence written for
     the increments Y_j - Y0): slot 0 holds Y0 and then the result, slot 1 F0 = V(Y0), slots
     2 and 3 the last two stages. ``first``: V opens a step or a half (its rest mask and
-    speeds); ``last``: V closes a step (the friction projection over dt; Hancock's V sits
-    between its halves and closes none)."""
+    speeds). V closes no step (Hancock's sits between its halves), so it projects no
+    friction."""
     mu_t1, coeffs, c = rkc_coefficients(s)
     Y0, A, B = 0, 2, 3
     op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, tau=dt, first=first)
@@ -137,6 +127,5 @@ def viscous_substep(op, t: float, dt: float, s: int, first: bool, last: bool) ->
             (mu, nu, mu_t * dt, gamma_t * dt),
             t + c[j - 1] * dt,
             tau=dt,
-            last=last,
         )
         prev2, prev1 = prev1, dst
