@@ -1,12 +1,12 @@
-"""The fingers on the split sweeps against the unsplit default: ensembles side by side.
+"""The fingers on the split sweeps against the unsplit scheme: ensembles side by side.
 
 Each ensemble is a ``tiseg sweep grid-study`` folder (or a copy of its ``sweep.csv``) with the
 numerics it was run with given as a label, e.g.
 
-    tiseg sweep grid-study --out runs/ens/rkc --grid 'domain.resolution=[250,375,500,750]' \
-        --grid 'inflow.seed=[1,2,3,4,5]'
-    tiseg sweep grid-study --out runs/ens/hancock --set 'numerics.stepper="hancock"' \
-        --set 'numerics.step_rule="max"' --grid 'domain.resolution=[250,375,500,750]' \
+    tiseg sweep grid-study --out runs/ens/rkc --set 'numerics.stepper="rkc"' \
+        --set 'numerics.step_rule="sum"' --set numerics.cfl=0.5 \
+        --grid 'domain.resolution=[250,375,500,750]' --grid 'inflow.seed=[1,2,3,4,5]'
+    tiseg sweep grid-study --out runs/ens/hancock --grid 'domain.resolution=[250,375,500,750]' \
         --grid 'inflow.seed=[1,2,3,4,5]'
     python benchmarks/split_fingers.py --reference rkc rkc=runs/ens/rkc hancock=runs/ens/hancock
 

@@ -341,7 +341,12 @@ def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
         return json.loads(capsys.readouterr().out)
 
     run = tmp_path / "run"
-    make_run(run, 'numerics.friction_scheme="regularised"', 'numerics.stepper="ssprk3"')
+    make_run(
+        run,
+        'numerics.friction_scheme="regularised"',
+        'numerics.stepper="ssprk3"',
+        "numerics.cfl=0.25",
+    )
     ssp = ("ssprk3", "ssprk2", "ssprk4_2", "ssprk10_4", "euler")
     rep = bench(run, *ssp)
     (start,) = rep["starts"]
@@ -361,7 +366,7 @@ def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
     assert (run / "bench-steppers" / "steppers.md").read_text().count("| ssprk3 (run) |") == 1
 
     default = tmp_path / "default"
-    make_run(default, 'numerics.stepper="rkc"', 'numerics.step_rule="sum"')  # unsplit RKC
+    make_run(default, 'numerics.stepper="rkc"', 'numerics.step_rule="sum"', "numerics.cfl=0.5")
     rep = bench(default, "rkc")
     (row,) = rep["starts"][0]["rows"]
     assert row["stepper"] == "rkc" and row["status"] == "ok"

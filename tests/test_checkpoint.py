@@ -161,11 +161,11 @@ def test_resume_drops_output_written_after_the_checkpoint(tmp_path, reference):
     instead of duplicating times, and still ends bitwise equal to the uninterrupted run."""
     sc = load_scene("fingers", SETS)
     out = tmp_path / "run"
-    _run_until(Simulation(sc), out, 5)
+    _run_until(Simulation(sc), out, 3)
     early = checkpoint.load(out / checkpoint.CHECKPOINT_NAME)
     assert 0.1 <= early["t"] < 0.5 and early["snapshots"] >= 2
     shutil.copy(out / checkpoint.CHECKPOINT_NAME, tmp_path / "early.npz")
-    _run_until(Simulation.resume(out), out, 9)  # more snapshots ...
+    _run_until(Simulation.resume(out), out, 6)  # more snapshots ...
     shutil.copy(tmp_path / "early.npz", out / checkpoint.CHECKPOINT_NAME)  # ... unknown to it
     with open(out / "diagnostics.csv", "a") as fh:
         fh.write("0.41,1e-3,2")  # a row cut by the kill

@@ -31,9 +31,9 @@ SETS = [
     "domain.resolution=60",
     "domain.Lx=0.6",
     "domain.Ly=0.2",
-    "time.t_end=0.8",
+    "time.t_end=1.2",
     "output.times=[]",
-    "output.interval=0.1",
+    "output.interval=0.15",
 ]
 RUNS = {
     "f64-2a": ("f64", 2),

@@ -235,7 +235,7 @@ def test_diagnostics_keep_the_time_exact_and_round_what_was_measured(tmp_path):
 # ------------------------------------------------------------------ the demo's number
 def test_the_demos_converged_values_are_those_of_the_cited_table():
     """The demo's converged numbers are the mean and sd of the committed ensemble's runs (the
-    split sweeps at 375 cells/m, seeds 1-5), which the cited file reports."""
+    split sweeps at cfl 0.9, 375 cells/m, seeds 1-5), which the cited file reports."""
     import csv
     import statistics
 
@@ -244,7 +244,7 @@ def test_the_demos_converged_values_are_those_of_the_cited_table():
     source = ROOT / CONVERGED["source"]
     if not source.is_file():
         pytest.skip("the benchmarks folder is not here (an installed wheel)")
-    runs = source.parent / "ensembles" / "pair" / "sweep.csv"
+    runs = source.parent / "ensembles" / "pair-cfl0.9" / "sweep.csv"
     with open(runs, newline="") as fh:
         rows = [
             r
@@ -262,11 +262,14 @@ def test_the_demos_converged_values_are_those_of_the_cited_table():
         assert statistics.mean(values) == pytest.approx(mean, abs=0.005)
         assert statistics.stdev(values) == pytest.approx(sd, abs=0.005)
     text = source.read_text(encoding="utf-8")
-    row = next(line for line in text.splitlines() if line.startswith("| **pair** | **375**"))
+    row = next(
+        line for line in text.splitlines() if line.startswith("| **pair, cfl 0.9** | **375**")
+    )
     assert f"{CONVERGED['finger_count'][0]:g} ± {CONVERGED['finger_count'][1]:g}" in row
     assert f"{CONVERGED['wavelength_cm'][0]:.2f} ± {CONVERGED['wavelength_cm'][1]:.2f}" in row
     scene = load_scene("fingers")
-    assert scene.numerics.stepper == "hancock"  # the numerics the ensemble measured
+    # the numerics the ensemble measured
+    assert scene.numerics.stepper == "hancock" and scene.numerics.cfl == 0.9
     assert scene.numerics.friction_scheme == "projected"
     lines = what_the_numbers_are(200, 7.5)
     assert "one unseeded run at 200 cells/m" in lines and CONVERGED["source"] in lines

@@ -52,10 +52,11 @@ def one_line_error(capsys, word: str) -> str:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory, ti_cpu):
-    """{"done": a finished run, "part": a run stopped at t = 0.05 s with its checkpoint}."""
+    """{"done": a finished run, "part": a run stopped at t = 0.075 s with its checkpoint}
+    (the ramped inflow has wetted the first cells by then)."""
     base = tmp_path_factory.mktemp("files")
     Simulation(scene()).run(out_dir=base / "done", progress=False)
-    Simulation(scene()).run(out_dir=base / "part", progress=False, t_end=0.05)
+    Simulation(scene()).run(out_dir=base / "part", progress=False, t_end=0.075)
     assert (base / "part" / checkpoint.CHECKPOINT_NAME).is_file()
     return base
 
@@ -130,7 +131,7 @@ def test_a_half_written_last_record_is_not_a_snapshot(runs, tmp_path, capsys):
 def _lose_a_row(lines) -> None:
     """A middle row gone, and a row the killed run wrote after its checkpoint."""
     del lines[2]
-    lines.append("0.075" + lines[-1][lines[-1].index(",") :])
+    lines.append("0.1" + lines[-1][lines[-1].index(",") :])
 
 
 @pytest.mark.parametrize(

@@ -93,7 +93,7 @@ def test_fingers_resolved_values():
         "hancock",
         "f64",
     )
-    assert s.numerics.step_rule == "max" and s.numerics.cfl == 0.6 and s.numerics.h_min == 1e-4
+    assert s.numerics.step_rule == "max" and s.numerics.cfl == 0.9 and s.numerics.h_min == 1e-4
     for t in (1.9, 3.3, 5.1, 6.2, 7.5):
         assert t in s.output_times  # exact figure times, not 1.9000000001
     assert len(s.output_times) == 76  # 0, 0.1, ..., 7.5

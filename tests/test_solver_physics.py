@@ -33,7 +33,7 @@ def flux_overrides(opt) -> dict:
 def fingers_overrides(opt) -> dict:
     """flux_overrides for the fingers scene: its split sweeps take only the upwind h phi flux
     with segregation, so the paper's central flux runs on the unsplit scheme (RKC, sum rule)."""
-    unsplit = {"numerics.stepper": "rkc", "numerics.step_rule": "sum"}
+    unsplit = {"numerics.stepper": "rkc", "numerics.step_rule": "sum", "numerics.cfl": 0.5}
     return {**flux_overrides(opt), **(unsplit if opt[1] == "central" else {})}
 
 

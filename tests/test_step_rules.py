@@ -55,7 +55,7 @@ def test_sum_rule_defaults_and_bounds(ti_cpu):
         over = {"numerics.stepper": "ssprk4_2", "numerics.step_rule": rule}
         assert load_scene("dam-break", over).numerics.cfl == cfl
         over = {"numerics.stepper": "rkc", "numerics.step_rule": rule}
-        assert load_scene("fingers", over).numerics.cfl == cfl
+        assert load_scene("channel", over).numerics.cfl == cfl  # 2D, no cfl in the file
     s_max = dam_break_2d(64, 0.1, "ssprk3", "max")
     s_sum = dam_break_2d(64, 0.1, "ssprk3", "sum")
     for ax, ay in ((3.0, 3.0), (3.0, 0.5), (3.0, 0.0), (0.2, 4.0)):
@@ -67,6 +67,21 @@ def test_sum_rule_defaults_and_bounds(ti_cpu):
     assert step_limits(3.0, 0.0, 0.0, s_sum)[0] == pytest.approx(
         2 * step_limits(3.0, 0.0, 0, s_max)[0]
     )
+
+
+def test_a_split_cfl_carried_to_an_unsplit_stepper_is_named(caplog):
+    """The fingers scene's cfl 0.9 is a Courant number per sweep: moved to the unsplit scheme
+    it is kept (an explicit key), and the note says which cfl that stepper's rule needs."""
+    over = {"numerics.stepper": "rkc", "numerics.step_rule": "sum"}
+    with caplog.at_level("WARNING", logger="tiseg"):
+        s = load_scene("fingers", over)
+    assert s.numerics.cfl == 0.9
+    text = " ".join(r.getMessage() for r in caplog.records)
+    assert "above the positivity bound 0.5" in text and "set numerics.cfl=0.5" in text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="tiseg"):
+        assert load_scene("fingers", {**over, "numerics.cfl": 0.5}).numerics.cfl == 0.5
+    assert not [r for r in caplog.records if "positivity bound" in r.getMessage()]
 
 
 @pytest.mark.parametrize("stepper", SSP_STEPPERS)

@@ -19,7 +19,7 @@ from solver_helpers import child_env
 from tiseg.apps.viewer.app import display_problem, vulkan_problem
 
 ROOT = Path(__file__).resolve().parents[1]
-TINY = {"domain.resolution": 40, "time.t_end": 0.3, "output.times": []}
+TINY = {"domain.resolution": 40, "time.t_end": 1.0, "output.times": []}
 TINY_ARGS = ["--set", "domain.resolution=40", "--set", "time.t_end=0.6", "--set", "output.times=[]"]
 
 VULKAN = vulkan_problem()
@@ -170,7 +170,7 @@ def test_window_shows_the_captions(ti_cpu, tmp_path):
         assert close(img[top : top + v.map_h, v.map_w : v.map_w + v.BAR_W], bar)
         strip = img[top + v.map_h : top + v.map_h + v.STRIP_H]
         texts = v.caption_texts()
-        assert texts["stamp"].startswith(f"t = {v.sim.t:.2f} s of 0.3 s")
+        assert texts["stamp"].startswith(f"t = {v.sim.t:.2f} s of 1 s")
         assert texts["bar"] is not None and texts["hint"] == cap.hint_line()
         assert close(strip, cap.caption_strip(v.width, v.map_w, **texts, height=v.STRIP_H))
 

@@ -22,9 +22,9 @@ PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
 DEMO_FILES = ("fingers.mp4", "fig12_phi.png", "fig13_speed.png", "fig14_h.png", "stability")
 
 # The converged finger statistics of the fingers scene at t = 7.5 s, with its default numerics
-# (the split sweeps, a pair of half steps around the viscous sub-step): mean and standard
-# deviation over seeded runs (seeds 1-5) at 375 cells/m, where they agree with the 750 cells/m
-# ensemble (the row "pair, 375" of section 4 of the file named by "source").
+# (the split sweeps at cfl 0.9, a pair of half steps around the viscous sub-step): mean and
+# standard deviation over seeded runs (seeds 1-5) at 375 cells/m, where they agree with the
+# 750 cells/m ensemble (the row "pair, cfl 0.9, 375" of section 4 of the file named by "source").
 CONVERGED = {
     "resolution": 375.0,  # cells per metre
     "time": 7.5,  # s
