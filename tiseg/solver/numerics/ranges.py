@@ -92,3 +92,27 @@ def row_pieces(lay, threads: int, on_cpu: bool) -> int:
     rows = max(1, SERIAL_CELLS // lay.NY)  # of the smallest range with parallel loops
     want = -(-512 * max(1, threads) // rows)
     return max(1, min(want, lay.ny // 4))
+
+
+@ti.func
+def piece_count(lo, hi, rows_per_block: ti.template(), pieces: ti.template()):
+    """Iterations of a loop over the rows [lo, hi) in blocks of ``rows_per_block`` rows, each
+    row cut into ``pieces`` pieces along y (row_pieces)."""
+    return (hi - lo + rows_per_block - 1) // rows_per_block * pieces
+
+
+@ti.func
+def piece_at(
+    it,
+    lo,
+    rows_per_block: ti.template(),
+    pieces: ti.template(),
+    gy: ti.template(),
+    ny: ti.template(),
+):
+    """Iteration ``it`` of that loop: (the block's first row, the piece's cells [j0, j1) of
+    the interior rows [gy, gy + ny)); rows of the last block past the range's end are the
+    caller's to skip."""
+    n = ti.static((ny + pieces - 1) // pieces)  # cells of a piece
+    j0 = gy + (it % pieces) * n
+    return lo + (it // pieces) * rows_per_block, j0, ti.min(j0 + n, gy + ny)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import taichi as ti
 
 from ...model.physics.params import Params
+from .ranges import piece_at, piece_count
 
 
 @dataclass
@@ -127,11 +128,9 @@ class StepReductions:
                 w = self.w[i, j]
                 self.spd[i, j] = ti.Vector([self.phys.speed(w, 0), self.phys.speed(w, 1)])
         P = ti.static(self.row_pieces)
-        L = ti.static((ny + P - 1) // P)  # cells of a piece of a row
         ti.loop_config(serialize=serial)
-        for it in range((hi - lo + B - 1) // B * P):
-            blk = it // P
-            j0 = gy + (it % P) * L
+        for it in range(piece_count(lo, hi, B, P)):
+            i0, j0, j1 = piece_at(it, lo, B, P, gy, ny)
             m0 = 0.0
             m1 = 0.0
             m2 = 0.0
@@ -140,9 +139,9 @@ class StepReductions:
             m5 = 0.0
             m6 = 0.0
             for r in range(B):
-                i = lo + blk * B + r
+                i = i0 + r
                 if i < hi:
-                    for j in range(j0, ti.min(j0 + L, gy + ny)):
+                    for j in range(j0, j1):
                         w = self.w[i, j]
                         if ti.static(self.local_rate):
                             sp = self.spd[i, j]

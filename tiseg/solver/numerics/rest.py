@@ -25,6 +25,7 @@ import numpy as np
 import taichi as ti
 
 from ...model.physics.params import Params
+from .ranges import piece_at, piece_count
 
 # bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
 REST = 1  # u = v = 0 exactly
@@ -263,20 +264,18 @@ class RestRules:
         lhi = ti.min(self.act[1] + 3, self.gx + self.nx)
         B = ti.static(self.rows_per_block)
         P = ti.static(self.row_pieces)  # pieces of a row, as in _stability
-        L = ti.static((self.ny + P - 1) // P)
         ti.loop_config(serialize=serial)
-        for it in range((hi - lo + B - 1) // B * P):
-            blk = it // P
-            j0 = self.gy + (it % P) * L
+        for it in range(piece_count(lo, hi, B, P)):
+            i0, j0, j1 = piece_at(it, lo, B, P, self.gy, self.ny)
             first = self.NX
             last = -1
             lfirst = self.NX
             llast = -1
             for r in range(B):
-                i = lo + blk * B + r
+                i = i0 + r
                 if i < hi:
                     scan_live = llo <= i < lhi
-                    for j in range(j0, ti.min(j0 + L, self.gy + self.ny)):
+                    for j in range(j0, j1):
                         if self.q[s, i, j][0] >= hmin:
                             first = ti.min(first, i)
                             last = ti.max(last, i)

@@ -488,9 +488,7 @@ class SplitSweeps:
         dst: int,
         coeffs: tuple[float, float, float, float],
         t: float,
-        tau: float = 0.0,
         first: bool = False,
-        last: bool = False,
     ) -> None:
         """One stage of the viscous sub-step V of a split step (the RKC stages of
         tiseg.solver.timestepping.split.Hancock), in one launch, on the cells a sweep updates:
@@ -499,8 +497,8 @@ class SplitSweeps:
 
         with Y0 = slot 0 (the state V started from), F0 = slot 1 and ``coeffs`` = (mu, nu, ct,
         cg). ``src`` = 0 (with ``prev2`` < 0) is the first stage, which also stores V(Y0) in
-        slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter, and
-        with ``last`` the friction projection of the whole step over ``tau``). V is the
+        slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter; the
+        friction is projected by the sweep that closes the half, not here). V is the
         divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
         only the momenta change, and a cell whose rates are zero at every stage keeps its bits
         (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
@@ -519,8 +517,7 @@ class SplitSweeps:
             self._prepared is not None and self._prepared[::2] == key[::2]
         )
         fresh = 2 if self._prepared == key else (1 if interior else 0)
-        first, last = bool(fr and first), bool(fr and last and dst == 0)
-        hold = self._first_of_step(True) if last else False
+        first = bool(fr and first)
         mu, nu, ct, cg = (float(c) for c in coeffs)
         # the inlet's rows of w (_inlet_velocities; inflow.width and inflow.y0 are compiled
         # in), the ghost rows where it reaches the domain's side: the cross derivatives at
@@ -534,13 +531,10 @@ class SplitSweeps:
             nu,
             ct,
             cg,
-            tau,
             fresh,
             one,
             dst == 0,
             first,
-            last,
-            hold,
             self.serial_loops(),
         )
         self._written(dst, primitives=True)
@@ -555,13 +549,10 @@ class SplitSweeps:
         nu: float,
         ct: float,
         cg: float,
-        tau: float,
         fresh: ti.template(),
         one: ti.template(),
         final: ti.template(),
         first: ti.template(),
-        last: ti.template(),
-        hold: ti.template(),
         serial: ti.template(),
     ):
         """A stage of V (viscous_stage): ghosts and primitives of slot src as far as
@@ -575,9 +566,7 @@ class SplitSweeps:
         if ti.static(self.bcs[0].prescribed):
             self._inlet_velocities()
         self._viscous_faces(serial)
-        self._viscous_update(
-            src, prev2, dst, mu, nu, ct, cg, tau, one, final, first, last, hold, serial
-        )
+        self._viscous_update(src, prev2, dst, mu, nu, ct, cg, one, final, first, serial)
 
     @ti.func
     def _inlet_velocities(self):
@@ -631,12 +620,9 @@ class SplitSweeps:
         nu,
         ct,
         cg,
-        tau,
         one: ti.template(),
         final: ti.template(),
         first: ti.template(),
-        last: ti.template(),
-        hold: ti.template(),
         serial: ti.template(),
     ):
         """The stage's combination on the interior rows of the x range [a - 3, b + 3) that
@@ -668,8 +654,6 @@ class SplitSweeps:
             if ti.static(final):
                 if inside:
                     acc = self._limit(acc)
-                    if ti.static(last):
-                        acc = self._project(acc, tau, i, j, hold, self.spd0[i, j])
                     self.q[0, i, j] = acc
                 else:
                     acc = y0

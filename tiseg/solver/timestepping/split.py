@@ -115,7 +115,7 @@ def viscous_substep(op, t: float, dt: float, s: int, first: bool) -> None:
     friction."""
     mu_t1, coeffs, c = rkc_coefficients(s)
     Y0, A, B = 0, 2, 3
-    op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, tau=dt, first=first)
+    op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, first=first)
     prev2, prev1 = Y0, A
     for j in range(2, s + 1):
         mu, nu, mu_t, gamma_t = coeffs[j - 2]
@@ -126,6 +126,5 @@ def viscous_substep(op, t: float, dt: float, s: int, first: bool) -> None:
             dst,
             (mu, nu, mu_t * dt, gamma_t * dt),
             t + c[j - 1] * dt,
-            tau=dt,
         )
         prev2, prev1 = prev1, dst
