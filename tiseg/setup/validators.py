@@ -539,9 +539,9 @@ def read_numerics(t: Table, flow: FlowConfig, is_1d: bool, effects: EffectsConfi
             note(
                 f"numerics.cfl={n.cfl:g} is above the positivity bound {bound:g} of step_rule "
                 f"{rule!r}{' in 1D' if is_1d else ''}: h may turn negative at dry fronts, where "
-                "the stage limiter clips it and mass is then not conserved exactly (a split "
-                f"stepper's Courant number per sweep does not carry over to stepper {n.stepper!r}: "
-                f"set numerics.cfl={bound:g})"
+                f"the stage limiter clips it and mass is then not conserved exactly; set "
+                f"numerics.cfl={bound:g} for stepper {n.stepper!r} (a split stepper's Courant "
+                "number per sweep, as in the fingers scene, does not carry over)"
             )
     require(
         n.cfl >= MIN_CFL,
