@@ -648,3 +648,24 @@ def test_channel_and_levee_numbers():
     assert metrics((h, u, v, phi))["levee_speed_over_u0"] == pytest.approx(0.1)
     none = metrics(build(np.zeros(NY, bool), levee_tip=I_TIP))
     assert none["channel_speed_over_u0"] is None and none["channel_phi"] is None
+
+
+def test_a_finger_count_reads_as_words():
+    """Messages say "1 finger" and "N fingers" (the demo's and the sweep's progress lines)."""
+    from tiseg.apps.sweep.runner import _summary
+    from tiseg.post.analysis.fingers import count_text
+
+    assert [count_text(n) for n in (0, 1, 2, 11)] == [
+        "0 fingers",
+        "1 finger",
+        "2 fingers",
+        "11 fingers",
+    ]
+    rec = {
+        "status": "done",
+        "wall_s": 1.0,
+        "steps": 3,
+        "rhs_evaluations": 6,
+        "metrics": {"time": [7.5], "finger_count": [1], "wavelength": [0.5], "elongation": [0.1]},
+    }
+    assert "at t = 7.5 s: 1 finger, wavelength 50.0 cm" in _summary(rec)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ...backend import ARCHS
 from ...post.analysis import analyse_run
+from ...post.analysis.fingers import count_text
 from ...errors import InputError
 
 PAPER_TIMES = (1.9, 3.3, 5.1, 6.2, 7.5)
@@ -126,7 +127,7 @@ def run(args) -> int:
         return "-" if v is None else f"{v * 100:.1f} cm"
 
     print(
-        f"at t = {last['time']:g} s: {last['finger_count']} fingers, wavelength "
+        f"at t = {last['time']:g} s: {count_text(last['finger_count'])}, wavelength "
         f"{cm(last['wavelength'])} (spectral {cm(last['wavelength_spectral'])}), elongation "
         f"{last['elongation'] or 0:.3f} m"
     )

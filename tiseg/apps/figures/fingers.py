@@ -36,6 +36,7 @@ import numpy as np
 from ...data import SWEEP_DIR
 from ...errors import InputError
 from . import new_figure, save_figure
+from ...post.analysis.fingers import count_text
 from ...post.render.panels import plot_panels
 from ...post.render.movie import _snapshot
 from ...post.render.panels import nearest_indices
@@ -279,7 +280,7 @@ def _phi_stack(items, path: Path, dpi: int, title: str) -> Path:
             if x is not None:
                 ax.axvline(x, color="k", ls=":", lw=1.2)
         count, wl, xl = run.at("finger_count", t), run.at("wavelength", t), run.at("elongation", t)
-        stats = (f"{count} fingers, Λ = {100 * wl:.1f} cm" if wl else "no fingers") + (
+        stats = (f"{count_text(count)}, Λ = {100 * wl:.1f} cm" if wl else "no fingers") + (
             f", x_l = {xl:.2f} m" if xl is not None else ""
         )
         ax.set_title(f"{label}: {stats}", fontsize=8)

@@ -17,6 +17,7 @@ from typing import Callable
 from ...errors import InputError, TisegError
 from ...backend import available_cores
 from ...log import stderr_line
+from ...post.analysis.fingers import count_text
 from .members import execute_run, read_marker, refresh_metrics, scene_fingerprint
 from .spec import PROGRESS_TOPIC, Sweep, SweepRun, _canonical
 from .table import _csv_text, _write_outputs
@@ -390,7 +391,7 @@ def _summary(rec: dict) -> str:
     return (
         f"{verb} in {rec.get('wall_s', 0):.1f} s ({rec.get('steps')} steps, "
         f"{rec.get('rhs_evaluations')} operator evaluations); at t = {last['time']:g} s: "
-        f"{last['finger_count']} fingers, wavelength "
+        f"{count_text(last['finger_count'])}, wavelength "
         f"{'-' if wl is None else f'{100 * wl:.1f} cm'}, elongation "
         f"{'-' if xl is None else f'{xl:.3f} m'}"
     )

@@ -132,6 +132,13 @@ ANALYSIS_VERSION = 4
 # =================================================================================================
 # Front positions (6.10)-(6.12)
 # =================================================================================================
+def count_text(count) -> str:
+    """A finger count in words for a message: "1 finger", "8 fingers" ("-" where unknown)."""
+    if count is None:
+        return "- fingers"
+    return f"{count} finger" if count == 1 else f"{count} fingers"
+
+
 def front_max(h, x, h_min: float) -> float:
     """x_f^+ (6.10): largest cell-centre x of a wet cell (h >= h_min); NaN without flow."""
     h = np.asarray(h, dtype=float)
