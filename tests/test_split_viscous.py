@@ -120,7 +120,7 @@ def test_viscous_substep_changes_only_the_momenta(ti_cpu):
     q = random_state(cfg.layout, rng, wet_dry=True)
     op = _operator(cfg)
     op.set(0, q)
-    split_stepping.viscous_substep(op, 0.0, DT, 3, first=True)
+    split_stepping.viscous_substep(op, 0.0, DT, 3)
     a = op.get(0)
     b = q.copy()
     viscous_substep(ReferenceOperator(cfg), b, 0.0, DT, 3)

@@ -254,13 +254,17 @@ def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) 
         q[lay.HV] *= f
 
 
-def hancock_step(ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs) -> dict:
+def hancock_step(
+    ref: ReferenceOperator, q: np.ndarray, t: float, dt: float, dirs, start=None
+) -> dict:
     """One step of the split scheme without viscosity (tiseg.solver.timestepping.split.Hancock)
     or a half step of one with it (`hancock_pair`): sweeps along ``dirs`` in order, 0 (x) and
     1 (y), the first taking the step's initial state (rest mask and speeds of the projected
-    friction), the last projecting the friction. Returns the summed budget."""
-    ref.fill_ghosts(q, t)
-    start = split_primitives(ref, q)
+    friction; ``start``: the primitives of another state to take them from), the last
+    projecting the friction. Returns the summed budget."""
+    if start is None:
+        ref.fill_ghosts(q, t)
+        start = split_primitives(ref, q)
     out = {"mass": 0.0, "small_mass": 0.0}
     for k, d in enumerate(dirs):
         last = k == len(dirs) - 1
@@ -284,9 +288,5 @@ def hancock_pair(
     ref.fill_ghosts(q, t)
     start = split_primitives(ref, q)
     viscous_substep(ref, q, t, dt, visc_stages)
-    back = list(dirs)[::-1]
-    for k, d in enumerate(back):
-        b = hancock_sweep(ref, q, t + half, half, d, start=start, last=k == len(back) - 1)
-        out["mass"] += b["mass"]
-        out["small_mass"] += b["small_mass"]
-    return out
+    back = hancock_step(ref, q, t + half, half, list(dirs)[::-1], start=start)
+    return {k: out[k] + back[k] for k in out}

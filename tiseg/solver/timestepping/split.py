@@ -102,20 +102,19 @@ class Hancock(Stepper):
             op.sweep(d, t, half, first=k == 0, last=k == len(dirs) - 1)
         # V over the whole step from t (its stage times span [t, t + dt]); it opens the
         # second half: the rest mask and speeds of the state it starts from
-        viscous_substep(op, t, dt, stages - self.sweeps, first=True)
+        viscous_substep(op, t, dt, stages - self.sweeps)
         for k, d in enumerate(dirs[::-1]):
             op.sweep(d, t + half, half, first=False, last=k == len(dirs) - 1)
 
 
-def viscous_substep(op, t: float, dt: float, s: int, first: bool) -> None:
+def viscous_substep(op, t: float, dt: float, s: int) -> None:
     """V over dt from t by s RKC stages (rkc_coefficients; RKC.step's recurrence written for
     the increments Y_j - Y0): slot 0 holds Y0 and then the result, slot 1 F0 = V(Y0), slots
-    2 and 3 the last two stages. ``first``: V opens a step or a half (its rest mask and
-    speeds). V closes no step (Hancock's sits between its halves), so it projects no
-    friction."""
+    2 and 3 the last two stages. V opens the second half of Hancock's step (it takes the
+    half's rest mask and speeds) and closes none, so it projects no friction."""
     mu_t1, coeffs, c = rkc_coefficients(s)
     Y0, A, B = 0, 2, 3
-    op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, first=first)
+    op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, first=True)
     prev2, prev1 = Y0, A
     for j in range(2, s + 1):
         mu, nu, mu_t, gamma_t = coeffs[j - 2]
