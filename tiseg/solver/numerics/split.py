@@ -502,9 +502,8 @@ class SplitSweeps:
         divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
         only the momenta change, and a cell whose rates are zero at every stage keeps its bits
         (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
-        ghost cells); ``first``: the sub-step opens a step or, in the split step with
-        viscosity, its second half (the rest mask and the speeds of the state it starts
-        from, as a first sweep)."""
+        ghost cells); ``first``: the stage opens the second half of the split step (the rest
+        mask and the speeds of the state V starts from, as a first sweep)."""
         fr = self.phys.fr_projected
         one = src == 0
         assert one == (prev2 < 0) and (dst != 0 or not one), (src, prev2, dst)
