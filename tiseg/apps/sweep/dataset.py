@@ -238,25 +238,27 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
                         "sweep.nc: the members' peak fields are left out (their grids differ)"
                     )
                     return None
-                found[i] = {}
+                # all of the member's fields are read before any is kept: one that fails
+                # leaves the member without peak fields, not with some of them
+                got, got_attrs, t_peak = {}, {}, np.nan
                 if "peak_time" in ds.variables and ds["peak_time"].size == 1:
-                    peak_time[i] = float(np.ma.filled(ds["peak_time"][:], np.nan).ravel()[0])
+                    t_peak = float(np.ma.filled(ds["peak_time"][:], np.nan).ravel()[0])
                 for n in names:
                     v = ds[n]
                     v.set_auto_mask(True)
-                    found[i][n] = np.ma.filled(np.ma.asarray(v[:], dtype=float), np.nan)
-                    attrs.setdefault(
-                        n,
-                        {
-                            a: v.getncattr(a)
-                            # not cell_methods: it names the member file's peak_time
-                            for a in ("long_name", "units", "standard_name", "comment")
-                            if a in v.ncattrs()
-                        },
-                    )
-        except (OSError, RuntimeError, KeyError, IndexError) as exc:
+                    got[n] = np.ma.filled(np.ma.asarray(v[:], dtype=float), np.nan)
+                    got_attrs[n] = {
+                        a: v.getncattr(a)
+                        # not cell_methods: it names the member file's peak_time
+                        for a in ("long_name", "units", "standard_name", "comment")
+                        if a in v.ncattrs()
+                    }
+        except (OSError, RuntimeError, KeyError, IndexError, ValueError) as exc:
             log.warning("sweep.nc: cannot read the peak fields of %s: %s", path, exc)
             continue
+        found[i], peak_time[i] = got, t_peak
+        for n, a in got_attrs.items():
+            attrs.setdefault(n, a)
     if not found:
         return None
     x, y, xa, ya = grid

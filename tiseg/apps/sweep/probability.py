@@ -148,11 +148,14 @@ def check_probability(runs, fail: Callable[[str], None]) -> None:
 # =================================================================================================
 def read_members(sweep, records: Mapping[str, dict], out: Path):
     """The peak fields of the finished members: (names, {field: array (N, ny, nx)}, (x, x
-    attributes), (y, y attributes)), or None when no member has them or their grids differ
-    (a line is logged). Each run of the sweep is read at most once."""
+    attributes), (y, y attributes), names left out), or None when no member has them or their
+    grids differ (a line is logged). Each run of the sweep is read at most once, and a member
+    counts only when all of its fields were read: one whose file lacks a field or cannot be
+    read is left out whole (a logged line names it)."""
     import netCDF4
 
     names: list[str] = []
+    left_out: list[str] = []  # finished members whose peak fields could not all be read
     stacks: dict[str, list] = {k: [] for k in MEMBER_FIELDS}
     grid = None
     for run in sweep.runs:
@@ -173,6 +176,7 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
                         run.name,
                         ", ".join(missing),
                     )
+                    left_out.append(run.name)
                     continue
                 x, y = np.asarray(ds["x"][:], float), np.asarray(ds["y"][:], float)
                 if grid is None:
@@ -191,18 +195,29 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
                         run.name,
                     )
                     return None
+                # every field of the member is read before any is kept: a read failure on
+                # the second must not leave the first stacked (the stacks would misalign)
+                fields = {}
                 for k in MEMBER_FIELDS:
                     v = ds[k]
                     v.set_auto_mask(True)
-                    stacks[k].append(np.ma.filled(np.ma.asarray(v[:], dtype=float), np.nan))
-                names.append(run.name)
-        except (OSError, RuntimeError, KeyError, IndexError) as exc:
-            log.warning("probability.nc: cannot read the peak fields of %s: %s", path, exc)
+                    fields[k] = np.ma.filled(np.ma.asarray(v[:], dtype=float), np.nan)
+        except (OSError, RuntimeError, KeyError, IndexError, ValueError) as exc:
+            log.warning(
+                "probability.nc: member %s is left out: cannot read the peak fields of %s: %s",
+                run.name,
+                path,
+                exc,
+            )
+            left_out.append(run.name)
             continue
+        for k in MEMBER_FIELDS:
+            stacks[k].append(fields[k])
+        names.append(run.name)
     if not names:
         log.warning("no probability.nc: no finished member has peak fields")
         return None
-    return names, {k: np.stack(v) for k, v in stacks.items()}, grid[0], grid[1]
+    return names, {k: np.stack(v) for k, v in stacks.items()}, grid[0], grid[1], left_out
 
 
 def probability_maps(h_max, speed_max, arrival_time, probability: Probability) -> dict:
@@ -293,7 +308,7 @@ def probability_dataset(sweep, records: Mapping[str, dict], out: Path):
     got = read_members(sweep, records, out)
     if got is None:
         return None
-    names, fields, (x, xa), (y, ya) = got
+    names, fields, (x, xa), (y, ya), left_out = got
     maps = probability_maps(fields["h_max"], fields["speed_max"], fields["arrival_time"], prob)
     coords = {
         "x": ("x", x, xa),
@@ -335,6 +350,8 @@ def probability_dataset(sweep, records: Mapping[str, dict], out: Path):
         "members; quantiles interpolate linearly between order statistics; arrival-time "
         "statistics are over the members in which the flow reached the cell (p_arrival)",
         "members": n,
+        # finished members whose peak fields could not all be read (named in the log too)
+        "members_left_out": ", ".join(left_out) if left_out else "none",
     }
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
