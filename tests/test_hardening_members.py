@@ -84,3 +84,98 @@ def test_sweep_nc_keeps_no_part_of_a_member_whose_peak_fields_cannot_all_be_read
     with xr.open_dataset(path) as ds:
         assert np.isnan(ds.h_max.isel(member=1)).all()  # not its h_max without its speed_max
         assert not np.isnan(ds.h_max.isel(member=0)).any()
+
+
+# ------------------------------------------------------------------ 4: a failed calibration member
+def _calibrate(tmp_path, monkeypatch, model, *more) -> int:
+    """`tiseg calibrate` of the dam break's mu against a run-out, members run by ``model``."""
+    import tiseg.apps.commands.calibrate as command
+    from tiseg.apps.calibration import run_calibration as real
+    from tiseg.apps.cli import main
+
+    monkeypatch.setattr(
+        command,
+        "run_calibration",
+        lambda cal, out, **kw: real(cal, out, **{**kw, "execute": model}),
+    )
+    argv = ["calibrate", "dam-break", "--param", "effects.coulomb_mu=0.1:0.4", "--target"]
+    argv += ["runout=0.15+-0.001", "--budget", "12", "--out", str(tmp_path), *more]
+    return main([*argv, "--set", "effects.friction=coulomb", "--set", "domain.nx=40"])
+
+
+class Failing:
+    """The calibration tests' stand-in model, whose members fail (as execute_run reports a
+    failed run) where ``fails(mu)``."""
+
+    def __init__(self, fails):
+        from test_calibration import Model, run_out_of_mu
+
+        self.model, self.fails, self.failed = Model(run_out_of_mu), fails, []
+
+    def __call__(self, spec: dict) -> dict:
+        from tiseg.setup.scene import scene_from_text
+
+        mu = scene_from_text(spec["scene_toml"]).effects.coulomb_mu
+        if self.fails(mu):
+            self.failed.append(spec["name"])
+            return {"name": spec["name"], "status": "failed", "error": "SimulationError: boom"}
+        return self.model(spec)
+
+
+def test_a_failed_calibration_member_stops_the_search_and_is_no_number(
+    tmp_path, monkeypatch, capsys
+):
+    """The second point of Brent's search fails: it was scored as misfit 1000, the search went
+    on around it and the calibration ended `complete: true` with exit 0. Now it stops there,
+    exit 1, complete: false, the member listed as failed with a null misfit; run again (the
+    member no longer failing) it completes, reusing the member that finished."""
+    model = Failing(lambda mu: mu > 0.25)  # Brent's second point, 0.1 + 0.618 * 0.3
+    assert _calibrate(tmp_path, monkeypatch, model) == 1
+    err = capsys.readouterr().err
+    assert "calibration incomplete" in err and model.failed[0] in err, err
+    data = json.loads((tmp_path / "calibration.json").read_text())
+    assert data["complete"] is False and data["uncertainty"] is None
+    assert [f["member"] for f in data["failed"]] == model.failed == [model.failed[0]]
+    failed = [e for e in data["evaluations"] if e["status"] == "failed"]
+    assert [e["misfit"] for e in failed] == [None] and "boom" in failed[0]["error"]
+    # nothing ran after the failure: the search saw no number for it
+    assert data["evaluations"][-1]["member"] == model.failed[0]
+    assert (tmp_path / "misfit.png").is_file()
+
+    again = Failing(lambda mu: False)
+    assert _calibrate(tmp_path, monkeypatch, again) == 0
+    data = json.loads((tmp_path / "calibration.json").read_text())
+    assert data["complete"] is True and data["failed"] is None
+    assert again.model.runs[0] == model.failed[0]  # the failed member is run again
+    assert data["best"]["values"]["effects.coulomb_mu"] == pytest.approx(0.2, rel=1e-3)
+
+
+def test_a_failed_member_of_the_first_design_stops_before_nelder_mead(tmp_path):
+    """Two parameters: a failed member of the Latin hypercube is no candidate for the start of
+    Nelder-Mead (it was, with its misfit 1000, and steered the search)."""
+    from test_calibration import FIXED, linear_pair
+
+    from tiseg.apps.calibration import calibration_from_args, run_calibration
+
+    cal = calibration_from_args(
+        "dam-break",
+        ["effects.coulomb_mu=0.1:0.4", "initial.h_left=0.01:0.03"],
+        ["x_front_max=1.3", "deposit.thickness_mean=0.2"],
+        fixed=FIXED,
+        budget=24,
+    )
+    from test_calibration import Model
+
+    inner = Model(linear_pair)
+
+    def execute(spec):
+        if len(inner.runs) == 1:  # the design's second point fails
+            inner.runs.append(spec["name"])
+            return {"name": spec["name"], "status": "failed", "error": "OSError: disk full"}
+        return inner(spec)
+
+    res = run_calibration(cal, tmp_path, echo=None, execute=execute)
+    assert not res.complete and res.result["failed"][0]["error"] == "OSError: disk full"
+    assert all(e["purpose"] == "search" for e in res.result["evaluations"])
+    assert len(res.result["evaluations"]) == len(inner.runs)  # the design only, then stop
+    assert res.result["best"]["misfit"] is not None

@@ -13,7 +13,7 @@ from ...errors import InputError
 from ...log import stderr_line
 from ...output import write_json_atomic
 from ..sweep.spec import _canonical
-from .search import FD_STEP, PENALTY, Evaluator, best_of, search, uncertainty
+from .search import FD_STEP, PENALTY, Evaluator, MemberFailed, best_of, search, uncertainty
 from .spec import Calibration
 
 RESULT_FILE = "calibration.json"
@@ -44,8 +44,14 @@ class CalibrationResult:
     plot: Path | None
 
     @property
-    def best(self) -> dict:
-        return self.result["best"]["values"]
+    def best(self) -> dict | None:
+        """The best values found (of the members that finished), None when none did."""
+        return (self.result["best"] or {}).get("values")
+
+    @property
+    def complete(self) -> bool:
+        """False when members failed and the calibration stopped before its end."""
+        return bool(self.result["complete"])
 
 
 def check_calibration_folder(cal: Calibration, out) -> None:
@@ -119,13 +125,14 @@ def run_calibration(
         overwrite=overwrite,
         execute=execute,
     )
-    state = {"method": None, "best": None, "uncertainty": None}
+    state = {"method": None, "best": None, "uncertainty": None, "failed": None}
     ev.on_batch = lambda: write_json_atomic(out / RESULT_FILE, _result(cal, ev, state, False))
     say(
         f"calibrating {', '.join(cal.keys)} of {cal.scene} against "
         f"{', '.join(f'{t.name} = {t.value:g}' for t in cal.targets)}; at most {cal.budget} "
         f"search runs; members in {out}/"
     )
+    evals: list = []
     try:
         evals, state["method"] = search(cal, ev)
         best = best_of(evals)
@@ -135,11 +142,28 @@ def run_calibration(
             f"(misfit {best.misfit:.4g}, {best.name}); the local sensitivity next"
         )
         state["uncertainty"] = uncertainty(cal, ev, best)
+    except MemberFailed as exc:
+        # a failed member measured nothing: the search stops rather than take it as a
+        # number, and the result says so (complete: false); run again to retry it
+        state["failed"] = [e.to_dict() for e in exc.failed]
+        if state["best"] is None:
+            state["best"] = best_of([e for e in ev.order if e.purpose == "search"])
     finally:
         ev.close()
-    result = _result(cal, ev, state, True)
+    complete = state["failed"] is None
+    result = _result(cal, ev, state, complete)
     write_json_atomic(out / RESULT_FILE, result)
     plot = plot_misfit(cal, result, out / PLOT_FILE)
+    if not complete:
+        for f in state["failed"]:
+            say(f"  {f['member']} failed: {f.get('error')}")
+        say(
+            f"calibration incomplete: {len(state['failed'])} member(s) failed, so the search "
+            f"stopped; partial results {out / RESULT_FILE} (complete: false). Run it again to "
+            "retry the failed members (finished ones are reused), or narrow the --param "
+            "ranges if they fail there every time"
+        )
+        return CalibrationResult(out, result, plot)
     for key, u in state["uncertainty"]["params"].items():
         iv = u["interval"]
         span = "no interval" if iv is None else f"interval [{iv[0]:.6g}, {iv[1]:.6g}]"
@@ -174,6 +198,9 @@ def _result(cal: Calibration, ev: Evaluator, state: dict, complete: bool) -> dic
         },
         "uncertainty": state["uncertainty"],
         "runs": runs,
+        # members that failed and stopped the calibration (null: none); each is run again
+        # when the calibration is
+        "failed": state.get("failed"),
         "evaluations": [e.to_dict() for e in ev.order],
     }
 

@@ -20,6 +20,20 @@ from .spec import Calibration
 # The misfit of a run whose target is undefined (null: no deposit by the end of the run, no
 # fingers): larger than any misfit of a run that gives the number, so the search leaves it.
 PENALTY = 1e3
+
+
+class MemberFailed(TisegError):
+    """Members of a calibration failed (their run raised, a worker was lost, ...): a failed
+    member measured nothing, so the search and the interval stop instead of taking it as a
+    number. ``failed``: the evaluations that failed."""
+
+    def __init__(self, failed: list):
+        self.failed = list(failed)
+        first = self.failed[0]
+        more = f" (and {len(self.failed) - 1} more)" if len(self.failed) > 1 else ""
+        super().__init__(f"member {first.name!r} failed{more}: {first.error}")
+
+
 # The finite-difference step of the local sensitivity, as a fraction of each range.
 FD_STEP = 0.05
 # The search ends when its points are this close, as a fraction of each range.
@@ -35,7 +49,7 @@ class Evaluation:
     purpose: str  # "search", "sensitivity" or "seed"
     status: str  # done / reused / failed
     outputs: dict = field(default_factory=dict)  # target name -> number (None: undefined)
-    misfit: float = PENALTY
+    misfit: float | None = PENALTY  # None: a failed member, which measured nothing
     error: str | None = None
 
     def to_dict(self) -> dict:
@@ -110,7 +124,11 @@ class Evaluator:
         self._client = self._cluster = self._threads = None
 
     def evaluate(self, points: list[dict], purpose: str) -> list[Evaluation]:
-        """The evaluations of ``points`` (dicts of key -> value), running those not found."""
+        """The evaluations of ``points`` (dicts of key -> value), running those not found.
+
+        Raises `MemberFailed` once the batch has finished when a member of it failed: a
+        failed member is no number, and the search must not see one (the members that did
+        finish are kept, and a calibration run again runs the failed ones again)."""
         runs: list[SweepRun] = [self.cal.run(p) for p in points]
         pending = {}
         for run in runs:
@@ -127,7 +145,11 @@ class Evaluator:
             for name, rec in self._run(list(pending.values())):
                 self._record(pending[name], rec, purpose)
                 self.on_batch()  # calibration.json so far: it survives an interruption
-        return [self.done[r.name] for r in runs]
+        got = [self.done[r.name] for r in runs]
+        failed = list({e.name: e for e in got if e.status == "failed"}.values())
+        if failed:
+            raise MemberFailed(failed)
+        return got
 
     def _record(self, run: SweepRun, rec: dict, purpose: str) -> None:
         status = rec.get("status", "done")
@@ -138,8 +160,9 @@ class Evaluator:
             )
         ev = Evaluation(run.name, dict(run.values), purpose, status)
         if status == "failed":
-            ev.error = rec.get("error")
+            ev.error = rec.get("error") or "failed"
             ev.outputs = {t.name: None for t in self.cal.targets}
+            ev.misfit = None
         else:
             ev.outputs = outputs_of(self.cal, rec)
             ev.misfit = misfit(self.cal, ev.outputs)
@@ -313,9 +336,11 @@ def search(cal: Calibration, ev: Evaluator) -> tuple[list[Evaluation], str]:
     return seen, method
 
 
-def best_of(evals: list[Evaluation]) -> Evaluation:
-    """The evaluation of least misfit (the first of equal ones)."""
-    return min(evals, key=lambda e: e.misfit)
+def best_of(evals: list[Evaluation]) -> Evaluation | None:
+    """The evaluation of least misfit (the first of equal ones) among the members that
+    finished; None when none did."""
+    measured = [e for e in evals if e.misfit is not None]
+    return min(measured, key=lambda e: e.misfit) if measured else None
 
 
 def uncertainty(cal: Calibration, ev: Evaluator, best: Evaluation) -> dict:

@@ -153,4 +153,6 @@ def run(args) -> int:
     )
     if args.json:
         print_json(result.result)
-    return 0
+    # a failed member stopped the search: not a result to take as final (exit 1, as a sweep
+    # with failed members); the progress lines above name the members and what to do
+    return 0 if result.complete else 1
