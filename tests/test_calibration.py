@@ -12,6 +12,7 @@ import json
 import math
 from pathlib import Path
 
+import netCDF4
 import numpy as np
 import pytest
 
@@ -32,7 +33,7 @@ def _value(scene, key):
 
 
 class Model:
-    """A stand-in for `execute_run`: a member folder with scene.toml, fields.nc (empty) and
+    """A stand-in for `execute_run`: a member folder with scene.toml, fields.nc (no data) and
     done.json whose numbers are ``numbers(scene)``; counts its runs and can stop ("a kill")
     before finishing its ``kill_at``-th run, leaving that folder without its marker."""
 
@@ -43,7 +44,7 @@ class Model:
         d = Path(spec["dir"])
         d.mkdir(parents=True, exist_ok=True)
         (d / "scene.toml").write_text(spec["scene_toml"], encoding="utf-8")
-        (d / "fields.nc").write_bytes(b"")
+        netCDF4.Dataset(d / "fields.nc", "w").close()  # a fields file that opens
         self.runs.append(spec["name"])
         if self.kill_at is not None and len(self.runs) == self.kill_at:
             raise KeyboardInterrupt

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from tiseg.apps.sweep import sweep_from_dict
+from tiseg.errors import InputError
 
 # a 1D dam break of three members (their fields files are written here, nothing runs)
 PROB = {
@@ -179,3 +180,56 @@ def test_a_failed_member_of_the_first_design_stops_before_nelder_mead(tmp_path):
     assert all(e["purpose"] == "search" for e in res.result["evaluations"])
     assert len(res.result["evaluations"]) == len(inner.runs)  # the design only, then stop
     assert res.result["best"]["misfit"] is not None
+
+
+# ------------------------------------------------------------------ 5: numbers and unreadable files
+@pytest.mark.parametrize(
+    "param, target",
+    [
+        ("effects.coulomb_mu=1e-400:0.3", "runout=0.2"),
+        ("effects.coulomb_mu=0.1:0.3", "runout=1e-400"),
+        ("effects.coulomb_mu=0.1:0.3", "runout=0.2+-1e-330"),
+    ],
+)
+def test_a_number_that_underflows_is_refused_not_read_as_zero(param, target):
+    from tiseg.apps.calibration import calibration_from_args
+
+    with pytest.raises(InputError, match="1e-[34][03]0: smaller than the smallest normal"):
+        calibration_from_args("dam-break", [param], [target], fixed={"effects.friction": "coulomb"})
+
+
+def _finished_member(d: Path, scene, **rec) -> None:
+    from tiseg.apps.sweep import DONE_MARKER, MARKER_VERSION
+
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "scene.toml").write_text(scene.to_toml(), encoding="utf-8")
+    peak_file(d / "fields.nc")
+    rec = {"marker_version": MARKER_VERSION, "name": d.name, **rec}
+    (d / DONE_MARKER).write_text(json.dumps(rec), encoding="utf-8")
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "resized"])
+def test_a_member_whose_fields_file_is_unreadable_is_run_again(tmp_path, monkeypatch, damage):
+    """A finished member whose fields.nc no longer opens (or is not the size its record
+    gives) was reused on every run of the sweep; it is run again."""
+    import tiseg.apps.sweep as S
+
+    sw = S.load_sweep("tiny")
+    for run in sw.runs:
+        _finished_member(tmp_path / run.name, run.scene)
+    bad = tmp_path / sw.runs[0].name / "fields.nc"
+    size = bad.stat().st_size
+    if damage == "garbage":
+        bad.write_bytes(b"\x00" * size)
+    elif damage == "truncated":
+        bad.write_bytes(bad.read_bytes()[: size // 2])
+    else:  # a file that opens but is not the one the run finished with
+        rec = json.loads((bad.parent / S.DONE_MARKER).read_text())
+        (bad.parent / S.DONE_MARKER).write_text(json.dumps({**rec, "fields_bytes": size + 1}))
+    pending = []
+    monkeypatch.setattr(
+        S.runner, "_run_on_dask", lambda sweep, out, todo, *a, **k: pending.extend(todo)
+    )
+    monkeypatch.setattr(S.runner, "write_results", lambda *a: [])
+    S.run_sweep(sw, tmp_path, echo=None)
+    assert [r.name for r in pending] == [sw.runs[0].name]

@@ -13,6 +13,7 @@ from ...errors import InputError
 from ...post.analysis.deposit import DEPOSIT_KEYS
 from ...post.analysis.fingers import RUN_KEYS
 from ...setup.scene import Scene, load_scene
+from ...setup.table import check_underflow, toml_float
 from ..sweep.design import Range, Sample
 from ..sweep.spec import SweepRun, _check_sample_keys, _resolve_scene_ref, _run_names, time_index
 
@@ -146,6 +147,14 @@ _PARAM = re.compile(rf"^\s*([^=\s]+)\s*=\s*({_NUMBER})\s*:\s*({_NUMBER})\s*(?::\
 _TARGET = re.compile(rf"^\s*([^=\s]+)\s*=\s*({_NUMBER})\s*(?:(?:\+-|±)\s*({_NUMBER}))?\s*$")
 
 
+def _number(what: str, text: str) -> float:
+    """The float of ``text``, refused (one line) when a non-zero number underflows: 1e-400
+    would be read as 0, a bound or target the user did not write, as in a scene file."""
+    v = toml_float(text)
+    check_underflow(what, v)
+    return float(v)
+
+
 def parse_param(text: str) -> Param:
     """``KEY=LO:HI`` (or ``KEY=LO:HI:log``) into a `Param`; one-line `InputError` otherwise."""
     m = _PARAM.match(text)
@@ -154,7 +163,8 @@ def parse_param(text: str) -> Param:
             f"--param {text!r}: give SECTION.KEY=LO:HI (optionally :log), "
             "e.g. --param effects.coulomb_mu=0.1:0.3"
         )
-    key, lo, hi, log = m.group(1), float(m.group(2)), float(m.group(3)), bool(m.group(4))
+    key, log = m.group(1), bool(m.group(4))
+    lo, hi = _number(f"--param {key}", m.group(2)), _number(f"--param {key}", m.group(3))
     if "." not in key:
         raise InputError(f"--param {text!r}: {key!r} is not a dotted scene key such as 'flow.nu'")
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
@@ -173,8 +183,9 @@ def parse_target(text: str) -> Target:
             f"--target {text!r}: give NAME=VALUE or NAME=VALUE+-TOLERANCE, "
             "e.g. --target deposit.run_out=0.22"
         )
-    name, value = m.group(1), float(m.group(2))
-    tol = None if m.group(3) is None else float(m.group(3))
+    name = m.group(1)
+    value = _number(f"--target {name}", m.group(2))
+    tol = None if m.group(3) is None else _number(f"--target {name} tolerance", m.group(3))
     name = ALIASES.get(name, name)
     if name not in target_names():
         raise InputError(

@@ -40,10 +40,26 @@ def scene_fingerprint(scene: Scene) -> str:
 # =================================================================================================
 # One run (a Dask task)
 # =================================================================================================
+def fields_readable(path: Path, size: int | None = None) -> bool:
+    """Whether a finished member's fields.nc is there and opens as NetCDF (its header), with
+    ``size`` bytes when the completion record gives its size (truncated or replaced files
+    differ). Why not a checksum: a resume would read every member's fields in full."""
+    try:
+        if not path.is_file() or (size is not None and path.stat().st_size != size):
+            return False
+        import netCDF4
+
+        with netCDF4.Dataset(path, "r"):
+            return True
+    except (OSError, RuntimeError, ValueError):
+        return False
+
+
 def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
     """The completion record of a finished run folder, or None when it is absent or unreadable,
-    when the run's fields.nc is gone, or (with ``scene``) when the folder's stored
-    ``scene.toml`` is not that scene.
+    when the run's fields.nc is gone or does not open (or differs in size from the record's
+    ``fields_bytes``), or (with ``scene``) when the folder's stored ``scene.toml`` is not that
+    scene: such a member is run again, never reused.
 
     Why compare scenes rather than a hash of their text: the stored scene is re-read with the
     current code, so a new scene key with a default (which does not change what was computed)
@@ -56,8 +72,8 @@ def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
         return None
     if not isinstance(rec, dict) or rec.get("marker_version") != MARKER_VERSION:
         return None
-    if not (run_dir / "fields.nc").is_file():  # the results are gone: not a finished run
-        return None
+    if not fields_readable(run_dir / "fields.nc", rec.get("fields_bytes")):
+        return None  # the results are gone or damaged: not a finished run, run it again
     if scene is not None:
         try:
             stored = scene_from_text((run_dir / "scene.toml").read_text(encoding="utf-8"))
@@ -138,6 +154,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
         "ny": ny,
         "cells": nx * ny,
         "dx": scene.dx,
+        "fields_bytes": (run_dir / "fields.nc").stat().st_size,  # checked when reused
         "t_end": sim.t,
         "wall_s": stats.wall,
         "task_s": _time.perf_counter() - t0,
