@@ -233,3 +233,56 @@ def test_a_member_whose_fields_file_is_unreadable_is_run_again(tmp_path, monkeyp
     monkeypatch.setattr(S.runner, "write_results", lambda *a: [])
     S.run_sweep(sw, tmp_path, echo=None)
     assert [r.name for r in pending] == [sw.runs[0].name]
+
+
+# ------------------------------------------------------------------ 6: another command's members
+def test_a_sweep_and_a_calibration_do_not_share_an_out_folder(tmp_path):
+    import tiseg.apps.sweep as S
+    from tiseg.apps.calibration import calibration_from_args, run_calibration
+    from test_calibration import FIXED, Model, run_out_of_mu
+
+    cal = calibration_from_args(
+        "dam-break", ["effects.coulomb_mu=0.1:0.4"], ["runout=0.15"], fixed=FIXED, budget=2
+    )
+    run_calibration(cal, tmp_path / "cal", echo=None, execute=Model(run_out_of_mu))
+    with pytest.raises(InputError, match="holds a calibration .*--overwrite"):
+        S.run_sweep(S.load_sweep("tiny"), tmp_path / "cal", echo=None)
+    S.table._write_outputs(S.load_sweep("tiny"), tmp_path / "sw", {})
+    with pytest.raises(InputError, match="holds a sweep .*--overwrite"):
+        run_calibration(cal, tmp_path / "sw", echo=None, execute=Model(run_out_of_mu))
+
+
+def test_a_finished_member_of_another_scene_is_not_replaced(tmp_path, monkeypatch):
+    """A calibration of flow.nu (other --set) left a finished member ``nu-0.01`` in the folder
+    (killed before its calibration.json, or that file removed): a sweep of the same name ran
+    its own member there and replaced it. Now the sweep is refused before anything runs, the
+    calibration too, and a worker given the member refuses it as well."""
+    import tiseg.apps.sweep as S
+    from tiseg.apps.calibration import calibration_from_args
+
+    sw = S.load_sweep("tiny")
+    theirs = S.load_sweep("tiny", extra_overrides={"flow.h0": 0.0021}).runs[0]
+    member = tmp_path / theirs.name
+    _finished_member(member, theirs.scene)
+    before = {p.name: p.read_bytes() for p in member.iterdir()}
+    monkeypatch.setattr(S.runner, "_run_on_dask", lambda *a, **k: pytest.fail("ran"))
+    with pytest.raises(InputError, match="holds a finished run of another scene.*--overwrite"):
+        S.run_sweep(sw, tmp_path, echo=None)
+
+    cal = calibration_from_args(
+        "fingers",
+        ["flow.nu=0.01:0.02"],
+        ["x_front_max=0.1"],
+        fixed={"domain.resolution": 40, "domain.Lx": 0.3, "domain.Ly": 0.1, "time.t_end": 0.5},
+        budget=2,
+    )
+    from tiseg.apps.calibration.search import Evaluator
+
+    ev = Evaluator(cal, tmp_path, execute=lambda spec: pytest.fail("ran"))
+    with pytest.raises(InputError, match="holds a finished run of another scene"):
+        ev.evaluate([{"flow.nu": 0.01}], "search")  # the member nu-0.01
+
+    spec = {"name": member.name, "dir": str(member), "fingerprint": "x", "report": False}
+    rec = S.execute_run({**spec, "scene_toml": sw.runs[0].scene.to_toml()})
+    assert rec["status"] == "failed" and "another scene" in rec["error"], rec
+    assert {p.name: p.read_bytes() for p in member.iterdir()} == before

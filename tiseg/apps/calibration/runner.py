@@ -12,6 +12,7 @@ from ...backend import threads_problem
 from ...errors import InputError
 from ...log import stderr_line
 from ...output import write_json_atomic
+from ..sweep.runner import SWEEP_OUTPUTS
 from ..sweep.spec import _canonical
 from .search import FD_STEP, PENALTY, Evaluator, MemberFailed, best_of, search, uncertainty
 from .spec import Calibration
@@ -59,9 +60,15 @@ def check_calibration_folder(cal: Calibration, out) -> None:
     its members would be run again and its result replaced. (Other ranges, targets or budget
     share the folder: their members are reused where the points coincide.)"""
     path = Path(out) / RESULT_FILE
+    hint = "choose a new --out, or pass --overwrite"
+    sweep = [n for n in SWEEP_OUTPUTS if (Path(out) / n).exists()]
+    if sweep:  # a sweep's members share the calibration's folder names
+        raise InputError(
+            f"--out {str(out)!r} holds a sweep ({', '.join(sweep)}), whose members a "
+            f"calibration there could replace; {hint}"
+        )
     if not path.exists():
         return
-    hint = "choose a new --out, or pass --overwrite"
     try:
         stored = json.loads(path.read_text(encoding="utf-8"))["calibration"]
         theirs = {k: stored[k] for k in SAME_KEYS}
@@ -127,6 +134,7 @@ def run_calibration(
     )
     state = {"method": None, "best": None, "uncertainty": None, "failed": None}
     ev.on_batch = lambda: write_json_atomic(out / RESULT_FILE, _result(cal, ev, state, False))
+    ev.on_batch()  # at once: the folder is a calibration's before its first member runs
     say(
         f"calibrating {', '.join(cal.keys)} of {cal.scene} against "
         f"{', '.join(f'{t.name} = {t.value:g}' for t in cal.targets)}; at most {cal.budget} "

@@ -12,7 +12,7 @@ import numpy as np
 
 from ...backend import available_cores
 from ...errors import TisegError
-from ..sweep.members import execute_run, read_marker, refresh_metrics
+from ..sweep.members import check_member_folder, execute_run, read_marker, refresh_metrics
 from ..sweep.runner import member_spec, open_dask, progress_handler
 from ..sweep.spec import PROGRESS_TOPIC, SweepRun, time_index
 from .spec import Calibration
@@ -140,6 +140,13 @@ class Evaluator:
                     run, {**refresh_metrics(self.out / run.name, rec), "status": "reused"}, purpose
                 )
             else:
+                # never another command's finished member of the same name (a sweep's)
+                check_member_folder(
+                    self.out / run.name,
+                    run.scene,
+                    self.overwrite,
+                    "choose a new --out, or pass --overwrite to replace it",
+                )
                 pending[run.name] = run
         if pending:
             for name, rec in self._run(list(pending.values())):

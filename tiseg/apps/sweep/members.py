@@ -84,6 +84,19 @@ def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
     return rec
 
 
+def check_member_folder(run_dir, scene: Scene, overwrite: bool, hint: str) -> None:
+    """Refuse (`InputError`) a member folder that holds a finished run of another scene unless
+    ``overwrite``: a sweep and a calibration (or two of either with other scenes) name their
+    members after the values alone, so the same name in one --out may be another command's
+    finished work. ``hint``: what to do instead, said after the reason."""
+    if overwrite or read_marker(run_dir) is None or read_marker(run_dir, scene) is not None:
+        return
+    raise InputError(
+        f"{str(run_dir)!r} holds a finished run of another scene (another sweep's or "
+        f"calibration's member of the same name); {hint}"
+    )
+
+
 def execute_run(spec: dict) -> dict:
     """Run one sweep member into ``spec["dir"]`` unless a valid completion marker is there.
 
@@ -122,6 +135,11 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     rec = read_marker(run_dir, scene)
     if rec is not None:  # finished meanwhile by the holder we waited on
         return {**rec, "status": "reused"}
+    # a finished run of another scene is replaced only with overwrite (the submitter checked
+    # too; this is the worker's view, which counts)
+    check_member_folder(
+        run_dir, scene, bool(spec.get("overwrite")), "pass --overwrite to replace it"
+    )
     # the member's own earlier output may be replaced, files that tiseg did not write may not
     check_fresh_folder(run_dir, bool(spec.get("overwrite")), replace_run=True)
     (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene

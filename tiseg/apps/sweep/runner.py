@@ -18,7 +18,13 @@ from ...errors import InputError, TisegError
 from ...backend import available_cores
 from ...log import stderr_line
 from ...post.analysis.fingers import count_text
-from .members import execute_run, read_marker, refresh_metrics, scene_fingerprint
+from .members import (
+    check_member_folder,
+    execute_run,
+    read_marker,
+    refresh_metrics,
+    scene_fingerprint,
+)
 from .spec import PROGRESS_TOPIC, Sweep, SweepRun, _canonical
 from .table import _csv_text, _write_outputs
 from .dataset import write_dataset
@@ -67,6 +73,9 @@ class SweepResult:
 
 
 SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv", "sweep.nc")
+# a calibration's result file (tiseg.apps.calibration.runner.RESULT_FILE; not imported: the
+# calibration imports this module)
+CALIBRATION_FILE = "calibration.json"
 # what makes two sweeps the same: the runs and what is tabulated (not the file's place or text)
 SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "sample", "times")
 
@@ -78,10 +87,15 @@ def check_sweep_folder(sweep: Sweep, out) -> None:
     out = Path(out)
     if not out.is_dir():
         return
+    hint = "choose a new --out, or pass --overwrite to replace it"
+    if (out / CALIBRATION_FILE).exists():  # its members share the sweeps' folder names
+        raise InputError(
+            f"--out {str(out)!r} holds a calibration ({CALIBRATION_FILE}), whose members a "
+            f"sweep there could replace; {hint}"
+        )
     present = [n for n in SWEEP_OUTPUTS if (out / n).exists()]
     if not present:
         return
-    hint = "choose a new --out, or pass --overwrite to replace it"
     try:
         stored = json.loads((out / "sweep.json").read_text(encoding="utf-8"))["sweep"]
         # "sample": absent from the sweep.json of a grid written before samples existed
@@ -155,6 +169,13 @@ def run_sweep(
             records[run.name] = {**rec, "status": "reused"}
         else:
             pending.append(run)
+    for run in pending:  # before anything runs: never another command's finished member
+        check_member_folder(
+            out / run.name,
+            run.scene,
+            overwrite,
+            "choose a new --out, or pass --overwrite to replace it",
+        )
     say(
         f"sweep {sweep.name!r}: {len(sweep.runs)} runs, {len(records)} already finished, "
         f"{len(pending)} to run; output in {out}/"
