@@ -286,3 +286,30 @@ def test_a_finished_member_of_another_scene_is_not_replaced(tmp_path, monkeypatc
     rec = S.execute_run({**spec, "scene_toml": sw.runs[0].scene.to_toml()})
     assert rec["status"] == "failed" and "another scene" in rec["error"], rec
     assert {p.name: p.read_bytes() for p in member.iterdir()} == before
+
+
+# ------------------------------------------------------------------ 7: stale results
+def test_a_result_that_cannot_be_made_again_is_not_left_stale(tmp_path, caplog):
+    """A rerun that cannot write probability.nc (no member can be stacked now) or a
+    sensitivity chart (no output with indices) left the old file, which `tiseg render` drew."""
+    from tiseg.apps.sweep import write_results
+
+    sw = sweep_from_dict(json.loads(json.dumps(PROB)), source="s.toml")
+    names = [r.name for r in sw.runs]
+    for name in names:
+        peak_file(tmp_path / name / "fields.nc")
+    records = {n: {"status": "reused"} for n in names}
+    assert (tmp_path / "probability.nc") in write_results(sw, tmp_path, records)
+    failed = {n: {"status": "failed", "error": "x"} for n in names}
+    assert (tmp_path / "probability.nc") not in write_results(sw, tmp_path, failed)
+    assert not (tmp_path / "probability.nc").exists()
+    assert "removed the stale" in caplog.text
+
+    sobol = json.loads(json.dumps(PROB))
+    sobol["sample"] = {"method": "sobol", "n": 2, "seed": 1, "initial.h_left": [0.001, 0.003]}
+    sobol["sample"]["flow.h0"] = [0.001, 0.002]
+    sw = sweep_from_dict(sobol, source="s.toml")
+    (tmp_path / "sensitivity.png").write_bytes(b"an earlier chart")
+    paths = write_results(sw, tmp_path, {})  # no member finished: no indices to draw
+    assert (tmp_path / "sensitivity.csv") in paths
+    assert not (tmp_path / "sensitivity.png").exists()

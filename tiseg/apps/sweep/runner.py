@@ -28,11 +28,13 @@ from .members import (
 from .spec import PROGRESS_TOPIC, Sweep, SweepRun, _canonical
 from .table import _csv_text, _write_outputs
 from .dataset import write_dataset
-from .probability import write_probability
+from .probability import PROBABILITY_FILE, write_probability
 from .sensitivity import plot_sensitivity, sensitivity_columns, sensitivity_rows
 from ...output import write_text_atomic
 from ...output.diagnostics import json_clean
 from ...backend import threads_problem
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -219,13 +221,37 @@ def write_results(sweep: Sweep, out, records: dict) -> list[Path]:
     prob = write_probability(sweep, out, records)
     if prob is not None:
         paths.append(prob)
+    else:  # an older probability.nc is not this sweep's now: `tiseg render` would draw it
+        why = (
+            "the sweep has no [probability] table"
+            if getattr(sweep, "probability", None) is None
+            else "no finished member's peak fields could be stacked"
+        )
+        drop_stale(out / PROBABILITY_FILE, why)
     rows = sensitivity_rows(sweep, records)
     if rows:
         path = out / "sensitivity.csv"
         write_text_atomic(path, _csv_text(sensitivity_columns(sweep), rows))
         paths.append(path)
-        paths += plot_sensitivity(sweep, rows, out)
+        drawn = plot_sensitivity(sweep, rows, out)
+        paths += drawn
+        for old in out.glob("sensitivity*.png"):
+            if old not in drawn:
+                drop_stale(old, "no output has Sobol' indices to draw")
     return paths
+
+
+def drop_stale(path: Path, why: str) -> None:
+    """Remove a result of an earlier invocation that this one could not make again (``why``):
+    left in place it would pass for this one's (and `tiseg render` would draw it)."""
+    try:
+        path.unlink()
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        log.warning("cannot remove the stale %s (%s): %s", path, why, exc.strerror or exc)
+        return
+    log.warning("removed the stale %s of an earlier run: %s", path, why)
 
 
 def _run_on_dask(
