@@ -313,3 +313,54 @@ def test_a_result_that_cannot_be_made_again_is_not_left_stale(tmp_path, caplog):
     paths = write_results(sw, tmp_path, {})  # no member finished: no indices to draw
     assert (tmp_path / "sensitivity.csv") in paths
     assert not (tmp_path / "sensitivity.png").exists()
+
+
+# ------------------------------------------------------------------ 10: links at result names
+def test_calibration_results_are_not_written_through_links(tmp_path):
+    from tiseg.apps.calibration import calibration_from_args, plot_misfit, run_calibration
+    from test_calibration import FIXED, Model, run_out_of_mu
+
+    cal = calibration_from_args(
+        "dam-break", ["effects.coulomb_mu=0.1:0.4"], ["runout=0.15"], fixed=FIXED, budget=2
+    )
+    outside = tmp_path / "outside.png"
+    outside.write_bytes(b"keep")
+    out = tmp_path / "cal"
+    out.mkdir()
+    (out / "misfit.png").symlink_to(outside)
+    model = Model(run_out_of_mu)
+    with pytest.raises(InputError, match="misfit.png' is a symbolic link"):
+        run_calibration(cal, out, echo=None, execute=model)
+    assert model.runs == [] and outside.read_bytes() == b"keep"
+    # a link made while it ran is replaced, not followed
+    (out / "misfit.png").unlink()
+    result = run_calibration(cal, out, echo=None, execute=model).result
+    (out / "misfit.png").unlink()
+    (out / "misfit.png").symlink_to(outside)
+    plot_misfit(cal, result, out / "misfit.png")
+    assert outside.read_bytes() == b"keep" and not (out / "misfit.png").is_symlink()
+
+
+def test_sweep_results_are_not_written_through_links(tmp_path, monkeypatch):
+    import tiseg.apps.sweep as S
+    from tiseg.apps.sweep.sensitivity import plot_sensitivity
+
+    sobol = json.loads(json.dumps(PROB))
+    sobol["sample"] = {"method": "sobol", "n": 2, "seed": 1, "initial.h_left": [0.001, 0.003]}
+    sobol["sample"]["flow.h0"] = [0.001, 0.002]
+    sw = sweep_from_dict(sobol, source="s.toml")
+    outside = tmp_path / "outside.png"
+    outside.write_bytes(b"keep")
+    out = tmp_path / "sw"
+    out.mkdir()
+    (out / "sensitivity.png").symlink_to(outside)
+    monkeypatch.setattr(S.runner, "_run_on_dask", lambda *a, **k: pytest.fail("ran"))
+    with pytest.raises(InputError, match="sensitivity.png' is a symbolic link"):
+        S.run_sweep(sw, out, echo=None)
+    rows = [
+        {"output": "x_front_max", "parameter": k, "S1": 0.5, "S1_low": 0.4, "S1_high": 0.6}
+        | {"ST": 0.5, "ST_low": 0.4, "ST_high": 0.6}
+        for k in sw.sample.keys
+    ]
+    plot_sensitivity(sw, rows, out, dpi=20)
+    assert outside.read_bytes() == b"keep" and not (out / "sensitivity.png").is_symlink()

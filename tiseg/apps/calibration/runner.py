@@ -12,6 +12,8 @@ from ...backend import threads_problem
 from ...errors import InputError
 from ...log import stderr_line
 from ...output import write_json_atomic
+from ...output.atomic import replacing
+from ...output.paths import refuse_symlinks
 from ..sweep.runner import SWEEP_OUTPUTS
 from ..sweep.spec import _canonical
 from .search import FD_STEP, PENALTY, Evaluator, MemberFailed, best_of, search, uncertainty
@@ -120,6 +122,7 @@ def run_calibration(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
+    refuse_symlinks(out, (RESULT_FILE, PLOT_FILE))  # before any run, as `tiseg run` does
     ev = Evaluator(
         cal,
         out,
@@ -276,6 +279,9 @@ def plot_misfit(cal: Calibration, result: dict, path: Path) -> Path:
         ),
         fontsize=9,
     )
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    try:  # atomically: a link put at the name is replaced, never written through
+        with replacing(path) as tmp:
+            fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
+    finally:
+        plt.close(fig)
     return path

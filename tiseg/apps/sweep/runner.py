@@ -33,6 +33,7 @@ from .sensitivity import plot_sensitivity, sensitivity_columns, sensitivity_rows
 from ...output import write_text_atomic
 from ...output.diagnostics import json_clean
 from ...backend import threads_problem
+from ...output.paths import refuse_symlinks
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +76,8 @@ class SweepResult:
 
 
 SWEEP_OUTPUTS = ("sweep.json", "sweep.csv", "summary.csv", "sweep.nc")
+# every file a sweep writes in its --out (sensitivity-<grid values>.png besides)
+RESULT_NAMES = SWEEP_OUTPUTS + (PROBABILITY_FILE, "sensitivity.csv", "sensitivity.png")
 # a calibration's result file (tiseg.apps.calibration.runner.RESULT_FILE; not imported: the
 # calibration imports this module)
 CALIBRATION_FILE = "calibration.json"
@@ -161,6 +164,8 @@ def run_sweep(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
+    # before any run, as `tiseg run` does: the results are never written through a link
+    refuse_symlinks(out, RESULT_NAMES + tuple(p.name for p in out.glob("sensitivity*.png")))
 
     records: dict[str, dict] = {}
     pending: list[SweepRun] = []

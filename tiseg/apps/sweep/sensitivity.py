@@ -27,6 +27,7 @@ from typing import Mapping
 
 import numpy as np
 
+from ...output.atomic import replacing
 from .design import Sample
 from .spec import OUTPUTS, Sweep
 from .table import _cell, member_outputs, summary_groups
@@ -178,6 +179,8 @@ def plot_sensitivity(sweep: Sweep, rows: list[dict], out: Path, dpi: int = 100) 
             else f"sensitivity-{runs[0].name.rsplit('_member-', 1)[0]}.png"
         )
         path = out / name
-        fig.savefig(path, dpi=dpi)
+        # atomically: a link put at the name is replaced, never written through
+        with replacing(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format="png")
         paths.append(path)
     return paths
