@@ -140,6 +140,11 @@ def _lose_a_row(lines) -> None:
         (lambda lines: lines.__setitem__(2, lines[2][:10] + "\n"), "line 3 is damaged"),
         (lambda lines: lines.insert(2, lines[2]), "row 3 repeats"),
         (_lose_a_row, "rows were lost or repeated"),
+        # issue 48: a renamed column failed the first row written after the resume (traceback)
+        (
+            lambda lines: lines.__setitem__(0, lines[0].replace(",dt,", ",renamed,")),
+            "no column 'dt'",
+        ),
     ],
 )
 def test_resume_refuses_a_damaged_row_of_the_diagnostics(runs, tmp_path, capsys, spoil, word):

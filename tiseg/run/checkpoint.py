@@ -395,6 +395,17 @@ def append_diagnostics(path, keep_rows: int, t: float | None = None):
     if not rows:
         raise CheckpointError(f"{str(path)!r} has no header row")
     header = rows[0]
+    # the columns the run goes on writing (or their old names, which the writer maps): a
+    # renamed or lost one would fail the first row written, mid-run
+    from ..output.diagnostics import ALIASES, DEFAULT_COLUMNS
+
+    lost = [c for c in DEFAULT_COLUMNS if c not in header and ALIASES.get(c) not in header]
+    if lost:
+        raise CheckpointError(
+            f"{str(path)!r}: its header has no column {', '.join(map(repr, lost))} (it reads "
+            f"{','.join(header)[:80]!r}); restore the header, or start the run again with "
+            "--overwrite"
+        )
     body = rows[1 : keep_rows + 1]  # what follows was written after the checkpoint: it goes
     if len(body) < keep_rows or (body and not _whole_row(body[-1], header)):
         whole = sum(_whole_row(r, header) for r in body)
