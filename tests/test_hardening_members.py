@@ -364,3 +364,15 @@ def test_sweep_results_are_not_written_through_links(tmp_path, monkeypatch):
     ]
     plot_sensitivity(sw, rows, out, dpi=20)
     assert outside.read_bytes() == b"keep" and not (out / "sensitivity.png").is_symlink()
+
+
+# ------------------------------------------------------------------ 13: tracebacks
+@pytest.mark.parametrize("seed", ["-1", str(2**64)])
+def test_a_design_seed_numpy_cannot_take_is_one_line(seed, capsys, tmp_path):
+    from tiseg.apps.cli import main
+
+    argv = ["calibrate", "dam-break", "--set", "effects.friction=coulomb", "--out", str(tmp_path)]
+    argv += ["--param", "effects.coulomb_mu=0.1:0.3", "--param", "initial.h_left=0.01:0.02"]
+    assert main([*argv, "--target", "runout=0.2", "--design-seed", seed]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"--design-seed {seed}: give a whole number" in err

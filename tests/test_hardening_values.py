@@ -299,6 +299,30 @@ def test_such_values_are_one_line_on_the_command_line(setting, capfd, tmp_path):
     assert f"scene 'dam-break': {setting}:" in line, line
 
 
+@pytest.mark.parametrize("f", ["1e308", "1e13"])
+def test_a_forcing_frequency_past_any_phase_is_one_line(capfd, tmp_path, f):
+    """inflow.forcing_frequency=1e308 overflowed 2 pi f t: a math domain error traceback in
+    the first step; at 1e13 Hz the phase kept no digit (issue 48)."""
+    line = _run_refused(
+        capfd,
+        tmp_path,
+        f"inflow.forcing_frequency={f}",
+        "inflow.forcing_amplitude=0.1",
+        "time.t_end=0.5",
+        "domain.resolution=40",
+        "domain.Lx=0.3",
+        "domain.Ly=0.1",
+        "output.times=[]",
+        scene="fingers",
+    )
+    assert f"inflow.forcing_frequency={float(f)!r}" in line and "periods" in line, line
+
+
+def test_an_honest_forcing_frequency_is_accepted():
+    sc = load_scene("fingers", ["inflow.forcing_frequency=1e6", "inflow.forcing_amplitude=0.1"])
+    assert sc.inflow.forcing_frequency == 1e6
+
+
 def test_an_underflowing_number_in_a_scene_file_is_refused_by_key(tmp_path):
     from solver_helpers import MINIMAL_SCENE
 

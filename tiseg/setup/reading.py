@@ -168,6 +168,7 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     initial = read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects, material)
     numerics = read_numerics(table("numerics"), flow, domain.ny == 1, effects)
     output = read_output(table("output"), time.t_end)
+    _check_forcing_phase(inflow, time.t_end)
     return Scene(
         name=name,
         description=description,
@@ -183,3 +184,22 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
         output=output,
         source=source,
     )
+
+
+# the most periods of the inflow's forcing a run may span: past 2**40 the phase 2 pi f t has
+# lost all but a few of its digits (and past about 1e307 Hz s it overflows)
+MAX_FORCING_PERIODS = 2.0**40
+
+
+def _check_forcing_phase(inflow, t_end: float) -> None:
+    """Refuse a forcing frequency whose phase over the run cannot be represented: the
+    modulation would be noise (or the run would stop in a math domain error)."""
+    if inflow is None or not inflow.forcing_amplitude or not inflow.forcing_frequency:
+        return
+    f = inflow.forcing_frequency
+    if not f * t_end <= MAX_FORCING_PERIODS:
+        raise InputError(
+            f"inflow.forcing_frequency={f!r}: {f * t_end:.3g} periods in time.t_end="
+            f"{t_end:g} s, more than {MAX_FORCING_PERIODS:.3g}; the phase 2 pi f t cannot be "
+            f"resolved (give at most {MAX_FORCING_PERIODS / t_end:.3g} Hz)"
+        )

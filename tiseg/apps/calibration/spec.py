@@ -231,6 +231,8 @@ def calibration_from_args(
         raise InputError(f"--budget {budget}: give at least 2 runs")
     if seeds < 0 or seeds == 1:
         raise InputError(f"--seeds {seeds}: give 0 (no seed runs) or at least 2 seeds")
+    if not 0 <= design_seed < 2**63:  # what numpy's generators take
+        raise InputError(f"--design-seed {design_seed}: give a whole number from 0 to 2**63 - 1")
     fixed = dict(fixed or {})
     for p in ps:
         if p.key in fixed:
