@@ -244,6 +244,41 @@ def test_closed_stdout_is_quiet():
     assert (res.returncode, res.stderr) == (0, "")
 
 
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs Linux's /dev/full")
+@pytest.mark.parametrize(
+    "argv", [STEADY, ["scenes", "show", "fingers"], ["--help"], ["steady", "--help"]]
+)
+def test_a_full_stdout_is_one_line(argv):
+    """`tiseg ... > /dev/full` (stdout on a full disk): one line and exit status 2, not an
+    OSError traceback (issue 48)."""
+    with open("/dev/full", "w") as full:
+        res = _cli(argv, stdout=full, stderr=subprocess.PIPE)
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.endswith("cannot write to standard output: No space left on device\n")
+    assert res.stderr.count("\n") == 1, res.stderr
+
+
+def test_an_argument_that_is_not_utf8_is_one_line(tmp_path):
+    """`--out $'bad\\xff'`: a UnicodeEncodeError traceback from NetCDF after the run's start."""
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from tiseg.apps.cli import main; sys.exit(main())",
+            "run",
+            "dam-break",
+            "--out",
+            os.fsencode(tmp_path) + b"/bad\xff",
+        ],
+        capture_output=True,
+        timeout=120,
+    )
+    err = res.stderr.decode()
+    assert res.returncode == 2 and err.count("\n") == 1, err
+    assert "bad\\xff' is not valid UTF-8" in err
+    assert os.listdir(tmp_path) == []
+
+
 # ------------------------------------------------------------------ symbolic links at outputs
 @pytest.mark.parametrize("kind", ["default movie", "--movie", "--gif", "--panels", "--frames"])
 def test_render_does_not_write_through_links(fake_run, tmp_path, kind, capsys):

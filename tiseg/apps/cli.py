@@ -98,8 +98,13 @@ def main(argv: list[str] | None = None) -> int:
     """The command line; its exit status. Ctrl-C at any time after ``import tiseg`` (which
     imports nothing heavy, so that this handler is in place before the slow imports) ends in
     one line and status 130, a reader that closes the pipe early (``| head``) in silence."""
+    guard = None
     try:
         _usable_std_streams()
+        # Taichi takes a sys.stdout that is not sys.__stdout__ for a notebook's and then
+        # copies its kernels' print buffer after every kernel call: the guard is no notebook
+        os.environ.setdefault("TI_ENABLE_PYBUF", "0")
+        guard = sys.stdout = _StdoutGuard(sys.stdout)
         try:
             os.getcwd()  # Taichi and relative paths need it
         except OSError:
@@ -120,6 +125,58 @@ def main(argv: list[str] | None = None) -> int:
         null = os.open(os.devnull, os.O_WRONLY)
         os.dup2(null, sys.stdout.fileno())
         return 1
+    except StdoutError as exc:  # the final flush
+        sys.stderr.write(f"tiseg: error: {exc}\n")
+        return 2
+    finally:
+        if guard is not None and sys.stdout is guard:
+            sys.stdout = guard.stream
+
+
+class StdoutError(TisegError):
+    """Standard output cannot take what tiseg prints (a full disk, ``> /dev/full``)."""
+
+
+class _StdoutGuard:
+    """sys.stdout for the length of a command: a write or flush that fails with an OSError
+    (other than a closed pipe, which `main` handles) becomes a `StdoutError`, one line like any
+    other error rather than a traceback. What could not be written is dropped (stdout then
+    goes to /dev/null), so that the interpreter's own flush at exit does not fail again."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def _failed(self, exc: OSError):
+        try:
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self.stream.fileno())
+            os.close(null)
+        except (OSError, ValueError, AttributeError):
+            pass  # not a file descriptor (a test's capture): nothing left to flush at exit
+        return StdoutError(f"cannot write to standard output: {exc.strerror or exc}")
+
+    def write(self, text):
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def writelines(self, lines):
+        for line in lines:
+            self.write(line)
+
+    def flush(self):
+        try:
+            return self.stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
 
 
 def _usable_std_streams() -> None:
@@ -138,8 +195,28 @@ def _usable_std_streams() -> None:
             setattr(sys, name, open(fd, "r" if fd == 0 else "w", closefd=False))
 
 
+def _undecodable(argv: list[str]) -> str | None:
+    """The first argument that is not valid UTF-8 (Python keeps its bytes as lone surrogates),
+    or None. NetCDF, Matplotlib and ffmpeg take file names as UTF-8 only, so such a name would
+    fail deep inside a run instead of here."""
+    for arg in argv:
+        try:
+            arg.encode("utf-8")
+        except UnicodeEncodeError:
+            return arg
+    return None
+
+
 def _main(argv: list[str] | None) -> int:
 
+    bad = _undecodable(sys.argv[1:] if argv is None else list(argv))
+    if bad is not None:
+        shown = os.fsencode(bad).decode("utf-8", "backslashreplace")  # bad\xff
+        sys.stderr.write(
+            f"tiseg: error: the argument '{shown}' is not valid UTF-8 text; file and folder "
+            "names must be (NetCDF cannot open others): rename it\n"
+        )
+        return 2
     parser = build_parser()
     args = parser.parse_args(argv)
     configure(-1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0)), 1))
