@@ -376,3 +376,37 @@ def test_a_design_seed_numpy_cannot_take_is_one_line(seed, capsys, tmp_path):
     assert main([*argv, "--target", "runout=0.2", "--design-seed", seed]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"--design-seed {seed}: give a whole number" in err
+
+
+def test_a_member_failing_with_any_error_is_one_line_not_retried(tmp_path, monkeypatch, capfd):
+    """A member whose run raised an error other than tiseg's (here a full disk as its folder
+    is prepared) was run twice by Dask, which printed its traceback blocks; it is reported as
+    failed once, in one line, its traceback kept in the record."""
+    import errno
+
+    import distributed
+
+    import tiseg.apps.sweep as S
+
+    calls = []
+
+    def full_disk(*a, **k):
+        calls.append(1)
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    # as the member's folder is prepared (the in-process workers share this process's
+    # Taichi runtime, which a real run there would reset)
+    monkeypatch.setattr(S.members, "check_fresh_folder", full_disk)
+    sw = S.load_sweep("tiny", grid_overrides={"flow.nu": [0.01]})
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cluster:
+        res = S.run_sweep(sw, tmp_path, scheduler=cluster.scheduler_address, echo=print)
+    (rec,) = res.records
+    assert (
+        rec["status"] == "failed" and rec["error"] == "OSError: [Errno 28] No space left on device"
+    )
+    out, err = capfd.readouterr()
+    assert len(calls) == 1  # not retried
+    assert "Traceback" not in out + err and "FAILED (OSError" in out, out + err
+    assert "full_disk" in rec["traceback"]

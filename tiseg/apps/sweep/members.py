@@ -124,6 +124,19 @@ def execute_run(spec: dict) -> dict:
         return _execute_locked(spec, run_dir, scene)
     except TisegError as exc:  # a user mistake or a run that failed its guard: no retry, one line
         return {"name": spec["name"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    except Exception as exc:
+        # anything else (a full disk, a bug) fails the member the same way: raised, Dask would
+        # run it again to the same end and print its traceback blocks between the progress
+        # lines; the traceback is kept in the record (sweep.json) for a bug report
+        import traceback
+
+        first = next((ln for ln in str(exc).splitlines() if ln.strip()), "").strip()
+        return {
+            "name": spec["name"],
+            "status": "failed",
+            "error": f"{type(exc).__name__}: {first}" if first else type(exc).__name__,
+            "traceback": traceback.format_exc(),
+        }
     finally:
         lock.release()
 
@@ -148,7 +161,11 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     threads = spec.get("threads", 0)
     if threads is None:
         threads = _worker_threads()
-    backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
+    try:
+        backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
+    except (RuntimeError, OSError):  # a transient failure (resources briefly short): once more
+        _time.sleep(1.0)
+        backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
     sim = Simulation(scene)
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
     stats = sim.run(

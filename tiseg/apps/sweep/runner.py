@@ -293,8 +293,9 @@ def _run_on_dask(
             pass
         for run in sorted(pending, key=lambda r: -r.cost):  # longest first: better packing
             spec = member_spec(run, out, arch, threads, overwrite)
-            # retries=1: a transient failure (a worker lost, ti.init briefly out of resources)
-            # is tried once more; a run's own error fails again and is reported
+            # retries=1: a transient failure outside execute_run (a worker lost) is tried once
+            # more; execute_run returns a run's own error as a failed record (no retry, no
+            # Dask traceback) and retries a failed ti.init itself
             fut = client.submit(
                 execute_run,
                 spec,
