@@ -410,3 +410,81 @@ def test_a_member_failing_with_any_error_is_one_line_not_retried(tmp_path, monke
     assert len(calls) == 1  # not retried
     assert "Traceback" not in out + err and "FAILED (OSError" in out, out + err
     assert "full_disk" in rec["traceback"]
+
+
+# ------------------------------------------------------------------ 9: --scheduler that never answers
+@pytest.fixture
+def not_dask():
+    """A real TCP service on 127.0.0.1 that accepts connections and never says a word."""
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    held, stop = [], threading.Event()
+
+    def serve():
+        srv.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                held.append(srv.accept()[0])
+            except OSError:
+                continue
+
+    t = threading.Thread(target=serve, daemon=True)
+    t.start()
+    yield f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+    stop.set()
+    t.join()
+    for c in held:
+        c.close()
+    srv.close()
+
+
+def test_a_scheduler_address_that_is_not_dask_is_refused_in_time(tmp_path, monkeypatch, not_dask):
+    """It waited for ever (killed at 400 s)."""
+    import time
+
+    import tiseg.apps.sweep as S
+
+    monkeypatch.setattr(S.runner, "CONNECT_TIMEOUT", 1.0)
+    t0 = time.monotonic()
+    with pytest.raises(InputError, match="no answer as a Dask scheduler within 1 s"):
+        S.run_sweep(S.load_sweep("tiny"), tmp_path, scheduler=not_dask, echo=None)
+    assert time.monotonic() - t0 < 10
+
+
+def test_a_scheduler_without_workers_says_so_and_gives_up(tmp_path, monkeypatch):
+    """It waited for ever without a word."""
+    import distributed
+
+    import tiseg.apps.sweep as S
+
+    monkeypatch.setattr(S.runner, "WORKER_TIMEOUT", 1.0)
+    lines: list[str] = []
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as c:
+        with pytest.raises(InputError, match="has no workers .*dask worker"):
+            S.run_sweep(
+                S.load_sweep("tiny"), tmp_path, scheduler=c.scheduler_address, echo=lines.append
+            )
+    assert any("has no workers yet; waiting up to 1 s" in s for s in lines), lines
+
+
+def test_a_malformed_scheduler_address_is_one_line_and_nothing_later(tmp_path):
+    """The one-line error was followed 20 s later by a TimeoutError traceback (the half-made
+    Dask client closing itself at exit)."""
+    import subprocess
+    import sys
+    import time
+
+    code = "import sys; from tiseg.apps.cli import main; sys.exit(main())"
+    argv = ["sweep", "tiny", "--out", str(tmp_path / "sw"), "--scheduler", "tcp://127.0.0.1:x"]
+    t0 = time.monotonic()
+    res = subprocess.run(
+        [sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120
+    )
+    assert res.returncode == 2, res.stderr
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 2 and "cannot connect to the Dask scheduler" in err[1], res.stderr
+    assert time.monotonic() - t0 < 8

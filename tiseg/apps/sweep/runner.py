@@ -378,17 +378,19 @@ def open_dask(scheduler, workers, threads_per_task, n_runs: int, say):
         ) from None
     cores = available_cores()
     if scheduler:
+        _probe_scheduler(scheduler)
         try:
             # not Dask's default client: one that fails to connect would stay the default
             # (and the default scheduler) for every later Dask or xarray computation in this
             # process, which then tried to reach it (writing sweep.nc, probability.nc)
-            client = Client(scheduler, timeout="10s", set_as_default=False)
+            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT}s", set_as_default=False)
         except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
-            first = next((ln for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
-            raise InputError(
-                f"cannot connect to the Dask scheduler at {scheduler!r}: "
-                f"{first.strip()} (give an address like tcp://host:8786)"
-            ) from None
+            raise _no_scheduler(scheduler, exc) from None
+        try:
+            _wait_for_a_worker(client, scheduler, say)
+        except BaseException:
+            client.close()
+            raise
         # None: each task takes as many threads as its worker runs (its --nthreads)
         return client, None, threads_per_task, f"Dask scheduler {scheduler}"
     n = workers or max(1, min(cores, n_runs))
@@ -411,6 +413,65 @@ def open_dask(scheduler, workers, threads_per_task, n_runs: int, say):
         threads,
         f"local Dask cluster ({n} worker{'s' if n > 1 else ''} x 1 task)",
     )
+
+
+# seconds to reach a --scheduler and have it answer as Dask does, and to wait for it to have a
+# worker (a scheduler without one would hold the tasks for ever)
+CONNECT_TIMEOUT = 10.0
+WORKER_TIMEOUT = 120.0
+
+
+def _no_scheduler(scheduler: str, exc: BaseException) -> InputError:
+    first = next((ln for ln in str(exc).splitlines() if ln.strip()), "").strip()
+    if isinstance(exc, TimeoutError) or not first:
+        first = (
+            f"no answer as a Dask scheduler within {CONNECT_TIMEOUT:g} s (nothing listens "
+            "there, or a service that is not Dask)"
+        )
+    return InputError(
+        f"cannot connect to the Dask scheduler at {scheduler!r}: {first} (give an address "
+        "like tcp://host:8786)"
+    )
+
+
+def _probe_scheduler(scheduler: str) -> None:
+    """Refuse (`InputError`) an address that does not answer Dask's handshake within
+    `CONNECT_TIMEOUT`, before a `distributed.Client` is made: the client waits for ever on a
+    TCP service that is not Dask (its own timeout does not cover the handshake), and one made
+    with a malformed address raised a TimeoutError traceback at exit when collected."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def probe() -> None:
+        comm = await asyncio.wait_for(
+            connect(scheduler, timeout=CONNECT_TIMEOUT), CONNECT_TIMEOUT + 1.0
+        )
+        await comm.close()
+
+    try:
+        asyncio.run(probe())
+    except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address...
+        raise _no_scheduler(scheduler, exc) from None
+
+
+def _wait_for_a_worker(client, scheduler: str, say) -> None:
+    """Return once the scheduler has a worker; say so when it has none yet, and refuse after
+    `WORKER_TIMEOUT` seconds (it would hold the tasks for ever, silently)."""
+    if client.scheduler_info().get("workers"):
+        return
+    say(
+        f"the Dask scheduler at {scheduler} has no workers yet; waiting up to "
+        f"{WORKER_TIMEOUT:g} s for one (start one with: dask worker {scheduler})"
+    )
+    try:
+        client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+    except TimeoutError:
+        raise InputError(
+            f"the Dask scheduler at {scheduler!r} has no workers (waited "
+            f"{WORKER_TIMEOUT:g} s): start some with `dask worker {scheduler}`, or leave "
+            "--scheduler out to run on this machine"
+        ) from None
 
 
 def member_spec(run: SweepRun, out, arch: str, threads, overwrite: bool = False) -> dict:
