@@ -488,3 +488,83 @@ def test_a_malformed_scheduler_address_is_one_line_and_nothing_later(tmp_path):
     err = res.stderr.strip().splitlines()
     assert len(err) == 2 and "cannot connect to the Dask scheduler" in err[1], res.stderr
     assert time.monotonic() - t0 < 8
+
+
+# ------------------------------------------------------------------ 8: SIGTERM to a sweep
+SLOW_SWEEP = """
+import sys, time
+import tiseg.apps.sweep.runner as R
+from tiseg.output.atomic import replacing
+
+def slow(sweep, out, pending, records, *a, **k):  # a sweep busy writing its table
+    with replacing(out / "sweep.csv") as tmp:
+        tmp.write_text("half a table")
+        print("ready", flush=True)
+        time.sleep(60)
+
+R._run_on_dask = slow
+from tiseg.apps.cli import main
+sys.exit(main([{argv}]))
+"""
+
+
+@pytest.mark.parametrize("command", ["sweep", "calibrate"])
+def test_sigterm_stops_a_sweep_in_one_line_without_temporaries(tmp_path, command):
+    """A real SIGTERM while the sweep (or calibration) writes a file: it died at once with no
+    message, leaving the file's temporary behind."""
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    if command == "sweep":
+        argv = f"'sweep', 'tiny', '--out', {str(out)!r}"
+        code = SLOW_SWEEP.format(argv=argv)
+    else:  # the calibration's first member is slow to run: the signal comes while it waits
+        argv = f"'calibrate', 'dam-break', '--out', {str(out)!r}, '--set', 'effects.friction="
+        argv += "coulomb', '--param', 'effects.coulomb_mu=0.1:0.3', '--target', 'runout=0.2'"
+        code = SLOW_SWEEP.replace("R._run_on_dask = slow", "").format(argv=argv)
+        code = code.replace(
+            "from tiseg.apps.cli import main",
+            "import tiseg.apps.calibration\n"
+            "C = sys.modules['tiseg.apps.calibration.search']\n"
+            "C.Evaluator._run = lambda self, runs: slow(None, self.out, runs, None)\n"
+            "from tiseg.apps.cli import main",
+        )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout.readline().strip() == "ready", proc.stderr.read()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    last = err.strip().splitlines()[-1]
+    assert "stopped by SIGTERM" in last and "run the same command again" in last, err
+    assert "Traceback" not in err
+    assert not list(out.glob(".*.tmp")), list(out.iterdir())
+
+
+def test_a_killed_writers_old_temporaries_are_removed(tmp_path, monkeypatch):
+    """A sweep killed (SIGKILL) while writing left `.sweep.csv.*.tmp`; the next one removes
+    such temporaries once no writer can be filling them (untouched for STALE_AFTER_S)."""
+    import os
+    import time
+
+    import tiseg.apps.sweep as S
+    from tiseg.output.atomic import STALE_AFTER_S
+
+    old = tmp_path / ".sweep.nc.x1.tmp"
+    young = tmp_path / ".sweep.csv.x2.tmp"  # another process may be writing it right now
+    chart = tmp_path / ".sensitivity-nu-0.01.png.x3.tmp"
+    for p in (old, young, chart):
+        p.write_text("half")
+    then = time.time() - STALE_AFTER_S - 5
+    os.utime(old, (then, then))
+    os.utime(chart, (then, then))
+    monkeypatch.setattr(S.runner, "_run_on_dask", lambda *a, **k: None)
+    monkeypatch.setattr(S.runner, "write_results", lambda *a: [])
+    S.run_sweep(S.load_sweep("tiny"), tmp_path, echo=None)
+    assert not old.exists() and not chart.exists() and young.exists()

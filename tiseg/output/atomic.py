@@ -29,6 +29,30 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+# a temporary file of `replacing` untouched for this long has no writer left (one that writes
+# touches it as it goes): a killed writer's, which a later writer into the folder removes
+STALE_AFTER_S = 600.0
+
+
+def remove_stale_temporaries(folder, names, older_than: float = STALE_AFTER_S) -> list[Path]:
+    """Remove the temporary files (``.<name>.*.tmp``) of ``names`` in ``folder`` that a killed
+    writer left, those not modified for ``older_than`` seconds (a writer of another process may
+    be filling a younger one); the paths removed."""
+    import time
+
+    gone = []
+    now = time.time()
+    for name in names:
+        for p in Path(folder).glob(f".{name}.*.tmp"):
+            try:
+                if now - p.stat().st_mtime >= older_than:
+                    p.unlink()
+                    gone.append(p)
+            except OSError:
+                pass
+    return gone
+
+
 @contextlib.contextmanager
 def replacing(path):
     """Yield a temporary path beside ``path``; when the block ends without an error, the

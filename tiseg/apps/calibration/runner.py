@@ -12,7 +12,7 @@ from ...backend import threads_problem
 from ...errors import InputError
 from ...log import stderr_line
 from ...output import write_json_atomic
-from ...output.atomic import replacing
+from ...output.atomic import remove_stale_temporaries, replacing
 from ...output.paths import refuse_symlinks
 from ..sweep.runner import SWEEP_OUTPUTS
 from ..sweep.spec import _canonical
@@ -123,6 +123,7 @@ def run_calibration(
     except OSError as exc:
         raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
     refuse_symlinks(out, (RESULT_FILE, PLOT_FILE))  # before any run, as `tiseg run` does
+    remove_stale_temporaries(out, (RESULT_FILE, PLOT_FILE))  # a killed calibration's
     ev = Evaluator(
         cal,
         out,

@@ -10,7 +10,7 @@ from ...errors import InputError
 from ...log import info
 from ...setup.scene import parse_override
 from ..calibration import calibration_from_args, run_calibration
-from .common import print_json
+from .common import print_json, sigterm_stops
 
 
 def register(sub) -> None:
@@ -141,16 +141,20 @@ def run(args) -> int:
     )
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
     out = Path(args.out) if args.out else Path("runs") / "calibrations" / name
-    result = run_calibration(
-        cal,
-        out,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        threads_per_task=args.threads_per_task,
-        arch=args.arch,
-        echo=info,
-        overwrite=args.overwrite,
-    )
+    with sigterm_stops(
+        "the calibration",
+        "its finished members are kept: run the same command again to go on",
+    ):
+        result = run_calibration(
+            cal,
+            out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            threads_per_task=args.threads_per_task,
+            arch=args.arch,
+            echo=info,
+            overwrite=args.overwrite,
+        )
     if args.json:
         print_json(result.result)
     # a failed member stopped the search: not a result to take as final (exit 1, as a sweep

@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 from ...backend import ARCHS
-from ...errors import InputError
+from ...errors import InputError, RunInterrupted
 from ...model.material import Material
 from ...model.physics.segregation import TRANSPORTS
 from ...output.diagnostics import json_clean
@@ -141,3 +141,28 @@ def check_figure_path(path: str, what: str = "--plot") -> Path:
         )
     check_output_folder(p.parent if str(p.parent) else Path("."), what)
     return p
+
+
+@contextlib.contextmanager
+def sigterm_stops(what: str, resume: str):
+    """SIGTERM in the block raises `RunInterrupted` in the main thread, as Ctrl-C raises
+    KeyboardInterrupt: the Dask tasks are cancelled, the cluster closed, a file being written
+    atomically is removed, and the command ends in one line (exit 143) saying ``resume``.
+    Without it the process died at once, in silence, leaving its half-written temporaries.
+    Further SIGTERMs during that clean-up are ignored (SIGKILL still stops it)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: let the clean-up finish
+        raise RunInterrupted(f"{what} stopped by SIGTERM; {resume}", signum)
+
+    old = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)

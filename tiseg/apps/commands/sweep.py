@@ -156,17 +156,23 @@ def run(args) -> int:
             )
         return 0
 
-    result = run_sweep(
-        sweep,
-        out,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        threads_per_task=args.threads_per_task,
-        arch=args.arch,
-        echo=info,
-        progress_interval=args.progress_interval,
-        overwrite=args.overwrite,
-    )
+    from .common import sigterm_stops
+
+    with sigterm_stops(
+        f"sweep {sweep.name!r}",
+        "its finished runs are kept: run the same command again to go on",
+    ):
+        result = run_sweep(
+            sweep,
+            out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            threads_per_task=args.threads_per_task,
+            arch=args.arch,
+            echo=info,
+            progress_interval=args.progress_interval,
+            overwrite=args.overwrite,
+        )
     if args.json:
         from .common import print_json
 

@@ -33,6 +33,7 @@ from .sensitivity import plot_sensitivity, sensitivity_columns, sensitivity_rows
 from ...output import write_text_atomic
 from ...output.diagnostics import json_clean
 from ...backend import threads_problem
+from ...output.atomic import remove_stale_temporaries
 from ...output.paths import refuse_symlinks
 
 log = logging.getLogger(__name__)
@@ -165,7 +166,10 @@ def run_sweep(
     except OSError as exc:
         raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
     # before any run, as `tiseg run` does: the results are never written through a link
-    refuse_symlinks(out, RESULT_NAMES + tuple(p.name for p in out.glob("sensitivity*.png")))
+    charts = tuple(p.name for p in out.glob("sensitivity*.png"))
+    refuse_symlinks(out, RESULT_NAMES + charts)
+    # a killed sweep's half-written files (the names are glob patterns)
+    remove_stale_temporaries(out, RESULT_NAMES + ("sensitivity*.png",))
 
     records: dict[str, dict] = {}
     pending: list[SweepRun] = []
