@@ -568,3 +568,74 @@ def test_a_killed_writers_old_temporaries_are_removed(tmp_path, monkeypatch):
     monkeypatch.setattr(S.runner, "write_results", lambda *a: [])
     S.run_sweep(S.load_sweep("tiny"), tmp_path, echo=None)
     assert not old.exists() and not chart.exists() and young.exists()
+
+
+# ------------------------------------------------------------------ 11: read-only and full disks
+@pytest.fixture
+def mount(tmp_path):
+    """``mount(target, *options)``: a real mount, undone after the test (root only: a test
+    in a container without the right is skipped, saying so)."""
+    import subprocess
+
+    done = []
+
+    def do(target: Path, *options: str) -> Path:
+        target.mkdir(parents=True, exist_ok=True)
+        res = subprocess.run(["mount", *options, str(target)], capture_output=True, text=True)
+        if res.returncode:
+            pytest.skip(f"cannot mount here: {res.stderr.strip()}")
+        done.append(target)
+        return target
+
+    yield do
+    for target in reversed(done):
+        subprocess.run(["umount", "-l", str(target)], check=False)
+
+
+def _one_line(capsys, *words) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err, err
+    last = err.splitlines()[-1]
+    assert all(w in last for w in words), err
+    return last
+
+
+def test_a_finished_calibration_on_a_read_only_mount_is_one_line(
+    tmp_path, monkeypatch, capsys, mount
+):
+    from test_calibration import Model, run_out_of_mu
+
+    src = tmp_path / "cal"
+    assert _calibrate(src, monkeypatch, Model(run_out_of_mu)) == 0
+    ro = mount(tmp_path / "ro", "--bind", "-o", "ro", str(src))
+    with pytest.raises(OSError):  # a real read-only file system: root cannot write either
+        (ro / "probe").write_text("x")
+    capsys.readouterr()
+    assert _calibrate(ro, monkeypatch, Model(run_out_of_mu)) == 2
+    _one_line(capsys, "cannot write in", "Read-only file system", "run the same command again")
+
+
+def test_a_finished_sweep_on_a_read_only_mount_is_one_line(tmp_path, capsys, mount):
+    import tiseg.apps.sweep as S
+    from tiseg.apps.cli import main
+    from tiseg.post.analysis.fingers import ANALYSIS_VERSION
+
+    sw = S.load_sweep("tiny")
+    src = tmp_path / "sw"
+    metrics = {"analysis_version": ANALYSIS_VERSION, "time": [0.5], "deposit": {}}
+    for run in sw.runs:
+        _finished_member(src / run.name, run.scene, metrics=metrics)
+    S.table._write_outputs(sw, src, {})
+    ro = mount(tmp_path / "ro", "--bind", "-o", "ro", str(src))
+    assert main(["sweep", "tiny", "--out", str(ro)]) == 2
+    _one_line(capsys, "cannot write in", "Read-only file system", "finished runs are kept")
+
+
+def test_a_calibration_on_a_full_disk_is_one_line(tmp_path, monkeypatch, capsys, mount):
+    from test_calibration import Model, run_out_of_mu
+
+    full = mount(tmp_path / "full", "-t", "tmpfs", "-o", "size=64k", "tmpfs")
+    with pytest.raises(OSError):  # fill it: a real ENOSPC
+        (full / "fill").write_bytes(b"\0" * 100_000)
+    assert _calibrate(full / "cal", monkeypatch, Model(run_out_of_mu)) == 2
+    _one_line(capsys, "cannot write in", "No space left on device")

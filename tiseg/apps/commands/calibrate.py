@@ -10,7 +10,7 @@ from ...errors import InputError
 from ...log import info
 from ...setup.scene import parse_override
 from ..calibration import calibration_from_args, run_calibration
-from .common import print_json, sigterm_stops
+from .common import print_json, results_written, sigterm_stops
 
 
 def register(sub) -> None:
@@ -141,10 +141,8 @@ def run(args) -> int:
     )
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
     out = Path(args.out) if args.out else Path("runs") / "calibrations" / name
-    with sigterm_stops(
-        "the calibration",
-        "its finished members are kept: run the same command again to go on",
-    ):
+    kept = "its finished members are kept: run the same command again to go on"
+    with sigterm_stops("the calibration", kept), results_written(out, kept):
         result = run_calibration(
             cal,
             out,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
@@ -11,7 +12,7 @@ import tempfile
 from pathlib import Path
 
 from ...backend import ARCHS
-from ...errors import InputError, RunInterrupted
+from ...errors import InputError, RunInterrupted, TisegError
 from ...model.material import Material
 from ...model.physics.segregation import TRANSPORTS
 from ...output.diagnostics import json_clean
@@ -166,3 +167,26 @@ def sigterm_stops(what: str, resume: str):
         yield
     finally:
         signal.signal(signal.SIGTERM, old)
+
+
+# what an environment does to a writer (a full disk, a read-only mount, no permission, a file
+# over its size limit, a failing device); any other OSError is a bug and keeps its traceback
+WRITE_ERRNOS = frozenset(
+    {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG, errno.EIO}
+)
+
+
+@contextlib.contextmanager
+def results_written(out, kept: str):
+    """An OSError of `WRITE_ERRNOS` in the block (a sweep or calibration writing its tables,
+    its members' records) ends in one line naming the folder and the cause, then ``kept`` (what
+    survives and how to go on), as `tiseg run` does, instead of a traceback."""
+    try:
+        yield
+    except OSError as exc:
+        if isinstance(exc, BrokenPipeError) or exc.errno not in WRITE_ERRNOS:
+            raise
+        name = f" ({Path(exc.filename).name})" if exc.filename else ""
+        raise TisegError(
+            f"cannot write in {str(out)!r}{name}: {exc.strerror or exc}; {kept}"
+        ) from None

@@ -156,12 +156,10 @@ def run(args) -> int:
             )
         return 0
 
-    from .common import sigterm_stops
+    from .common import results_written, sigterm_stops
 
-    with sigterm_stops(
-        f"sweep {sweep.name!r}",
-        "its finished runs are kept: run the same command again to go on",
-    ):
+    kept = "its finished runs are kept: run the same command again to go on"
+    with sigterm_stops(f"sweep {sweep.name!r}", kept), results_written(out, kept):
         result = run_sweep(
             sweep,
             out,
