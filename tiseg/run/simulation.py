@@ -557,6 +557,8 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
                 folder.finish()
                 if folder.checkpoint_path.is_file():  # stopped before the scene's end:
                     self._resume = folder.resume_info()  # a later run() there continues it
+        except _StopNow as now:  # a second signal: as RunInterrupted, out of Taichi's reach
+            raise now.error from None
         finally:
             if stop is not None:
                 stop.restore()
@@ -570,6 +572,15 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
             if folder is not None:
                 folder.close()
         return self.stats
+
+
+class _StopNow(BaseException):
+    """A second SIGTERM / SIGINT on its way out of the step (and of Taichi's compiler, which
+    catches every Exception); `Simulation.run` raises its `RunInterrupted` in its place."""
+
+    def __init__(self, error: RunInterrupted):
+        super().__init__(str(error))
+        self.error = error
 
 
 class _SignalStop:
@@ -590,10 +601,14 @@ class _SignalStop:
         import signal
 
         if self.signum is not None:  # a second signal: stop now, mid-step
-            raise RunInterrupted(
-                f"stopped at once by a second {signal.Signals(signum).name}; "
-                "the last checkpoint (if any) is kept",
-                signum,
+            # not an Exception while it unwinds: Taichi wraps any Exception raised while it
+            # compiles a kernel into a TaichiCompilationError (a traceback, exit status 1)
+            raise _StopNow(
+                RunInterrupted(
+                    f"stopped at once by a second {signal.Signals(signum).name}; "
+                    "the last checkpoint (if any) is kept",
+                    signum,
+                )
             )
         self.signum = signum
 

@@ -141,7 +141,8 @@ def _backend_first(args, precision: str) -> None:
         backend.init(args.arch, precision, args.threads)
 
 
-def run(args) -> int:
+def _prepare(args):
+    """The simulation of the command with its scene and output folder: ``(sim, scene, out)``."""
     from ...run.run_folder import check_fresh_folder
     from ...run.simulation import Simulation
 
@@ -162,9 +163,6 @@ def run(args) -> int:
             )
     else:
         scene = load_scene_args(args)
-        if args.estimate:
-            print_estimate(scene, args.arch, args.threads, as_json=args.json)
-            return 0
         out = Path(args.out) if args.out else Path("runs") / scene.name
         check_fresh_folder(out, args.overwrite)
         _backend_first(args, scene.numerics.precision)
@@ -172,6 +170,20 @@ def run(args) -> int:
         if args.movie is not None:
             check_output_folder(Path(args.movie).parent, "--movie")
         sim = Simulation(scene, arch=args.arch, threads=args.threads)
+    return sim, scene, out
+
+
+def run(args) -> int:
+    from ...run.held_signals import held_signals
+
+    if args.resume is None and args.estimate:  # measures for seconds: Ctrl-C acts at once
+        _check_args(args)
+        print_estimate(load_scene_args(args), args.arch, args.threads, as_json=args.json)
+        return 0
+    # imports, kernel definitions and compiles: Ctrl-C there could be swallowed by Taichi's
+    # kernel decorator (tiseg.run.held_signals), so it is held and acts once they are done
+    with held_signals():
+        sim, scene, out = _prepare(args)
     before = sim.initial_totals
     movie = _movie(args, sim)
     try:
