@@ -639,3 +639,24 @@ def test_a_calibration_on_a_full_disk_is_one_line(tmp_path, monkeypatch, capsys,
         (full / "fill").write_bytes(b"\0" * 100_000)
     assert _calibrate(full / "cal", monkeypatch, Model(run_out_of_mu)) == 2
     _one_line(capsys, "cannot write in", "No space left on device")
+
+
+# ------------------------------------------------------------------ 14: --workers
+@pytest.mark.parametrize("command", ["sweep", "calibrate"])
+def test_more_workers_than_cores_are_refused_before_anything_starts(tmp_path, capsys, command):
+    """--workers 10000 started a local cluster of as many processes (each a Taichi runtime)."""
+    from tiseg.apps.cli import main
+    from tiseg.backend import available_cores
+
+    out = tmp_path / "out"
+    argv = ["sweep", "tiny"]
+    if command == "calibrate":
+        argv = ["calibrate", "dam-break", "--set", "effects.friction=coulomb", "--target"]
+        argv += ["runout=0.2", "--param", "effects.coulomb_mu=0.1:0.3"]
+    cores = available_cores()
+    assert main([*argv, "--out", str(out), "--workers", str(cores + 1)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"--workers={cores + 1}: this machine offers {cores} core(s)" in err
+    assert f"use at most {cores}" in err
+    assert not out.exists()

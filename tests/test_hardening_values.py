@@ -233,10 +233,13 @@ print(peak - before, L.memory_needed(sim.layout, sim.op.nslots, sys.argv[1]))
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and ru_maxrss in KiB")
 def test_the_memory_estimate_covers_the_peak_of_a_run(tmp_path):
     """A child process runs 70 000 cells in f64 with a snapshot: what its memory grew by at
-    its peak lies within the estimate, and the estimate is less than twice that (the fixed
-    overhead weighs most on so small a grid; the unfixed estimate was 0.37 of it). The
-    slowest test here (a few seconds): the only honest check is a real run's peak."""
+    its peak lies within the estimate, and the estimate is less than twice that besides its
+    fixed allowance for compiling (which weighs most on so small a grid; the unfixed estimate
+    was 0.37 of it). The slowest test here (a few seconds): the only honest check is a real
+    run's peak."""
     import subprocess
+
+    import tiseg.run.limits as L
 
     from solver_helpers import child_env
 
@@ -249,7 +252,52 @@ def test_the_memory_estimate_covers_the_peak_of_a_run(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     grown, estimate = map(int, out.stdout.split()[-2:])
-    assert grown <= estimate <= 2 * grown, (grown, estimate)
+    # the fixed allowance for compiling (L.OVERHEAD) aside, less than twice what it took
+    assert grown <= estimate <= 2 * grown + L.OVERHEAD, (grown, estimate)
+
+
+_CLI_PEAK = """
+import os, sys
+import tiseg.run.limits as L
+import tiseg.run.simulation as S
+got = {}
+def measure_from_here(layout, nslots, precision):  # where tiseg run checks the memory
+    got["estimate"] = L.memory_needed(layout, nslots, precision)
+    got["before"] = int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    with open("/proc/self/clear_refs", "w") as f:  # the high-water mark from here on
+        f.write("5")
+S.check_memory = measure_from_here
+from tiseg.apps.cli import main
+status = main(["run", "fingers", "--set=domain.resolution=300", "--set=time.t_end=0.01",
+               "--set=output.times=[0.005]", "--set=numerics.precision=f32",
+               "--out", sys.argv[1], "--no-progress", "-q"])
+hwm = [ln for ln in open("/proc/self/status") if ln.startswith("VmHWM:")][0]
+print(status, int(hwm.split()[1]) * 1024 - got["before"], got["estimate"])
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and ru_maxrss in KiB")
+def test_the_memory_estimate_covers_tiseg_run_in_f32(tmp_path):
+    """`tiseg run` in f32 (a snapshot and a checkpoint mid-run), its kernels compiled (an empty
+    kernel cache: the compiler's memory counts), grew 4 % past the estimate at 300 cells/m,
+    4 % at 2000 and 9 % at 1000 (issue 48: some host arrays are float64 in any precision, and
+    compiling takes 120-210 MB); the numbers of the large grids are in tiseg.run.limits. Slow
+    (13 s): the compile is the point."""
+    import subprocess
+
+    from solver_helpers import child_env
+
+    out = subprocess.run(
+        [sys.executable, "-c", _CLI_PEAK, str(tmp_path / "run")],
+        capture_output=True,
+        text=True,
+        env=child_env(TI_OFFLINE_CACHE_FILE_PATH=str(tmp_path / "cache")),
+        timeout=120,
+    )
+    status, grown, estimate = map(int, out.stdout.split()[-3:])
+    assert status == 0, out.stderr
+    assert grown <= estimate, (grown, estimate)
 
 
 # ------------------------------------------------------------------ item 3: nesting

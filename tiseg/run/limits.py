@@ -27,13 +27,18 @@ GB = 1024**3
 #    x slopes, y fluxes, y slopes (TaichiOperator) and the guard's last-good copy;
 #  - the host copy of every slot that reading or writing one slot makes (q.to_numpy());
 #  - HOST_ARRAYS more on the host: the initial state, a slot read back, a snapshot's fields
-#    and the temporaries that compute and write them.
-# Measured: 26.2 arrays in f64, 27.3 in f32 with 6 slots; the estimate counts 28.
+#    and the temporaries that compute and write them. Some of those are float64 whatever the
+#    run's precision (the snapshot's derived fields, the peak fields), so an f32 run counts two
+#    more of its own arrays.
+# Measured with `tiseg run` (a snapshot and a checkpoint mid-run; issue 48), grown RSS over
+# the estimate: f64 2000 cells/m 0.88; f32 1000, 2000, 3000 cells/m 0.84, 0.92, 0.89 (the
+# former estimate: 1.09, 1.04, 0.98 in f32).
 WORK_ARRAYS = 6
-HOST_ARRAYS = 10
-# what the process grows by besides the cell fields after the check (compiling the kernels,
-# the output libraries' buffers): 10-40 MB measured
-OVERHEAD = 64 * 1024**2
+HOST_ARRAYS = {"f64": 10, "f32": 12}
+# what the process grows by besides the cell fields after the check: compiling the kernels
+# (LLVM: 120-210 MB measured when the kernel cache does not have them), the output libraries'
+# buffers
+OVERHEAD = 160 * 1024**2
 
 MEMINFO = Path("/proc/meminfo")
 CGROUP_ROOT = Path("/sys/fs/cgroup")
@@ -47,7 +52,7 @@ def memory_needed(layout, nslots: int, precision: str) -> int:
     value = 8 if precision == "f64" else 4
     state = layout.nc * layout.NX * layout.NY * value
     taichi = (nslots + WORK_ARRAYS) * state
-    host = (nslots + HOST_ARRAYS) * state
+    host = (nslots + HOST_ARRAYS.get(precision, HOST_ARRAYS["f32"])) * state
     return taichi + host + OVERHEAD
 
 

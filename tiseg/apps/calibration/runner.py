@@ -14,7 +14,7 @@ from ...log import stderr_line
 from ...output import write_json_atomic
 from ...output.atomic import remove_stale_temporaries, replacing
 from ...output.paths import refuse_symlinks
-from ..sweep.runner import SWEEP_OUTPUTS
+from ..sweep.runner import SWEEP_OUTPUTS, check_workers
 from ..sweep.spec import _canonical
 from .search import FD_STEP, PENALTY, Evaluator, MemberFailed, best_of, search, uncertainty
 from .spec import Calibration
@@ -108,8 +108,7 @@ def run_calibration(
     this process with that function instead of `tiseg.apps.sweep.execute_run` on Dask."""
     out = Path(out)
     say = echo or (lambda _s: None)
-    if workers is not None and workers < 1:
-        raise InputError(f"--workers={workers}: must be at least 1")
+    check_workers(workers, scheduler)
     if threads_per_task is not None and threads_per_task < 0:
         raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
     if threads_per_task and scheduler is None:

@@ -86,6 +86,24 @@ CALIBRATION_FILE = "calibration.json"
 SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "sample", "times")
 
 
+def check_workers(workers: int | None, scheduler: str | None) -> None:
+    """Refuse a number of local worker processes below 1 or above the cores this process may
+    use: each runs one member with a Taichi runtime of its own (some 300 MB) and at least one
+    thread, so more only share the cores and the memory (a --workers of 10000 started
+    processes until the machine gave out). With --scheduler the cluster's own workers run the
+    members and the number is not used."""
+    if workers is None:
+        return
+    if workers < 1:
+        raise InputError(f"--workers={workers}: must be at least 1")
+    cores = available_cores()
+    if scheduler is None and workers > cores:
+        raise InputError(
+            f"--workers={workers}: this machine offers {cores} core(s) to this process and "
+            f"each worker runs one member on at least one; use at most {cores} (the default)"
+        )
+
+
 def check_sweep_folder(sweep: Sweep, out) -> None:
     """Refuse an ``out`` that holds another sweep (its ``sweep.json`` defines other runs) or a
     table that no sweep.json of tiseg's accounts for: running there would replace the other
@@ -151,8 +169,7 @@ def run_sweep(
     """
     out = Path(out)
     say = echo or (lambda _s: None)
-    if workers is not None and workers < 1:
-        raise InputError(f"--workers={workers}: must be at least 1")
+    check_workers(workers, scheduler)
     if threads_per_task is not None and threads_per_task < 0:
         raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
     if threads_per_task and scheduler is None:
