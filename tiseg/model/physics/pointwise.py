@@ -238,7 +238,7 @@ class Physics:
         return phi
 
     @ti.func
-    def project_friction(self, q, tau, spd0):
+    def project_friction(self, q, tau, spd0, hb):
         """Basal friction over the time tau as a projection of the conserved state q (friction
         scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
         et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h. Where
@@ -254,13 +254,21 @@ class Physics:
         (3.7) gave an impulse too large by O(tau): it slowed steady flows and stopped a layer
         it could not hold when the step was long. Whether a law with hysteresis holds a cell
         at rest is decided once per step, by `holds`; a cell it holds is not projected
-        (the operator keeps it at rest)."""
+        (the operator keeps it at rest).
+
+        ``hb``: the thickness the impulse acts on, tau g cos(zeta) mu_b hb: the one the
+        gravity of the same time acted on (q's own h after an Euler stage; the trapezoidal
+        mean of the thickness before and after a split sweep's fluxes). Friction and gravity
+        are then one source h g (sin(zeta) - cos(zeta) mu_b) integrated alike; with q's h
+        where the sweep's gravity took the mean, a cell that filled during the step felt the
+        friction of its whole new mass against the gravity of half of it, and a front
+        sliding under Coulomb friction lagged (Mangeney et al. 2000: 7 m in 97 m)."""
         r = q
         h = q[0]
         if h >= self.par[Params.H_MIN] and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
             phi = self._phi_of(q, h)
-            imp = tau * self.par[Params.G_COS] * self.mu_b(h, spd0, phi) * h
+            imp = tau * self.par[Params.G_COS] * self.mu_b(h, spd0, phi) * hb
             f = 0.0 * h
             if m > imp:
                 f = 1.0 - imp / m

@@ -130,6 +130,10 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         # (in 1D as well when a viscous sub-step may open the step)
         spd = self.split and self.phys.fr_projected and (not self.is_1d or self.visc)
         self.spd0 = ft.field(self.fp, (NX, NY)) if spd else None
+        # and the thickness the x sweep's gravity acted on, for the friction of a 2D step
+        # whose last sweep is along y (SplitSweeps._sweep_update)
+        hg = self.split and self.phys.fr_projected and not self.is_1d
+        self.hg = ft.field(self.fp, (NX, NY)) if hg else None
         self._rest_stale = True
         # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
         # of such cells far from any moving one then need no work at all, and the active range

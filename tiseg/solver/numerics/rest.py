@@ -150,9 +150,10 @@ class RestRules:
         return out
 
     @ti.func
-    def _project(self, acc, tau, i, j, first: ti.template(), spd0):
+    def _project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
         """The friction projection of a stage's result (Physics.project_friction, with the
-        coefficient at ``spd0``, the speed of the state the stage started from). With a law
+        coefficient at ``spd0``, the speed of the state the stage started from, and the
+        impulse on the thickness ``hb``). With a law
         with hysteresis the static friction decides once per step, on its first stage, which
         of the cells at rest at the step's start it holds (Physics.holds, marked HELD in rest): a
         held cell stays exactly at rest through all the step's stages, every other cell is
@@ -173,9 +174,9 @@ class RestRules:
                 if ti.static(not self.is_1d):
                     out[self.HV] = 0.0
             else:
-                out = self.phys.project_friction(acc, tau, spd0)
+                out = self.phys.project_friction(acc, tau, spd0, hb)
         else:
-            out = self.phys.project_friction(acc, tau, spd0)
+            out = self.phys.project_friction(acc, tau, spd0, hb)
         return out
 
     @staticmethod

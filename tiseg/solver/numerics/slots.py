@@ -197,7 +197,7 @@ class SlotAlgebra:
             if ti.static(limit):
                 acc = self._limit(acc)
                 if ti.static(self.phys.fr_projected):
-                    acc = self._project(acc, tau, i, j, first, spd0)
+                    acc = self._project(acc, tau, i, j, first, spd0, acc[0])
                     acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
                 self.w[i, j] = self._primitive(acc)
             self.q[d, i, j] = acc

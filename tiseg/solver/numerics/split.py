@@ -208,8 +208,8 @@ class SplitSweeps:
                 # the friction of the half step with the gravity it balances: the projection
                 # of each edge over dt/2 at the cell's speed (Physics.project_friction)
                 spd = ph.speed_mag(w0)
-                pW = ph.project_friction(pW, 0.5 * dt, spd)
-                pE = ph.project_friction(pE, 0.5 * dt, spd)
+                pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0])
+                pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0])
             self.ew[i, j] = self._fast_primitive(pW)
             self.ee[i, j] = self._fast_primitive(pE)
 
@@ -393,6 +393,11 @@ class SplitSweeps:
         self.drain[i0, j0] = self.drain[i1, j1]
 
     @ti.func
+    def _wet_h(self, h):
+        """h where gravity acts on it (h >= h_min, as _gravity), else 0."""
+        return ti.select(h >= self.par[Params.H_MIN], h, 0.0)
+
+    @ti.func
     def _gravity(self, h):
         """g sin(zeta) h, zero in films thinner than h_min (as Physics.source without
         friction)."""
@@ -426,6 +431,7 @@ class SplitSweeps:
         last one projects the friction over the whole step at those speeds (RestRules._project,
         where ``hold`` lets a law with hysteresis hold the cells at rest)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        fr = ti.static(first or last)  # (the projected friction)
         a, b = self.act[0], self.act[1]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((a, b), (gy, gy + ny)):
@@ -436,11 +442,20 @@ class SplitSweeps:
             Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
             q0 = self.q[0, i, j]
             upd = -lam * (Fp - Fm)
+            hg = 0.0 * dt  # the mean thickness gravity acted on over the step
             if ti.static(d == 0):
                 # gravity along the slope, h g sin(zeta) (the only source without friction),
                 # by the trapezoidal rule between the cell's h before and after the fluxes
                 upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
+                if ti.static(fr):
+                    hg = 0.5 * (self._wet_h(q0[0]) + self._wet_h(q0[0] + upd[0]))
+                    if ti.static(not last):
+                        self.hg[i, j] = hg  # for the friction of the step's last sweep
+            elif ti.static(last and not first):
+                hg = self.hg[i, j]  # (written by the step's x sweep)
             acc = self._limit(q0 + upd)
+            if ti.static(d == 1 and first and last):
+                hg = acc[0]  # a lone y sweep: no gravity acted, the friction on the cell's h
             if ti.static(first or last):
                 spd0 = 0.0 * dt
                 if ti.static(first):
@@ -450,7 +465,8 @@ class SplitSweeps:
                 else:
                     spd0 = self.spd0[i, j]
                 if ti.static(last):
-                    acc = self._project(acc, dt, i, j, hold, spd0)
+                    # the friction acts on the thickness the gravity acted on
+                    acc = self._project(acc, dt, i, j, hold, spd0, hg)
             self.w[i, j] = self._fast_primitive(acc)
             self.q[0, i, j] = acc
         # the budget: what entered through the domain's faces along d (as _boundary_rates;

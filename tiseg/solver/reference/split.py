@@ -37,6 +37,7 @@ def hancock_sweep(
     limit: bool = True,
     start: np.ndarray | None = None,
     last: bool = True,
+    hbar: np.ndarray | None = None,
 ) -> dict:
     """Advance q (nc, NX, NY), ghost cells included, by one sweep along d (0 = x, 1 = y) over
     dt from time t, in place, with the ghost cells at time t (an inflow's at t + dt/2). Returns what entered through the domain's
@@ -48,7 +49,9 @@ def hancock_sweep(
     With the projected friction: ``start``, the primitives of the step's initial state (its
     rest mask and speeds; by default q's own, as in a step's first sweep), and ``last``, the
     sweep closes the step and projects the friction of the whole step (`hancock_step`
-    runs a step of sweeps)."""
+    runs a step of sweeps) on the thickness the step's gravity acted on: the x sweep's
+    trapezoidal mean, which an x sweep that does not close the step returns as ``"hbar"``
+    for the y sweep that does (its ``hbar``)."""
     c, lay = ref.cfg, ref.lay
     axis = d + 1
     n = q.shape[axis]
@@ -155,11 +158,16 @@ def hancock_sweep(
             return np.where(h >= c.h_min, h * c.g_sin, 0.0)
 
         upd[lay.HU] += 0.5 * dt * (gravity(q[0]) + gravity(q[0] + upd[0]))
+
+        def wet_h(h):
+            return np.where(h >= c.h_min, h, 0.0)
+
+        hbar = 0.5 * (wet_h(q[0]) + wet_h(q[0] + upd[0]))
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
     if last and ref.projected:  # the friction of the whole step, at its initial speeds
-        project_step(ref, q, dt, start)
+        project_step(ref, q, dt, start, None if hbar is None else hbar[ix, iy])
     # boundary amounts: the scaled fluxes through the domain's two faces along d
     lo = Hs[sl(g - 1, g)]
     hi = Hs[sl(g + m - 1, g + m)]
@@ -168,13 +176,23 @@ def hancock_sweep(
     net = (lo - hi)[(slice(None),) + ((slice(None), cross) if d == 0 else (cross, slice(None)))]
     mass = float(dt * net[lay.H].sum() * ds)
     small = float(dt * net[lay.HPHI].sum() * ds) if lay.segregation else 0.0
-    return {"mass": mass, "small_mass": small}
+    out = {"mass": mass, "small_mass": small}
+    if d == 0 and not last:
+        out["hbar"] = hbar
+    return out
 
 
-def project_step(ref: ReferenceOperator, q: np.ndarray, dt: float, start: np.ndarray) -> None:
+def project_step(
+    ref: ReferenceOperator,
+    q: np.ndarray,
+    dt: float,
+    start: np.ndarray,
+    hbar: np.ndarray | None = None,
+) -> None:
     """The friction of a whole split step over dt, in place on q's interior cells, at the
-    speeds of the step's initial primitives ``start``, the cells at rest there held where a
-    law with hysteresis holds them (the last sub-step's projection)."""
+    speeds of the step's initial primitives ``start``, on the interior thicknesses ``hbar``
+    that the step's gravity acted on (q's own where None: no gravity acted), the cells at rest there held where a law with
+    hysteresis holds them (the last sub-step's projection)."""
     lay = ref.lay
     ix, iy = lay.interior()
     still = start[lay.HU] == 0
@@ -182,7 +200,7 @@ def project_step(ref: ReferenceOperator, q: np.ndarray, dt: float, start: np.nda
         still = still & (start[lay.HV] == 0)
     inner_q = q[:, ix, iy]
     held = ref.holds(inner_q, dt, still[ix, iy])
-    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
+    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held, hbar)
     q[:, ix, iy] = inner_q
 
 
@@ -235,16 +253,20 @@ def viscous_substep(
     ref.postprocess(q)
 
 
-def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) -> None:
+def project(
+    ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None, hbar=None
+) -> None:
     """Physics.project_friction over tau, in place on conserved states q, with the friction
     coefficient at the speeds spd0 (ReferenceOperator.project_friction, which takes them
-    from a state); ``held``: cells a law with hysteresis holds at rest."""
+    from a state); ``held``: cells a law with hysteresis holds at rest; ``hbar``: the
+    thickness the impulse acts on (q's own h if None)."""
     c, lay = ref.cfg, ref.lay
     if tau <= 0:
         return
     wet, hs, phi = ref._friction_cells(q)
     m = ref._magnitude(q)
-    imp = tau * c.g_cos * ref.mu_b(hs, spd0, phi) * hs
+    hb = hs if hbar is None else hbar
+    imp = tau * c.g_cos * ref.mu_b(hs, spd0, phi) * hb
     f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
     f = np.where(wet, f, 1.0)
     if held is not None:
@@ -266,9 +288,11 @@ def hancock_step(
         ref.fill_ghosts(q, t)
         start = split_primitives(ref, q)
     out = {"mass": 0.0, "small_mass": 0.0}
+    hbar = None  # the thickness the x sweep's gravity acted on, for a y sweep that closes
     for k, d in enumerate(dirs):
         last = k == len(dirs) - 1
-        b = hancock_sweep(ref, q, t, dt, d, start=start, last=last)
+        b = hancock_sweep(ref, q, t, dt, d, start=start, last=last, hbar=hbar)
+        hbar = b.get("hbar")
         out["mass"] += b["mass"]
         out["small_mass"] += b["small_mass"]
     return out
