@@ -259,7 +259,8 @@ class SplitSweeps:
     @ti.func
     def _sweep_faces(self, d: ti.template(), serial: ti.template()):
         """Numerical fluxes between the predicted edges: the face (m, m + 1) along d at m's
-        index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min."""
+        index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min at rest
+        (TaichiOperator._face_wet)."""
         gy, ny = ti.static(self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         hmin = self.par[Params.H_MIN]
@@ -272,7 +273,7 @@ class SplitSweeps:
         for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.fp, self.nc)
-            if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
+            if self._face_wet(self.w[i, j], self.w[i1, j1], hmin, i, j, i1, j1):
                 wl = self.ee[i, j]
                 wr = self.ew[i1, j1]
                 if ti.static(self.phys.fr_projected):
@@ -393,15 +394,9 @@ class SplitSweeps:
         self.drain[i0, j0] = self.drain[i1, j1]
 
     @ti.func
-    def _wet_h(self, h):
-        """h where gravity acts on it (h >= h_min, as _gravity), else 0."""
-        return ti.select(h >= self.par[Params.H_MIN], h, 0.0)
-
-    @ti.func
     def _gravity(self, h):
-        """g sin(zeta) h, zero in films thinner than h_min (as Physics.source without
-        friction)."""
-        return ti.select(h >= self.par[Params.H_MIN], h * self.par[Params.G_SIN], 0.0)
+        """g sin(zeta) h (Physics.source without friction; films included)."""
+        return h * self.par[Params.G_SIN]
 
     @ti.func
     def _scaled(self, F, th_lo, th_hi):
@@ -431,7 +426,7 @@ class SplitSweeps:
         last one projects the friction over the whole step at those speeds (RestRules._project,
         where ``hold`` lets a law with hysteresis hold the cells at rest)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        fr = ti.static(first or last)  # (the projected friction)
+        fr = ti.static(first or last)  # (the projected friction: a sweep that opens or closes)
         a, b = self.act[0], self.act[1]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((a, b), (gy, gy + ny)):
@@ -440,15 +435,18 @@ class SplitSweeps:
             th = self.drain[i, j]
             Fp = self._scaled(self._face(i, j, d), th, self.drain[ip, jp])
             Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
+            if ti.static(self.phys.fr_projected):
+                Fm, Fp = self._film_faces(Fm, Fp, i, j, im, jm, ip, jp)
             q0 = self.q[0, i, j]
             upd = -lam * (Fp - Fm)
             hg = 0.0 * dt  # the mean thickness gravity acted on over the step
             if ti.static(d == 0):
                 # gravity along the slope, h g sin(zeta) (the only source without friction),
                 # by the trapezoidal rule between the cell's h before and after the fluxes
-                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
+                h1 = q0[0] + upd[0]
+                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(h1))
                 if ti.static(fr):
-                    hg = 0.5 * (self._wet_h(q0[0]) + self._wet_h(q0[0] + upd[0]))
+                    hg = 0.5 * (q0[0] + h1)
                     if ti.static(not last):
                         self.hg[i, j] = hg  # for the friction of the step's last sweep
             elif ti.static(last and not first):

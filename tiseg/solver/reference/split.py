@@ -63,7 +63,7 @@ def hancock_sweep(
 
     if start is None:
         ref.fill_ghosts(q, t)
-        start = split_primitives(ref, q)
+        start = ref.rest_view(split_primitives(ref, q), t)
     # an inflow's ghost cells at mid-step (SplitSweeps.sweep)
     t = t + 0.5 * dt if c.bc[0] == "inflow" else t
     ref.fill_ghosts(q, t)
@@ -97,7 +97,7 @@ def hancock_sweep(
         project(ref, pE, 0.5 * dt, spd)
     eW = split_primitives(ref, np.where(bad, qW, pW))
     eE = split_primitives(ref, np.where(bad, qE, pE))
-    # the face (m, m + 1) at index m; zero between films thinner than h_min
+    # the face (m, m + 1) at index m; zero between films thinner than h_min at rest
     H = np.zeros_like(q)
     wl, wr = eE[sl(0, n - 1)], eW[sl(1, n)]
     if ref.projected:  # two cells at rest at the step's start meet with no velocity
@@ -118,7 +118,7 @@ def hancock_sweep(
         H[sl(0, n - 1)] = Hf
     h = w[0]
     dry = np.zeros(h.shape, dtype=bool)
-    dry[sl(0, n - 1)[1:]] = np.maximum(h[sl(0, n - 1)[1:]], h[sl(1, n)[1:]]) < c.h_min
+    dry[sl(0, n - 1)[1:]] = ref.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])
     H = np.where(dry[None], 0.0, H)
     # the draining factor of the cells updated (interior along d), 1 elsewhere
     g = lay.gx if d == 0 else lay.gy
@@ -151,18 +151,16 @@ def hancock_sweep(
     ix, iy = lay.interior()
     Hsm = np.zeros_like(Hs)
     Hsm[sl(1, n)] = Hs[sl(0, n - 1)]
+    if ref.projected:  # no momentum into a resting film from a resting neighbour
+        cells = sl(1, n - 1)
+        Hsm[cells], Hs[cells] = ref.film_faces(
+            Hsm[cells], Hs[cells], start, cells[1:], sl(0, n - 2)[1:], sl(2, n)[1:]
+        )
     upd = -lam * (Hs - Hsm)
     if d == 0:  # g sin(zeta) h by the trapezoidal rule (the source without friction)
-
-        def gravity(h):
-            return np.where(h >= c.h_min, h * c.g_sin, 0.0)
-
-        upd[lay.HU] += 0.5 * dt * (gravity(q[0]) + gravity(q[0] + upd[0]))
-
-        def wet_h(h):
-            return np.where(h >= c.h_min, h, 0.0)
-
-        hbar = 0.5 * (wet_h(q[0]) + wet_h(q[0] + upd[0]))
+        h1 = q[0] + upd[0]
+        upd[lay.HU] += 0.5 * dt * (q[0] * c.g_sin + h1 * c.g_sin)
+        hbar = 0.5 * (q[0] + h1)
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
@@ -253,9 +251,7 @@ def viscous_substep(
     ref.postprocess(q)
 
 
-def project(
-    ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None, hbar=None
-) -> None:
+def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None, hbar=None) -> None:
     """Physics.project_friction over tau, in place on conserved states q, with the friction
     coefficient at the speeds spd0 (ReferenceOperator.project_friction, which takes them
     from a state); ``held``: cells a law with hysteresis holds at rest; ``hbar``: the
@@ -263,10 +259,10 @@ def project(
     c, lay = ref.cfg, ref.lay
     if tau <= 0:
         return
-    wet, hs, phi = ref._friction_cells(q)
+    wet, hs, hmu, phi = ref._friction_cells(q)
     m = ref._magnitude(q)
     hb = hs if hbar is None else hbar
-    imp = tau * c.g_cos * ref.mu_b(hs, spd0, phi) * hb
+    imp = tau * c.g_cos * ref.mu_b(hmu, spd0, phi) * hb
     f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
     f = np.where(wet, f, 1.0)
     if held is not None:
@@ -286,7 +282,7 @@ def hancock_step(
     projecting the friction. Returns the summed budget."""
     if start is None:
         ref.fill_ghosts(q, t)
-        start = split_primitives(ref, q)
+        start = ref.rest_view(split_primitives(ref, q), t)
     out = {"mass": 0.0, "small_mass": 0.0}
     hbar = None  # the thickness the x sweep's gravity acted on, for a y sweep that closes
     for k, d in enumerate(dirs):
@@ -310,7 +306,7 @@ def hancock_pair(
     half = 0.5 * dt
     out = hancock_step(ref, q, t, half, dirs)
     ref.fill_ghosts(q, t)
-    start = split_primitives(ref, q)
+    start = ref.rest_view(split_primitives(ref, q), t)
     viscous_substep(ref, q, t, dt, visc_stages)
     back = hancock_step(ref, q, t + half, half, list(dirs)[::-1], start=start)
     return {k: out[k] + back[k] for k in out}
