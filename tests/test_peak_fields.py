@@ -122,10 +122,10 @@ def test_sparse_output_gives_the_arrival_of_dense_output(ti_cpu, tmp_path):
 def test_dry_dam_break_arrival_follows_the_front(ti_cpu):
     """Onto the dry bed the arrival time grows downstream, and the wet front of every step
     state (the furthest cell with h >= h_min, x_f^+ of (6.10)) is exactly the furthest cell
-    that arrival_time says was reached by then. The front runs slower than the h = h_min
-    point of Ritter's solution, x0 + (2 c0 - 3 sqrt(g h_min)) t, because the fluxes vanish
-    between films thinner than h_min (section 6.2); measured 0.76 of its speed at 150 to 600
-    cells, and far below Ritter's tip 2 c0."""
+    that arrival_time says was reached by then. The front runs at the speed of the h = h_min
+    point of Ritter's solution, x0 + (2 c0 - 3 sqrt(g h_min)) t, within 5 % at 300 cells
+    (films thinner than h_min flow in the split sweeps; when they did not, it ran at 0.76 of
+    that speed at 150 to 600 cells), and below Ritter's tip 2 c0."""
     sim = Simulation.from_scene("dam-break", {**DAM, "domain.nx": 300})
     states = _record_steps(sim)
     sim.run(progress=False)
@@ -144,7 +144,7 @@ def test_dry_dam_break_arrival_follows_the_front(ti_cpu):
     speed = np.polyfit(arrival[late], x[late], 1)[0]
     c0 = math.sqrt(sc.material.g * sc.initial.h_left)
     contour = 2 * c0 - 3 * math.sqrt(sc.material.g * h_min)
-    assert 0.65 * contour < speed < contour < 2 * c0
+    assert abs(speed / contour - 1) < 0.05 and speed < 2 * c0, (speed, contour)
 
 
 @pytest.mark.slow  # a long regression run: CI runs it in the slow set

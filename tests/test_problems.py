@@ -21,7 +21,18 @@ from tiseg.post.problems import (
 )
 from tiseg.post.problems.reader import problem_from_dict
 
-STUDY = ["transport", "ritter", "growth", "fingers", "fingers-late", "channel", "channel-speed"]
+STUDY = [
+    "transport",
+    "ritter",
+    "growth",
+    "fingers",
+    "fingers-late",
+    "channel",
+    "channel-speed",
+    "mangeney",
+    "parabolic-cap",
+    "sliding-layer",
+]
 
 
 def test_every_shipped_problem_loads_and_builds_its_scene():

@@ -67,9 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..solver.numerics.config import config_from_scene
 from ..model.physics.viscosity import VISCOSITY
-from ..model.physics.friction import FRICTION_LAWS
 from ..solver.timestepping import stepper_for
 
 # Flow-model constants (see the module docstring for where they come from).
@@ -210,8 +208,9 @@ def flow_model(scene) -> FlowModel:
         # front speed: 2 c at the tip of a dry-bed rarefaction, less where h < h_min is cut off
         tip = max(c, 2.0 * c - 2.0 * math.sqrt(gc * scene.numerics.h_min))
         # the least friction the law can give
-        mu = FRICTION_LAWS[scene.effects.friction].least_mu(config_from_scene(scene).fric)
-        acc = max(0.0, m.g * (math.sin(m.zeta) - mu * math.cos(m.zeta)))
+        from ..run.simulation import largest_acceleration  # (the step limit's, too)
+
+        acc = largest_acceleration(scene)
 
         def ax(t):
             return tip + acc * t
@@ -268,10 +267,11 @@ def spectral_radii(scene, model: FlowModel, t: float) -> tuple[float, float, flo
 
 def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = None) -> dict:
     """Steps, operator evaluations and the per-step (t, dt, stages, active cells) of a run."""
-    from ..run.simulation import ACTIVE_MARGIN, step_limits
+    from ..run.simulation import ACTIVE_MARGIN, gravity_step, step_limits
 
     model = model or flow_model(scene)
     num = scene.numerics
+    dt_gravity = gravity_step(scene)
     # (with viscosity a split step adds its viscous stages, counted as the run counts them)
     stepper = stepper_for(num, is_1d=scene.is_1d, viscous=bool(scene.viscous))
     t_end = scene.t_end if t_end is None else t_end
@@ -294,7 +294,7 @@ def predict_steps(scene, model: FlowModel | None = None, t_end: float | None = N
         for a, b in zip(edges[:-1], edges[1:]):
             tm = 0.5 * (a + b)
             ax, ay, rv, rf = spectral_radii(scene, model, tm)
-            dt_cfl, rho = step_limits(ax, ay, max(rv, rf), scene)
+            dt_cfl, rho = step_limits(ax, ay, max(rv, rf), scene, None, dt_gravity)
             if not math.isfinite(dt_cfl) and rho == 0:
                 dt_cfl = b - a
             if stepper.split:  # the viscous sub-step's stages follow the viscous stiffness

@@ -145,6 +145,15 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
     elif ini.kind == "layer":
         h[:] = ini.layer_h
         phi[:] = ini.phi if ini.phi is not None else fl.phi0
+    elif ini.kind == "cap":
+        # exact cell averages of the parabola: h (1 - s^2) integrated over each cell's part
+        # inside |s| < 1, s = (x - x0) / half_width
+        a = ini.half_width
+        lo = np.clip((X - 0.5 * scene.dx - ini.x0) / a, -1.0, 1.0)
+        hi = np.clip((X + 0.5 * scene.dx - ini.x0) / a, -1.0, 1.0)
+        h[:] = ini.h * a * ((hi - hi**3 / 3) - (lo - lo**3 / 3)) / scene.dx
+        u[:] = np.where(h > 0, ini.u, 0.0)
+        phi[:] = ini.phi if ini.phi is not None else fl.phi0
     else:  # pragma: no cover - the scene validator allows only the kinds above
         raise InputError(f"initial.kind={ini.kind!r} is not known")
     phi = np.clip(phi, 0.0, 1.0)

@@ -37,7 +37,7 @@ OUTPUT_PRECISIONS = ("f8", "f4")
 PRECISIONS = ("f64", "f32")
 RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
 PERTURBATION_MODES = ("eigen", "h", "phi", "noise", "h-noise")
-INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel", "layer")
+INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel", "layer", "cap")
 
 
 # ---- the friction laws' constants ---------------------------------------------------------------
@@ -404,6 +404,9 @@ class InitialConfig:
     * layer: a uniform static layer of thickness ``layer_h`` and concentration ``phi`` at rest
       on the whole slope, the erodible bed of erosion-deposition waves (Edwards & Gray 2015);
       under the extended friction law it is held at rest for h_stop < layer_h < h_start.
+    * cap: a parabolic cap h = h (1 - ((x - x0) / half_width)^2) sliding downslope at ``u``,
+      uniform across the slope, concentration ``phi``: the start of the similarity solution
+      of Savage & Hutter (1991) (`tiseg.model.exact_friction.ParabolicCap`).
 
     The fields are in the order each kind lists its keys; ``kinds`` says which kinds use a key.
     """
@@ -437,7 +440,8 @@ class InitialConfig:
     )
     # a release block starts at x0 >= 0, a dam lies inside (0, Lx): validators.read_initial
     x0: float | None = _ini(
-        "dam-break: dam position; release: block start [m]", ("dam-break", "release")
+        "dam-break: dam position; release: block start; cap: centre [m]",
+        ("dam-break", "release", "cap"),
     )
     h_left: float | None = _ini(
         "dam-break: thickness upslope of x0 [m]", ("dam-break",), _h0, nonneg=True
@@ -460,17 +464,21 @@ class InitialConfig:
         "channel: concentration in the levees (default 0)", ("channel",), 0.0, lo=0.0, hi=1.0
     )
     h: float | None = _ini(
-        "release, channel: thickness [m] (default flow.h0)",
-        ("release", "channel"),
+        "release, channel: thickness; cap: thickness at the centre [m] (default flow.h0)",
+        ("release", "channel", "cap"),
         _h0,
         positive=True,
     )
+    half_width: float | None = _ini(
+        "cap: half the cap's downslope length [m]", ("cap",), positive=True
+    )
+    u: float | None = _ini("cap: downslope speed at the start [m/s]", ("cap",), 0.0, nonneg=True)
     layer_h: float | None = _ini(
         "layer: thickness of the static layer [m]", ("layer",), positive=True
     )
     phi: float | None = _ini(
-        "dam-break, release, layer: concentration (default flow.phi0)",
-        ("dam-break", "release", "layer"),
+        "dam-break, release, layer, cap: concentration (default flow.phi0)",
+        ("dam-break", "release", "layer", "cap"),
         _phi0,
         lo=0.0,
         hi=1.0,

@@ -432,6 +432,14 @@ def read_initial(
         )
     elif kind == "layer":
         _check_layer(v["layer_h"], v["phi"], effects, material or Material())
+    elif kind == "cap":
+        x0, a = v["x0"], v["half_width"]
+        require(
+            a <= x0 <= domain.Lx - a,
+            "initial.x0",
+            x0,
+            f"the cap [x0 - half_width, x0 + half_width] must lie in [0, Lx={domain.Lx!r}]",
+        )
     else:  # release: a block of material at rest
         x0, x1, y0, y1 = v["x0"], v["x1"], v["y0"], v["y1"]
         require(x0 >= 0.0, "initial.x0", t.get("x0"), "must be >= 0")

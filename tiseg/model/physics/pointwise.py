@@ -82,6 +82,10 @@ class Physics:
         self.feedback = cfg.feedback and lay.segregation and self.law.weighted
         # friction as a projection after each stage (project_friction) instead of a source
         self.fr_projected = cfg.friction_projected
+        # films thinner than h_min flow (gravity, friction, momentum) in the split sweeps,
+        # whose draining factors keep every cell's h >= 0; the unsplit scheme keeps the
+        # paper's cut-off (section 6.2), see `acts`
+        self.films = bool(cfg.split)
         self.fr_source = not self.fr_none and not self.fr_projected
 
     @ti.func
@@ -191,20 +195,45 @@ class Physics:
         return s
 
     @ti.func
+    def acts(self, h):
+        """Whether the sources and the friction act on a cell of thickness h: wherever there
+        is material in the split sweeps (films flow), only where h >= h_min in the unsplit
+        scheme. There the paper's cut-off stays: RKC's stages are not positivity
+        preserving, and films that moved under them were emptied below zero, the clip then
+        creating mass (3e-6 of a finite release's in ten steps)."""
+        out = h >= self.par[Params.H_MIN]
+        if ti.static(self.films):
+            out = h > 0.0
+        return out
+
+    @ti.func
+    def film_h(self, h):
+        """The thickness a friction law is evaluated at: h, or h_min in a film thinner than
+        that (the laws' thickness dependence (3.7) describes layers many grains deep, and
+        0 / 0 at h = 0 is avoided)."""
+        return ti.max(h, self.par[Params.H_MIN])
+
+    @ti.func
     def source(self, w):
         """g h S of (6.4): gravity along the slope and basal friction opposing the motion, with
-        u/|u| regularised as u / max(|u|, u_eps); zero in films thinner than h_min. With the
-        projected friction scheme the friction is left to project_friction."""
+        u/|u| regularised as u / max(|u|, u_eps). With the projected friction scheme the
+        friction is left to project_friction.
+
+        In the split sweeps it acts in films thinner than h_min as well (`acts`): a film is
+        flow, whose momentum the stage limiter keeps. Cutting the film's source and momentum
+        off (the paper's h_min rule, section 6.2) made every front thin to h_min before it
+        could advance: fronts ran a quarter slow at h_min / h0 = 1/30 (docs/verification.md,
+        "Fronts")."""
         h = w[0]
         s = ti.Vector.zero(float, self.nc)
-        if h >= self.par[Params.H_MIN]:
+        if self.acts(h):
             s[1] = h * self.par[Params.G_SIN]
             if ti.static(self.fr_source):
                 spd = self.speed_mag(w)
                 phi = self.par[Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
-                mu = self.mu_b(ti.max(h, self.par[Params.H_MIN]), spd, phi)
+                mu = self.mu_b(self.film_h(h), spd, phi)
                 inv = 1.0 / ti.max(spd, self.par[Params.U_EPS])
                 s[1] = h * (self.par[Params.G_SIN] - self.par[Params.G_COS] * mu * w[1] * inv)
                 if ti.static(not self.is_1d):
@@ -218,14 +247,14 @@ class Physics:
         r = 0.0 * w[0]
         if ti.static(self.fr_source):
             h = w[0]
-            if h >= self.par[Params.H_MIN]:
+            if self.acts(h):
                 spd = self.speed_mag(w)
                 phi = self.par[Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
                 r = (
                     self.par[Params.G_COS]
-                    * self.mu_b(h, spd, phi)
+                    * self.mu_b(self.film_h(h), spd, phi)
                     / ti.max(spd, self.par[Params.U_EPS])
                 )
         return r
@@ -238,7 +267,7 @@ class Physics:
         return phi
 
     @ti.func
-    def project_friction(self, q, tau, spd0):
+    def project_friction(self, q, tau, spd0, hb):
         """Basal friction over the time tau as a projection of the conserved state q (friction
         scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
         et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h. Where
@@ -254,13 +283,25 @@ class Physics:
         (3.7) gave an impulse too large by O(tau): it slowed steady flows and stopped a layer
         it could not hold when the step was long. Whether a law with hysteresis holds a cell
         at rest is decided once per step, by `holds`; a cell it holds is not projected
-        (the operator keeps it at rest)."""
+        (the operator keeps it at rest).
+
+        ``hb``: the thickness the impulse acts on, tau g cos(zeta) mu_b hb: the one the
+        gravity of the same time acted on (q's own h after an Euler stage; the trapezoidal
+        mean of the thickness before and after a split sweep's fluxes). Friction and gravity
+        are then one source h g (sin(zeta) - cos(zeta) mu_b) integrated alike; with q's h
+        where the sweep's gravity took the mean, a cell that filled during the step felt the
+        friction of its whole new mass against the gravity of half of it, and a front
+        sliding under Coulomb friction lagged (Mangeney et al. 2000: 8 m in 97 m).
+
+        In the split sweeps films thinner than h_min are projected too (they move: see
+        `source`), with the coefficient of a layer h_min thick, as the source takes it
+        (`film_h`)."""
         r = q
         h = q[0]
-        if h >= self.par[Params.H_MIN] and tau > 0:
+        if self.acts(h) and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
             phi = self._phi_of(q, h)
-            imp = tau * self.par[Params.G_COS] * self.mu_b(h, spd0, phi) * h
+            imp = tau * self.par[Params.G_COS] * self.mu_b(self.film_h(h), spd0, phi) * hb
             f = 0.0 * h
             if m > imp:
                 f = 1.0 - imp / m
@@ -279,11 +320,13 @@ class Physics:
         a test of the initial state alone, whatever the step length, the stepper or its
         stage count. A held cell stays exactly at rest for the whole step; one that is not
         held starts and feels the friction of project_friction (at rest, the law's
-        coefficient at zero speed: mu_S(h) for the extended law)."""
+        coefficient at zero speed: mu_S(h) for the extended law). A film is held as a layer
+        h_min thick would be (`film_h`)."""
         r = 0
         h = q[0]
-        if h >= self.par[Params.H_MIN] and tau > 0:
+        if self.acts(h) and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
-            if m <= tau * self.par[Params.G_COS] * self.mu_start(h, self._phi_of(q, h)) * h:
+            mu = self.mu_start(self.film_h(h), self._phi_of(q, h))
+            if m <= tau * self.par[Params.G_COS] * mu * h:
                 r = 1
         return r

@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from ...model.exact_dambreak import cell_averages, ritter, stoker
+from ...model.exact_friction import ParabolicCap, coulomb_dam_break, sliding_layer
 from ...setup.initial import channel_fraction, eigenmode
 from .steady_channel import channel_profile
 
@@ -73,6 +74,48 @@ def _dam_break(scene):
     return cell_averages(lambda p: stoker(p, t, ini.h_left, ini.h_right, ini.x0)[0], x, scene.dx)
 
 
+def _friction_angles(scene):
+    """(zeta, delta) [rad] of a scene with Coulomb friction (effects.coulomb_mu = tan delta)."""
+    if scene.effects.friction != "coulomb":
+        raise ValueError("the exact solutions with friction need effects.friction = 'coulomb'")
+    return math.radians(scene.material.zeta_deg), math.atan(scene.effects.coulomb_mu)
+
+
+def _coulomb_dam_break(scene):
+    """Cell averages of h at t_end of the dam break with Coulomb friction (Mangeney et al.
+    2000): the scene's initial.x0 and h_left onto a dry bed, its slope and coulomb_mu."""
+    ini = scene.initial
+    zeta, delta = _friction_angles(scene)
+    x, _ = scene.domain.cell_centres()
+    g = scene.material.g
+    return cell_averages(
+        lambda p: coulomb_dam_break(p, scene.t_end, ini.h_left, zeta, delta, ini.x0, g)[0],
+        x,
+        scene.dx,
+    )
+
+
+def _sliding_layer(scene):
+    """u at t_end of the scene's uniform layer (flow.h0, flow.u0) sliding under Coulomb
+    friction, in every cell: u0 + m t until it stops, then 0."""
+    zeta, delta = _friction_angles(scene)
+    u, _ = sliding_layer(scene.t_end, scene.flow.u0, zeta, delta, scene.material.g)
+    x, _ = scene.domain.cell_centres()
+    return np.full(len(x), float(u))
+
+
+def _parabolic_cap(scene):
+    """Cell averages of h at t_end of the parabolic cap (initial.kind = "cap") sliding under
+    Coulomb friction (Savage & Hutter 1991's similarity solution)."""
+    ini = scene.initial
+    zeta, delta = _friction_angles(scene)
+    cap = ParabolicCap(ini.x0, ini.half_width, ini.h, ini.u, zeta, delta, scene.material.g)
+    if not cap.valid_until(scene.t_end):
+        raise ValueError("the cap's rear margin turns back before t_end: no closed form there")
+    x, _ = scene.domain.cell_centres()
+    return cell_averages(lambda p: cap(p, scene.t_end)[0], x, scene.dx, 32)
+
+
 def _linear_growth_rate(scene):
     """sigma = Re(lambda) u0 / h0 [1/s] of the scene's most unstable mode, (5.19)-(5.21)."""
     lam, _ = eigenmode(scene)
@@ -120,6 +163,27 @@ SOLUTIONS: dict[str, Solution] = {
             FIELD,
             {},
             _dam_break,
+        ),
+        Solution(
+            "coulomb-dam-break",
+            "h of the dam break onto a dry slope with Coulomb friction (Mangeney et al. 2000)",
+            FIELD,
+            {},
+            _coulomb_dam_break,
+        ),
+        Solution(
+            "sliding-layer",
+            "u of a uniform layer sliding under Coulomb friction until it stops",
+            FIELD,
+            {},
+            _sliding_layer,
+        ),
+        Solution(
+            "parabolic-cap",
+            "h of a parabolic cap sliding under Coulomb friction (Savage & Hutter 1991)",
+            FIELD,
+            {},
+            _parabolic_cap,
         ),
         Solution(
             "linear-growth-rate",

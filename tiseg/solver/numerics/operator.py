@@ -130,6 +130,10 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
         # (in 1D as well when a viscous sub-step may open the step)
         spd = self.split and self.phys.fr_projected and (not self.is_1d or self.visc)
         self.spd0 = ft.field(self.fp, (NX, NY)) if spd else None
+        # and the thickness the x sweep's gravity acted on, for the friction of a 2D step
+        # whose last sweep is along y (SplitSweeps._sweep_update)
+        hg = self.split and self.phys.fr_projected and not self.is_1d
+        self.hg = ft.field(self.fp, (NX, NY)) if hg else None
         self._rest_stale = True
         # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
         # of such cells far from any moving one then need no work at all, and the active range
@@ -375,12 +379,29 @@ class TaichiOperator(SlotAlgebra, RestRules, SplitSweeps):
     def _face_wet(self, w0, w1, hmin, i0, j0, i1, j1):
         """Whether the face between cells (i0, j0) and (i1, j1), primitives w0 and w1, carries
         a convective flux: one of the cells is at least h_min thick; with the projected
-        friction also where one of them was at the step's start (RestRules._wet_at_start)."""
+        friction also where one of them was at the step's start (RestRules._wet_at_start).
+        In the split sweeps also where one is a film (thinner) that moves, or with the
+        projected friction moved at the step's start (RestRules._live_at_start). So no mass
+        moves between two films at rest (a dry bed stays dry), while a film that flows
+        carries its mass on: a front thins as the exact one does instead of waiting at h_min
+        in each cell it enters (Physics.acts)."""
         wet = ti.max(w0[0], w1[0]) >= hmin
-        if ti.static(self.phys.fr_projected):
-            if not wet:
+        if not wet:
+            if ti.static(self.phys.fr_projected and self.phys.films):
+                wet = self._live_at_start(i0, j0, i1, j1)
+            elif ti.static(self.phys.fr_projected):
                 wet = self._wet_at_start(i0, j0, i1, j1)
+            elif ti.static(self.phys.films):
+                wet = self._moving(w0) or self._moving(w1)
         return wet
+
+    @ti.func
+    def _moving(self, w):
+        """Whether primitives w have a velocity."""
+        out = w[1] != 0.0
+        if ti.static(not self.is_1d):
+            out = out or w[self.HV] != 0.0
+        return out
 
     @ti.func
     def _x_face(self, i, j):

@@ -11,8 +11,8 @@ bitwise:
   `RestRules._mark_rest`;
 * the face rules (`RestRules._rest_face`): no mass between two cells at rest, and at least
   the upwind cell's outrunning flux where it moves into a slower neighbour; and a face next
-  to a cell that was wet at the step's start keeps its flux through all the step's stages
-  (`RestRules._wet_at_start`);
+  to a cell that was wet or moving at the step's start keeps its flux through all the
+  step's stages (`RestRules._live_at_start`);
 * the projection of a limited stage (`RestRules._project`) and the exact rest of
   `RestRules._keep_rest`;
 * the skipping of quiescent regions (`RestRules._quiescent`, the wet scan
@@ -31,7 +31,7 @@ from .ranges import piece_at, piece_count
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
 X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
-WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: _wet_at_start)
+WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: _live_at_start)
 
 
 @ti.data_oriented
@@ -67,22 +67,60 @@ class RestRules:
                         flag |= Y_NEG
             if w[0] >= hmin:
                 flag |= WET
+            if ti.static(self.bcs[0].prescribed):
+                flag = self._inlet_moves(flag, i, j)
             self.rest[i, j] = ti.cast(flag, ti.i8)
+
+    @ti.func
+    def _inlet_moves(self, flag, i, j):
+        """A running inflow's ghost cells move downslope (X_POS), whatever thickness its ramp
+        (6.8) starts the step with: at h_in = 0 they had u = 0 and counted as at rest, so the
+        inlet face of a step starting then carried no mass for the whole step, though the
+        ghosts hold the inflow of the step's middle (the first step of every run with a
+        ramped inflow admitted nothing, and a one-step run nothing at all)."""
+        out = flag
+        lo, hi = ti.static(self._inlet_row_range())
+        if i < self.gx and lo <= j < hi:
+            if self.par[Params.IN_ON] > 0.5 and self.par[Params.IN_U] > 0.0:
+                out = (flag & ~REST) | X_POS
+        return out
+
+    def _inlet_row_range(self) -> tuple[int, int]:
+        """The array rows [lo, hi) of the inlet's ghost cells (inflow.width, inflow.y0)."""
+        rows = self.cfg.inflow_rows
+        lo, hi = (0, self.ny) if rows is None else rows
+        return self.gy + lo, self.gy + hi
 
     @ti.func
     def _wet_at_start(self, i0, j0, i1, j1):
         """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) at the step's start: their
         face then carries its flux in every stage of the step, even where both cells have
-        thinned below h_min since (_x_face, _y_face), so that the step's rates are one smooth
+        thinned below h_min since (_face_wet), so that the step's rates are one smooth
         function, as for the rest rules (_rest_face). Switched off mid-step, the face's flux
+        stayed in the rate of the step's start only, which RKC's last stage weighs with a
+        negative coefficient (about -1.6 dt at 2 stages): a thin cell fed through that face
+        was emptied below zero, and the stage limiter's clip to h = 0 then created mass (a
+        relative 1e-6 in one step at the margin of a flow spreading from a narrow inlet, the
+        levees scene at 150 cells/m). A face that becomes wet mid-step switches on as before."""
+        r = ti.cast(self.rest[i0, j0], ti.i32) | ti.cast(self.rest[i1, j1], ti.i32)
+        return (r & WET) != 0
+
+    @ti.func
+    def _live_at_start(self, i0, j0, i1, j1):
+        """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) or moving (a film with a
+        velocity) at the step's start: their face then carries its flux in every stage of the
+        step, even where both cells are films now (_face_wet, the split sweeps, whose films
+        flow), as _wet_at_start. Between two films at rest no mass moves: a dry bed stays
+        dry, and the film a flow leaves behind stays put where the friction stopped it. Switched off mid-step, the face's flux
         stayed in the rate of the step's start only, which RKC's last stage weighs with a
         negative coefficient (about -1.6 dt at 2 stages): a thin cell fed through that face
         was emptied below zero, and the stage limiter's clip to h = 0 then created mass
         (a relative 1e-6 in one step at the margin of a flow spreading from a narrow
         inlet, the levees scene at 150 cells/m). A face that becomes wet mid-step switches on
         as before."""
-        r = ti.cast(self.rest[i0, j0], ti.i32) | ti.cast(self.rest[i1, j1], ti.i32)
-        return (r & WET) != 0
+        r0 = ti.cast(self.rest[i0, j0], ti.i32)
+        r1 = ti.cast(self.rest[i1, j1], ti.i32)
+        return ((r0 | r1) & WET) != 0 or ((r0 & r1) & REST) == 0
 
     @ti.func
     def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
@@ -130,6 +168,31 @@ class RestRules:
         return out
 
     @ti.func
+    def _film_faces(self, Fm, Fp, i, j, im, jm, ip, jp):
+        """The fluxes through the low (Fm) and high (Fp) face of cell (i, j) along one
+        direction as that cell takes them: a film (thinner than h_min) at rest at the step's
+        start takes no momentum through a face to a neighbour at rest. No mass crosses such a
+        face (_rest_face), but its momentum flux, the pressure of the neighbour, stays for the
+        neighbour's friction hold to see; a film, with next to no mass to carry it, was given
+        speeds of km/s by it. The neighbour still feels it (the cells' friction projections
+        already take momentum out of the books)."""
+        r = ti.cast(self.rest[i, j], ti.i32)
+        if (r & REST) != 0 and (r & WET) == 0:
+            if (ti.cast(self.rest[im, jm], ti.i32) & REST) != 0:
+                Fm = self._no_momentum(Fm)
+            if (ti.cast(self.rest[ip, jp], ti.i32) & REST) != 0:
+                Fp = self._no_momentum(Fp)
+        return Fm, Fp
+
+    @ti.func
+    def _no_momentum(self, F):
+        out = F
+        out[1] = 0.0
+        if ti.static(not self.is_1d):
+            out[self.HV] = 0.0
+        return out
+
+    @ti.func
     def _flux_floor(self, F, wu, wd, d: ti.template(), s: ti.template()):
         """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
         the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
@@ -150,9 +213,10 @@ class RestRules:
         return out
 
     @ti.func
-    def _project(self, acc, tau, i, j, first: ti.template(), spd0):
+    def _project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
         """The friction projection of a stage's result (Physics.project_friction, with the
-        coefficient at ``spd0``, the speed of the state the stage started from). With a law
+        coefficient at ``spd0``, the speed of the state the stage started from, and the
+        impulse on the thickness ``hb``). With a law
         with hysteresis the static friction decides once per step, on its first stage, which
         of the cells at rest at the step's start it holds (Physics.holds, marked HELD in rest): a
         held cell stays exactly at rest through all the step's stages, every other cell is
@@ -173,9 +237,9 @@ class RestRules:
                 if ti.static(not self.is_1d):
                     out[self.HV] = 0.0
             else:
-                out = self.phys.project_friction(acc, tau, spd0)
+                out = self.phys.project_friction(acc, tau, spd0, hb)
         else:
-            out = self.phys.project_friction(acc, tau, spd0)
+            out = self.phys.project_friction(acc, tau, spd0, hb)
         return out
 
     @staticmethod
@@ -241,8 +305,8 @@ class RestRules:
     @ti.kernel
     def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(4, ti.i32):
         """Ghost cells of slot s, then the smallest and largest x index (ghosts included) of a
-        cell with h >= h_min, and of a live cell (see _quiescent), returned (one launch, no
-        field read-back).
+        cell with h >= h_min or a moving film (`_live`), and of a live cell (see _quiescent),
+        returned (one launch, no field read-back).
 
         Only the x range [wa - 3, wb + 3) around the wet range is scanned for wet cells: every
         cell outside it is a dry film (the wet range is the wet extent plus a margin, and a
@@ -276,7 +340,7 @@ class RestRules:
                 if i < hi:
                     scan_live = llo <= i < lhi
                     for j in range(j0, j1):
-                        if self.q[s, i, j][0] >= hmin:
+                        if self._live(self.q[s, i, j], hmin):
                             first = ti.min(first, i)
                             last = ti.max(last, i)
                         if ti.static(self.skip_rest):
@@ -301,7 +365,7 @@ class RestRules:
     def _quiescent(self, s, i, j, hmin):
         """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
         next one as well if nothing within the step's reach has changed: it was at rest at
-        the step's start, the static friction held it (HELD) or it is a dry film, and its four
+        the step's start, the static friction held it (HELD) or it is dry (_dry_film), and its four
         neighbours were at rest too. No mass then crossed its faces (_rest_face), so
         _keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
         friction holds a cell does not depend on the step length (Physics.holds), so the same
@@ -311,7 +375,7 @@ class RestRules:
         r = ti.cast(self.rest[i, j], ti.i32)
         q = 0
         if (r & REST) != 0:
-            if (r & HELD) != 0 or self.q[s, i, j][0] < hmin:
+            if (r & HELD) != 0 or self._dry_film(self.q[s, i, j][0], hmin):
                 nb = ti.cast(self.rest[i - 1, j], ti.i32) & ti.cast(self.rest[i + 1, j], ti.i32)
                 if ti.static(not self.is_1d):
                     nb &= ti.cast(self.rest[i, j - 1], ti.i32)
@@ -319,6 +383,25 @@ class RestRules:
                 if (nb & REST) != 0:
                     q = 1
         return q
+
+    @ti.func
+    def _dry_film(self, h, hmin):
+        """A cell that no source acts on: h = 0, or thinner than h_min where films do not
+        flow (the unsplit scheme: Physics.acts)."""
+        out = h == 0.0
+        if ti.static(not self.phys.films):
+            out = h < hmin
+        return out
+
+    @ti.func
+    def _live(self, q, hmin):
+        """Whether a cell of conserved state q is wet (h >= h_min) or a moving film."""
+        out = q[0] >= hmin
+        if not out:
+            out = q[1] != 0.0
+            if ti.static(not self.is_1d):
+                out = out or q[self.HV] != 0.0
+        return out
 
     def _forget_rest(self) -> None:
         """Clear the rest mask: every cell counts as live until a step has marked it again."""

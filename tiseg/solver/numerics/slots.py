@@ -197,7 +197,7 @@ class SlotAlgebra:
             if ti.static(limit):
                 acc = self._limit(acc)
                 if ti.static(self.phys.fr_projected):
-                    acc = self._project(acc, tau, i, j, first, spd0)
+                    acc = self._project(acc, tau, i, j, first, spd0, acc[0])
                     acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
                 self.w[i, j] = self._primitive(acc)
             self.q[d, i, j] = acc
@@ -214,10 +214,11 @@ class SlotAlgebra:
 
     @ti.func
     def _limit(self, v):
-        """The stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
+        """The stage limiter: h >= 0, no momentum in films thinner than h_min (where there
+        is no material in the split sweeps, whose films flow: Physics.acts), 0 <= h phi <= h."""
         h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
         v[0] = h
-        if h < self.par[Params.H_MIN]:
+        if not self.phys.acts(h):
             v[1] = 0.0
             if ti.static(not self.is_1d):
                 v[self.HV] = 0.0

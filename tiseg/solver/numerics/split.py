@@ -208,8 +208,8 @@ class SplitSweeps:
                 # the friction of the half step with the gravity it balances: the projection
                 # of each edge over dt/2 at the cell's speed (Physics.project_friction)
                 spd = ph.speed_mag(w0)
-                pW = ph.project_friction(pW, 0.5 * dt, spd)
-                pE = ph.project_friction(pE, 0.5 * dt, spd)
+                pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0])
+                pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0])
             self.ew[i, j] = self._fast_primitive(pW)
             self.ee[i, j] = self._fast_primitive(pE)
 
@@ -259,7 +259,8 @@ class SplitSweeps:
     @ti.func
     def _sweep_faces(self, d: ti.template(), serial: ti.template()):
         """Numerical fluxes between the predicted edges: the face (m, m + 1) along d at m's
-        index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min."""
+        index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min at rest
+        (TaichiOperator._face_wet)."""
         gy, ny = ti.static(self.gy, self.ny)
         a, b = self.act[0], self.act[1]
         hmin = self.par[Params.H_MIN]
@@ -272,7 +273,7 @@ class SplitSweeps:
         for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.fp, self.nc)
-            if ti.max(self.w[i, j][0], self.w[i1, j1][0]) >= hmin:
+            if self._face_wet(self.w[i, j], self.w[i1, j1], hmin, i, j, i1, j1):
                 wl = self.ee[i, j]
                 wr = self.ew[i1, j1]
                 if ti.static(self.phys.fr_projected):
@@ -394,9 +395,8 @@ class SplitSweeps:
 
     @ti.func
     def _gravity(self, h):
-        """g sin(zeta) h, zero in films thinner than h_min (as Physics.source without
-        friction)."""
-        return ti.select(h >= self.par[Params.H_MIN], h * self.par[Params.G_SIN], 0.0)
+        """g sin(zeta) h (Physics.source without friction; films included)."""
+        return h * self.par[Params.G_SIN]
 
     @ti.func
     def _scaled(self, F, th_lo, th_hi):
@@ -426,6 +426,7 @@ class SplitSweeps:
         last one projects the friction over the whole step at those speeds (RestRules._project,
         where ``hold`` lets a law with hysteresis hold the cells at rest)."""
         gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        fr = ti.static(first or last)  # (the projected friction: a sweep that opens or closes)
         a, b = self.act[0], self.act[1]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((a, b), (gy, gy + ny)):
@@ -434,13 +435,25 @@ class SplitSweeps:
             th = self.drain[i, j]
             Fp = self._scaled(self._face(i, j, d), th, self.drain[ip, jp])
             Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
+            if ti.static(self.phys.fr_projected):
+                Fm, Fp = self._film_faces(Fm, Fp, i, j, im, jm, ip, jp)
             q0 = self.q[0, i, j]
             upd = -lam * (Fp - Fm)
+            hg = 0.0 * dt  # the mean thickness gravity acted on over the step
             if ti.static(d == 0):
                 # gravity along the slope, h g sin(zeta) (the only source without friction),
                 # by the trapezoidal rule between the cell's h before and after the fluxes
-                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(q0[0] + upd[0]))
+                h1 = q0[0] + upd[0]
+                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(h1))
+                if ti.static(fr):
+                    hg = 0.5 * (q0[0] + h1)
+                    if ti.static(not last):
+                        self.hg[i, j] = hg  # for the friction of the step's last sweep
+            elif ti.static(last and not first):
+                hg = self.hg[i, j]  # (written by the step's x sweep)
             acc = self._limit(q0 + upd)
+            if ti.static(d == 1 and first and last):
+                hg = acc[0]  # a lone y sweep: no gravity acted, the friction on the cell's h
             if ti.static(first or last):
                 spd0 = 0.0 * dt
                 if ti.static(first):
@@ -450,7 +463,8 @@ class SplitSweeps:
                 else:
                     spd0 = self.spd0[i, j]
                 if ti.static(last):
-                    acc = self._project(acc, dt, i, j, hold, spd0)
+                    # the friction acts on the thickness the gravity acted on
+                    acc = self._project(acc, dt, i, j, hold, spd0, hg)
             self.w[i, j] = self._fast_primitive(acc)
             self.q[0, i, j] = acc
         # the budget: what entered through the domain's faces along d (as _boundary_rates;

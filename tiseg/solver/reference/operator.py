@@ -11,7 +11,7 @@ The discretisation (identical in `tiseg.solver.numerics.operator`):
    edge values keep h >= 0 and 0 <= phi <= 1.
 4. A central flux at each face (``numerics.flux``), zero where both neighbouring cells are
    thinner than h_min (with the projected friction: and were so at the step's start, see
-   `ReferenceOperator.rhs`):
+   `ReferenceOperator.rhs`; in the split sweeps only where neither moves or moved then):
 
    * ``kt``, Kurganov-Tadmor (2000): H = (f(q_L) + f(q_R))/2 - a/2 (q_R - q_L), with the local
      speed a = max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) over both edge states
@@ -28,7 +28,8 @@ The discretisation (identical in `tiseg.solver.numerics.operator`):
    nu h^{3/2} of the two cells (zero if either is thinner than h_min), central differences with
    the cross derivatives averaged over four cells.
 6. Source g h S (6.4) with mu_b from (3.4), (3.7), the direction u/|u| regularised as
-   u / max(|u|, u_eps); no source where h < h_min.
+   u / max(|u|, u_eps); no source where h < h_min (in the split sweeps, where h = 0, the
+   law then evaluated at h_min).
 
 Arrays are shaped (nc, NX, NY) as in `tiseg.solver.numerics.config.Layout`.
 """
@@ -62,6 +63,7 @@ class ReferenceOperator:
         self.y = np.asarray(y_centres, dtype=float)
         # friction as a projection after each stage (project_friction), not in the source
         self.projected = cfg.friction_projected
+        self.films = bool(cfg.split)  # films thinner than h_min flow (Physics.acts)
         self.law = FRICTION_LAWS[cfg.friction]
         self.transport = TRANSPORTS[cfg.transport]
         # the numerics components, whose NumPy twins the steps below call
@@ -188,7 +190,6 @@ class ReferenceOperator:
         face m+1/2 stored at index m (last index unused). ``start``: the primitives of the
         step's initial state, whose rest and wet cells decide the projected friction's face
         rules (default w itself, the step's first evaluation)."""
-        c = self.cfg
         start = w if start is None else start
         direction = axis - 1
         s = self.slopes(w, axis)
@@ -204,15 +205,42 @@ class ReferenceOperator:
         H = self.numerical_flux(wl, wr, direction)
         if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
             self.rest_faces(H, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
-        hc = w[0]
-        dry = np.maximum(hc[sl(0, n - 1)[1:]], hc[sl(1, n)[1:]]) < c.h_min
-        if self.projected:  # a face next to a cell wet at the step's start keeps its flux
-            h0 = start[0]
-            dry &= np.maximum(h0[sl(0, n - 1)[1:]], h0[sl(1, n)[1:]]) < c.h_min
-        H = np.where(dry[None], 0.0, H)
+        H = np.where(self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])[None], 0.0, H)
         out = np.zeros_like(w)
         out[sl(0, n - 1)] = H
         return out
+
+    def acts(self, h: np.ndarray) -> np.ndarray:
+        """Where sources and friction act (Physics.acts): h > 0 in the split sweeps, whose
+        films flow, h >= h_min in the unsplit scheme."""
+        return h > 0.0 if self.films else h >= self.cfg.h_min
+
+    def moving(self, w: np.ndarray) -> np.ndarray:
+        """Cells of primitives w with a velocity (TaichiOperator._moving)."""
+        lay = self.lay
+        m = w[lay.HU] != 0
+        if not lay.is_1d:
+            m |= w[lay.HV] != 0
+        return m
+
+    def dry_faces(self, w, start, lo, hi) -> np.ndarray:
+        """The faces that carry no convective flux (TaichiOperator._face_wet): both cells
+        thinner than h_min, with the projected friction at the step's start (primitives
+        ``start``) too; where films flow (split sweeps) also neither moving (at the step's
+        start with the projected friction). lo and hi index the cells below and above each
+        face."""
+        c = self.cfg
+        hc = w[0]
+        dry = np.maximum(hc[lo], hc[hi]) < c.h_min
+        if self.projected:
+            h0 = start[0]
+            dry &= np.maximum(h0[lo], h0[hi]) < c.h_min
+            if self.films:
+                still = ~self.moving(start)
+                dry &= still[lo] & still[hi]
+        elif self.films:
+            dry &= ~(self.moving(w)[lo] | self.moving(w)[hi])
+        return dry
 
     def rest_faces(self, H, wl, wr, w, direction, lo, hi) -> None:
         """The projected friction's face rules (TaichiOperator._rest_face), in place on the
@@ -293,15 +321,15 @@ class ReferenceOperator:
         return Px, Py
 
     def source(self, w: np.ndarray) -> np.ndarray:
-        """g h S of (6.4) (zero where h < h_min)."""
+        """g h S of (6.4) (films thinner than h_min included, Physics.source)."""
         c, lay = self.cfg, self.lay
         h, u = w[0], w[1]
         v = np.zeros_like(u) if lay.is_1d else w[lay.HV]
         speed = np.sqrt(u * u + v * v)
         phi = w[lay.HPHI] if lay.segregation else c.phi_ref
-        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)  # only used where h >= h_min
+        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)  # (Physics.film_h)
         inv = 1.0 / np.maximum(speed, c.u_eps)
-        wet = h >= c.h_min
+        wet = self.acts(h)
         S = np.zeros_like(w)
         if self.projected:  # the friction is project_friction's
             mu = np.zeros_like(mu)
@@ -319,10 +347,10 @@ class ReferenceOperator:
         c, lay = self.cfg, self.lay
         if not self.projected or tau <= 0:
             return
-        wet, hs, phi = self._friction_cells(q)
+        wet, hs, hmu, phi = self._friction_cells(q)
         m = self._magnitude(q)
         spd0 = self._magnitude(self.primitives(q0))
-        imp = tau * c.g_cos * self.mu_b(hs, spd0, phi) * hs
+        imp = tau * c.g_cos * self.mu_b(hmu, spd0, phi) * hs
         f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
         f = np.where(wet, f, 1.0)
         if held is not None:
@@ -339,12 +367,14 @@ class ReferenceOperator:
         return np.abs(x) if lay.is_1d else np.sqrt(x * x + a[lay.HV] * a[lay.HV])
 
     def _friction_cells(self, q):
-        """(wet, h with 1 in films, phi the friction weights with) of a conserved state."""
+        """(wet: where the friction acts (Physics.acts), h with 1 elsewhere, the h the law is
+        evaluated at (h_min in films thinner than that: Physics.film_h), phi the friction
+        weights with) of a conserved state."""
         c, lay = self.cfg, self.lay
-        wet = q[lay.H] >= c.h_min
+        wet = self.acts(q[lay.H])
         hs = np.where(wet, q[lay.H], 1.0)
         phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
-        return wet, hs, phi
+        return wet, hs, np.maximum(hs, c.h_min), phi
 
     def holds(self, q: np.ndarray, tau: float, at_rest) -> np.ndarray:
         """Physics.holds: of the cells ``at_rest`` at the step's start, those whose first-stage
@@ -353,8 +383,8 @@ class ReferenceOperator:
         c, lay = self.cfg, self.lay
         if not (self.projected and self.law.hysteresis) or tau <= 0:
             return np.zeros_like(q[lay.H], dtype=bool)
-        wet, hs, phi = self._friction_cells(q)
-        static = tau * c.g_cos * self.mu_start(hs, phi) * hs
+        wet, hs, hmu, phi = self._friction_cells(q)
+        static = tau * c.g_cos * self.mu_start(hmu, phi) * hs
         return at_rest & wet & (self._magnitude(q) <= static)
 
     def at_rest(self, q: np.ndarray) -> np.ndarray:
@@ -377,11 +407,12 @@ class ReferenceOperator:
         c, lay = self.cfg, self.lay
         self.fill_ghosts(q, t)
         w = self.primitives(q)
-        w0 = None
+        w0 = w
         if start is not None:
             s0 = np.array(start, dtype=float)
             self.fill_ghosts(s0, t)
             w0 = self.primitives(s0)
+        w0 = self.rest_view(w0, t)
         Fx = self.face_fluxes(w, 1, w0)
         Fy = None if lay.is_1d else self.face_fluxes(w, 2, w0)
         if c.viscous:
@@ -399,12 +430,49 @@ class ReferenceOperator:
         out[:, ix, iy] = div + self.source(w)[:, ix, iy]
         return out
 
-    def postprocess(self, q: np.ndarray) -> None:
-        """Stage limiter: h >= 0, no momentum in films thinner than h_min, 0 <= h phi <= h."""
+    def rest_view(self, start: np.ndarray, t: float) -> np.ndarray:
+        """The primitives of a step's initial state (at time t) as its rest decisions see
+        them (RestRules._mark_rest): a running inflow's ghost cells move at the inflow's
+        speed whatever their thickness (RestRules._inlet_moves)."""
         c, lay = self.cfg, self.lay
+        if not (self.projected and c.bc[0] == "inflow") or t > c.inflow_stop:
+            return start
+        _, u, _ = c.inflow_state(t)
+        if not u > 0:
+            return start
+        out = start.copy()
+        lo, hi = (0, lay.ny) if c.inflow_rows is None else c.inflow_rows
+        ys = slice(lay.gy + lo, lay.gy + hi)
+        still = out[lay.HU, : lay.gx, ys] == 0
+        if not lay.is_1d:
+            still &= out[lay.HV, : lay.gx, ys] == 0
+        out[lay.HU, : lay.gx, ys] = np.where(still, u, out[lay.HU, : lay.gx, ys])
+        return out
+
+    def film_faces(self, Flo, Fhi, start, cell, lo, hi):
+        """TaichiOperator._film_faces on arrays: the fluxes Flo, Fhi through the low and
+        high face of the cells ``cell`` (an index into the grid; ``lo``, ``hi`` index their
+        neighbours) as those cells take them: no momentum into a film at rest at the step's
+        start (primitives ``start``) from a neighbour at rest."""
+        if not self.projected:
+            return Flo, Fhi
+        lay = self.lay
+        still = ~self.moving(start)
+        film = still & (start[lay.H] < self.cfg.h_min)
+        zl = film[cell] & still[lo]
+        zh = film[cell] & still[hi]
+        Flo, Fhi = Flo.copy(), Fhi.copy()
+        for m in (lay.HU,) if lay.is_1d else (lay.HU, lay.HV):
+            Flo[m] = np.where(zl, 0.0, Flo[m])
+            Fhi[m] = np.where(zh, 0.0, Fhi[m])
+        return Flo, Fhi
+
+    def postprocess(self, q: np.ndarray) -> None:
+        """Stage limiter: h >= 0, no momentum where no source acts (`acts`), 0 <= h phi <= h."""
+        lay = self.lay
         h = np.where(q[lay.H] < 0.0, 0.0, q[lay.H])  # NaN passes through to the guard
         q[lay.H] = h
-        dry = h < c.h_min
+        dry = ~self.acts(h)
         q[lay.HU][dry] = 0.0
         if not lay.is_1d:
             q[lay.HV][dry] = 0.0

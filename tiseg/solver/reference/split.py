@@ -37,6 +37,7 @@ def hancock_sweep(
     limit: bool = True,
     start: np.ndarray | None = None,
     last: bool = True,
+    hbar: np.ndarray | None = None,
 ) -> dict:
     """Advance q (nc, NX, NY), ghost cells included, by one sweep along d (0 = x, 1 = y) over
     dt from time t, in place, with the ghost cells at time t (an inflow's at t + dt/2). Returns what entered through the domain's
@@ -48,7 +49,9 @@ def hancock_sweep(
     With the projected friction: ``start``, the primitives of the step's initial state (its
     rest mask and speeds; by default q's own, as in a step's first sweep), and ``last``, the
     sweep closes the step and projects the friction of the whole step (`hancock_step`
-    runs a step of sweeps)."""
+    runs a step of sweeps) on the thickness the step's gravity acted on: the x sweep's
+    trapezoidal mean, which an x sweep that does not close the step returns as ``"hbar"``
+    for the y sweep that does (its ``hbar``)."""
     c, lay = ref.cfg, ref.lay
     axis = d + 1
     n = q.shape[axis]
@@ -60,7 +63,7 @@ def hancock_sweep(
 
     if start is None:
         ref.fill_ghosts(q, t)
-        start = split_primitives(ref, q)
+        start = ref.rest_view(split_primitives(ref, q), t)
     # an inflow's ghost cells at mid-step (SplitSweeps.sweep)
     t = t + 0.5 * dt if c.bc[0] == "inflow" else t
     ref.fill_ghosts(q, t)
@@ -94,7 +97,7 @@ def hancock_sweep(
         project(ref, pE, 0.5 * dt, spd)
     eW = split_primitives(ref, np.where(bad, qW, pW))
     eE = split_primitives(ref, np.where(bad, qE, pE))
-    # the face (m, m + 1) at index m; zero between films thinner than h_min
+    # the face (m, m + 1) at index m; zero between films thinner than h_min at rest
     H = np.zeros_like(q)
     wl, wr = eE[sl(0, n - 1)], eW[sl(1, n)]
     if ref.projected:  # two cells at rest at the step's start meet with no velocity
@@ -115,7 +118,7 @@ def hancock_sweep(
         H[sl(0, n - 1)] = Hf
     h = w[0]
     dry = np.zeros(h.shape, dtype=bool)
-    dry[sl(0, n - 1)[1:]] = np.maximum(h[sl(0, n - 1)[1:]], h[sl(1, n)[1:]]) < c.h_min
+    dry[sl(0, n - 1)[1:]] = ref.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])
     H = np.where(dry[None], 0.0, H)
     # the draining factor of the cells updated (interior along d), 1 elsewhere
     g = lay.gx if d == 0 else lay.gy
@@ -148,18 +151,21 @@ def hancock_sweep(
     ix, iy = lay.interior()
     Hsm = np.zeros_like(Hs)
     Hsm[sl(1, n)] = Hs[sl(0, n - 1)]
+    if ref.projected:  # no momentum into a resting film from a resting neighbour
+        cells = sl(1, n - 1)
+        Hsm[cells], Hs[cells] = ref.film_faces(
+            Hsm[cells], Hs[cells], start, cells[1:], sl(0, n - 2)[1:], sl(2, n)[1:]
+        )
     upd = -lam * (Hs - Hsm)
     if d == 0:  # g sin(zeta) h by the trapezoidal rule (the source without friction)
-
-        def gravity(h):
-            return np.where(h >= c.h_min, h * c.g_sin, 0.0)
-
-        upd[lay.HU] += 0.5 * dt * (gravity(q[0]) + gravity(q[0] + upd[0]))
+        h1 = q[0] + upd[0]
+        upd[lay.HU] += 0.5 * dt * (q[0] * c.g_sin + h1 * c.g_sin)
+        hbar = 0.5 * (q[0] + h1)
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
     if last and ref.projected:  # the friction of the whole step, at its initial speeds
-        project_step(ref, q, dt, start)
+        project_step(ref, q, dt, start, None if hbar is None else hbar[ix, iy])
     # boundary amounts: the scaled fluxes through the domain's two faces along d
     lo = Hs[sl(g - 1, g)]
     hi = Hs[sl(g + m - 1, g + m)]
@@ -168,13 +174,23 @@ def hancock_sweep(
     net = (lo - hi)[(slice(None),) + ((slice(None), cross) if d == 0 else (cross, slice(None)))]
     mass = float(dt * net[lay.H].sum() * ds)
     small = float(dt * net[lay.HPHI].sum() * ds) if lay.segregation else 0.0
-    return {"mass": mass, "small_mass": small}
+    out = {"mass": mass, "small_mass": small}
+    if d == 0 and not last:
+        out["hbar"] = hbar
+    return out
 
 
-def project_step(ref: ReferenceOperator, q: np.ndarray, dt: float, start: np.ndarray) -> None:
+def project_step(
+    ref: ReferenceOperator,
+    q: np.ndarray,
+    dt: float,
+    start: np.ndarray,
+    hbar: np.ndarray | None = None,
+) -> None:
     """The friction of a whole split step over dt, in place on q's interior cells, at the
-    speeds of the step's initial primitives ``start``, the cells at rest there held where a
-    law with hysteresis holds them (the last sub-step's projection)."""
+    speeds of the step's initial primitives ``start``, on the interior thicknesses ``hbar``
+    that the step's gravity acted on (q's own where None: no gravity acted), the cells at rest there held where a law with
+    hysteresis holds them (the last sub-step's projection)."""
     lay = ref.lay
     ix, iy = lay.interior()
     still = start[lay.HU] == 0
@@ -182,7 +198,7 @@ def project_step(ref: ReferenceOperator, q: np.ndarray, dt: float, start: np.nda
         still = still & (start[lay.HV] == 0)
     inner_q = q[:, ix, iy]
     held = ref.holds(inner_q, dt, still[ix, iy])
-    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held)
+    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held, hbar)
     q[:, ix, iy] = inner_q
 
 
@@ -235,16 +251,18 @@ def viscous_substep(
     ref.postprocess(q)
 
 
-def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None) -> None:
+def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None, hbar=None) -> None:
     """Physics.project_friction over tau, in place on conserved states q, with the friction
     coefficient at the speeds spd0 (ReferenceOperator.project_friction, which takes them
-    from a state); ``held``: cells a law with hysteresis holds at rest."""
+    from a state); ``held``: cells a law with hysteresis holds at rest; ``hbar``: the
+    thickness the impulse acts on (q's own h if None)."""
     c, lay = ref.cfg, ref.lay
     if tau <= 0:
         return
-    wet, hs, phi = ref._friction_cells(q)
+    wet, hs, hmu, phi = ref._friction_cells(q)
     m = ref._magnitude(q)
-    imp = tau * c.g_cos * ref.mu_b(hs, spd0, phi) * hs
+    hb = hs if hbar is None else hbar
+    imp = tau * c.g_cos * ref.mu_b(hmu, spd0, phi) * hb
     f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
     f = np.where(wet, f, 1.0)
     if held is not None:
@@ -264,11 +282,13 @@ def hancock_step(
     projecting the friction. Returns the summed budget."""
     if start is None:
         ref.fill_ghosts(q, t)
-        start = split_primitives(ref, q)
+        start = ref.rest_view(split_primitives(ref, q), t)
     out = {"mass": 0.0, "small_mass": 0.0}
+    hbar = None  # the thickness the x sweep's gravity acted on, for a y sweep that closes
     for k, d in enumerate(dirs):
         last = k == len(dirs) - 1
-        b = hancock_sweep(ref, q, t, dt, d, start=start, last=last)
+        b = hancock_sweep(ref, q, t, dt, d, start=start, last=last, hbar=hbar)
+        hbar = b.get("hbar")
         out["mass"] += b["mass"]
         out["small_mass"] += b["small_mass"]
     return out
@@ -286,7 +306,7 @@ def hancock_pair(
     half = 0.5 * dt
     out = hancock_step(ref, q, t, half, dirs)
     ref.fill_ghosts(q, t)
-    start = split_primitives(ref, q)
+    start = ref.rest_view(split_primitives(ref, q), t)
     viscous_substep(ref, q, t, dt, visc_stages)
     back = hancock_step(ref, q, t + half, half, list(dirs)[::-1], start=start)
     return {k: out[k] + back[k] for k in out}
