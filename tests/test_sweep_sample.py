@@ -336,6 +336,8 @@ def test_dataset_of_a_grid(tmp_path):
     with xr.open_dataset(path) as ds:
         assert ds.wavelength.dims == ("flow_nu", "flow_h0")
         assert ds.flow_nu.attrs["scene_key"] == "flow.nu"
+        # the keys' units, as their declarations give them (nu [m^(3/2)/s], h0 [m])
+        assert ds.flow_nu.attrs["units"] == "m1.5 s-1" and ds.flow_h0.attrs["units"] == "m"
         assert float(ds.x_front_max.sel(flow_nu=0.02, flow_h0=0.0025)) == pytest.approx(2.0025)
         assert math.isnan(float(ds.x_front_max.sel(flow_nu=0.03, flow_h0=0.0025)))
         assert ds.x_front_max.attrs["units"] == "m" and ds.front_speed.attrs["units"] == "m s-1"
@@ -414,6 +416,7 @@ def test_dataset_of_a_sample_stacks_the_peak_fields(tmp_path):
         assert ds.peak_time.values[:2].tolist() == [0.5, 1.0] and ds.peak_time.attrs["units"] == "s"
         assert math.isnan(ds.peak_time.values[2]) and "deposit_h" not in ds
         assert ds.flow_nu.attrs["sample_range"].tolist() == [0.01, 0.02]
+        assert ds.flow_nu.attrs["units"] == "m1.5 s-1"
     # members on different grids cannot be stacked: left out, no error
     _fields_file(tmp_path / "other" / "member-0002" / "fields.nc", 1.0, nx=4)
     for name in ("member-0000", "member-0001"):

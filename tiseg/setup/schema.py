@@ -22,6 +22,7 @@ after the generic read (`tiseg.setup.validators`).
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping
 
@@ -46,7 +47,8 @@ class Key:
     ``read_default``: the default those kinds read (a value, a callable of the scene read so
     far, MISSING for a required key), where the field's own default is None for the others.
     ``write``: whether the writer writes the value (given the section's value and the scene);
-    None values are never written (TOML has no null)."""
+    None values are never written (TOML has no null). ``units``: the value's unit in UDUNITS
+    form ("1" for a pure number), where the doc's trailing ``[unit]`` does not give it."""
 
     doc: str
     lo: float | None = None
@@ -62,6 +64,7 @@ class Key:
     kinds: tuple[str, ...] = ()
     read_default: Any = None
     write: Callable[[Any, Any], bool] | None = None
+    units: str | None = None
 
     def allowed(self) -> tuple[str, ...]:
         """The allowed words now (the registry as it stands)."""
@@ -84,6 +87,35 @@ class Key:
         if self.hi is not None:
             return f"<= {self.hi:g}"
         return ""
+
+
+# the units that docs write in brackets, as UDUNITS spells them (CF's units attribute)
+DOC_UNITS = {
+    "m": "m",
+    "s": "s",
+    "m/s": "m s-1",
+    "m/s^2": "m s-2",
+    "1/s": "s-1",
+    "m^(3/2)/s": "m1.5 s-1",
+    "degrees": "degree",
+    "Hz": "Hz",
+}
+
+
+def units_of(f: dataclasses.Field) -> str | None:
+    """The unit of a number key in UDUNITS form (a sweep's sampled or gridded key gets it as its
+    CF units): the declared ``units``, else the unit in the doc's trailing brackets
+    ("slope angle zeta [degrees]"; brackets that hold a range, "[0, 1]", are not units), else
+    None (not declared)."""
+    k = key_of(f)
+    if k is None:
+        return None
+    if k.units is not None:
+        return k.units
+    found = [
+        DOC_UNITS[b.strip()] for b in re.findall(r"\[([^\]]*)\]", k.doc) if b.strip() in DOC_UNITS
+    ]
+    return found[0] if found else None
 
 
 def key(doc: str, **meta) -> dict:

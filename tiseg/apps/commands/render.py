@@ -49,6 +49,12 @@ def register(sub) -> None:
         metavar="T",
         help="panel times [s] (default: five snapshots evenly spread)",
     )
+    p.add_argument(
+        "--raster",
+        action="store_true",
+        help="write the peak fields and the deposit (h_max, speed_max, arrival_time, "
+        "deposit_h, deposit_phi) as ESRI ASCII grids RUN_DIR/NAME.asc, in metres, for GIS",
+    )
     p.add_argument("--fps", type=float, default=10.0, help="movie frames per second (10)")
     p.add_argument(
         "--scale",
@@ -92,7 +98,8 @@ def run(args) -> int:
             raise InputError(f"--vmax={args.vmax} must be above --vmin={args.vmin}")
         vrange = (args.vmin, args.vmax)
     movie = args.movie
-    if movie is None and args.gif is None and args.frames is None and args.panels is None:
+    chosen = (args.movie, args.gif, args.frames, args.panels)
+    if all(c is None for c in chosen) and not args.raster:
         movie = str(Path(args.run_dir) / f"{field}.mp4")  # a sensible default
     for target in (movie, args.gif, args.frames, args.panels):  # before anything is written
         if target is not None:
@@ -127,6 +134,12 @@ def run(args) -> int:
                 scale=args.scale or 1.0,
             )
             summary["outputs"] = list(summary["outputs"]) + [args.panels]
+        if args.raster:
+            from ...post.render.peak_grids import export_peak_grids
+
+            grids = export_peak_grids(args.run_dir)
+            summary["peak_time"] = grids["peak_time"]
+            summary["outputs"] = list(summary["outputs"]) + grids["outputs"]
     if args.json:
         print_json(summary)
     else:
@@ -152,6 +165,7 @@ def _render_probability(args, source: Path) -> int:
             ("--frames", args.frames),
             ("--times", args.times),
             ("--max-frames", args.max_frames),
+            ("--raster", args.raster or None),
             ("--vmin", args.vmin),
             ("--vmax", args.vmax),
         )

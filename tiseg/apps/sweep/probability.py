@@ -152,6 +152,8 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
     (a line is logged). Each run of the sweep is read at most once."""
     import netCDF4
 
+    from ...output.netcdf import COORD_ATTRS
+
     names: list[str] = []
     stacks: dict[str, list] = {k: [] for k in MEMBER_FIELDS}
     grid = None
@@ -177,8 +179,8 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
                 x, y = np.asarray(ds["x"][:], float), np.asarray(ds["y"][:], float)
                 if grid is None:
                     grid = (
-                        (x, {a: ds["x"].getncattr(a) for a in ("long_name", "units")}),
-                        (y, {a: ds["y"].getncattr(a) for a in ("long_name", "units")}),
+                        (x, dict(COORD_ATTRS["x"])),
+                        (y, dict(COORD_ATTRS["y"])),
                     )
                 elif (
                     x.shape != grid[0][0].shape
