@@ -26,7 +26,8 @@ import re
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping
 
-from .table import MISSING, Table
+from ..errors import InputError
+from .table import MISSING, Table, type_name
 
 KEY = "tiseg.key"  # the metadata entry of a scene key
 DECLARED = object()  # read_key's default: the field's own
@@ -48,7 +49,9 @@ class Key:
     far, MISSING for a required key), where the field's own default is None for the others.
     ``write``: whether the writer writes the value (given the section's value and the scene);
     None values are never written (TOML has no null). ``units``: the value's unit in UDUNITS
-    form ("1" for a pure number), where the doc's trailing ``[unit]`` does not give it."""
+    form ("1" for a pure number), where the doc's trailing ``[unit]`` does not give it.
+    ``many``: with ``table``, an array of such tables (``[[output.gauges]]``), a tuple of
+    values; left out of the written scene when empty."""
 
     doc: str
     lo: float | None = None
@@ -65,6 +68,7 @@ class Key:
     read_default: Any = None
     write: Callable[[Any, Any], bool] | None = None
     units: str | None = None
+    many: bool = False
 
     def allowed(self) -> tuple[str, ...]:
         """The allowed words now (the registry as it stands)."""
@@ -232,8 +236,28 @@ def write_section(cls, value, scene=None) -> dict:
         v = getattr(value, f.name)
         if v is None or (k.write is not None and not k.write(value, scene)):
             continue
-        out[f.name] = plain(v)
+        if k.table is not None and k.many:
+            if v:  # an array of tables; none: no key (TOML has no empty array of tables)
+                out[f.name] = [write_section(k.table, item, scene) for item in v]
+            continue
+        out[f.name] = write_section(k.table, v, scene) if k.table is not None else plain(v)
     return out
+
+
+def read_tables(t: Table, f: dataclasses.Field) -> tuple[dict, ...]:
+    """The array of tables ``f`` declares (``many``), each read as its dataclass's keys (one
+    dict per table, in order); none when the key is left out."""
+    k = key_of(f)
+    items = t.get(f.name, [])
+    full = t.full(f.name)
+    if not isinstance(items, (list, tuple)) or not all(isinstance(i, Mapping) for i in items):
+        raise InputError(
+            f"{full}: expected an array of tables ([[{full}]] entries), got {type_name(items)}"
+        )
+    names = key_names(k.table)
+    return tuple(
+        read_section(k.table, Table(item, f"{full}[{i}]", names)) for i, item in enumerate(items)
+    )
 
 
 def compiled_keys(sections: Mapping[str, type], how: str | None = None) -> tuple[str, ...]:

@@ -625,6 +625,24 @@ class TimeConfig:
 
 
 @dataclass(frozen=True)
+class GaugeKeys:
+    """One gauge of ``[[output.gauges]]``: h, u, v and phi at a point after every step
+    (`tiseg.run.gauges`)."""
+
+    x: float = field(metadata=key("downslope position, in [0, Lx] [m]"))
+    y: float | None = field(
+        default=None, metadata=key("cross-slope position, in [0, Ly]; default Ly/2 [m]")
+    )
+    name: str | None = field(
+        default=None,
+        metadata=key(
+            "its name in gauges.csv's columns (letters, digits, _ - .); default g1, g2, ... "
+            "in the order given"
+        ),
+    )
+
+
+@dataclass(frozen=True)
 class OutputConfig:
     """Snapshot times. ``output_times`` is the resolved, sorted union of ``times``, the multiples
     of ``interval`` up to t_end, t = 0 and t_end."""
@@ -656,6 +674,17 @@ class OutputConfig:
         metadata=key(
             "h_max, speed_max, arrival_time and the deposit in fields.nc, exact per step "
             "(tiseg.run.peaks); false: no peak fields, no work for them",
+            compiled="simulation",
+        ),
+    )
+    gauges: tuple[GaugeKeys, ...] = field(
+        default=(),
+        metadata=key(
+            "points [[output.gauges]] with x, y and a name: h, u, v, phi there after every "
+            "step, interpolated bilinearly between cell centres, in gauges.csv "
+            "(tiseg.run.gauges)",
+            table=GaugeKeys,
+            many=True,
             compiled="simulation",
         ),
     )

@@ -55,6 +55,12 @@ def register(sub) -> None:
         help="write the peak fields and the deposit (h_max, speed_max, arrival_time, "
         "deposit_h, deposit_phi) as ESRI ASCII grids RUN_DIR/NAME.asc, in metres, for GIS",
     )
+    p.add_argument(
+        "--gauges",
+        action="store_true",
+        help="draw the run's gauges (gauges.csv of [[output.gauges]]) over time into "
+        "RUN_DIR/gauges.png",
+    )
     p.add_argument("--fps", type=float, default=10.0, help="movie frames per second (10)")
     p.add_argument(
         "--scale",
@@ -99,7 +105,7 @@ def run(args) -> int:
         vrange = (args.vmin, args.vmax)
     movie = args.movie
     chosen = (args.movie, args.gif, args.frames, args.panels)
-    if all(c is None for c in chosen) and not args.raster:
+    if all(c is None for c in chosen) and not (args.raster or args.gauges):
         movie = str(Path(args.run_dir) / f"{field}.mp4")  # a sensible default
     for target in (movie, args.gif, args.frames, args.panels):  # before anything is written
         if target is not None:
@@ -134,6 +140,10 @@ def run(args) -> int:
                 scale=args.scale or 1.0,
             )
             summary["outputs"] = list(summary["outputs"]) + [args.panels]
+        if args.gauges:
+            from ...post.render.gauge_plot import plot_gauges
+
+            summary["outputs"] = list(summary["outputs"]) + [str(plot_gauges(args.run_dir))]
         if args.raster:
             from ...post.render.peak_grids import export_peak_grids
 
@@ -166,6 +176,7 @@ def _render_probability(args, source: Path) -> int:
             ("--times", args.times),
             ("--max-frames", args.max_frames),
             ("--raster", args.raster or None),
+            ("--gauges", args.gauges or None),
             ("--vmin", args.vmin),
             ("--vmax", args.vmax),
         )
