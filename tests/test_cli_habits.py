@@ -92,3 +92,24 @@ print(renewed, backend.generation() - g)
     p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     assert p.stdout.split()[-2:] == ["1", "0"], p.stdout  # renewed once; held: kept
+
+
+def test_python_dash_m_tiseg_is_the_command():
+    out = subprocess.run(
+        [sys.executable, "-m", "tiseg", "--version"], capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0 and out.stdout.strip() == f"tiseg {__version__}", out.stderr
+
+
+def test_set_with_a_space_gets_a_hint(capsys):
+    """`--set KEY VALUE` (a space for the =): one line that shows the KEY=VALUE form."""
+    import pytest
+
+    with pytest.raises(SystemExit) as exc:  # argparse's own error
+        main(["run", "fingers", "--set", "domain.resolution", "40"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "did you mean --set domain.resolution=40?" in err and err.count("\n") == 1
+    assert main(["run", "fingers", "--set", "domain.resolution"]) == 2
+    err = capsys.readouterr().err
+    assert "--set domain.resolution=VALUE" in err and err.count("\n") == 1

@@ -36,8 +36,21 @@ COMMAND_MODULES = [
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own errors: one line (no usage block), exit 2
-        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        hint = _set_hint(sys.argv[1:] if _ARGV is None else _ARGV)
+        sys.stderr.write(f"{self.prog}: error: {message}{hint} (see '{self.prog} --help')\n")
         raise SystemExit(2)
+
+
+_ARGV: list[str] | None = None  # the arguments main() parses (None: sys.argv)
+
+
+def _set_hint(argv: list[str]) -> str:
+    """'; did you mean --set K=V?' where ``--set K V`` was given: --set takes one word."""
+    for i in range(len(argv) - 2):
+        key, value = argv[i + 1], argv[i + 2]
+        if argv[i] == "--set" and "=" not in key and not value.startswith("-"):
+            return f"; did you mean --set {key}={value}? (--set KEY=VALUE)"
+    return ""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -140,6 +153,8 @@ def _usable_std_streams() -> None:
 
 def _main(argv: list[str] | None) -> int:
 
+    global _ARGV
+    _ARGV = list(argv) if argv is not None else None
     parser = build_parser()
     args = parser.parse_args(argv)
     configure(-1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0)), 1))

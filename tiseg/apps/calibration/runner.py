@@ -80,6 +80,7 @@ def run_calibration(
     threads_per_task: int | None = None,
     arch: str = "cpu",
     echo: Callable[[str], None] | None = stderr_line,
+    report: Callable[[str], None] | None = None,
     progress_interval: float = 30.0,
     overwrite: bool = False,
     execute: Callable[[dict], dict] | None = None,
@@ -140,13 +141,18 @@ def run_calibration(
     result = _result(cal, ev, state, True)
     write_json_atomic(out / RESULT_FILE, result)
     plot = plot_misfit(cal, result, out / PLOT_FILE)
+    tell = report or say  # the results: on stdout from the command line, which -q keeps
+    best = state["best"]
+    tell(
+        f"best: {', '.join(f'{k} = {v:.6g}' for k, v in best.values.items())} (misfit {best.misfit:.4g})"
+    )
     for key, u in state["uncertainty"]["params"].items():
         iv = u["interval"]
         span = "no interval" if iv is None else f"interval [{iv[0]:.6g}, {iv[1]:.6g}]"
-        say(f"  {key} = {u['value']:.6g}: {span}")
+        tell(f"  {key} = {u['value']:.6g}: {span}")
     if state["uncertainty"]["note"]:
-        say(f"  note: {state['uncertainty']['note']}")
-    say(f"calibration: {len(evals)} search runs; results {out / RESULT_FILE}, plot {plot}")
+        tell(f"  note: {state['uncertainty']['note']}")
+    tell(f"calibration: {len(evals)} search runs; results {out / RESULT_FILE}, plot {plot}")
     return CalibrationResult(out, result, plot)
 
 

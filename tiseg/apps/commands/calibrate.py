@@ -150,6 +150,8 @@ def run(args) -> int:
         arch=args.arch,
         echo=info,
         overwrite=args.overwrite,
+        # the closing results on stdout (kept by -q); with --json stdout holds the JSON only
+        report=info if args.json else print,
     )
     if args.json:
         print_json(result.result)

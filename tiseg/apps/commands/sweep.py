@@ -166,6 +166,8 @@ def run(args) -> int:
         echo=info,
         progress_interval=args.progress_interval,
         overwrite=args.overwrite,
+        # the closing results on stdout (kept by -q); with --json stdout holds the JSON only
+        report=info if args.json else print,
     )
     if args.json:
         from .common import print_json
