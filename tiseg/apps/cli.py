@@ -14,6 +14,7 @@ import sys
 from ..errors import RunInterrupted, TisegError
 from .._version import __version__
 from ..log import configure
+from . import examples
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
@@ -74,6 +75,8 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not built yet
             raise
         mod.register(sub)
+        if getattr(mod, "EXAMPLES", None):
+            examples.attach(sub.choices[name], mod.EXAMPLES)
     for p in _subparsers(parser):  # -q / -v also after the command's name
         _verbosity_options(p, argparse.SUPPRESS)
     return parser

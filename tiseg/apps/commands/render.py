@@ -12,6 +12,15 @@ from ...output.netcdf import reading
 from ...post.render.colours import canonical_field
 
 
+# `tiseg render --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg render runs/fingers --movie fingers.mp4", "a movie of phi with a colour bar"),
+    ("tiseg render runs/fingers --panels panels.png --times 2.5 5 7.5", "figure-12-like panels"),
+    ("tiseg render runs/fingers --raster", "peak fields and the deposit as ESRI ASCII grids"),
+    ("tiseg render runs/sweeps/gate-probability", "the probability maps of a sweep"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "render",

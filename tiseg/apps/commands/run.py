@@ -27,6 +27,18 @@ from ...post.render.colours import canonical_field
 from ...output.numbers import measured_all
 
 
+# `tiseg run --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg run fingers", "the paper's fingers experiment into runs/fingers"),
+    (
+        "tiseg run fingers --set domain.resolution=200 --movie fingers.mp4",
+        "a coarser, quicker run and its movie",
+    ),
+    ("tiseg run my.toml --out runs/mine --json", "a scene file of your own; the summary as JSON"),
+    ("tiseg run --resume runs/fingers", "continue a killed run from its checkpoint"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "run",

@@ -14,6 +14,14 @@ from ...data import SCENE_DIR, builtin_file
 from ...errors import InputError
 
 
+# `tiseg scenes --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg scenes", "list the built-in scenes"),
+    ("tiseg scenes show fingers > my.toml", "a scene file to edit, then `tiseg run my.toml`"),
+    ("tiseg scenes show fingers --resolved", "every key with its value"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "scenes",

@@ -13,6 +13,23 @@ from .common import check_figure_path
 DEFAULT_K = [0.01, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0, 100.0]
 
 
+# `tiseg stability --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    (
+        "tiseg stability --h0 0.002 --phi0 0.5",
+        "growth rates of the paper's flow at the default wavenumbers",
+    ),
+    (
+        "tiseg stability --F 1.2 --phi0 0.5 --nu 0 --json",
+        "the inviscid rates at Froude number 1.2, as JSON",
+    ),
+    (
+        "tiseg stability --h0 0.002 --phi0 0.5 --plot growth.png",
+        "also draw sigma_M(k) into growth.png",
+    ),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "stability",
