@@ -70,7 +70,12 @@ def register(sub) -> None:
         help="print the predicted steps, RKC stages and wall time (as `tiseg "
         "estimate`) and exit without running",
     )
-    p.add_argument("--json", action="store_true", help="print a JSON summary at the end")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print a JSON summary at the end (shape: [ny, nx], the order of the arrays in "
+        "fields.nc; grid: the same as [nx, ny], its older name)",
+    )
     p.add_argument(
         "--movie",
         default=None,
@@ -207,7 +212,8 @@ def run(args) -> int:
         "wall_time_s": stats.wall,
         "arch": sim.backend.arch,
         "precision": sim.backend.precision,
-        "grid": [scene.domain.nx, scene.domain.ny],
+        "shape": [scene.domain.ny, scene.domain.nx],  # as the arrays of fields.nc: (y, x)
+        "grid": [scene.domain.nx, scene.domain.ny],  # older: (nx, ny), kept for scripts
         "mass": after["mass"],
         "mass_in": bud["mass_in"],
         "resumed": args.resume is not None,
