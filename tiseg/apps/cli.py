@@ -79,7 +79,22 @@ def build_parser() -> argparse.ArgumentParser:
             examples.attach(sub.choices[name], mod.EXAMPLES)
     for p in _subparsers(parser):  # -q / -v also after the command's name
         _verbosity_options(p, argparse.SUPPRESS)
+        _short_choice_lists(p)
     return parser
+
+
+def _short_choice_lists(p: argparse.ArgumentParser) -> None:
+    """An option that takes several words from a list (``--steppers rkc euler``) shows NAME in
+    the usage, and the list once, in its help: argparse writes the list twice per mention, a
+    line of 200 characters that no terminal or page shows whole."""
+    for action in p._actions:
+        if action.choices is None or action.metavar is not None or action.nargs not in ("+", "*"):
+            continue
+        if isinstance(action, argparse._SubParsersAction):
+            continue
+        words = ", ".join(map(str, action.choices))
+        action.metavar = "NAME"
+        action.help = f"{action.help}; one or more of {words}" if action.help else words
 
 
 def _verbosity_options(p, default) -> None:

@@ -34,7 +34,7 @@ def epilog(examples: list[tuple[str, str]]) -> str:
     return "\n".join(lines)
 
 
-def _broken(command: str, width: int = 72) -> list[str]:
+def _broken(command: str, width: int = 68) -> list[str]:
     """A long command line in pieces of at most ``width`` characters where it can, broken
     (with backslashes, as a shell reads them) only before an option, so that an option stays
     on the line of its value."""
