@@ -361,6 +361,11 @@ def test_maps_of_a_2d_sample_render_as_maps(tmp_path):
     assert "95 % quantile of arrival time" in titles
     assert any(ax.get_xlabel() == "x [m]" for ax in fig.axes)
     assert (tmp_path / "maps.png").stat().st_size > 10_000
+    # two columns: the same maps in more rows, none with more than two
+    narrow = plot_probability(ds, columns=2, width=7.0)
+    shown = [ax for ax in narrow.axes if ax.get_visible() and ax.get_title()]
+    assert [ax.get_title() for ax in shown] == titles
+    assert max(sum(ax.get_position().y0 == a.get_position().y0 for a in shown) for ax in shown) == 2
 
 
 def test_the_builtin_gate_probability_sweep_is_valid():

@@ -2,9 +2,9 @@
 
 Each command module declares its examples once, as ``EXAMPLES``: a list of
 ``(command line, what it does)`` pairs. `tiseg.apps.cli.build_parser` hands them to
-:func:`attach`, which writes them as the parser's epilog. argparse re-wraps an epilog into
+`attach`, which writes them as the parser's epilog. argparse re-wraps an epilog into
 one paragraph, which would run the command lines together, so the parser gets
-:class:`ExamplesFormatter`: the description and options are wrapped as before, the examples
+`ExamplesFormatter`: the description and options are wrapped as before, the examples
 keep their lines. ``tests/test_cli_examples.py`` parses every example line, so an option that
 is renamed cannot leave a stale example behind.
 """
