@@ -32,7 +32,7 @@ ENV = dict(os.environ, TI_SKIP_VERSION_CHECK="ON", ENABLE_TAICHI_HEADER_PRINT="0
 
 # the page's commands, after `tiseg` (the page shows them with the same arguments)
 RUN = ["run", "fingers", "--set", "domain.resolution=200", "--movie", "fingers.mp4"]
-SWEEP = ["sweep", "gate-probability", "--out", "gate"]
+SWEEP = ["sweep", "gate-probability", "--out", "runs/sweeps/gate-probability"]
 CALIBRATE = [
     "calibrate", "dam-break", "--set", "effects.friction=coulomb",
     "--set", "numerics.friction_scheme=projected", "--set", "domain.nx=200",
@@ -79,7 +79,7 @@ def step_sweep(work: Path) -> None:
     from tiseg.post.render.probability import plot_probability
 
     tiseg(SWEEP, work)
-    plot_probability(work / "gate", IMAGES / "probability.png", width=7.5, columns=2, dpi=90)
+    plot_probability(work / SWEEP[-1], IMAGES / "probability.png", width=7.5, columns=2, dpi=90)
     _shrink(IMAGES / "probability.png")
 
 
