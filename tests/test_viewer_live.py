@@ -117,3 +117,50 @@ def test_view_prints_the_choice_and_shows_it(capsys):
         == 0
     )
     assert "timing this machine" not in capsys.readouterr().out
+
+
+def test_view_passes_the_choice_to_the_window(monkeypatch, capsys):
+    """The wiring of `tiseg view` without a window: the grid chosen goes into the scene, its
+    steps per frame into the viewer, its line to stdout and its status to the status line; the
+    Simulation timed is shown where the choice is its grid, and --steps-per-frame wins."""
+    from types import SimpleNamespace
+
+    from tiseg.apps.cli import build_parser
+    from tiseg.apps.viewer import app
+
+    made = []
+
+    class FakeViewer:
+        def __init__(self, scene, sim=None, overrides=(), steps_per_frame=1, **kw):
+            made.append(self)
+            self.sim_given, self.overrides, self.steps_per_frame = sim, overrides, steps_per_frame
+            self.sim = SimpleNamespace(t=0.0, stats=SimpleNamespace(steps=0))
+            self.frames, self.message = 0, ""
+
+        def run(self, max_frames=None):
+            pass
+
+    probe = SimpleNamespace(scene=live.at_resolution(load_scene("fingers"), 200))
+    monkeypatch.setattr(app, "display_problem", lambda show: None)
+    monkeypatch.setattr(app, "Viewer", FakeViewer)
+    monkeypatch.setattr(live, "probe", lambda *a: probe)
+    for speed, grid, per_frame, given in (
+        (16e6, 300, 17, None),
+        (4e6, 200, 9, None),
+        (4e6, 200, 3, 3),
+    ):
+        monkeypatch.setattr(live, "measure", lambda sim, s=speed: live.synthetic_calibration(s))
+        argv = ["view", "fingers", "--offscreen"] + (
+            ["--steps-per-frame", str(given)] if given else []
+        )
+        assert app.run_from_args(build_parser().parse_args(argv)) == 0
+        v = made[-1]
+        assert v.overrides[-1] == f"domain.resolution={grid}"
+        assert v.steps_per_frame == per_frame
+        assert v.sim_given is (probe if grid == 200 else None)
+        assert v.message.startswith(f"live grid {grid} cells/m")
+        assert f"viewer: {grid} cells/m" in capsys.readouterr().out
+    argv = ["view", "fingers", "--offscreen", "--set", "domain.resolution=60"]
+    assert app.run_from_args(build_parser().parse_args(argv)) == 0
+    assert made[-1].steps_per_frame == 1 and made[-1].overrides == ["domain.resolution=60"]
+    assert made[-1].message == "" and "cells/m" not in capsys.readouterr().out
