@@ -44,6 +44,22 @@ def test_help_has_examples_that_parse(name):
             assert sweep in list_builtin_sweeps(), line
 
 
+def _nested(parser, prog):
+    for name, sub in _children(parser):
+        yield f"{prog} {name}", sub
+        yield from _nested(sub, f"{prog} {name}")
+
+
+@pytest.mark.parametrize("prog", sorted(p for p, _ in _nested(PARSER, "tiseg") if p.count(" ") > 1))
+def test_every_sub_command_shows_the_examples_that_use_it(prog):
+    """`tiseg bench throughput --help` ends with the bench examples of throughput, and so on
+    for every sub-command: each has at least one."""
+    sub = dict(_nested(PARSER, "tiseg"))[prog]
+    lines = examples.command_lines(sub)
+    assert lines and all(f"{line} ".startswith(f"{prog} ") for line in lines), prog
+    assert "\nexamples:\n" in sub.format_help()
+
+
 def test_a_stale_example_would_be_caught():
     """What the test above relies on: an unknown option or scene key is refused."""
     with pytest.raises(SystemExit):

@@ -76,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
             raise
         mod.register(sub)
         if getattr(mod, "EXAMPLES", None):
-            examples.attach(sub.choices[name], mod.EXAMPLES)
+            examples.attach(sub.choices[name], mod.EXAMPLES, f"tiseg {name}")
     for p in _subparsers(parser):  # -q / -v also after the command's name
         _verbosity_options(p, argparse.SUPPRESS)
         _short_choice_lists(p)

@@ -53,10 +53,22 @@ def _broken(command: str, width: int = 68) -> list[str]:
     return pieces
 
 
-def attach(parser: argparse.ArgumentParser, examples: list[tuple[str, str]]) -> None:
-    """Give ``parser`` the examples section (after the options, as in man pages)."""
+def attach(
+    parser: argparse.ArgumentParser, examples: list[tuple[str, str]], prog: str = ""
+) -> None:
+    """Give ``parser`` (the command ``prog``, "tiseg bench") the examples section (after the
+    options, as in man pages), and each of its sub-commands the examples that use it
+    (``tiseg bench throughput --help`` those that start with ``tiseg bench throughput``)."""
     parser.epilog = epilog(examples)
     parser.formatter_class = ExamplesFormatter
+    for action in parser._actions:
+        if not isinstance(action, argparse._SubParsersAction):
+            continue
+        for name, sub in action.choices.items():
+            full = f"{prog} {name}"
+            mine = [e for e in examples if f"{e[0]} ".startswith(f"{full} ")]
+            if mine:
+                attach(sub, mine, full)
 
 
 def command_lines(parser: argparse.ArgumentParser) -> list[str]:

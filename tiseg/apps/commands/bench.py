@@ -24,6 +24,7 @@ EXAMPLES = [
         "tiseg bench steppers runs/fingers --times 5",
         "what each time stepper costs on a run's state",
     ),
+    ("tiseg bench gpu --quick", "on a GPU machine: throughput in f32 and f64 against the CPU"),
 ]
 
 
