@@ -356,3 +356,24 @@ def test_the_command_prints_calibration_json(tmp_path, capsys, monkeypatch):
     assert printed["calibration"]["budget"] == 12
     assert printed["calibration"]["set"] == FIXED
     assert printed["best"]["values"]["effects.coulomb_mu"] == pytest.approx(0.2, rel=1e-3)
+
+
+def test_quiet_keeps_the_result_on_stdout(tmp_path, capsys, monkeypatch):
+    """-q drops the progress lines (stderr), never the result: the best values, their
+    intervals and where the files are go to stdout."""
+    import tiseg.apps.commands.calibrate as command
+
+    real = command.run_calibration
+    monkeypatch.setattr(
+        command,
+        "run_calibration",
+        lambda cal, out, **kw: real(cal, out, **{**kw, "execute": Model(run_out_of_mu)}),
+    )
+    argv = ["calibrate", SCENE, "--param", "effects.coulomb_mu=0.1:0.4", "--target"]
+    argv += ["runout=0.15+-0.001", "--budget", "12", "--out", str(tmp_path), "-q"]
+    assert main([*argv, "--set", "effects.friction=coulomb", "--set", "domain.nx=40"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    best = json.loads((tmp_path / "calibration.json").read_text())["best"]["values"]
+    assert f"best: effects.coulomb_mu = {best['effects.coulomb_mu']:.6g}" in out
+    assert "effects.coulomb_mu = " in out and "calibration.json" in out

@@ -93,9 +93,9 @@ def test_stability_cutoff_json(capsys):
     )
     assert round(o["k_cutoff"], 5) == 2.00345  # (A42), independent prototype
     assert o["k_cutoff_analytic"]["A42"] == pytest.approx(o["k_cutoff"], rel=1e-9)
-    assert o["sigma_max"][0] < 0  # k = 3 > k_c decays
+    assert o["sigma_M"][0] < 0  # k = 3 > k_c decays
     # independent prototype, linear mode case 2: sigma = -8.22235 - 573.0111 i 1/s at k = 3
-    assert o["sigma_max_per_s"][0] == pytest.approx(-8.22235, abs=1e-5)
+    assert o["sigma_M_per_s"][0] == pytest.approx(-8.22235, abs=1e-5)
 
 
 def test_stability_from_froude(capsys):
@@ -114,7 +114,24 @@ def test_stability_inviscid(capsys):
     assert o["R"] is None and o["k_max"] is None and o["sigma_Max_is_limit"] is True
     assert round(o["sigma_Max"], 5) == 0.10911  # (5.30), independent prototype
     assert o["k_cutoff"] is None and o["wavelength_at_k_max_m"] is None
-    assert max(o["sigma_max"]) < o["sigma_Max"]
+    assert max(o["sigma_M"]) < o["sigma_Max"]
+
+
+def test_stability_json_keeps_the_older_names(capsys):
+    """sigma_max* (per k) are aliases of sigma_M*, distinct from sigma_Max (over k)."""
+    o = run_json(
+        capsys,
+        ["stability", "--h0", "0.003", "--phi0", "0.8", "--k", "1", "3"]
+        + ["--ky", "0.5", "--json"],
+    )
+    for old, new in (
+        ("sigma_max", "sigma_M"),
+        ("sigma_max_per_s", "sigma_M_per_s"),
+        ("sigma_max_imag", "sigma_M_imag"),
+        ("sigma_max_2d", "sigma_M_2d"),
+    ):
+        assert o[old] == o[new] and len(o[new]) == (1 if "2d" in new else 2)
+    assert o["sigma_Max"] >= max(o["sigma_M"])  # the maximum over all k
 
 
 def test_stability_inviscid_critical(capsys):

@@ -92,3 +92,37 @@ print(renewed, backend.generation() - g)
     p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     assert p.stdout.split()[-2:] == ["1", "0"], p.stdout  # renewed once; held: kept
+
+
+def test_python_dash_m_tiseg_is_the_command():
+    out = subprocess.run(
+        [sys.executable, "-m", "tiseg", "--version"], capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0 and out.stdout.strip() == f"tiseg {__version__}", out.stderr
+
+
+def test_set_with_a_space_gets_a_hint(capsys):
+    """`--set KEY VALUE` (a space for the =): one line that shows the KEY=VALUE form."""
+    import pytest
+
+    with pytest.raises(SystemExit) as exc:  # argparse's own error
+        main(["run", "fingers", "--set", "domain.resolution", "40"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "did you mean --set domain.resolution=40?" in err and err.count("\n") == 1
+    assert main(["run", "fingers", "--set", "domain.resolution"]) == 2
+    err = capsys.readouterr().err
+    assert "--set domain.resolution=VALUE" in err and err.count("\n") == 1
+
+
+def test_run_json_shape_is_the_arrays_order(ti_cpu, tmp_path, capsys):
+    """shape is (ny, nx) as the fields in fields.nc; grid, its older name, stays (nx, ny)."""
+    import xarray as xr
+
+    out = tmp_path / "r"
+    argv = [a if a != "domain.Lx=0.3" else "domain.Lx=0.5" for a in tiny_fingers(0.05)]
+    assert main([*argv, "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    with xr.open_dataset(out / "fields.nc") as ds:
+        assert summary["shape"] == list(ds["h"].shape[-2:]) == [4, 20]  # 0.1 x 0.5 m at 40/m
+    assert summary["grid"] == [20, 4]

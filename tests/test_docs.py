@@ -29,3 +29,16 @@ def test_scenes_reference_lists_every_key_and_choice():
 @pytest.mark.parametrize("command", COMMAND_MODULES)
 def test_cli_reference_has_every_command(command):
     assert f"`tiseg {command}`" in cli_reference.markdown()
+
+
+def test_cli_reference_fits_the_page_and_shows_examples():
+    """The site's code blocks show about 80 characters at page width: no line of the reference
+    is wider than 76 (none clipped), and every command's section has its examples."""
+    page = cli_reference.markdown()
+    blocks = page.split("```text\n")[1:]
+    assert len(blocks) > len(COMMAND_MODULES)
+    wide = [line for b in blocks for line in b.split("```")[0].splitlines() if len(line) > 76]
+    assert not wide, wide[:3]
+    for command in COMMAND_MODULES:
+        section = page.split(f"## `tiseg {command}`", 1)[1].split("\n## ", 1)[0]
+        assert "\nexamples:\n  tiseg " + command in section, command

@@ -56,15 +56,26 @@ def test_fields_round_trip_with_xarray(tmp_path):
         assert ds["h"].dims == ("time", "y", "x")
         np.testing.assert_array_equal(ds["time"].values, times)
         assert ds["time"].dtype == np.float64  # decode_times=False: plain seconds
-        # CF 4.4: a time coordinate has units "<unit> since <date>"; x and y carry no axis
-        # attribute, which CF checkers take for longitude and latitude
+        # CF 4.4: a time coordinate has units "<unit> since <date>"
         # (upper-case SINCE: the same UDUNITS unit, which xarray does not decode to dates)
         assert ds["time"].attrs["units"] == "seconds SINCE 2000-01-01 00:00:00"
         assert ds["time"].attrs["standard_name"] == "time" and ds["time"].attrs["axis"] == "T"
         np.testing.assert_array_equal(ds["x"].values, X)
         np.testing.assert_array_equal(ds["y"].values, Y)
-        assert ds["x"].attrs == {"long_name": "downslope distance", "units": "m"}
-        assert ds["y"].attrs == {"long_name": "cross-slope distance", "units": "m"}
+        # axis: GDAL's netCDF driver places the rasters in metres (a geotransform); the
+        # projection_*_coordinate names keep CF checkers from reading them as lon / lat
+        assert ds["x"].attrs == {
+            "standard_name": "projection_x_coordinate",
+            "long_name": "downslope distance",
+            "units": "m",
+            "axis": "X",
+        }
+        assert ds["y"].attrs == {
+            "standard_name": "projection_y_coordinate",
+            "long_name": "cross-slope distance",
+            "units": "m",
+            "axis": "Y",
+        }
         units = {"h": "m", "u": "m s-1", "v": "m s-1", "phi": "1"}
         for name, unit in units.items():
             assert ds[name].attrs["units"] == unit
@@ -289,7 +300,8 @@ def test_scene_output_precision_reaches_the_file(ti_cpu, tmp_path):
 
 
 def test_cf_xarray_finds_the_time_axis(tmp_path):
-    """cf_xarray reads the CF attributes: time is the T axis and the time coordinate."""
+    """cf_xarray reads the CF attributes: time is the T axis and the time coordinate, x and
+    y the X and Y axes."""
     import cf_xarray  # noqa: F401  (registers the .cf accessor)
 
     path = tmp_path / "f.nc"
@@ -297,6 +309,6 @@ def test_cf_xarray_finds_the_time_axis(tmp_path):
         for t in (0.0, 0.5):
             w.write(t, **_snapshot(t))
     with xr.open_dataset(path) as ds:
-        assert ds.cf.axes == {"T": ["time"]}
+        assert ds.cf.axes == {"T": ["time"], "X": ["x"], "Y": ["y"]}
         assert ds.cf.coordinates == {"time": ["time"]}
         assert ds.cf["time"].size == 2

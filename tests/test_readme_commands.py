@@ -161,6 +161,12 @@ TISEG_RULES = [
         "draws the probability.nc of a sweep, which the page's sweep (not run here) writes; "
         "tests/test_sweep_probability.py renders one",
     ),
+    Rule(
+        r"^tiseg fingers \S+ --time ",
+        lambda a: [*a[: a.index("--time") + 1], TINY_T_END, *a[a.index("--time") + 2 :]],
+        "the time asked for is that of the full run; the tiny run's last time is TINY_T_END",
+    ),
+    Rule(r"^tiseg --version$", lambda a: a),
     Rule(r"^tiseg (fingers|render|steady|stability|scenes)\b", lambda a: a),
 ]
 OTHER_RULES = [

@@ -68,3 +68,14 @@ def test_no_placeholder_addresses(name):
         host = url.split("/")[2]
         assert not re.search(r"example\.|localhost|your|placeholder|xxx", host, re.I), url
         assert "USER" not in url and "OWNER" not in url and "<" not in url, url
+
+
+def test_the_repository_address_is_in_the_metadata_and_the_docs():
+    """pip show / PyPI link the repository ([project.urls]), and the site links it (repo_url)."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    urls = tomllib.loads((root / "pyproject.toml").read_text())["project"]["urls"]
+    assert urls["Source"] == "https://github.com/tiseg/tiseg"
+    assert "repo_url: https://github.com/tiseg/tiseg\n" in (root / "mkdocs.yml").read_text()

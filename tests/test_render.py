@@ -350,6 +350,24 @@ def test_cli_run_movie(ti_cpu, tmp_path, capsys):
     frames = _decode(movie)
     assert len(frames) == 4
     assert frames[0].shape[1] % 2 == 0 and frames[0].shape[0] % 2 == 0
+    # more than a pixel per cell: the map is at least 600 pixels wide, whole pixels per cell
+    from tiseg.setup.scene import load_scene
+
+    d = load_scene("fingers", ["domain.resolution=40"]).domain
+    per_cell = -(-600 // d.nx)
+    assert per_cell > 1
+    map_w = d.nx * per_cell
+    H, W = frames[0].shape[:2]
+    assert W == map_w + 70 + (map_w + 70) % 2  # the map and a colour bar 70 pixels wide
+    assert H - 20 in (d.ny * per_cell, d.ny * per_cell + 1)  # and the caption strip
+    # the colour bar: phi's ramp, fines (white) at the top, coarse (brown) at the bottom
+    ramp = frames[-1][:, map_w + 9 : map_w + 15].astype(int).mean(axis=1)
+    coloured = np.abs(ramp - u8(C.BACKGROUND_RGB)).max(axis=1) > 30
+    runs = np.split(np.arange(H), np.nonzero(np.diff(coloured))[0] + 1)
+    bar = max((r for r in runs if coloured[r[0]]), key=len)  # the bar, not the φ above it
+    assert len(bar) > 0.7 * (H - 20)
+    assert close(ramp[bar[2]], u8(C.FINES_RGB), 25)
+    assert close(ramp[bar[-3]], u8(C.COARSE_RGB), 25)
 
 
 def test_text_is_drawn_where_asked_with_pillow():

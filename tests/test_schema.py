@@ -175,6 +175,7 @@ def test_compiled_lists_come_from_the_declarations():
         "numerics.precision",
         "numerics.max_stages",
         "output.peak_fields",
+        "output.gauges",
     )
     assert "numerics.reconstruction" in compiled_keys(SECTIONS, "operator")
     assert "flow.nu" not in compiled_keys(SECTIONS)

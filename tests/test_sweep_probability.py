@@ -245,7 +245,8 @@ def _check_maps(path: Path, out: Path, names):
         assert ds.h_threshold.values.tolist() == H_THR and ds.h_threshold.attrs["units"] == "m"
         assert ds.speed_threshold.attrs["units"] == "m s-1"
         assert ds.quantile_level.values.tolist() == [0.05, 0.5, 0.95]
-        assert ds.x.attrs == {"long_name": "downslope distance", "units": "m"}
+        assert ds.x.attrs["axis"] == "X" and ds.y.attrs["axis"] == "Y"  # GDAL places the maps
+        assert ds.x.attrs["units"] == "m" and ds.x.attrs["long_name"] == "downslope distance"
         for name, var in ds.data_vars.items():
             assert "long_name" in var.attrs, name
             if name != "run":
@@ -360,6 +361,11 @@ def test_maps_of_a_2d_sample_render_as_maps(tmp_path):
     assert "95 % quantile of arrival time" in titles
     assert any(ax.get_xlabel() == "x [m]" for ax in fig.axes)
     assert (tmp_path / "maps.png").stat().st_size > 10_000
+    # two columns: the same maps in more rows, none with more than two
+    narrow = plot_probability(ds, columns=2, width=7.0)
+    shown = [ax for ax in narrow.axes if ax.get_visible() and ax.get_title()]
+    assert [ax.get_title() for ax in shown] == titles
+    assert max(sum(ax.get_position().y0 == a.get_position().y0 for a in shown) for ax in shown) == 2
 
 
 def test_the_builtin_gate_probability_sweep_is_valid():

@@ -14,6 +14,7 @@ import sys
 from ..errors import RunInterrupted, TisegError
 from .._version import __version__
 from ..log import configure
+from . import examples
 
 # Sub-command modules, each with ``register(subparsers)``; imported lazily so that
 # `tiseg steady` does not pay for importing Taichi.
@@ -36,8 +37,21 @@ COMMAND_MODULES = [
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own errors: one line (no usage block), exit 2
-        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        hint = _set_hint(sys.argv[1:] if _ARGV is None else _ARGV)
+        sys.stderr.write(f"{self.prog}: error: {message}{hint} (see '{self.prog} --help')\n")
         raise SystemExit(2)
+
+
+_ARGV: list[str] | None = None  # the arguments main() parses (None: sys.argv)
+
+
+def _set_hint(argv: list[str]) -> str:
+    """'; did you mean --set K=V?' where ``--set K V`` was given: --set takes one word."""
+    for i in range(len(argv) - 2):
+        key, value = argv[i + 1], argv[i + 2]
+        if argv[i] == "--set" and "=" not in key and not value.startswith("-"):
+            return f"; did you mean --set {key}={value}? (--set KEY=VALUE)"
+    return ""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -61,9 +75,26 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not built yet
             raise
         mod.register(sub)
+        if getattr(mod, "EXAMPLES", None):
+            examples.attach(sub.choices[name], mod.EXAMPLES, f"tiseg {name}")
     for p in _subparsers(parser):  # -q / -v also after the command's name
         _verbosity_options(p, argparse.SUPPRESS)
+        _short_choice_lists(p)
     return parser
+
+
+def _short_choice_lists(p: argparse.ArgumentParser) -> None:
+    """An option that takes several words from a list (``--steppers rkc euler``) shows NAME in
+    the usage, and the list once, in its help: argparse writes the list twice per mention, a
+    line of 200 characters that no terminal or page shows whole."""
+    for action in p._actions:
+        if action.choices is None or action.metavar is not None or action.nargs not in ("+", "*"):
+            continue
+        if isinstance(action, argparse._SubParsersAction):
+            continue
+        words = ", ".join(map(str, action.choices))
+        action.metavar = "NAME"
+        action.help = f"{action.help}; one or more of {words}" if action.help else words
 
 
 def _verbosity_options(p, default) -> None:
@@ -217,6 +248,8 @@ def _main(argv: list[str] | None) -> int:
             "names must be (NetCDF cannot open others): rename it\n"
         )
         return 2
+    global _ARGV
+    _ARGV = list(argv) if argv is not None else None
     parser = build_parser()
     args = parser.parse_args(argv)
     configure(-1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0)), 1))

@@ -19,7 +19,8 @@ def _children(parser: argparse.ArgumentParser):
 def markdown() -> str:
 
     old = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "100"  # argparse wraps help to the terminal width
+    os.environ["COLUMNS"] = "78"  # argparse wraps at COLUMNS - 2: 76 characters fit
+    # a code block of the site at page width, with no scroll bar
     try:
         root = build_parser()
         lines = [

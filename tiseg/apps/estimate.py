@@ -421,12 +421,16 @@ def calibrate(
     threads: int = 0,
     output: bool = True,
     repeats: int = 5,
+    sim=None,
 ) -> Calibration:
-    """Time the scene's own kernels on its grid in this process (see the module docstring)."""
+    """Time the scene's own kernels on its grid in this process (see the module docstring).
+    ``sim``: a fresh Simulation of ``scene`` to time instead of building one (the viewer
+    calibrates the one it then shows, after a reset, so that its kernels compile once)."""
     from ..run.simulation import Simulation
 
     w0 = time.perf_counter()
-    sim = Simulation(scene, arch=arch, precision=precision, threads=threads)
+    if sim is None:
+        sim = Simulation(scene, arch=arch, precision=precision, threads=threads)
     setup = time.perf_counter() - w0
     op, lay = sim.op, sim.layout
     rng = np.random.default_rng(0)

@@ -181,6 +181,45 @@ def write_units(csv_path, columns: Sequence[str], one_d: bool = False) -> Path:
     return write_json_atomic(csv_path.with_name(csv_path.name + "-metadata.json"), meta)
 
 
+# a gauge column's quantity (the part after the gauge's name) -> (unit, description)
+GAUGE_UNITS = {
+    "h": ("m", "flow thickness"),
+    "u": ("m/s", "depth-averaged downslope velocity"),
+    "v": ("m/s", "depth-averaged cross-slope velocity"),
+    "phi": ("1", "depth-averaged small-particle concentration (empty: no material)"),
+}
+
+
+def write_gauge_units(csv_path, columns: Sequence[str]) -> Path:
+    """``gauges.csv-metadata.json`` (CSV on the Web): per column ``<gauge>_<quantity>`` its
+    unit and meaning (tiseg.run.gauges); ``time`` as in diagnostics.csv."""
+    csv_path = Path(csv_path)
+    cols = []
+    for c in columns:
+        if c == "time":
+            unit, text = "s", "simulated time at the end of the step"
+        else:
+            gauge, quantity = c.rsplit("_", 1)
+            unit, what = GAUGE_UNITS[quantity]
+            text = f"{what} at gauge {gauge}, interpolated bilinearly"
+        cols.append(
+            {
+                "name": c,
+                "titles": c,
+                "datatype": "double",
+                "dc:description": f"{text} [{unit}]",
+                "unit": unit,
+            }
+        )
+    meta = {
+        "@context": "http://www.w3.org/ns/csvw",
+        "url": csv_path.name,
+        "dc:title": "tiseg gauges: h, u, v, phi at points after every step",
+        "tableSchema": {"columns": cols},
+    }
+    return write_json_atomic(csv_path.with_name(csv_path.name + "-metadata.json"), meta)
+
+
 def write_text_atomic(path, text: str) -> Path:
     """Write ``text`` to ``path`` via a temporary file in the same folder and ``os.replace``, so
     that readers see either the old or the new content, never a half-written file."""
@@ -221,6 +260,7 @@ __all__ = [
     "DiagnosticsWriter",
     "read_diagnostics",
     "write_units",
+    "write_gauge_units",
     "DEFAULT_COLUMNS",
     "UNITS",
     "write_text_atomic",

@@ -9,6 +9,12 @@ data variables (time, y, x).
   keyword in any case, so the CF checker, cf_units, cftime and VTK's CF reader take it as the
   usual time coordinate; xarray looks for a lower-case "since" only, so ``xr.open_dataset``
   keeps the time as float seconds and ``ds.sel(time=1.0)`` works (no dates of the year 2000).
+  Plain ``units = "s"`` (no date) would serve xarray (float seconds, plot titles "time = 1.0
+  [s]"), VTK and GDAL as well, but the IOOS checker (cf:1.8, version 6.1) refuses it on a
+  coordinate named ``time``: such a coordinate must have ``standard_name = "time"`` (section
+  5.1) and a time coordinate units with a reference date (3.1, 4.4), as CF 4.4 says.
+* ``x`` and ``y`` carry ``axis`` and the ``projection_x/y_coordinate`` standard names
+  (`COORD_ATTRS`): GDAL and QGIS place the rasters in metres.
 * ``phi`` is missing (``_FillValue``, NaN after xarray's decoding) where h < h_min: there is no
   material there, and 0 would read as pure coarse grains.
 * Data are stored as f8 or f4 (``output.precision``), optionally quantised to
@@ -56,6 +62,26 @@ REFERENCES = (
     "formation in granular free-surface flows. J. Fluid Mech. 809, 168-212, "
     "doi:10.1017/jfm.2016.653"
 )
+
+# CF attributes of the cell-centre coordinates. ``axis`` is what GDAL's netCDF driver (QGIS's
+# reader) needs to take x and y as a regular grid and give the rasters a geotransform in metres;
+# without it they are placed in pixels. The projection_*_coordinate standard names say that
+# they are plane coordinates, not longitude and latitude (the CF checker reads an axis alone
+# as those); the plane is the chute's, x down the slope and y across it, in no map projection.
+COORD_ATTRS = {
+    "x": {
+        "standard_name": "projection_x_coordinate",
+        "long_name": "downslope distance",
+        "units": "m",
+        "axis": "X",
+    },
+    "y": {
+        "standard_name": "projection_y_coordinate",
+        "long_name": "cross-slope distance",
+        "units": "m",
+        "axis": "Y",
+    },
+}
 
 # CF attributes of the primitive fields of (6.1)-(6.3).
 FIELD_ATTRS = {
@@ -202,13 +228,11 @@ class FieldsWriter:
                 "placeholder that CF requires",
             }
         )
-        # x and y are distances along and across the slope, not a map projection: no axis
-        # attribute, which CF checkers read as longitude / latitude
         yv = ds.createVariable("y", "f8", ("y",))
-        yv.setncatts({"long_name": "cross-slope distance", "units": "m"})
+        yv.setncatts(COORD_ATTRS["y"])
         yv[:] = y
         xv = ds.createVariable("x", "f8", ("x",))
-        xv.setncatts({"long_name": "downslope distance", "units": "m"})
+        xv.setncatts(COORD_ATTRS["x"])
         xv[:] = x
         ny, nx = self.shape
         for name in self.fields:
@@ -565,6 +589,7 @@ __all__ = [
     "read_fields",
     "reading",
     "written_times",
+    "COORD_ATTRS",
     "FIELD_ATTRS",
     "STATIC_ATTRS",
 ]

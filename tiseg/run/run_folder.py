@@ -32,18 +32,26 @@ from ..errors import InputError, TisegError
 from .limits import disk_note
 from ..output.paths import HOLDER_NAME, LOCK_NAME, RunLock, refuse_symlinks
 from .schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
-from ..output.diagnostics import DiagnosticsWriter, write_text_atomic, write_units
+from ..output.diagnostics import (
+    DiagnosticsWriter,
+    write_gauge_units,
+    write_text_atomic,
+    write_units,
+)
 from ..output.manifest import MANIFEST_NAME, Manifest, record
 from ..output.netcdf import FieldsFileError, FieldsWriter, peak_variables
 from ..log import logger
 
 DIAGNOSTICS = "diagnostics.csv"
+GAUGES = "gauges.csv"
 # what a run folder writes there itself (listed in the manifest before the first of them)
 WRITES = (
     "scene.toml",
     "fields.nc",
     DIAGNOSTICS,
     DIAGNOSTICS + "-metadata.json",
+    GAUGES,
+    GAUGES + "-metadata.json",
     _ckpt.CHECKPOINT_NAME,
     "failure",
 )
@@ -174,7 +182,7 @@ class RunFolder:
     def __init__(self, sim, path, resume: dict | None = None, overwrite: bool = False):
         self.sim = sim
         self.path = out = Path(path)
-        self.fields = self.diag = self.lock = None
+        self.fields = self.diag = self.gauges = self.lock = None
         sc = sim.scene
         try:
             out.mkdir(parents=True, exist_ok=True)
@@ -234,10 +242,17 @@ class RunFolder:
                 self.fields = self._new_fields_writer(out / "fields.nc")
                 self.diag = DiagnosticsWriter(out / DIAGNOSTICS)
                 write_units(out / DIAGNOSTICS, self.diag.columns, one_d=sim.layout.is_1d)
+                if sim.gauges is not None:
+                    self.gauges = DiagnosticsWriter(out / GAUGES, columns=sim.gauges.columns())
+                    write_gauge_units(out / GAUGES, self.gauges.columns)
             else:
                 self.diag = _ckpt.append_diagnostics(
                     out / DIAGNOSTICS, resume["diag_rows"], t=sim.t
                 )
+                if sim.gauges is not None:  # a row per diagnostics row: cut back alike
+                    self.gauges = _ckpt.append_diagnostics(
+                        out / GAUGES, resume["diag_rows"], t=sim.t
+                    )
                 try:
                     self.fields = FieldsWriter.append(
                         out / "fields.nc",
@@ -266,6 +281,11 @@ class RunFolder:
         return [
             Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
             Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
+            *(
+                [Callback(self.write_gauges, IterationInterval(1), name="gauges")]
+                if self.gauges is not None
+                else []
+            ),
             Callback(
                 self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100, checked=True
             ),
@@ -287,10 +307,17 @@ class RunFolder:
         info = sim.last_step
         self._row(info.dt, info.stages, sim.last_stability.max_speed)
 
+    def write_gauges(self, sim) -> None:
+        """gauges.csv's row of the step state (tiseg.run.gauges)."""
+        with self._writing(self.gauges.path):
+            self.gauges.write(**sim.gauges.row(sim.t))
+
     def start(self) -> None:
-        """The row of the initial state (a fresh run only)."""
+        """The rows of the initial state (a fresh run only)."""
         if self.sim.stats.steps == 0:
             self._row(0.0, 0, float("nan"))
+            if self.gauges is not None:
+                self.write_gauges(self.sim)
 
     def _row(self, dt: float, stages: int, max_speed: float) -> None:
         sim = self.sim
@@ -366,7 +393,7 @@ class RunFolder:
         (a signal in the middle would leave the lock's holder file behind)."""
         with _signals_deferred():
             self.counts()
-            for w in (self.fields, self.diag):
+            for w in (self.fields, self.diag, self.gauges):
                 if w is not None:
                     try:
                         w.close()

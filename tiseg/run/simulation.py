@@ -48,6 +48,7 @@ from .failures import FailureChecks, SimulationError
 from .state_access import StateAccess
 from ..errors import InputError, RunInterrupted
 from .guards import StateGuard
+from .gauges import Gauges
 from .peaks import PeakFields, deposit
 from ..setup.initial import initial_state
 from .limits import check_memory
@@ -224,6 +225,8 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
         # the peak fields (tiseg.run.peaks), updated after every step; none when switched off
         self.peaks = PeakFields(self.op) if scene.output.peak_fields else None
+        # the gauges (tiseg.run.gauges): read after every step by the run folder; none without
+        self.gauges = self._make_gauges(scene)
         self.callbacks: dict[str, Callback] = {}
         self.check_every = check_every  # registers the guard callback
         self.failure_dir: Path | None = None  # where a guard failure saves its states
@@ -352,6 +355,24 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
                 "keeps no peak fields"
             )
         return {**self.peaks.arrays(), **deposit(self.fields(), self.scene.numerics.h_min)}
+
+    def _make_gauges(self, scene):
+        """The gauges of ``[[output.gauges]]`` on this operator, or None (no field, no kernel)."""
+        pts = [(g.name, g.x, g.y) for g in scene.output.gauges]
+        if not pts:
+            return None
+        return Gauges(self.op, pts, scene.dx, scene.dy, scene.numerics.h_min)
+
+    def gauge_values(self) -> dict:
+        """{gauge name: {quantity: value}} of the current state (tiseg.run.gauges): h, u, v,
+        phi at each ``[[output.gauges]]`` point, interpolated bilinearly. An InputError when
+        the scene has no gauges."""
+        if self.gauges is None:
+            raise InputError(f"scene {self.scene.name!r} has no [[output.gauges]]")
+        vals = self.gauges.read()
+        return {
+            n: {q: float(a[i]) for q, a in vals.items()} for i, n in enumerate(self.gauges.names)
+        }
 
     def wall_time(self) -> float:
         """Cumulative wall time of the run [s] (continues across resumes)."""

@@ -73,7 +73,10 @@ def parse_override(text: str) -> tuple[str, Any]:
     key, sep, raw = text.partition("=")
     key, raw = key.strip(), raw.strip()
     if not sep:
-        raise InputError(f"override {text!r}: expected 'section.key=value' (no '=' found)")
+        raise InputError(
+            f"override {text!r}: expected 'section.key=value' (no '=' found; on the command "
+            f"line: --set {text}=VALUE)"
+        )
     check_dotted_key(key, text)
     if "\n" in raw or "\r" in raw:
         raise InputError(f"override {text!r}: the value must be on one line")

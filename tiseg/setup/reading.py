@@ -167,7 +167,7 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     inflow = read_inflow(table("inflow"), top.has("inflow"), boundary, domain, flow)
     initial = read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects, material)
     numerics = read_numerics(table("numerics"), flow, domain.ny == 1, effects)
-    output = read_output(table("output"), time.t_end)
+    output = read_output(table("output"), time.t_end, domain)
     _check_forcing_phase(inflow, time.t_end)
     return Scene(
         name=name,

@@ -22,10 +22,12 @@ after the generic read (`tiseg.setup.validators`).
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping
 
-from .table import MISSING, Table
+from ..errors import InputError
+from .table import MISSING, Table, type_name
 
 KEY = "tiseg.key"  # the metadata entry of a scene key
 DECLARED = object()  # read_key's default: the field's own
@@ -46,7 +48,10 @@ class Key:
     ``read_default``: the default those kinds read (a value, a callable of the scene read so
     far, MISSING for a required key), where the field's own default is None for the others.
     ``write``: whether the writer writes the value (given the section's value and the scene);
-    None values are never written (TOML has no null)."""
+    None values are never written (TOML has no null). ``units``: the value's unit in UDUNITS
+    form ("1" for a pure number), where the doc's trailing ``[unit]`` does not give it.
+    ``many``: with ``table``, an array of such tables (``[[output.gauges]]``), a tuple of
+    values; left out of the written scene when empty."""
 
     doc: str
     lo: float | None = None
@@ -62,6 +67,8 @@ class Key:
     kinds: tuple[str, ...] = ()
     read_default: Any = None
     write: Callable[[Any, Any], bool] | None = None
+    units: str | None = None
+    many: bool = False
 
     def allowed(self) -> tuple[str, ...]:
         """The allowed words now (the registry as it stands)."""
@@ -84,6 +91,35 @@ class Key:
         if self.hi is not None:
             return f"<= {self.hi:g}"
         return ""
+
+
+# the units that docs write in brackets, as UDUNITS spells them (CF's units attribute)
+DOC_UNITS = {
+    "m": "m",
+    "s": "s",
+    "m/s": "m s-1",
+    "m/s^2": "m s-2",
+    "1/s": "s-1",
+    "m^(3/2)/s": "m1.5 s-1",
+    "degrees": "degree",
+    "Hz": "Hz",
+}
+
+
+def units_of(f: dataclasses.Field) -> str | None:
+    """The unit of a number key in UDUNITS form (a sweep's sampled or gridded key gets it as its
+    CF units): the declared ``units``, else the unit in the doc's trailing brackets
+    ("slope angle zeta [degrees]"; brackets that hold a range, "[0, 1]", are not units), else
+    None (not declared)."""
+    k = key_of(f)
+    if k is None:
+        return None
+    if k.units is not None:
+        return k.units
+    found = [
+        DOC_UNITS[b.strip()] for b in re.findall(r"\[([^\]]*)\]", k.doc) if b.strip() in DOC_UNITS
+    ]
+    return found[0] if found else None
 
 
 def key(doc: str, **meta) -> dict:
@@ -200,8 +236,28 @@ def write_section(cls, value, scene=None) -> dict:
         v = getattr(value, f.name)
         if v is None or (k.write is not None and not k.write(value, scene)):
             continue
-        out[f.name] = plain(v)
+        if k.table is not None and k.many:
+            if v:  # an array of tables; none: no key (TOML has no empty array of tables)
+                out[f.name] = [write_section(k.table, item, scene) for item in v]
+            continue
+        out[f.name] = write_section(k.table, v, scene) if k.table is not None else plain(v)
     return out
+
+
+def read_tables(t: Table, f: dataclasses.Field) -> tuple[dict, ...]:
+    """The array of tables ``f`` declares (``many``), each read as its dataclass's keys (one
+    dict per table, in order); none when the key is left out."""
+    k = key_of(f)
+    items = t.get(f.name, [])
+    full = t.full(f.name)
+    if not isinstance(items, (list, tuple)) or not all(isinstance(i, Mapping) for i in items):
+        raise InputError(
+            f"{full}: expected an array of tables ([[{full}]] entries), got {type_name(items)}"
+        )
+    names = key_names(k.table)
+    return tuple(
+        read_section(k.table, Table(item, f"{full}[{i}]", names)) for i, item in enumerate(items)
+    )
 
 
 def compiled_keys(sections: Mapping[str, type], how: str | None = None) -> tuple[str, ...]:

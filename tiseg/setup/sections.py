@@ -62,13 +62,13 @@ class SpeciesKeys:
     of `tiseg.model.material.Material`, different for each species)."""
 
     zeta1_deg: float = field(
-        default=None, metadata=key("minimum angle of steady flow, mu1 = tan(zeta1)")
+        default=None, metadata=key("minimum angle of steady flow, mu1 = tan(zeta1)", units="degree")
     )
     zeta2_deg: float = field(
-        default=None, metadata=key("maximum angle of steady flow, mu2 = tan(zeta2)")
+        default=None, metadata=key("maximum angle of steady flow, mu2 = tan(zeta2)", units="degree")
     )
     beta: float = field(
-        default=None, metadata=key("dimensionless constant of (3.7)", positive=True)
+        default=None, metadata=key("dimensionless constant of (3.7)", positive=True, units="1")
     )
     L: float = field(default=None, metadata=key("length scale of (3.7) [m]", positive=True))
     zeta3_deg: float | None = field(
@@ -76,7 +76,8 @@ class SpeciesKeys:
         metadata=key(
             "start angle of a thick layer at rest, mu3 = tan(zeta3), for effects.friction = "
             '"pouliquen-extended"; default zeta1_deg + 1 (a choice: Table 1 has no start '
-            "angle, so measure zeta_start(h) and set it)"
+            "angle, so measure zeta_start(h) and set it)",
+            units="degree",
         ),
     )
 
@@ -97,7 +98,7 @@ class MaterialKeys:
     zeta_deg: float = field(default=TABLE1.zeta_deg, metadata=key("slope angle zeta [degrees]"))
     alpha: float = field(
         default=TABLE1.alpha,
-        metadata=key("basal slip parameter of the linear shear profile (2.12)"),
+        metadata=key("basal slip parameter of the linear shear profile (2.12)", units="1"),
     )
     transport: str = field(
         default=TABLE1.transport,
@@ -111,7 +112,8 @@ class MaterialKeys:
         default=TABLE1.g, metadata=key("gravitational acceleration [m/s^2]", positive=True)
     )
     chi: float = field(
-        default=TABLE1.chi, metadata=key("shape factor; the model assumes chi = 1 (section 3)")
+        default=TABLE1.chi,
+        metadata=key("shape factor; the model assumes chi = 1 (section 3)", units="1"),
     )
     small: SpeciesKeys = field(
         default=_SMALL, metadata=key(_species_doc("small"), table=SpeciesKeys)
@@ -152,7 +154,8 @@ class FlowConfig:
         metadata=key("thickness of the reference steady uniform flow [m]", positive=True),
     )
     phi0: float = field(
-        default=0.8, metadata=key("its small-particle concentration, in [0, 1]", lo=0.0, hi=1.0)
+        default=0.8,
+        metadata=key("its small-particle concentration, in [0, 1]", lo=0.0, hi=1.0, units="1"),
     )
     nu: float = field(
         default=0.01,
@@ -217,7 +220,10 @@ class DomainConfig:
     resolution: float | None = field(
         default=None,
         metadata=key(
-            "cells per metre, only used to derive nx, ny", positive=True, compiled="operator"
+            "cells per metre, only used to derive nx, ny",
+            positive=True,
+            compiled="operator",
+            units="m-1",
         ),
     )
     nx: int = field(
@@ -303,17 +309,18 @@ class InflowConfig:
     h: float = field(metadata=key("inflow thickness [m] (default flow.h0)", positive=True))
     u: float = field(metadata=key("inflow speed [m/s] (default flow.u0)", positive=True))
     phi: float = field(
-        metadata=key("inflow concentration of (6.9) (default flow.phi0)", lo=0.0, hi=1.0)
+        metadata=key("inflow concentration of (6.9) (default flow.phi0)", lo=0.0, hi=1.0, units="1")
     )
     ramp_rate: float = field(default=10.0, metadata=key("[1/s]; 0 = sudden inflow", nonneg=True))
-    perturbation: float = field(default=8e-5, metadata=key("delta of (6.9)"))
+    perturbation: float = field(default=8e-5, metadata=key("delta of (6.9)", units="1"))
     modes: int = field(default=1, metadata=key("number of sine periods across Ly", lo=1))
     stop_time: float | None = field(
         default=None,
         metadata=key("[s]; None = continuous inflow", positive=True, allow_inf=True),
     )
     noise: float = field(
-        default=0.0, metadata=key("relative RMS amplitude of the random profile", nonneg=True)
+        default=0.0,
+        metadata=key("relative RMS amplitude of the random profile", nonneg=True, units="1"),
     )
     seed: int = field(default=0, metadata=key("realisation of the random profile", lo=0))
     forcing_frequency: float = field(
@@ -329,6 +336,7 @@ class InflowConfig:
             "relative amplitude of that modulation, in [0, 1): h (1 + a sin(2 pi f t))",
             lo=0.0,
             hi=1.0,
+            units="1",
         ),
     )
 
@@ -418,7 +426,7 @@ class InitialConfig:
         ),
     )
     amplitude: float | None = _ini(
-        "uniform: relative perturbation amplitude, < 1", _UNIFORM, 0.0, lo=0.0
+        "uniform: relative perturbation amplitude, < 1", _UNIFORM, 0.0, lo=0.0, units="1"
     )
     k: float | None = _ini(
         "uniform: downslope wavenumber in the scalings (5.1)", _UNIFORM, 0.0, nonneg=True
@@ -458,10 +466,20 @@ class InitialConfig:
         "channel: width of the channel at y = Ly/2 [m]", ("channel",), positive=True
     )
     phi_channel: float | None = _ini(
-        "channel: concentration in the channel (default 1)", ("channel",), 1.0, lo=0.0, hi=1.0
+        "channel: concentration in the channel (default 1)",
+        ("channel",),
+        1.0,
+        lo=0.0,
+        hi=1.0,
+        units="1",
     )
     phi_levee: float | None = _ini(
-        "channel: concentration in the levees (default 0)", ("channel",), 0.0, lo=0.0, hi=1.0
+        "channel: concentration in the levees (default 0)",
+        ("channel",),
+        0.0,
+        lo=0.0,
+        hi=1.0,
+        units="1",
     )
     h: float | None = _ini(
         "release, channel: thickness; cap: thickness at the centre [m] (default flow.h0)",
@@ -482,6 +500,7 @@ class InitialConfig:
         _phi0,
         lo=0.0,
         hi=1.0,
+        units="1",
     )
 
 
@@ -512,7 +531,8 @@ class NumericsConfig:
         ),
     )
     theta: float = field(
-        default=1.5, metadata=key("generalised minmod parameter, in [1, 2]", lo=1.0, hi=2.0)
+        default=1.5,
+        metadata=key("generalised minmod parameter, in [1, 2]", lo=1.0, hi=2.0, units="1"),
     )
     flux: str = field(
         default="kt",
@@ -553,6 +573,7 @@ class NumericsConfig:
             'with stepper "hancock" (each sweep is stable up to 1; h >= 0 whatever the step)',
             positive=True,
             hi=1.0,
+            units="1",
         ),
     )
     step_rule: str = field(
@@ -612,6 +633,24 @@ class TimeConfig:
 
 
 @dataclass(frozen=True)
+class GaugeKeys:
+    """One gauge of ``[[output.gauges]]``: h, u, v and phi at a point after every step
+    (`tiseg.run.gauges`)."""
+
+    x: float = field(metadata=key("downslope position, in [0, Lx] [m]"))
+    y: float | None = field(
+        default=None, metadata=key("cross-slope position, in [0, Ly]; default Ly/2 [m]")
+    )
+    name: str | None = field(
+        default=None,
+        metadata=key(
+            "its name in gauges.csv's columns (letters, digits, _ - .); default g1, g2, ... "
+            "in the order given"
+        ),
+    )
+
+
+@dataclass(frozen=True)
 class OutputConfig:
     """Snapshot times. ``output_times`` is the resolved, sorted union of ``times``, the multiples
     of ``interval`` up to t_end, t = 0 and t_end."""
@@ -643,6 +682,17 @@ class OutputConfig:
         metadata=key(
             "h_max, speed_max, arrival_time and the deposit in fields.nc, exact per step "
             "(tiseg.run.peaks); false: no peak fields, no work for them",
+            compiled="simulation",
+        ),
+    )
+    gauges: tuple[GaugeKeys, ...] = field(
+        default=(),
+        metadata=key(
+            "points [[output.gauges]] with x, y and a name: h, u, v, phi there after every "
+            "step, interpolated bilinearly between cell centres, in gauges.csv "
+            "(tiseg.run.gauges)",
+            table=GaugeKeys,
+            many=True,
             compiled="simulation",
         ),
     )
@@ -694,3 +744,19 @@ def top_level_keys() -> tuple[str, ...]:
 
 
 SPECIES_KEYS = key_names(SpeciesKeys)
+
+
+def key_units(dotted: str) -> str | None:
+    """The unit (UDUNITS form, `tiseg.setup.schema.units_of`) of the number key ``dotted``
+    ("flow.nu", "material.small.beta"), or None when it declares none or is not a key."""
+    from .schema import units_of
+
+    parts = dotted.split(".")
+    if len(parts) == 3 and parts[0] == "material" and parts[1] in ("small", "large"):
+        fields = key_fields(SpeciesKeys)
+    elif len(parts) == 2 and parts[0] in SECTIONS:
+        fields = section_fields(parts[0])
+    else:
+        return None
+    f = next((f for f in fields if f.name == parts[-1]), None)
+    return units_of(f) if f is not None else None

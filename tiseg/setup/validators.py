@@ -11,6 +11,7 @@ of each initial kind, the stepper's needs, the output times.
 from __future__ import annotations
 
 import math
+import re
 from types import SimpleNamespace
 
 from ..errors import InputError
@@ -19,13 +20,14 @@ from ..model.material import Material, Species
 from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, noise_modes
 from ..model.physics.friction import FRICTION_LAWS as LAWS, layer_thresholds
 from ..model.steady import steady_state
-from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section
+from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section, read_tables
 from .sections import (
     SPECIES_KEYS,
     BoundaryConfig,
     DomainConfig,
     EffectsConfig,
     FlowConfig,
+    GaugeKeys,
     InflowConfig,
     InitialConfig,
     NumericsConfig,
@@ -649,11 +651,40 @@ def _interval_count(key: str, interval: float, t_end: float, what: str) -> int:
     return math.floor(ratio)
 
 
-def read_output(t: Table, t_end: float) -> OutputConfig:
+GAUGE_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
+
+
+def read_gauges(t: Table, domain) -> tuple:
+    """``[[output.gauges]]``: each point on the chute (x in [0, Lx], y in [0, Ly], y default
+    Ly/2), each name distinct and fit for a CSV column (default g1, g2, ... by position)."""
+    f = field_named(OutputConfig, "gauges")
+    out, seen = [], set()
+    for i, g in enumerate(read_tables(t, f)):
+        where = f"output.gauges[{i}]"
+        name = g["name"] if g["name"] is not None else f"g{i + 1}"
+        require(
+            GAUGE_NAME.fullmatch(name) is not None,
+            f"{where}.name",
+            name,
+            "1 to 64 letters, digits, _ - or . (it names gauges.csv's columns)",
+        )
+        require(name not in seen, f"{where}.name", name, "another gauge has this name")
+        seen.add(name)
+        y = g["y"]
+        if domain is not None:
+            y = domain.Ly / 2 if y is None else y
+            require(0.0 <= g["x"] <= domain.Lx, f"{where}.x", g["x"], f"in [0, Lx={domain.Lx:g}]")
+            require(0.0 <= y <= domain.Ly, f"{where}.y", y, f"in [0, Ly={domain.Ly:g}]")
+        out.append(GaugeKeys(x=g["x"], y=y, name=name))
+    return tuple(out)
+
+
+def read_output(t: Table, t_end: float, domain=None) -> OutputConfig:
     """The output keys, and the resolved snapshot times: 0, t_end, the given times up to t_end
     (later ones dropped with a note) and the multiples of the interval, merged where closer
-    than 1e-9 t_end."""
+    than 1e-9 t_end. The gauges (on the chute of ``domain``) with their defaults filled in."""
     v = read_section(OutputConfig, t)
+    v["gauges"] = read_gauges(t, domain)
     interval, times, checkpoint = v["interval"], v["times"], v["checkpoint_interval"]
     for i, x in enumerate(times):
         require(x >= 0.0, f"output.times[{i}]", x, "output times must be >= 0")

@@ -95,6 +95,7 @@ def run_calibration(
     threads_per_task: int | None = None,
     arch: str = "cpu",
     echo: Callable[[str], None] | None = stderr_line,
+    report: Callable[[str], None] | None = None,
     progress_interval: float = 30.0,
     overwrite: bool = False,
     execute: Callable[[dict], dict] | None = None,
@@ -165,23 +166,28 @@ def run_calibration(
     result = _result(cal, ev, state, complete)
     write_json_atomic(out / RESULT_FILE, result)
     plot = plot_misfit(cal, result, out / PLOT_FILE)
+    tell = report or say  # the results: on stdout from the command line, which -q keeps
     if not complete:
         for f in state["failed"]:
-            say(f"  {f['member']} failed: {f.get('error')}")
-        say(
+            tell(f"  {f['member']} failed: {f.get('error')}")
+        tell(
             f"calibration incomplete: {len(state['failed'])} member(s) failed, so the search "
             f"stopped; partial results {out / RESULT_FILE} (complete: false). Run it again to "
             "retry the failed members (finished ones are reused), or narrow the --param "
             "ranges if they fail there every time"
         )
         return CalibrationResult(out, result, plot)
+    best = state["best"]
+    tell(
+        f"best: {', '.join(f'{k} = {v:.6g}' for k, v in best.values.items())} (misfit {best.misfit:.4g})"
+    )
     for key, u in state["uncertainty"]["params"].items():
         iv = u["interval"]
         span = "no interval" if iv is None else f"interval [{iv[0]:.6g}, {iv[1]:.6g}]"
-        say(f"  {key} = {u['value']:.6g}: {span}")
+        tell(f"  {key} = {u['value']:.6g}: {span}")
     if state["uncertainty"]["note"]:
-        say(f"  note: {state['uncertainty']['note']}")
-    say(f"calibration: {len(evals)} search runs; results {out / RESULT_FILE}, plot {plot}")
+        tell(f"  note: {state['uncertainty']['note']}")
+    tell(f"calibration: {len(evals)} search runs; results {out / RESULT_FILE}, plot {plot}")
     return CalibrationResult(out, result, plot)
 
 

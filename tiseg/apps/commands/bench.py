@@ -16,6 +16,18 @@ from .common import check_threads, print_json, stdout_for_json
 from ...errors import InputError
 
 
+# `tiseg bench --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg bench throughput --quick", "cell-updates per second of this machine"),
+    ("tiseg bench accuracy --quick --out runs/bench", "error against wall time, Pareto fronts"),
+    (
+        "tiseg bench steppers runs/fingers --times 5",
+        "what each time stepper costs on a run's state",
+    ),
+    ("tiseg bench gpu --quick", "on a GPU machine: throughput in f32 and f64 against the CPU"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "bench",

@@ -13,6 +13,21 @@ from ..calibration import calibration_from_args, run_calibration
 from .common import print_json, results_written, sigterm_stops
 
 
+# `tiseg calibrate --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    (
+        "tiseg calibrate dam-break --set effects.friction=coulomb "
+        "--param effects.coulomb_mu=0.12:0.25 --target deposit.run_out=0.22+-0.0015 --budget 10",
+        "the friction coefficient that gives a measured run-out",
+    ),
+    (
+        "tiseg calibrate fingers --set domain.resolution=200 --param flow.nu=0.004:0.025:log "
+        "--target wavelength_spectral=0.055+-0.003 --time 7.5 --seeds 3",
+        "the viscosity that gives a finger wavelength",
+    ),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate",
@@ -152,6 +167,8 @@ def run(args) -> int:
             arch=args.arch,
             echo=info,
             overwrite=args.overwrite,
+            # the closing results on stdout (kept by -q); with --json stdout holds the JSON only
+            report=info if args.json else print,
         )
     if args.json:
         print_json(result.result)

@@ -36,6 +36,13 @@ CONVERGED = {
 }
 
 
+# `tiseg demo --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg demo", "the fingers run, its movie, figures 8-14 and diagnostics in runs/demo"),
+    ("tiseg demo --resolution 200 --out runs/demo-small", "the same, coarser and quicker"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "demo",

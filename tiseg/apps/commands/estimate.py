@@ -10,6 +10,13 @@ from __future__ import annotations
 from .common import add_scene_arguments, check_threads, load_scene_args, print_json, stdout_for_json
 
 
+# `tiseg estimate --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg estimate fingers", "steps and wall time of the fingers run on this machine"),
+    ("tiseg estimate fingers --set domain.resolution=375 --json", "a coarser grid, as JSON"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "estimate",

@@ -209,6 +209,17 @@ FIGURE_SETS = {
 }
 
 
+# `tiseg figures --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg figures stability --out figures", "figures 8-11 (seconds)"),
+    ("tiseg figures fingers --out figures --quick", "figures 12-18 from small sweeps (minutes)"),
+    (
+        "tiseg figures deposit runs/finite-release-deposit --out figures",
+        "the deposit of a finished finite release",
+    ),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "figures",

@@ -12,6 +12,13 @@ from ...output.netcdf import reading
 from ...output.numbers import measured_all
 
 
+# `tiseg fingers --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg fingers runs/fingers", "fronts, finger counts and wavelengths at every output time"),
+    ("tiseg fingers runs/fingers --time 7.5 --json", "the numbers at t = 7.5 s, as JSON"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "fingers",

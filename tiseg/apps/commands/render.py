@@ -12,6 +12,15 @@ from ...output.netcdf import reading
 from ...post.render.colours import canonical_field
 
 
+# `tiseg render --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg render runs/fingers --movie fingers.mp4", "a movie of phi with a colour bar"),
+    ("tiseg render runs/fingers --panels panels.png --times 2.5 5 7.5", "figure-12-like panels"),
+    ("tiseg render runs/fingers --raster", "peak fields and the deposit as ESRI ASCII grids"),
+    ("tiseg render runs/sweeps/gate-probability", "the probability maps of a sweep"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "render",
@@ -48,6 +57,18 @@ def register(sub) -> None:
         default=None,
         metavar="T",
         help="panel times [s] (default: five snapshots evenly spread)",
+    )
+    p.add_argument(
+        "--raster",
+        action="store_true",
+        help="write the peak fields and the deposit (h_max, speed_max, arrival_time, "
+        "deposit_h, deposit_phi) as ESRI ASCII grids RUN_DIR/NAME.asc, in metres, for GIS",
+    )
+    p.add_argument(
+        "--gauges",
+        action="store_true",
+        help="draw the run's gauges (gauges.csv of [[output.gauges]]) over time into "
+        "RUN_DIR/gauges.png",
     )
     p.add_argument("--fps", type=float, default=10.0, help="movie frames per second (10)")
     p.add_argument(
@@ -92,7 +113,8 @@ def run(args) -> int:
             raise InputError(f"--vmax={args.vmax} must be above --vmin={args.vmin}")
         vrange = (args.vmin, args.vmax)
     movie = args.movie
-    if movie is None and args.gif is None and args.frames is None and args.panels is None:
+    chosen = (args.movie, args.gif, args.frames, args.panels)
+    if all(c is None for c in chosen) and not (args.raster or args.gauges):
         movie = str(Path(args.run_dir) / f"{field}.mp4")  # a sensible default
     for target in (movie, args.gif, args.frames, args.panels):  # before anything is written
         if target is not None:
@@ -127,6 +149,16 @@ def run(args) -> int:
                 scale=args.scale or 1.0,
             )
             summary["outputs"] = list(summary["outputs"]) + [args.panels]
+        if args.gauges:
+            from ...post.render.gauge_plot import plot_gauges
+
+            summary["outputs"] = list(summary["outputs"]) + [str(plot_gauges(args.run_dir))]
+        if args.raster:
+            from ...post.render.peak_grids import export_peak_grids
+
+            grids = export_peak_grids(args.run_dir)
+            summary["peak_time"] = grids["peak_time"]
+            summary["outputs"] = list(summary["outputs"]) + grids["outputs"]
     if args.json:
         print_json(summary)
     else:
@@ -152,6 +184,8 @@ def _render_probability(args, source: Path) -> int:
             ("--frames", args.frames),
             ("--times", args.times),
             ("--max-frames", args.max_frames),
+            ("--raster", args.raster or None),
+            ("--gauges", args.gauges or None),
             ("--vmin", args.vmin),
             ("--vmax", args.vmax),
         )

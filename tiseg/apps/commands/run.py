@@ -27,6 +27,18 @@ from ...post.render.colours import canonical_field
 from ...output.numbers import measured_all
 
 
+# `tiseg run --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg run fingers", "the paper's fingers experiment into runs/fingers"),
+    (
+        "tiseg run fingers --set domain.resolution=200 --movie fingers.mp4",
+        "a coarser, quicker run and its movie",
+    ),
+    ("tiseg run my.toml --out runs/mine --json", "a scene file of your own; the summary as JSON"),
+    ("tiseg run --resume runs/fingers", "continue a killed run from its checkpoint"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "run",
@@ -58,7 +70,12 @@ def register(sub) -> None:
         help="print the predicted steps, RKC stages and wall time (as `tiseg "
         "estimate`) and exit without running",
     )
-    p.add_argument("--json", action="store_true", help="print a JSON summary at the end")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print a JSON summary at the end (shape: [ny, nx], the order of the arrays in "
+        "fields.nc; grid: the same as [nx, ny], its older name)",
+    )
     p.add_argument(
         "--movie",
         default=None,
@@ -207,7 +224,8 @@ def run(args) -> int:
         "wall_time_s": stats.wall,
         "arch": sim.backend.arch,
         "precision": sim.backend.precision,
-        "grid": [scene.domain.nx, scene.domain.ny],
+        "shape": [scene.domain.ny, scene.domain.nx],  # as the arrays of fields.nc: (y, x)
+        "grid": [scene.domain.nx, scene.domain.ny],  # older: (nx, ny), kept for scripts
         "mass": after["mass"],
         "mass_in": bud["mass_in"],
         "resumed": args.resume is not None,

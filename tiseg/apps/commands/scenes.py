@@ -4,7 +4,8 @@
 ``tiseg scenes show NAME > my.toml`` prints the scene's file as shipped, comments included (the
 paper's equations and figures its values come from), so that ``tiseg run my.toml`` runs it and
 an edited copy runs the edited experiment. ``--resolved`` prints every key instead, defaults
-filled in (what a run writes as its ``scene.toml``).
+filled in (what a run writes as its ``scene.toml``). ``tiseg scenes schema`` prints the scene
+schema as a JSON Schema for editors (`tiseg.setup.json_schema`).
 """
 
 from __future__ import annotations
@@ -12,6 +13,15 @@ from __future__ import annotations
 import sys
 from ...data import SCENE_DIR, builtin_file
 from ...errors import InputError
+
+
+# `tiseg scenes --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg scenes", "list the built-in scenes"),
+    ("tiseg scenes show fingers > my.toml", "a scene file to edit, then `tiseg run my.toml`"),
+    ("tiseg scenes show fingers --resolved", "every key with its value"),
+    ("tiseg scenes schema > scene.schema.json", "the JSON Schema of a scene, for editors"),
+]
 
 
 def register(sub) -> None:
@@ -38,6 +48,15 @@ def register(sub) -> None:
         "shipped",
     )
     show.set_defaults(func=show_scene)
+    schema = actions.add_parser(
+        "schema",
+        help="print the JSON Schema of a scene file (on stdout), for editors",
+        description="Print the scene schema as a JSON Schema (draft 2020-12) on stdout: every "
+        "section and key with its doc, type, range, choices and default. TOML editors that "
+        "read JSON Schemas (Taplo, VS Code's Even Better TOML) then complete and check a "
+        "scene file as you type; the rules that tie keys together are checked by `tiseg run`.",
+    )
+    schema.set_defaults(func=print_schema)
 
 
 def list_scenes(args) -> int:
@@ -69,4 +88,13 @@ def show_scene(args) -> int:
         sys.stdout.write(load_scene(name).to_toml())
     else:
         sys.stdout.write(path.read_text(encoding="utf-8"))
+    return 0
+
+
+def print_schema(args) -> int:
+    import json
+
+    from ...setup.json_schema import scene_schema
+
+    sys.stdout.write(json.dumps(scene_schema(), indent=2) + "\n")
     return 0

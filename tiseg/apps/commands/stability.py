@@ -13,6 +13,34 @@ from .common import check_figure_path
 DEFAULT_K = [0.01, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0, 100.0]
 
 
+# `tiseg stability --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    (
+        "tiseg stability --h0 0.002 --phi0 0.5",
+        "growth rates of the paper's flow at the default wavenumbers",
+    ),
+    (
+        "tiseg stability --F 1.2 --phi0 0.5 --nu 0 --json",
+        "the inviscid rates at Froude number 1.2, as JSON",
+    ),
+    (
+        "tiseg stability --h0 0.002 --phi0 0.5 --plot growth.png",
+        "also draw sigma_M(k) into growth.png",
+    ),
+]
+
+
+# Older JSON keys for the growth rate per k, which differed from sigma_Max (the maximum over
+# k) only in the case of one letter; written as aliases of the new ones (same values).
+OLD_NAMES = {
+    "sigma_max": "sigma_M",
+    "sigma_max_imag": "sigma_M_imag",
+    "sigma_max_per_s": "sigma_M_per_s",
+    "sigma_max_2d": "sigma_M_2d",
+    "sigma_max_2d_imag": "sigma_M_2d_imag",
+}
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "stability",
@@ -67,7 +95,12 @@ def register(sub) -> None:
         default=None,
         help="also draw sigma_M(k), inviscid and viscous, into this PNG",
     )
-    p.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print machine-readable JSON: sigma_M (per k, the paper's sigma_M(k)) and "
+        "sigma_Max (its maximum over k); sigma_max* are older names of sigma_M*",
+    )
     add_material_options(p)
     p.set_defaults(func=run)
 
@@ -116,9 +149,9 @@ def analyse(bs, k, ky=None, precision="auto") -> dict:
             else "F = Fc"
         ),
         "k": k.tolist(),
-        "sigma_max": r[..., 0].real.tolist(),
-        "sigma_max_imag": r[..., 0].imag.tolist(),
-        "sigma_max_per_s": (r[..., 0].real / ts).tolist(),
+        "sigma_M": r[..., 0].real.tolist(),
+        "sigma_M_imag": r[..., 0].imag.tolist(),
+        "sigma_M_per_s": (r[..., 0].real / ts).tolist(),
         "k_max": kM,
         "sigma_Max": sM,
         "sigma_Max_is_limit": not math.isfinite(kM),
@@ -153,8 +186,11 @@ def analyse(bs, k, ky=None, precision="auto") -> dict:
         KX, KY = np.meshgrid(k, ky)  # rows: ky, columns: k
         r2 = d2.roots(bs, KX, KY, extended=ext)
         out["ky"] = ky.tolist()
-        out["sigma_max_2d"] = r2[..., 0].real.tolist()
-        out["sigma_max_2d_imag"] = r2[..., 0].imag.tolist()
+        out["sigma_M_2d"] = r2[..., 0].real.tolist()
+        out["sigma_M_2d_imag"] = r2[..., 0].imag.tolist()
+    for old, new in OLD_NAMES.items():  # scripts written against the older names keep working
+        if new in out:
+            out[old] = out[new]
     return out
 
 
@@ -176,7 +212,7 @@ def _print_text(o: dict) -> None:
         f"R = {_fmt(o['R'], '.5g')}, h0/u0 = {o['time_scale_s']:.4g} s"
     )
     print("       k     sigma_M    Im(sigma)   sigma_M [1/s]")
-    for k, s, si, sd in zip(o["k"], o["sigma_max"], o["sigma_max_imag"], o["sigma_max_per_s"]):
+    for k, s, si, sd in zip(o["k"], o["sigma_M"], o["sigma_M_imag"], o["sigma_M_per_s"]):
         print(f"{k:10.4g} {s:11.4e} {si:11.4e} {sd:13.4e}")
     if o["sigma_Max_is_limit"]:
         print(
@@ -195,7 +231,7 @@ def _print_text(o: dict) -> None:
     if "ky" in o:
         print("2D sigma_M (rows ky, columns k):")
         print("      ky \\ k " + " ".join(f"{k:11.4g}" for k in o["k"]))
-        for ky, row in zip(o["ky"], o["sigma_max_2d"]):
+        for ky, row in zip(o["ky"], o["sigma_M_2d"]):
             print(f"{ky:12.4g} " + " ".join(f"{s:11.4e}" for s in row))
 
 

@@ -6,6 +6,19 @@ from ...model.steady import steady_state
 from .common import add_material_options, material_from_args, print_json
 
 
+# `tiseg steady --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    (
+        "tiseg steady --h0 0.002 --phi0 0.5",
+        "Froude number, u0, phi0* and the critical Fc of Table 1's flow",
+    ),
+    (
+        "tiseg steady --h0 0.003 --phi0 0.3 --zeta 28 --json",
+        "another flow on a steeper slope, as JSON",
+    ),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "steady",

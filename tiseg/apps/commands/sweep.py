@@ -14,6 +14,20 @@ from ...log import info
 from ...log import note
 
 
+# `tiseg sweep --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg sweep tiny", "a two-member sweep to try it out (seconds)"),
+    (
+        "tiseg sweep grid-study --workers 2 --threads-per-task 1",
+        "the paper's grid study on two workers",
+    ),
+    (
+        "tiseg sweep gate-probability --json",
+        "probability maps of a gate release; the summary as JSON",
+    ),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "sweep",
@@ -170,6 +184,8 @@ def run(args) -> int:
             echo=info,
             progress_interval=args.progress_interval,
             overwrite=args.overwrite,
+            # the closing results on stdout (kept by -q); with --json stdout holds the JSON only
+            report=info if args.json else print,
         )
     if args.json:
         from .common import print_json

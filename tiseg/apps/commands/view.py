@@ -5,6 +5,17 @@ from tiseg.apps.viewer.app import add_arguments
 from tiseg.apps.viewer.app import run_from_args
 
 
+# `tiseg view --help` ends with these (`tiseg.apps.examples`); a test parses each.
+EXAMPLES = [
+    ("tiseg view fingers", "fingers live, at the resolution this machine runs in real time"),
+    (
+        "tiseg view fingers --set domain.resolution=300 --steps-per-frame 5",
+        "a finer grid of your choice",
+    ),
+    ("tiseg view dam-break --field h", "the thickness of a dam break"),
+]
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "view",

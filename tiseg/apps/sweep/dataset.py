@@ -76,6 +76,18 @@ def _coord_values(values: list):
     return np.array([v if isinstance(v, str) else _canonical(v) for v in values], dtype=object)
 
 
+def _with_units(attrs: dict, key: str, values=None) -> dict:
+    """``attrs`` with the CF ``units`` of the scene key ``key`` where it declares one (and its
+    values are numbers): a plot or a CF reader shows them."""
+    from ...setup.sections import key_units
+
+    units = key_units(key)
+    numeric = values is None or all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in values
+    )
+    return {**attrs, "units": units} if units is not None and numeric else attrs
+
+
 def sweep_dataset(sweep: Sweep, records: Mapping[str, dict], out: Path | None = None):
     """The `xarray.Dataset` of ``sweep.nc`` (see the module docstring). ``out``: the sweep
     folder, where the members' fields.nc are read for their peak fields (None: none)."""
@@ -88,7 +100,7 @@ def sweep_dataset(sweep: Sweep, records: Mapping[str, dict], out: Path | None = 
         coords[dim_name(key)] = (
             dim_name(key),
             _coord_values(values),
-            {"long_name": f"scene key {key}", "scene_key": key},
+            _with_units({"long_name": f"scene key {key}", "scene_key": key}, key, values),
         )
     sample = sweep.sample
     if sample is not None:
@@ -104,12 +116,15 @@ def sweep_dataset(sweep: Sweep, records: Mapping[str, dict], out: Path | None = 
             coords[dim_name(r.key)] = (
                 "member",
                 np.array([p[r.key] for p in points]),
-                {
-                    "long_name": f"scene key {r.key}",
-                    "scene_key": r.key,
-                    "sample_range": [r.lo, r.hi],
-                    "sample_log_uniform": int(r.log),
-                },
+                _with_units(
+                    {
+                        "long_name": f"scene key {r.key}",
+                        "scene_key": r.key,
+                        "sample_range": [r.lo, r.hi],
+                        "sample_log_uniform": int(r.log),
+                    },
+                    r.key,
+                ),
             )
         if sample.method == "sobol":
             coords["design_block"] = (
@@ -205,6 +220,8 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
     fields, or None when no member has any or their grids differ."""
     import netCDF4
 
+    from ...output.netcdf import COORD_ATTRS
+
     found: dict[int, dict] = {}
     peak_time = np.full(len(sweep.runs), np.nan)
     grid = None
@@ -226,8 +243,8 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
                     grid = (
                         x,
                         y,
-                        {a: ds["x"].getncattr(a) for a in ("long_name", "units")},
-                        {a: ds["y"].getncattr(a) for a in ("long_name", "units")},
+                        dict(COORD_ATTRS["x"]),
+                        dict(COORD_ATTRS["y"]),
                     )
                 elif (
                     x.shape != grid[0].shape

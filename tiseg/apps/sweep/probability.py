@@ -154,6 +154,8 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
     read is left out whole (a logged line names it)."""
     import netCDF4
 
+    from ...output.netcdf import COORD_ATTRS
+
     names: list[str] = []
     left_out: list[str] = []  # finished members whose peak fields could not all be read
     stacks: dict[str, list] = {k: [] for k in MEMBER_FIELDS}
@@ -181,8 +183,8 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
                 x, y = np.asarray(ds["x"][:], float), np.asarray(ds["y"][:], float)
                 if grid is None:
                     grid = (
-                        (x, {a: ds["x"].getncattr(a) for a in ("long_name", "units")}),
-                        (y, {a: ds["y"].getncattr(a) for a in ("long_name", "units")}),
+                        (x, dict(COORD_ATTRS["x"])),
+                        (y, dict(COORD_ATTRS["y"])),
                     )
                 elif (
                     x.shape != grid[0][0].shape

@@ -151,6 +151,7 @@ def run_sweep(
     echo: Callable[[str], None] | None = stderr_line,
     progress_interval: float = 30.0,
     overwrite: bool = False,
+    report: Callable[[str], None] | None = None,
 ) -> SweepResult:
     """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
 
@@ -162,7 +163,8 @@ def run_sweep(
     progress lines go (default stderr; the command line: the ``tiseg`` logger; None: silent). ``progress_interval``: seconds between progress lines
     of one running run. ``overwrite``: write into an ``out`` that holds
     another sweep, and replace files that tiseg did not write in member folders (by default
-    both are refused, see `check_sweep_folder`).
+    both are refused, see `check_sweep_folder`). ``report``: where the closing line of results
+    goes (default ``echo``; the command line: stdout, which ``-q`` keeps).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
     calling script: call this from under ``if __name__ == "__main__":`` in a script.
@@ -229,7 +231,7 @@ def run_sweep(
     )
     written = write_results(sweep, out, records)
     result.results = written
-    say(
+    (report or say)(
         f"sweep {sweep.name!r}: {result.count('done')} ran, {result.count('reused')} reused, "
         f"{result.count('failed')} failed; table {table}, ensembles "
         f"{table.parent / 'summary.csv'}, dataset {', '.join(str(p) for p in written)}"

@@ -8,10 +8,14 @@ B and AB_i of n members each), with V the variance of y over A and B together:
 
 S_i is the share of the variance of y explained by key i alone, ST_i the share key i takes part
 in (alone or with others): ST_i near 0 means the key does not matter, ST_i - S_i is its share
-through interactions. These are the estimators of scipy.stats.sobol_indices; they are written
-out here so that the confidence intervals can be drawn reproducibly: a percentile bootstrap
-over the n design rows (resampling A, B and every AB_i row together), from a generator seeded
-by the sample's seed, so that the same sweep gives the same ``sensitivity.csv``.
+through interactions. The indices are scipy.stats.sobol_indices' (these estimators, its
+``saltelli_2010``), given the design's outputs, and so are those of each bootstrap resample (all resamples in one
+call, as SciPy's outputs axis). The confidence intervals are a percentile bootstrap over the n
+design rows (resampling A, B and every AB_i row together) from a generator seeded by the
+sample's seed, so that the same sweep gives the same ``sensitivity.csv``. SciPy's own
+``SobolResult.bootstrap()`` is not used: it draws from an unseeded generator, its BCa intervals
+need a jackknife that a design of 2 or 4 rows cannot give, and its percentiles are not
+nan-aware (a resample of a small design that repeats one row has no variance).
 
 Outputs are those of `tiseg.apps.sweep.spec.OUTPUTS` (the finger metrics at the final time and
 the deposit's numbers). An output that is undefined in some member (a wavelength without
@@ -52,14 +56,21 @@ log = logging.getLogger(__name__)
 
 
 def indices(f_a: np.ndarray, f_b: np.ndarray, f_ab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """First-order and total indices (S, ST), each of shape (d, ...), from the outputs on A and
-    B (shape (n, ...)) and on AB_i (shape (d, n, ...)); the leading n axis is averaged."""
-    mean = 0.5 * (f_a.mean(axis=0) + f_b.mean(axis=0))
-    a, b, ab = f_a - mean, f_b - mean, f_ab - mean
-    var = np.concatenate([a, b], axis=0).var(axis=0)
+    """First-order and total indices (S, ST) by scipy.stats.sobol_indices, each of shape
+    (d, ...), from the outputs on A and B (shape (n, ...)) and on AB_i (shape (d, n, ...)):
+    the leading n axis is the design's rows, the trailing axes are outputs estimated apart."""
+    from scipy.stats import sobol_indices
+
+    n, d, rest = f_a.shape[0], f_ab.shape[0], f_a.shape[1:]
+    # SciPy's layout: outputs first, rows last; (s, n) for A and B, (d, s, n) for AB
+    a = f_a.reshape(n, -1).T
+    b = f_b.reshape(n, -1).T
+    ab = np.moveaxis(f_ab.reshape(d, n, -1), 1, 2)
     with np.errstate(divide="ignore", invalid="ignore"):
-        s1 = (b * (ab - a)).mean(axis=1) / var
-        st = 0.5 * ((a - ab) ** 2).mean(axis=1) / var
+        res = sobol_indices(func={"f_A": a, "f_B": b, "f_AB": ab}, n=n)
+    s1, st = (
+        np.reshape(v, (-1, d)).T.reshape(d, *rest) for v in (res.first_order, res.total_order)
+    )
     return s1, st
 
 
@@ -87,6 +98,7 @@ def sobol_analysis(
     rows = rng.integers(0, n, size=(resamples, n)).T  # (n, resamples): resampled design rows
     bs1, bst = indices(f_a[rows], f_b[rows], f_ab[:, rows])  # (d, resamples)
     lo, hi = 50 * (1 - confidence), 50 * (1 + confidence)
+    # nan-aware: a resample of a small design that repeats one row has no variance
     return {
         "S1": s1,
         "S1_low": np.nanpercentile(bs1, lo, axis=1),

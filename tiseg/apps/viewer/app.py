@@ -655,7 +655,12 @@ def add_arguments(p) -> None:
     add_scene_arguments(p)
     p.add_argument("--field", default=None, help="phi (default), h, speed (|u|), u or v")
     p.add_argument("--scale", type=float, default=None, help="pixels per cell (default: fit)")
-    p.add_argument("--steps-per-frame", type=int, default=1, help="time steps per frame (1)")
+    p.add_argument(
+        "--steps-per-frame",
+        type=int,
+        default=None,
+        help="time steps per frame (default: chosen with the grid, else 1)",
+    )
     p.add_argument("--no-shade", action="store_true", help="no relief shading")
     p.add_argument(
         "--frames",
@@ -679,7 +684,7 @@ def run_from_args(args) -> int:
 
     if args.frames is not None and args.frames < 0:
         raise InputError(f"--frames={args.frames}: must be >= 0")
-    if args.steps_per_frame < 1:
+    if args.steps_per_frame is not None and args.steps_per_frame < 1:
         raise InputError(f"--steps-per-frame={args.steps_per_frame}: must be >= 1")
     show = not args.offscreen
     # check before importing/initialising anything heavy, and before any window exists
@@ -692,19 +697,31 @@ def run_from_args(args) -> int:
             field = canonical_field(field)
         except ValueError as exc:
             raise InputError(str(exc)) from None
+    overrides = list(args.overrides)
+    chosen, sim = _live_setting(args, overrides)
+    steps_per_frame = args.steps_per_frame
+    if chosen is not None:
+        overrides.append(f"domain.resolution={chosen.resolution:g}")
+        steps_per_frame = steps_per_frame or chosen.steps_per_frame
+        print(f"viewer: {chosen.text()}", flush=True)
+        if sim is not None and sim.scene.domain.nx != chosen.nx:
+            sim = None  # a finer grid than the one measured: a Simulation of its own
     v = Viewer(
         args.scene,
-        overrides=list(args.overrides),
+        sim=sim,
+        overrides=overrides,
         show_window=show,
         field=field,
         scale=args.scale,
-        steps_per_frame=args.steps_per_frame,
+        steps_per_frame=steps_per_frame or 1,
         shade=not args.no_shade,
         arch=args.arch,
         precision=args.precision,
         threads=args.threads,
         save_dir=args.save_dir,
     )
+    if chosen is not None:
+        v.message = chosen.status()
     if args.record:
         v.start_recording(args.record)
     wall = time.perf_counter()
@@ -717,6 +734,21 @@ def run_from_args(args) -> int:
     if v.message.startswith("saved"):
         print(v.message)
     return 0
+
+
+def _live_setting(args, overrides):
+    """(the grid and steps per frame this machine shows live, the Simulation measured on),
+    `tiseg.apps.viewer.live`; (None, None) where the command line sets the grid or the scene
+    has none to choose."""
+    from tiseg.apps.viewer import live
+    from tiseg.setup.scene import load_scene
+
+    scene = load_scene(args.scene, overrides)
+    if not live.applies(scene, overrides):
+        return None, None
+    print("viewer: timing this machine to choose the grid (a few seconds) ...", flush=True)
+    sim = live.probe(scene, args.arch, args.precision, args.threads)
+    return live.choose(scene, live.measure(sim)), sim
 
 
 def main(argv=None) -> int:

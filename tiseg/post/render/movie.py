@@ -261,24 +261,29 @@ class MovieRecorder:
 
     Call it with a `tiseg.run.callbacks.Snapshot` (as a snapshot callback at output times)
     or with the simulation itself (as a plain callback, e.g. every n steps): each call appends
-    one frame with time stamp and scale bar. `callback` wraps it for
+    one frame with time stamp, scale bar and colour bar (φ's coarse-to-fines ramp too: the
+    experiment's colours need a key as much as a map does). `callback` wraps it for
     `tiseg.run.simulation.Simulation.add_callback`."""
 
-    def __init__(self, renderer, path, fps: float = DEFAULT_FPS):
+    def __init__(self, renderer, path, fps: float = DEFAULT_FPS, colourbar: bool = True):
         self.renderer = renderer
         self.path = Path(path)
+        self.colourbar = colourbar
         self.writer = MovieWriter(self.path, fps)
 
     @classmethod
     def for_simulation(
         cls, sim, path, field: str = "phi", fps: float = DEFAULT_FPS, **renderer_kw
     ) -> "MovieRecorder":
-        """A recorder with its own renderer of ``field`` (phi falls back to h without phi)."""
+        """A recorder with its own renderer of ``field`` (phi falls back to h without phi),
+        ``auto_scale`` pixels per cell unless ``scale`` is given: a 300-cell grid drawn one
+        pixel per cell is a stamp on a screen, and its captions do not fit."""
         from .frame import FrameRenderer
 
         field = C.canonical_field(field)
         if field == "phi" and not sim.layout.segregation:
             field = "h"  # no concentration without segregation
+        renderer_kw.setdefault("scale", auto_scale(sim.scene.domain.nx))
         return cls(FrameRenderer(sim, field=field, **renderer_kw), path, fps)
 
     @property
@@ -287,7 +292,8 @@ class MovieRecorder:
 
     def __call__(self, state) -> None:
         snap = None if state is self.renderer.sim else state
-        self.writer.append(self.renderer.to_numpy(annotate_frame=True, state=snap))
+        frame = self.renderer.to_numpy(annotate_frame=True, colourbar=self.colourbar, state=snap)
+        self.writer.append(frame)
 
     def callback(self, schedule, snapshot: bool | None = None, name: str = "movie"):
         """This recorder as a `tiseg.run.callbacks.Callback` (a snapshot callback on a
@@ -392,8 +398,8 @@ def render_run(
 ) -> dict:
     """Render the snapshots of a run (its folder or fields.nc) to an mp4 (``movie``), a PNG
     folder (``frames``) and/or a GIF (``gif``). One frame per snapshot (at most ``max_frames``,
-    evenly spread), each with time stamp and scale bar (``annotate``) and, for the mapped
-    fields, a colour bar with one range for the whole movie (``vrange`` or the data's).
+    evenly spread), each with time stamp and scale bar (``annotate``) and a colour bar (for the
+    mapped fields with one range for the whole movie, ``vrange`` or the data's).
     ``scale``: pixels per cell; default `auto_scale` (small grids are enlarged so that
     the captions fit).
     Returns {"frames": count, "size": (H, W), "outputs": [paths]}."""
@@ -455,8 +461,7 @@ def render_run(
                     aspect=aspect,
                 )
                 map_width = img.shape[1]
-                if field != "phi":
-                    img = add_colourbar(img, field, *vrange)
+                img = add_colourbar(img, field, *(vrange if field != "phi" else (0.0, 1.0)))
                 if annotate:
                     img = annotate_image(
                         img, float(times[k]), dx / (map_width / ds.sizes["x"]), map_width=map_width

@@ -98,10 +98,19 @@ def _rows(ds) -> list[dict]:
     return rows
 
 
-def plot_probability(source, path=None, width: float | None = None, scale_bar: bool = True):
+def plot_probability(
+    source,
+    path=None,
+    width: float | None = None,
+    scale_bar: bool = True,
+    columns: int | None = None,
+    dpi: float = 150,
+):
     """Draw ``source`` (a probability.nc path, a sweep folder holding one, or an open
     `xarray.Dataset`) and save it to ``path`` (PNG, PDF, SVG, ... by suffix) if given.
-    Returns the matplotlib Figure."""
+    ``columns``: at most this many maps side by side (a row of more continues below, with
+    its colour bar), so that a narrow figure, as on a page of the documentation, keeps
+    maps and labels large enough to read. Returns the matplotlib Figure."""
     import xarray as xr
 
     opened = False
@@ -119,13 +128,16 @@ def plot_probability(source, path=None, width: float | None = None, scale_bar: b
     try:
         if MARKER_VARIABLE not in ds:
             raise InputError("this dataset holds no probability maps (no p_arrival)")
-        fig = _curves(ds, width) if ds.sizes["y"] == 1 else _maps(ds, width, scale_bar)
+        if ds.sizes["y"] == 1:
+            fig = _curves(ds, width)
+        else:
+            fig = _maps(ds, width, scale_bar, columns)
         if path is not None:
             path = Path(path)
             refuse_link(path)
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
-                fig.savefig(path, dpi=150)
+                fig.savefig(path, dpi=dpi)
             except OSError as exc:
                 _remove_file(path)
                 raise TisegError(
@@ -143,12 +155,25 @@ def _title(fig, ds) -> None:
     fig.suptitle(f"{name}: {n} members", fontsize=11)
 
 
-def _maps(ds, width, scale_bar: bool):
+def _wrapped(rows: list[dict], columns: int | None) -> list[dict]:
+    """The rows with at most ``columns`` panels each: a longer row goes on below, its pieces
+    sharing its colour range."""
+    if not columns or columns < 1:
+        return rows
+    out = []
+    for row in rows:
+        panels = row["panels"]
+        for i in range(0, len(panels), columns):
+            out.append({**row, "panels": panels[i : i + columns]})
+    return out
+
+
+def _maps(ds, width, scale_bar: bool, columns: int | None = None):
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
-    rows = _rows(ds)
+    rows = _wrapped(_rows(ds), columns)
     x, y = ds["x"].values, ds["y"].values
     dx = float(x[1] - x[0]) if x.size > 1 else 1.0
     dy = float(y[1] - y[0]) if y.size > 1 else dx
