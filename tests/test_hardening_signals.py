@@ -110,3 +110,33 @@ def test_two_sigterms_while_taichi_compiles_are_one_line(tmp_path):
     assert res.returncode == 143, res.stderr
     assert "stopped at once by a second SIGTERM" in res.stderr.splitlines()[0], res.stderr
     assert int(res.stderr.split("calls")[-1]) >= 50  # the signals came while it compiled
+
+
+# a real SIGINT at the moment the console script's entry begins to import the command line
+EARLY = """
+import importlib.abc, os, signal, sys
+
+class Interrupt(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name == "tiseg.apps.cli":
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, Interrupt())
+from tiseg.__main__ import main
+sys.exit(main(["--version"]))
+"""
+
+
+def test_ctrl_c_while_the_command_line_is_imported_is_one_line():
+    """Ctrl-C 0.05 s after the start lands in the command line's imports, before any handler
+    of tiseg could be in place: the console script's entry (tiseg.__main__.main, light to
+    import) turns it into one line and status 130, not a traceback."""
+    r = subprocess.run([sys.executable, "-c", EARLY], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 130, r.stderr
+    assert r.stderr.strip() == "tiseg: interrupted", r.stderr
+    import tomllib
+    from pathlib import Path
+
+    meta = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    assert meta["project"]["scripts"]["tiseg"] == "tiseg.__main__:main"

@@ -368,7 +368,7 @@ def _check_fields_grid(path: Path, scene, run_dir) -> None:
         )
 
 
-def append_diagnostics(path, keep_rows: int, t: float | None = None):
+def append_diagnostics(path, keep_rows: int, t: float | None = None, columns=None):
     """A diagnostics writer that continues ``path`` after its first ``keep_rows`` rows.
 
     Rows written after the checkpoint by the killed run (and a half-written last line) are
@@ -377,7 +377,8 @@ def append_diagnostics(path, keep_rows: int, t: float | None = None):
     them at time ``t``: a damaged, lost or repeated row among them is refused, naming the line,
     rather than repaired. Why refuse: dropping the bad row would shift every later row (the
     checkpoint counts rows), and cutting the file there would silently lose the rows after it;
-    refused, the file stays as it is and can be mended by hand."""
+    refused, the file stays as it is and can be mended by hand. ``columns``: those the run
+    goes on writing (the diagnostics' by default; gauges.csv's for the gauges)."""
     import csv
     import io
 
@@ -399,7 +400,8 @@ def append_diagnostics(path, keep_rows: int, t: float | None = None):
     # renamed or lost one would fail the first row written, mid-run
     from ..output.diagnostics import ALIASES, DEFAULT_COLUMNS
 
-    lost = [c for c in DEFAULT_COLUMNS if c not in header and ALIASES.get(c) not in header]
+    want = DEFAULT_COLUMNS if columns is None else tuple(columns)
+    lost = [c for c in want if c not in header and ALIASES.get(c) not in header]
     if lost:
         raise CheckpointError(
             f"{str(path)!r}: its header has no column {', '.join(map(repr, lost))} (it reads "

@@ -251,7 +251,7 @@ class RunFolder:
                 )
                 if sim.gauges is not None:  # a row per diagnostics row: cut back alike
                     self.gauges = _ckpt.append_diagnostics(
-                        out / GAUGES, resume["diag_rows"], t=sim.t
+                        out / GAUGES, resume["diag_rows"], t=sim.t, columns=sim.gauges.columns()
                     )
                 try:
                     self.fields = FieldsWriter.append(

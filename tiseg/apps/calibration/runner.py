@@ -169,8 +169,8 @@ def run_calibration(
     tell = report or say  # the results: on stdout from the command line, which -q keeps
     if not complete:
         for f in state["failed"]:
-            tell(f"  {f['member']} failed: {f.get('error')}")
-        tell(
+            say(f"  {f['member']} failed: {f.get('error')}")
+        say(
             f"calibration incomplete: {len(state['failed'])} member(s) failed, so the search "
             f"stopped; partial results {out / RESULT_FILE} (complete: false). Run it again to "
             "retry the failed members (finished ones are reused), or narrow the --param "
