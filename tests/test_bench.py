@@ -172,6 +172,7 @@ def test_study_plan_covers_every_combination():
 
 
 # -------------------------------------------------------------------------------- throughput
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_throughput_report_fields(ti_cpu, tmp_path):
     report = throughput.run_benchmark(
         nx=48,

@@ -109,6 +109,7 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path, reference, capsy
     "sig, code",
     [(signal.SIGTERM, 143), pytest.param(signal.SIGINT, 130, marks=pytest.mark.slow)],
 )
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_signal_stops_at_a_step_with_a_checkpoint(tmp_path, reference, capsys, sig, code):
     """SIGTERM / SIGINT let the step finish, write a checkpoint of it, say how to resume and
     exit 128 + the signal; the resumed run is bitwise the uninterrupted one."""
@@ -202,6 +203,7 @@ def test_checkpoint_contents_and_atomic_write(tmp_path, ti_cpu):
     assert other.budget() == sim.budget() and other.t == sim.t
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_damaged_fields_file_is_kept_aside(tmp_path, ti_cpu, caplog):
     """A fields.nc that cannot be read any more (here: overwritten with junk) does not block
     the resume: it is moved to fields.damaged-1.nc, a new fields.nc starts at the checkpoint,

@@ -196,6 +196,7 @@ def test_stability_text_and_plot(capsys, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_figures_stability(capsys, tmp_path):
     rc = main(["figures", "stability", "--out", str(tmp_path), "--dpi", "50"])
     out, err = capsys.readouterr()
@@ -255,6 +256,7 @@ def test_bad_arguments_usage_error(capsys, argv):
     assert sum("error:" in ln for ln in err.splitlines()) == 1, err
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_figures_assets_folder_is_the_checkouts(capsys, tmp_path, monkeypatch):
     """--assets copies into the source checkout's assets/figures (the README's media)."""
     from pathlib import Path

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 import json
 import subprocess
 import sys
@@ -29,6 +31,7 @@ def test_version_is_written_once():
 RUN = [*tiny_fingers(0.05), "--overwrite"]
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_quiet_hides_notes_and_keeps_results(ti_cpu, tmp_path, capsys):
     assert main(["-q"] + RUN + ["--out", str(tmp_path / "a")]) == 0
     cap = capsys.readouterr()
@@ -53,6 +56,7 @@ def test_no_progress_bar_into_a_redirected_stderr(tmp_path):
     assert "\r" not in p.stderr and "%|" not in p.stderr
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_sweep_json_on_stdout_progress_on_stderr(tmp_path, capsys):
     out = tmp_path / "sw"
     rc = main(
@@ -65,6 +69,7 @@ def test_sweep_json_on_stdout_progress_on_stderr(tmp_path, capsys):
     assert "Dask dashboard: http" in cap.err and "[2/2]" in cap.err
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_second_command_starts_on_a_fresh_runtime_unless_fields_are_held(tmp_path):
     """Taichi's kernel cache keys hold SNode ids, which only a reset numbers from the start
     again: a command after one that made simulations starts on a fresh runtime (its kernels
@@ -115,6 +120,7 @@ def test_set_with_a_space_gets_a_hint(capsys):
     assert "--set domain.resolution=VALUE" in err and err.count("\n") == 1
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_run_json_shape_is_the_arrays_order(ti_cpu, tmp_path, capsys):
     """shape is (ny, nx) as the fields in fields.nc; grid, its older name, stays (nx, ny)."""
     import xarray as xr

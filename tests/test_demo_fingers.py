@@ -60,12 +60,13 @@ def _assert_prints_its_own_final_diagnostics(out, text) -> None:
     assert float(wl) == pytest.approx(100 * m["wavelength"][-1], abs=0.05)
     # and says what they are: one run, beside the converged values and their source
     after = text.split(line, 1)[1]
-    assert "one unseeded run at " in after and "converged at t = 7.5 s" in after
+    assert "one run (the scene's inflow seed) at " in after and "converged at t = 7.5 s" in after
     assert "benchmarks/split_fingers/README.md" in after
     for name in ("fingers.mp4", "fig12_phi.png", "fig13_speed.png", "fig14_h.png"):
         assert (out / name).stat().st_size > 0
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_demo_prints_its_own_final_diagnostics(coarse_demo):
     _assert_prints_its_own_final_diagnostics(*coarse_demo)
 

@@ -165,6 +165,7 @@ def test_a_flow_still_moving_has_no_deposit():
     assert d["stopped"] is False and d["run_out"] is None and d["thickness_mean"] is None
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_finite_release_with_the_extended_law_comes_to_rest(ti_cpu, tmp_path, capsys):
     """A coarse-rich block (phi = 0.2) released on a 27 degree slope: its static friction
     holds only thinner layers, so it slumps, spreads, and comes to rest on the chute; `tiseg

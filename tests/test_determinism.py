@@ -96,6 +96,7 @@ def _assert_identical(a, b) -> None:
     assert aa == ab
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_same_settings_give_identical_output(runs):
     """Two runs with 2 threads (f64): fields and diagnostics (all but wall time) identical."""
     a, b = _read(runs / "f64-2a"), _read(runs / "f64-2b")
@@ -124,6 +125,7 @@ def test_in_process_run_matches_the_subprocess(runs, ti_cpu, tmp_path):
     _assert_identical(_read(tmp_path / "here"), _read(runs / "f64-2a"))
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 @pytest.mark.parametrize("rec", ["weno", "minmod"])
 def test_serial_and_parallel_loops_give_the_same_bits(ti_cpu, rec):
     """Small grids run their loops on one thread (operator.SERIAL_CELLS): the same kernels

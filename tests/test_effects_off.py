@@ -54,6 +54,7 @@ def test_viscosity_off_has_no_viscous_code(ti_cpu):
     assert not np.isfinite(r_on).all()
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_friction_none_has_no_friction_code(ti_cpu):
     """Without friction the parameter field has no friction numbers at all; with a law, each
     of its numbers reaches the result (poisoned with NaN, one at a time)."""

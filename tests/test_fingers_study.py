@@ -44,6 +44,7 @@ def _front_raggedness(run_dir, h_min: float = 1e-4) -> tuple[float, float]:
     return cells, float(np.abs(v).max())
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_bidisperse_front_breaks_into_fingers(ti_cpu, tmp_path):
     sim = Simulation.from_scene(
         "fingers",
@@ -78,6 +79,7 @@ def test_bidisperse_front_breaks_into_fingers(ti_cpu, tmp_path):
     [(1.0, 0.0), (0.9999, 8e-5)],
     ids=["monodisperse", "nearly-monodisperse-perturbed"],
 )
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_monodisperse_front_stays_straight(ti_cpu, tmp_path, phi0, delta):
     sim = Simulation.from_scene(
         "monodisperse-front",

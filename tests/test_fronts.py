@@ -120,6 +120,7 @@ def test_coulomb_dam_break_front_and_tail_on_time(ti_cpu, stepper):
         assert l1 <= 1.5 * l1_rkc, (l1, l1_rkc)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_coulomb_dam_break_converges_at_first_order(ti_cpu):
     """The split sweeps' L1 error of h falls at order >= 0.85 from 250 to 1000 cells (it
     stalled at order 0.3 while thin films could not move)."""
@@ -128,6 +129,7 @@ def test_coulomb_dam_break_converges_at_first_order(ti_cpu):
     assert orders.min() > 0.85, (errs, orders)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_arrival_at_a_gauge_on_time(ti_cpu):
     """The flow reaches h = 1 cm at a gauge 50 m below the dam within 1 % of the exact time
     (each step's thickness there, interpolated in time), and the arrival_time peak field

@@ -79,6 +79,7 @@ def test_scene_keys_defaults_and_mistakes():
             load_scene("fingers", {**FINGERS, "output.gauges": gauges})
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_gauges_interpolate_the_saved_fields_every_step(ti_cpu, tmp_path, capsys):
     """2D: gauges.csv has a row per diagnostics row (the initial state and every step), and
     at the last step (t_end, a step state and a snapshot) each gauge is the bilinear
@@ -125,6 +126,7 @@ def test_gauges_interpolate_the_saved_fields_every_step(ti_cpu, tmp_path, capsys
     assert "[[output.gauges]]" in err and err.count("\n") == 1
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_gauges_follow_every_step_state_in_1d_and_resume_bit_for_bit(ti_cpu, tmp_path):
     """1D (no v): each row is the interpolation of that step's state (recorded by a callback),
     and a run stopped after a checkpoint and resumed writes the uninterrupted run's gauges.csv

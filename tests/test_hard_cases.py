@@ -196,6 +196,7 @@ def test_coulomb_dam_break_on_slope_matches_exact_solution(ti_cpu):
         assert abs(r["front"] - r["front_exact"]) < 0.15 * r["travel"], r
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_coulomb_dam_break_with_rkc_starts_sliding_on_time(ti_cpu):
     """The same T4 run with RKC and the projected friction (numerics.friction_scheme): the
     uniform reservoir accelerates at m = g cos(zeta) (tan(zeta) - tan(delta)) from the start,
@@ -225,6 +226,7 @@ def _fingers(resolution=40, t_end=1.0, **over):
     return load_scene("fingers", o)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 @pytest.mark.parametrize("ramp", [10.0, 0.0], ids=["ramped", "sudden"])
 def test_front_advances_onto_empty_chute(ti_cpu, ramp):
     """The fingers set-up (2D, inflow (6.8)-(6.9), coarse 40 cells/m) filling the empty chute,
@@ -456,6 +458,7 @@ def _bagnold_riemann(n, L=0.1, u0=0.2, t=0.1):
     return float(np.abs(phi - exact).sum() * sc.dx)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_bagnold_riemann_problem_matches_exact_solution(ti_cpu):
     """T6 with the Bagnold transport function (2.18): h, u exactly uniform, so phi obeys
     phi_t + (u0 (phi - G_B(phi)))_x = 0, whose flux is convex (f'' = 5/2 u0 (1 - phi)^{1/2}).
@@ -751,6 +754,7 @@ def test_guard_names_time_step_cell_and_field(guarded_sim, tmp_path, comp, value
     assert bad["q"][comp, 5 + 2, 2 + 2] == q[comp, 5, 2] or not np.isfinite(value)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_guard_stops_a_run_that_produces_nan(ti_cpu, tmp_path):
     """A NaN made inside the steps (a NaN g sin(zeta) poisons the momentum source): run() stops
     with a SimulationError at the next check (NaN in the state, or the mass the h >= 0 clamp

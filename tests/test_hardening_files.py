@@ -86,6 +86,7 @@ def test_a_foreign_file_with_the_name_of_a_run_file_is_not_overwritten(ti_cpu, t
     assert sorted(p.name for p in out.iterdir()) == ["scene.toml"]
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_tiseg_lists_what_it_wrote_and_a_finished_run_still_needs_overwrite(runs, capsys):
     from tiseg.output.manifest import Manifest
 
@@ -95,6 +96,7 @@ def test_tiseg_lists_what_it_wrote_and_a_finished_run_still_needs_overwrite(runs
     one_line_error(capsys, "earlier run")
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_after_a_full_disk_at_the_first_write_the_run_may_simply_run_again(
     ti_cpu, tmp_path, monkeypatch, capsys
 ):
@@ -169,6 +171,7 @@ def test_resume_refuses_diagnostics_that_are_not_utf8(runs, tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ 4: one line, no traceback
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_resume_refuses_a_fields_file_of_another_grid(runs, tmp_path, capsys):
     d = copy(runs, "part", tmp_path)
     Simulation(scene(**{"domain.resolution": 60})).run(out_dir=tmp_path / "other", progress=False)
@@ -186,6 +189,7 @@ def test_a_damaged_data_block_is_one_line(runs, tmp_path, capsys, command):
     one_line_error(capsys, "damaged")
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_resume_keeps_a_fields_file_with_a_damaged_block_aside(runs, tmp_path):
     d = copy(runs, "part", tmp_path)
     damage_a_data_block(d / "fields.nc")
@@ -231,6 +235,7 @@ def test_a_checkpoint_header_with_a_huge_shape_is_one_line(runs, tmp_path, capsy
 
 
 # ------------------------------------------------------------------ 5: resume and the lock
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_resume_never_undoes_a_run_that_went_on_meanwhile(runs, tmp_path):
     """Two resumes read the same checkpoint; the first finishes the run; the second, which
     takes the lock only then, is refused before it writes anything."""

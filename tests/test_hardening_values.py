@@ -230,6 +230,7 @@ print(peak - before, L.memory_needed(sim.layout, sim.op.nslots, sys.argv[1]))
 """
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and ru_maxrss in KiB")
 def test_the_memory_estimate_covers_the_peak_of_a_run(tmp_path):
     """A child process runs 70 000 cells in f64 with a snapshot: what its memory grew by at

@@ -63,6 +63,7 @@ def test_full_width_has_no_rows():
     assert math.isclose(tiny().inflow.width, 0.04)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_gate_with_viscosity_keeps_the_mass_budget(ti_cpu):
     """At 150 cells/m the viscous flow from the gate spreads sideways in films near h_min: a
     face between two such cells that was wet at the step's start must keep its flux for the

@@ -226,6 +226,7 @@ def test_rusanov_dry_bed_dam_break_stays_positive_and_conservative(ti_cpu, recon
     assert sim.fields()["h"].min() >= 0.0
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_rusanov_first_order_converges_to_stoker(ti_cpu):
     """Stoker's dam break (a bore and a transonic fan) with first-order cells: the L1 error
     falls at a first-order scheme's rate on a discontinuous solution, which approaches 1 from

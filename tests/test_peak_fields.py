@@ -64,6 +64,7 @@ def _expected(states, h_min):
     return h_max, speed, arrival
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 @pytest.mark.parametrize("scene, sets", [("dam-break", DAM), ("fingers", FINGERS)])
 def test_peaks_are_the_running_extremes_of_the_step_states(ti_cpu, tmp_path, scene, sets):
     """h_max is the largest h of any step state bit for bit, speed_max the largest |u| where

@@ -90,6 +90,7 @@ def _is_f32(x: float) -> bool:
     return float(np.float32(x)) == x
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_f64_step_limits_are_f64(measured):
     """Wave speeds and max |u| of an f64 operator equal an f64 recomputation from the state
     (to a few ulps: the kernel and NumPy round sqrt(2) h / sqrt(...) differently) and are not

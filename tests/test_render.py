@@ -183,6 +183,7 @@ def tiny_run(tiny):
     return tiny[1]
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_frame_renderer_matches_render_fields(tiny):
     """Rendering from the Taichi state in place gives the same picture as the NumPy path."""
     from tiseg.post.render import FrameRenderer, render_fields
@@ -315,6 +316,7 @@ def test_plot_panels(tiny_run, tmp_path):
     assert (tmp_path / "fig12.png").stat().st_size > 1000
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_cli_run_movie(ti_cpu, tmp_path, capsys):
     from tiseg.apps.cli import main
 

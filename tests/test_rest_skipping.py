@@ -35,6 +35,7 @@ def _twin_step(a: Simulation, b: Simulation, stages: int) -> None:
         sim.t += dt
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_skipped_columns_get_the_bits_a_full_computation_gives(ti_cpu):
     """From the same state, steps of the same length and stage count with and without
     skipping give the same state bit for bit through the arrest of the rear of the deposit,

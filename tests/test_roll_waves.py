@@ -100,6 +100,7 @@ def test_growth_rate_of_a_mode_matches_the_stability_analysis(ti_cpu):
     assert abs(omega - sigma.imag) < 0.01 * abs(sigma.imag), (omega, sigma)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_mode_above_the_viscous_cutoff_decays_at_the_predicted_rate(ti_cpu):
     k = 1.0
     sc = mode_scene(k, 64, 0.3)

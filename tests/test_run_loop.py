@@ -43,6 +43,7 @@ def small(**over):
 
 
 # ------------------------------------------------------------------ output does not perturb
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_output_schedule_does_not_change_the_run(ti_cpu, tmp_path):
     """Two runs differing only in their output schedule (and checkpoints) take the same steps
     and end with bitwise-equal fields at t_end."""
@@ -57,6 +58,7 @@ def test_output_schedule_does_not_change_the_run(ti_cpu, tmp_path):
         assert nc["time"].size == 61  # every 0.01 s, t = 0 and t_end included
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_snapshots_are_the_interpolated_step_states(ti_cpu, tmp_path):
     """Each snapshot in fields.nc equals (1 - theta) q(t_n) + theta q(t_n+1) of the two step
     states around it, recomputed here in NumPy from a second run stepped by hand; it keeps the
@@ -114,6 +116,7 @@ def test_snapshot_mass_balance_holds(ti_cpu):
     assert all(mass > 0 for t, _, mass, _ in got if t > 0.1)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_resume_from_a_step_state_is_bitwise(ti_cpu, tmp_path):
     """A checkpoint holds a step state (not an interpolated one): a run stopped between
     checkpoints and resumed takes the very steps of the uninterrupted run."""
@@ -221,6 +224,7 @@ def test_t_end_override_drops_later_output_times_with_a_note(caplog):
     assert len(notes) == 1 and "3.3, 5.1, 6.2, 7.5" in notes[0] and "dropped" in notes[0]
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_cli_t_end_override_runs_and_notes(ti_cpu, tmp_path, capsys):
     rc = main(
         [
@@ -291,6 +295,7 @@ def test_set_state_and_state_round_trip(ti_cpu):
             sim.set_state(**kw)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_fixed_stage_count(ti_cpu):
     sim = Simulation(small())
     assert sim.step(stages=7).stages == 7
@@ -362,6 +367,7 @@ def test_bad_callbacks_are_refused_before_the_folder_is_touched(ti_cpu, tmp_path
     sim.run(out_dir=tmp_path / "r", progress=False, t_end=0.1)  # nothing left locked
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_later_run_into_the_same_folder_continues_it(ti_cpu, tmp_path):
     whole = Simulation(small())
     whole.run(out_dir=tmp_path / "w", progress=False)

@@ -358,6 +358,7 @@ def _chute(**over):
     return Simulation(load_scene("fingers", o), check_every=1)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_chute_conserves_mass_and_small_particles_with_bounded_phi(ti_cpu):
     """The fingers scene's physics on the split sweeps: mass and h phi in the cells equal what
     entered through the inflow to round-off, h >= 0 and 0 <= phi <= 1 after every step."""
@@ -401,9 +402,10 @@ def test_resumed_run_ends_on_the_bits_of_the_uninterrupted_one(ti_cpu, tmp_path)
 def test_skipped_resting_columns_get_the_bits_of_a_full_computation(ti_cpu):
     """The finite release with the extended law on the split sweeps (no viscosity): from the
     same state, steps of the same length with and without the skipping of regions held at
-    rest give the same bits while the rear of the release stops and the skipping leaves a
-    good part of its columns out (a held cell ends each step projected to rest with no mass
-    across its faces, so its h keeps its bits)."""
+    rest give the same bits from 55 to 60 s, while the release comes to rest and the skipping
+    leaves a good part of its columns out (a held cell ends each step projected to rest with
+    no mass across its faces, so its h keeps its bits). (With the films flowing, a film by the
+    stopped inlet's wall creeps on for a long time and keeps the rear columns live.)"""
     over = {
         "domain.resolution": 50,
         "time.t_end": 120.0,
@@ -415,12 +417,12 @@ def test_skipped_resting_columns_get_the_bits_of_a_full_computation(ti_cpu):
     skip = Simulation(load_scene("finite-release-deposit", over))
     full = Simulation(load_scene("finite-release-deposit", over), skip_rest=False)
     assert skip.op.skip_rest and not full.op.skip_rest
-    skip.advance(25.0)
+    skip.advance(55.0)
     full.op.set(0, skip.op.get(0))
     full.op.reset_budget(skip.op.budget(0))
     full.t, full.stats.steps = skip.t, skip.stats.steps
     narrowest = 1.0
-    while skip.t < 30.0:
+    while skip.t < 60.0:
         dt = min(skip.plan().dt, full.plan().dt)
         for sim in (skip, full):
             sim.stepper.index = sim.stats.steps

@@ -51,6 +51,7 @@ def _rates(errs):
     return np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_second_order_on_a_smooth_1d_wave(ti_cpu):
     """Self-convergence at cfl 0.9 against a 4096-cell run at cfl 0.2: order 2."""
     ref = _smooth(4096, 1, 0.2)[0]
@@ -114,6 +115,7 @@ def test_dry_bed_dam_break_stays_positive_and_conservative(ti_cpu, cfl):
     assert abs(x[h[0] >= 0.1].max() - c10) <= 2 * sc.dx
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_dry_column_collapse_stays_positive_and_conservative(ti_cpu):
     """A column collapsing in x and y at once onto a dry bed, at cfl 1: h >= 0 after every
     step and mass to round-off, where the waves cross both sweeps."""
@@ -137,6 +139,7 @@ def _stoker_errors(nx) -> dict:
     return out
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_wet_bed_dam_break_beats_ssprk4_2_on_a_coarse_grid(ti_cpu):
     """The fast set's share of the next test (its grid of 64 cells): Stoker's dam break with
     the split scheme below the error of SSPRK(4,2) on the same grid."""
@@ -187,6 +190,7 @@ def test_closed_box_on_a_slope_keeps_its_mass(ti_cpu):
     assert h[:, -1].max() > 3 * h[:, 0].max()  # it did slide down to the x_hi wall
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_rows_of_a_quasi_1d_run_equal_the_1d_run(ti_cpu):
     """With walls across the slope and no v, the y sweeps must change nothing: every row of
     the 2D Stoker run is the 1D run, bit for bit (the x sweep is the same per row)."""
@@ -288,6 +292,7 @@ def test_scene_refuses_the_regularised_friction_and_defaults_to_cfl_0_6(caplog):
         assert any("step_rule = 'max'" in r.getMessage() for r in caplog.records) == noted
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_a_resumed_run_sweeps_as_the_uninterrupted_one(ti_cpu, tmp_path):
     """The sweep order alternates with the step's index, which a checkpoint carries: a run
     saved after an odd number of steps and restored into a fresh simulation ends on the bits

@@ -325,6 +325,7 @@ def test_split_step_with_viscosity_is_second_order(ti_cpu):
     assert np.all(np.log2(e16 / e32) > 1.8), np.log2(e16 / e32)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_shear_wave_decays_at_the_viscous_rate(ti_cpu):
     """A shear wave u = U sin(k y) on uniform h over flat ground (periodic, no friction)
     decays as exp(-nu h^{1/2}/2 k^2 t) (the x-momentum equation of (6.2) for it); on 16 and 32
@@ -439,6 +440,7 @@ def test_skipped_resting_columns_get_the_bits_of_a_full_computation_with_viscosi
     assert narrowest < 0.75, narrowest
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_steady_inflow_into_the_uniform_flow_is_kept(ti_cpu):
     """The fingers scene's chute without segregation, filled with the steady uniform state
     that its inflow (no ramp) prescribes: the split step with viscosity keeps h and u to

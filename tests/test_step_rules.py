@@ -211,6 +211,7 @@ def _local_rate(h, u, v, g, dx, dy):
     return local_rate_twin(a, b, dx, dy)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_local_rule_rate_matches_numpy_and_lies_between_the_rules(ti_cpu):
     """The stability pass's local rate equals its NumPy twin on a collapsing column and on a
     2D dam break; its step lies between the sum rule's and twice the max rule's, and is above
@@ -235,6 +236,7 @@ def test_local_rule_rate_matches_numpy_and_lies_between_the_rules(ti_cpu):
     assert d_loc / d_sum == pytest.approx(1.17, abs=0.02)
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 @pytest.mark.parametrize("stepper", ["ssprk4_2", "ssprk10_4"])
 def test_local_rule_keeps_a_dry_2d_collapse_positive_and_conservative(ti_cpu, stepper):
     """A column collapsing onto a dry bed in 2D at the local rule's bound, 1/2, times the SSP

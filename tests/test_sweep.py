@@ -153,6 +153,7 @@ def test_tiny_sweep_on_dask_then_reuse(tiny_sweep):
     assert read_marker(out / "nu-0.01", sweep.runs[0].scene) is not None
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_fingers_figures_from_sweep_results(tiny_sweep, tmp_path):
     """`tiseg figures fingers` draws from finished sweeps without running anything. The tiny
     sweep stands in for the viscosity study (no fingers, ends at 0.5 s); the grid and width

@@ -286,6 +286,7 @@ def members_here(ti_cpu, monkeypatch):
     return calls, limit
 
 
+@pytest.mark.slow  # a long run: the slow set (README), which CI runs after the suite
 def test_maps_of_dam_break_members_then_resume(members_here, tmp_path, capsys):
     calls, limit = members_here
     out = tmp_path / "sweep"

@@ -20,5 +20,12 @@ def main(argv: list[str] | None = None) -> int:
     return cli_main(argv)
 
 
+def build_parser():
+    """The command line's argument parser (`tiseg.apps.cli.build_parser`)."""
+    from tiseg.apps.cli import build_parser as build
+
+    return build()
+
+
 if __name__ == "__main__":
     sys.exit(main())
