@@ -53,6 +53,7 @@ from .peaks import PeakFields, deposit
 from ..setup.initial import initial_state
 from .limits import check_memory
 from ..solver.numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
+from ..model.physics.friction import FRICTION_LAWS
 from .schedules import IterationInterval, SpecifiedTimes
 from ..setup.schema import compiled_keys
 from ..setup.sections import SECTIONS
@@ -124,8 +125,6 @@ def largest_acceleration(scene) -> float:
     """g (sin(zeta) - mu cos(zeta)) with mu the least coefficient the friction law can give:
     the largest downslope acceleration gravity and friction give a cell (6.4), 0 where the
     friction can always hold it."""
-    from ..model.physics.friction import FRICTION_LAWS
-
     m = scene.material
     mu = FRICTION_LAWS[scene.effects.friction].least_mu(config_from_scene(scene).fric)
     zeta = math.radians(m.zeta_deg)
