@@ -67,17 +67,23 @@ def ritter(nx, numerics):
     }
 
 
-def mangeney(nx, numerics):
-    from tiseg.model.exact_friction import dam_break_contour
+def _problem_run(name, nx, numerics):
+    """(scene, simulation, raw record, wall time) of a library problem's timed run."""
     from tiseg.post.problems import load_problem
     from tiseg.run.simulation import Simulation
 
-    p = load_problem("mangeney")
+    p = load_problem(name)
     sc = p.build(nx, numerics)
     sim = Simulation(sc)
     w = time.perf_counter()
     raw = p.run(sim)
-    wall = time.perf_counter() - w
+    return p, sc, sim, raw, time.perf_counter() - w
+
+
+def mangeney(nx, numerics):
+    from tiseg.model.exact_friction import dam_break_contour
+
+    p, sc, sim, raw, wall = _problem_run("mangeney", nx, numerics)
     h, x = raw["h"], _x(sim)
     zeta, delta = math.radians(22.0), math.atan(sc.effects.coulomb_mu)
     front = _crossing(h, x, 0.01) - dam_break_contour(0.01, 15.0, 1.0, zeta, delta, 60.0)
@@ -93,15 +99,8 @@ def mangeney(nx, numerics):
 
 def cap(nx, numerics):
     from tiseg.model.exact_friction import ParabolicCap
-    from tiseg.post.problems import load_problem
-    from tiseg.run.simulation import Simulation
 
-    p = load_problem("parabolic-cap")
-    sc = p.build(nx, numerics)
-    sim = Simulation(sc)
-    w = time.perf_counter()
-    raw = p.run(sim)
-    wall = time.perf_counter() - w
+    p, sc, sim, raw, wall = _problem_run("parabolic-cap", nx, numerics)
     h, x, dx = raw["h"], _x(sim), sc.dx
     ini = sc.initial
     exact = ParabolicCap(
