@@ -200,7 +200,9 @@ class Physics:
         is material in the split sweeps (films flow), only where h >= h_min in the unsplit
         scheme. There the paper's cut-off stays: RKC's stages are not positivity
         preserving, and films that moved under them were emptied below zero, the clip then
-        creating mass (3e-6 of a finite release's in ten steps)."""
+        creating mass (3e-6 of a finite release's in ten steps). (Cutting the films off at
+        h_eps instead of 0 coarsened the parabolic cap's margins: L1 5.6e-4 against 2.4e-4
+        at 1000 cells.)"""
         out = h >= self.par[Params.H_MIN]
         if ti.static(self.films):
             out = h > 0.0

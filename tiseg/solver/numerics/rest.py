@@ -375,7 +375,7 @@ class RestRules:
         r = ti.cast(self.rest[i, j], ti.i32)
         q = 0
         if (r & REST) != 0:
-            if (r & HELD) != 0 or self._dry_film(self.q[s, i, j][0], hmin):
+            if (r & HELD) != 0 or self._dry_film(self.q[s, i, j][0]):
                 nb = ti.cast(self.rest[i - 1, j], ti.i32) & ti.cast(self.rest[i + 1, j], ti.i32)
                 if ti.static(not self.is_1d):
                     nb &= ti.cast(self.rest[i, j - 1], ti.i32)
@@ -385,13 +385,10 @@ class RestRules:
         return q
 
     @ti.func
-    def _dry_film(self, h, hmin):
-        """A cell that no source acts on: h = 0, or thinner than h_min where films do not
-        flow (the unsplit scheme: Physics.acts)."""
-        out = h == 0.0
-        if ti.static(not self.phys.films):
-            out = h < hmin
-        return out
+    def _dry_film(self, h):
+        """A cell that no source acts on (Physics.acts): h = 0 where films flow (the split
+        sweeps), thinner than h_min in the unsplit scheme."""
+        return not self.phys.acts(h)
 
     @ti.func
     def _live(self, q, hmin):
