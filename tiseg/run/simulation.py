@@ -102,7 +102,7 @@ def step_limits(
     and without this rule its first steps were as long as the pressure waves of a thin
     layer allow (at 89 degrees one step spanned 0.2 s, and a release fell 10 % short of
     g sin(zeta) t^2 / 2 in 1 s). It binds only where gravity outruns the waves (steep
-    slopes, releases from rest); the fingers scene's steps are 3x shorter than it.
+    slopes, releases from rest); the fingers scene's steps are over 5x shorter than it.
 
     SSP steppers multiply it by their SSP coefficient. rho is the spectral radius the steppers
     plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy),

@@ -107,20 +107,13 @@ class RestRules:
 
     @ti.func
     def _live_at_start(self, i0, j0, i1, j1):
-        """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) or moving (a film with a
-        velocity) at the step's start: their face then carries its flux in every stage of the
-        step, even where both cells are films now (_face_wet, the split sweeps, whose films
-        flow), as _wet_at_start. Between two films at rest no mass moves: a dry bed stays
-        dry, and the film a flow leaves behind stays put where the friction stopped it. Switched off mid-step, the face's flux
-        stayed in the rate of the step's start only, which RKC's last stage weighs with a
-        negative coefficient (about -1.6 dt at 2 stages): a thin cell fed through that face
-        was emptied below zero, and the stage limiter's clip to h = 0 then created mass
-        (a relative 1e-6 in one step at the margin of a flow spreading from a narrow
-        inlet, the levees scene at 150 cells/m). A face that becomes wet mid-step switches on
-        as before."""
-        r0 = ti.cast(self.rest[i0, j0], ti.i32)
-        r1 = ti.cast(self.rest[i1, j1], ti.i32)
-        return ((r0 | r1) & WET) != 0 or ((r0 & r1) & REST) == 0
+        """_wet_at_start, or one of the two cells moved at the step's start (a film with a
+        velocity, the split sweeps, whose films flow): the face then carries its flux in every
+        stage of the step even where both cells are films now (_face_wet). Between two films
+        at rest no mass moves: a dry bed stays dry, and the film a flow leaves behind stays
+        where the friction stopped it."""
+        r = ti.cast(self.rest[i0, j0], ti.i32) & ti.cast(self.rest[i1, j1], ti.i32)
+        return self._wet_at_start(i0, j0, i1, j1) or (r & REST) == 0
 
     @ti.func
     def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
@@ -345,7 +338,7 @@ class RestRules:
                             last = ti.max(last, i)
                         if ti.static(self.skip_rest):
                             if scan_live:
-                                if self._quiescent(s, i, j, hmin) == 0:
+                                if self._quiescent(s, i, j) == 0:
                                     lfirst = ti.min(lfirst, i)
                                     llast = ti.max(llast, i)
             # an atomic per piece only where it moves a bound (see _stability)
@@ -362,7 +355,7 @@ class RestRules:
         return ti.Vector([self.wet[0], self.wet[1], self.wet[2], self.wet[3]])
 
     @ti.func
-    def _quiescent(self, s, i, j, hmin):
+    def _quiescent(self, s, i, j):
         """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
         next one as well if nothing within the step's reach has changed: it was at rest at
         the step's start, the static friction held it (HELD) or it is dry (_dry_film), and its four
@@ -392,12 +385,11 @@ class RestRules:
 
     @ti.func
     def _live(self, q, hmin):
-        """Whether a cell of conserved state q is wet (h >= h_min) or a moving film."""
+        """Whether a cell of conserved state q is wet (h >= h_min) or a moving film (its
+        momentum, which is zero exactly where its velocity is: TaichiOperator._moving)."""
         out = q[0] >= hmin
         if not out:
-            out = q[1] != 0.0
-            if ti.static(not self.is_1d):
-                out = out or q[self.HV] != 0.0
+            out = self._moving(q)
         return out
 
     def _forget_rest(self) -> None:
