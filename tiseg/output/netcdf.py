@@ -3,16 +3,14 @@
 Layout: dimensions ``time`` (unlimited), ``y``, ``x``; coordinate variables of the cell centres;
 data variables (time, y, x).
 
-* ``time`` is the simulated time in seconds since t = 0 of the run. CF wants a time coordinate
-  in "<unit> since <date>" (UDUNITS syntax), so its units are ``seconds SINCE 2000-01-01
-  00:00:00``, a placeholder date (the ``comment`` attribute says so). UDUNITS reads the shift
-  keyword in any case, so the CF checker, cf_units, cftime and VTK's CF reader take it as the
-  usual time coordinate; xarray looks for a lower-case "since" only, so ``xr.open_dataset``
-  keeps the time as float seconds and ``ds.sel(time=1.0)`` works (no dates of the year 2000).
-  Plain ``units = "s"`` (no date) would serve xarray (float seconds, plot titles "time = 1.0
-  [s]"), VTK and GDAL as well, but the IOOS checker (cf:1.8, version 6.1) refuses it on a
-  coordinate named ``time``: such a coordinate must have ``standard_name = "time"`` (section
-  5.1) and a time coordinate units with a reference date (3.1, 4.4), as CF 4.4 says.
+* ``time`` is the simulated time in seconds since t = 0 of the run, ``units = "s"``, with no
+  reference date, calendar or ``standard_name``: model time is a duration, not a date. CF calls
+  a coordinate a time coordinate by its units ("<unit> since <date>", section 4.4), so this is a
+  plain coordinate named ``time``, as CF allows, and the CF community's checker (cfchecks 4.1)
+  reports no error. xarray keeps it as float seconds (``ds.sel(time=1.0)``; plot titles read
+  "time = 1.0 [s]"), cftime reads no dates, and VTK's CF reader and GDAL take it as the time
+  axis. The IOOS compliance checker alone refuses it: it takes any variable *named* ``time``
+  for a time coordinate (its section 5.1 check); CI accepts that one finding and no other.
 * ``x`` and ``y`` carry ``axis`` and the ``projection_x/y_coordinate`` standard names
   (`COORD_ATTRS`): GDAL and QGIS place the rasters in metres.
 * ``phi`` is missing (``_FillValue``, NaN after xarray's decoding) where h < h_min: there is no
@@ -28,8 +26,9 @@ axis, ``h_max``, ``speed_max``, ``arrival_time``, ``deposit_h`` and ``deposit_ph
 (``_FillValue``) where undefined (never reached, not at rest). `FieldsWriter.write_static`
 overwrites them with every snapshot, so they hold the run up to its last snapshot's step, and
 at the end the whole run. That time t is the scalar time coordinate ``peak_time`` of these
-variables; ``h_max`` and ``speed_max`` are maxima over [0, t] (their ``cell_methods``, CF
-section 7.3).
+variables; ``h_max`` and ``speed_max`` are maxima over [0, t] (their ``cell_methods`` "time:
+maximum", CF section 7.3, names the standard name time, which both checkers accept; the scalar
+coordinate's own name, also valid CF, is refused by cfchecks).
 
 `FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
 (`tiseg.run.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
@@ -55,8 +54,8 @@ from .._version import __version__
 from ..errors import InputError
 from ..errors import TisegError
 
-# upper-case SINCE: valid UDUNITS (and CF), but not decoded to dates by xarray (module docstring)
-TIME_UNITS = "seconds SINCE 2000-01-01 00:00:00"
+# model time: a duration in seconds, no reference date (module docstring)
+TIME_UNITS = "s"
 REFERENCES = (
     "Baker, J. L., Johnson, C. G. & Gray, J. M. N. T. 2016 Segregation-induced finger "
     "formation in granular free-surface flows. J. Fluid Mech. 809, 168-212, "
@@ -96,13 +95,15 @@ STATIC_ATTRS = {
     "h_max": {
         "long_name": "largest flow thickness over the step states",
         "units": "m",
-        "cell_methods": "peak_time: maximum",
+        "cell_methods": "time: maximum",
+        "comment": "over the simulated time from 0 to peak_time",
     },
     "speed_max": {
         "long_name": "largest depth-averaged speed over the step states where h >= h_min",
         "units": "m s-1",
-        "cell_methods": "peak_time: maximum",
-        "comment": "missing where the flow never reached the cell",
+        "cell_methods": "time: maximum",
+        "comment": "over the simulated time from 0 to peak_time; missing where the flow never "
+        "reached the cell",
     },
     "arrival_time": {
         "long_name": "time of arrival of the flow, the first step state where h >= h_min",
@@ -219,13 +220,9 @@ class FieldsWriter:
         t = ds.createVariable("time", "f8", ("time",))
         t.setncatts(
             {
-                "standard_name": "time",
                 "long_name": "simulated time",
                 "units": TIME_UNITS,
-                "calendar": "standard",
-                "axis": "T",
-                "comment": "seconds since t = 0 of the run; the reference date is a "
-                "placeholder that CF requires",
+                "comment": "seconds since t = 0 of the run (model time, no date)",
             }
         )
         yv = ds.createVariable("y", "f8", ("y",))
@@ -265,10 +262,8 @@ class FieldsWriter:
         t = ds.createVariable("peak_time", "f8", ())
         t.setncatts(
             {
-                "standard_name": "time",
                 "long_name": "time up to which the peak fields hold, from t = 0 of the run",
                 "units": TIME_UNITS,
-                "calendar": "standard",
             }
         )
 
