@@ -426,8 +426,12 @@ def calibrate(
     """Time the scene's own kernels on its grid in this process (see the module docstring).
     ``sim``: a fresh Simulation of ``scene`` to time instead of building one (the viewer
     calibrates the one it then shows, after a reset, so that its kernels compile once)."""
+    from ..log import info
     from ..run.simulation import Simulation
 
+    # what the estimate costs, said before it is paid (tens of seconds on the finest grids)
+    grid = f"{scene.domain.nx} x {scene.domain.ny}"
+    info(f"estimate: compiling and timing the scene's kernels on its {grid} grid")
     w0 = time.perf_counter()
     if sim is None:
         sim = Simulation(scene, arch=arch, precision=precision, threads=threads)
