@@ -10,8 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...backend import ARCHS
-from ...solver.numerics.config import FLUXES, PHI_FLUXES, SPLIT_STEPPERS
-from ...setup.scene import STEPPERS as STEPPER_CHOICES
+from ...solver.numerics.config import REGISTRIES, is_split
 from .common import check_threads, print_json, stdout_for_json
 from ...errors import InputError
 
@@ -82,14 +81,14 @@ def register(sub) -> None:
         "--fluxes",
         nargs="+",
         default=["kt"],
-        choices=FLUXES,
+        choices=tuple(REGISTRIES["numerics.flux"]),
         help="numerics.flux values (default kt)",
     )
     a.add_argument(
         "--phi-fluxes",
         nargs="+",
         default=["upwind"],
-        choices=PHI_FLUXES,
+        choices=tuple(REGISTRIES["numerics.phi_flux"]),
         help="numerics.phi_flux values (default upwind, the scenes' default)",
     )
     a.add_argument(
@@ -97,7 +96,7 @@ def register(sub) -> None:
         nargs="+",
         default=None,
         # the split sweeps are left out: every problem of this bench has friction
-        choices=tuple(c for c in STEPPER_CHOICES if c not in SPLIT_STEPPERS),
+        choices=tuple(c for c in REGISTRIES["numerics.stepper"] if not is_split(c)),
     )
     a.add_argument("--cfl", nargs="+", type=float, default=[0.25], help="Courant numbers (0.25)")
     a.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -159,7 +158,7 @@ def register(sub) -> None:
         "--steppers",
         nargs="+",
         default=None,
-        choices=STEPPER_CHOICES,
+        choices=tuple(REGISTRIES["numerics.stepper"]),
         help="default: rkc, ssprk3, ssprk2, ssprk4_2, ssprk10_4, euler, and the run's own",
     )
     s.add_argument("--repeats", type=int, default=2, help="timed repeats, the minimum is kept (2)")

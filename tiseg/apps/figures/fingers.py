@@ -432,8 +432,7 @@ def fig16(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path 
 
 def _nu(run: StudyRun) -> float:
     """The viscosity coefficient the run solved with: 0 where the viscous term is off."""
-    sc = run.scene
-    return sc.flow.nu if sc.viscous else 0.0
+    return run.scene.acting_nu
 
 
 def fig17(nu: Study | None, out: Path, dpi: int) -> Path | None:
