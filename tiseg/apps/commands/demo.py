@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...backend import ARCHS
+from .common import add_arch, add_out, add_overwrite
 from ...post.analysis import analyse_run
 from ...post.analysis.fingers import count_text
 from ...errors import InputError
@@ -52,7 +52,7 @@ def register(sub) -> None:
         description=__doc__.splitlines()[0] + " Runs the fingers scene, writes a "
         "movie, figures 8-14 and the finger diagnostics into the output folder.",
     )
-    p.add_argument("--out", default="runs/demo", metavar="DIR", help="output folder (runs/demo)")
+    add_out(p, "output folder (runs/demo)", default="runs/demo")
     p.add_argument(
         "--resolution",
         type=float,
@@ -60,12 +60,8 @@ def register(sub) -> None:
         help="cells per metre (paper: 750; 200 forms fingers in about a minute on 2 cores)",
     )
     p.add_argument("--t-end", type=float, default=7.5, help="end time [s] (7.5 as in the paper)")
-    p.add_argument("--arch", choices=ARCHS, default="cpu")
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an --out folder that holds files other than the demo's",
-    )
+    add_arch(p)
+    add_overwrite(p, "write into an --out folder that holds files other than the demo's")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=run)
 
