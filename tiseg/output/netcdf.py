@@ -40,6 +40,8 @@ new complete file.
 
 from __future__ import annotations
 
+from .names import FIELDS_FILE
+
 import contextlib
 import datetime as _dt
 import json
@@ -530,7 +532,7 @@ def reading(path):
     `read_fields` opened it) become one InputError line: a damaged data block is a
     damaged file, not a bug of tiseg. ``path``: the file, or the run folder that holds it."""
 
-    path = Path(path) / "fields.nc" if Path(path).is_dir() else Path(path)
+    path = Path(path) / FIELDS_FILE if Path(path).is_dir() else Path(path)
 
     try:
         yield

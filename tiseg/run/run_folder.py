@@ -22,6 +22,17 @@ step that ends ``checkpoint_wall`` seconds of wall time after the last checkpoin
 
 from __future__ import annotations
 
+from ..output.names import (
+    DIAGNOSTICS_FILE,
+    DONE_FILE,
+    FAILURE_DIR,
+    FIELDS_FILE,
+    FINGERS_FILE,
+    GAUGES_FILE,
+    SCENE_FILE,
+    UNITS_SUFFIX,
+)
+
 import contextlib
 import math
 from pathlib import Path
@@ -42,22 +53,22 @@ from ..output.manifest import MANIFEST_NAME, Manifest, record
 from ..output.netcdf import FieldsFileError, FieldsWriter, peak_variables
 from ..log import logger
 
-DIAGNOSTICS = "diagnostics.csv"
-GAUGES = "gauges.csv"
+DIAGNOSTICS = DIAGNOSTICS_FILE
+GAUGES = GAUGES_FILE
 # what a run folder writes there itself (listed in the manifest before the first of them)
 WRITES = (
-    "scene.toml",
-    "fields.nc",
+    SCENE_FILE,
+    FIELDS_FILE,
     DIAGNOSTICS,
-    DIAGNOSTICS + "-metadata.json",
+    DIAGNOSTICS + UNITS_SUFFIX,
     GAUGES,
-    GAUGES + "-metadata.json",
+    GAUGES + UNITS_SUFFIX,
     _ckpt.CHECKPOINT_NAME,
-    "failure",
+    FAILURE_DIR,
 )
 # what a run (and a sweep member, and the demo) writes into its folder: those, the finger
 # diagnostics and completion marker of a sweep member, and the lock
-RUN_FILES = WRITES + ("fingers.json", "done.json", LOCK_NAME, HOLDER_NAME)
+RUN_FILES = WRITES + (FINGERS_FILE, DONE_FILE, LOCK_NAME, HOLDER_NAME)
 
 
 # tiseg's by name: the run lock is taken before anything in the folder can be checked, and the
@@ -114,8 +125,8 @@ def check_fresh_folder(folder, overwrite: bool = False, also=(), replace_run: bo
     started_only = manifest is not None and not manifest.saved
     if (
         not replace_run
-        and (folder / "fields.nc").exists()
-        and not (started_only and not (folder / "failure").exists())
+        and (folder / FIELDS_FILE).exists()
+        and not (started_only and not (folder / FAILURE_DIR).exists())
     ):
         raise InputError(
             f"output folder {str(folder)!r} holds an earlier run; choose another "
@@ -128,9 +139,9 @@ def clear_earlier_run(folder: Path) -> None:
     diagnostics and failure states go (a later --resume must never find them)."""
     import shutil
 
-    for name in (_ckpt.CHECKPOINT_NAME, "done.json", "fingers.json"):
+    for name in (_ckpt.CHECKPOINT_NAME, DONE_FILE, FINGERS_FILE):
         (Path(folder) / name).unlink(missing_ok=True)
-    shutil.rmtree(Path(folder) / "failure", ignore_errors=True)
+    shutil.rmtree(Path(folder) / FAILURE_DIR, ignore_errors=True)
 
 
 def remove_stale_temporaries(folder: Path) -> None:
@@ -191,7 +202,7 @@ class RunFolder:
                 f"cannot create output folder {str(out)!r}: {exc.strerror or exc}"
             ) from None
         refuse_symlinks(out, RUN_FILES)
-        refuse_symlinks(out / "failure", ("last_good.npz", "offending.npz"))
+        refuse_symlinks(out / FAILURE_DIR, ("last_good.npz", "offending.npz"))
         self.lock = RunLock(out).acquire()
         try:
             if resume is None:
@@ -207,7 +218,7 @@ class RunFolder:
             raise
         self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
         self.saved_t = sim.t if resume is not None else None  # the last checkpoint's time
-        sim.failure_dir = out / "failure"
+        sim.failure_dir = out / FAILURE_DIR
         self.counts()
 
     def _check_still_current(self) -> None:
@@ -238,8 +249,8 @@ class RunFolder:
             # listed before they are written: a kill in between leaves no unlisted file
             record(out, WRITES, saved=resume is not None)  # a resumed run has saved
             if resume is None:
-                write_text_atomic(out / "scene.toml", sc.to_toml())
-                self.fields = self._new_fields_writer(out / "fields.nc")
+                write_text_atomic(out / SCENE_FILE, sc.to_toml())
+                self.fields = self._new_fields_writer(out / FIELDS_FILE)
                 self.diag = DiagnosticsWriter(out / DIAGNOSTICS)
                 write_units(out / DIAGNOSTICS, self.diag.columns, one_d=sim.layout.is_1d)
                 if sim.gauges is not None:
@@ -255,7 +266,7 @@ class RunFolder:
                     )
                 try:
                     self.fields = FieldsWriter.append(
-                        out / "fields.nc",
+                        out / FIELDS_FILE,
                         resume["snapshots"],
                         sim.t,
                         h_min=sc.numerics.h_min,
@@ -426,7 +437,7 @@ class RunFolder:
     def _salvage_fields(self, exc: Exception) -> FieldsWriter:
         """Resume with a fields.nc that cannot be continued: keep it under another name and
         start a new one from the checkpoint on (the state itself is safe in the checkpoint)."""
-        old = self.path / "fields.nc"
+        old = self.path / FIELDS_FILE
         n = 1
         while (self.path / f"fields.damaged-{n}.nc").exists():
             n += 1

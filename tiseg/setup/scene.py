@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from ..data import SCENE_DIR
 from ..errors import InputError
-from ..solver.numerics.config import FRICTION_SCHEMES, REGISTRIES, STEP_RULES
+from ..solver.numerics.config import CHOICE_NAMES, FRICTION_SCHEMES, STEP_RULES, registered
 from ..model.physics.friction import DEFAULT_COULOMB_MU
 from .overrides import parse_override
 from .reading import list_builtin_scenes, load_scene, scene_from_dict, scene_from_text
@@ -69,20 +69,12 @@ from .writing import scene_to_dict
 # ---- the allowed choices and keys --------------------------------------------------------------
 # The registered choices, read when asked (a component registered by user code counts): the
 # names of before, each the keys of its registry (`tiseg.solver.numerics.config.REGISTRIES`).
-_CHOICES = {
-    "FRICTION_LAWS": "effects.friction",
-    "TRANSPORTS": "material.transport",
-    "STEPPERS": "numerics.stepper",
-    "RECONSTRUCTIONS": "numerics.reconstruction",
-    "FLUXES": "numerics.flux",
-    "PHI_FLUXES": "numerics.phi_flux",
-    "BOUNDARY_KINDS": "boundary",
-}
+_CHOICES = tuple(CHOICE_NAMES)
 
 
 def __getattr__(name: str):
     if name in _CHOICES:
-        return tuple(REGISTRIES[_CHOICES[name]])
+        return registered(name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

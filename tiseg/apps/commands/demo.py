@@ -11,6 +11,8 @@ values (`CONVERGED`) and says where those come from.
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, FINGERS_FILE
+
 from pathlib import Path
 
 from .common import add_arch, add_out, add_overwrite
@@ -116,8 +118,8 @@ def run(args) -> int:
         )
         written.append(path)
     metrics = measured_all(analyse_run(out))  # 12 significant digits (output.numbers)
-    write_json_atomic(out / "fingers.json", metrics)
-    written.append(out / "fingers.json")
+    write_json_atomic(out / FINGERS_FILE, metrics)
+    written.append(out / FINGERS_FILE)
     written += make_all(out / "stability", scene.material)
     last = {
         k: metrics[k][-1]
@@ -163,4 +165,4 @@ def what_the_numbers_are(resolution: float, time: float) -> str:
 
 def _is_demo_folder(out: Path) -> bool:
     """An earlier demo's folder (its movie is there): the demo may replace its own run."""
-    return (out / "fingers.mp4").is_file() and (out / "fields.nc").is_file()
+    return (out / "fingers.mp4").is_file() and (out / FIELDS_FILE).is_file()

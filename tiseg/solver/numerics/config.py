@@ -31,8 +31,8 @@ from .reconstruction import RECONSTRUCTIONS as _RECONSTRUCTIONS
 
 # The registries behind the scene's choices are read when asked, never frozen: a friction law,
 # transport, slope, flux, boundary or stepper that user code registers after import is a valid
-# choice everywhere. `REGISTRIES` names each by the scene key it serves; the names of before
-# (``FRICTION_LAWS``, ``FLUXES``, ..., ``SPLIT_STEPPERS``) give their keys now (`__getattr__`).
+# choice everywhere. `REGISTRIES` names each by the scene key it serves; the module attributes
+# of before (``FRICTION_LAWS``, ``FLUXES``, ..., ``SPLIT_STEPPERS``) give their keys now.
 REGISTRIES = {
     "effects.friction": _LAWS,  # tiseg.model.physics.friction
     "material.transport": _TRANSPORTS,  # G(phi), tiseg.model.physics.segregation
@@ -42,22 +42,29 @@ REGISTRIES = {
     "boundary": _BOUNDARIES,  # boundary.*: the conditions (.boundaries)
     "numerics.stepper": _STEPPERS,  # tiseg.solver.timestepping
 }
-_OLD_NAMES = {
+# the names of before, each now the keys of its registry as they stand (`registered`)
+CHOICE_NAMES = {
     "FRICTION_LAWS": "effects.friction",
     "TRANSPORTS": "material.transport",
     "RECONSTRUCTIONS": "numerics.reconstruction",
     "FLUXES": "numerics.flux",
     "PHI_FLUXES": "numerics.phi_flux",
     "BOUNDARIES": "boundary",
+    "BOUNDARY_KINDS": "boundary",
+    "STEPPERS": "numerics.stepper",
 }
 
 
+def registered(name: str) -> tuple[str, ...]:
+    """The registered choices that the old module attribute ``name`` stood for, read now."""
+    return tuple(REGISTRIES[CHOICE_NAMES[name]])
+
+
 def __getattr__(name: str):
-    """The registered names of a registry as they stand now (module attributes of before)."""
-    if name in _OLD_NAMES:
-        return tuple(REGISTRIES[_OLD_NAMES[name]])
+    if name in CHOICE_NAMES:
+        return registered(name)
     if name == "SPLIT_STEPPERS":
-        return tuple(n for n, cls in _STEPPERS.items() if cls.split)
+        return tuple(n for n in _STEPPERS if is_split(n))
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
