@@ -34,7 +34,10 @@ from ..output.names import (
 )
 
 import contextlib
+import functools
 import math
+from dataclasses import dataclass
+from typing import Callable
 from pathlib import Path
 
 from . import checkpoint as _ckpt
@@ -50,7 +53,8 @@ from ..output.diagnostics import (
     write_units,
 )
 from ..output.manifest import MANIFEST_NAME, Manifest, record
-from ..output.netcdf import FieldsFileError, FieldsWriter, peak_variables
+from ..output.fields import peak_variables, snapshot_fields, with_computed
+from ..output.netcdf import FieldsFileError, FieldsWriter
 from ..log import logger
 
 DIAGNOSTICS = DIAGNOSTICS_FILE
@@ -282,29 +286,30 @@ class RunFolder:
 
     # ------------------------------------------------------------------ callbacks
     def callbacks(self, times, checkpoint_wall: float | None) -> list[Callback]:
-        """Fields at ``times`` (snapshots), a diagnostics row per step, and the checkpoint."""
-        when = [SpecifiedTimes(times)]
-        interval = self.sim.scene.output.checkpoint_interval
-        if interval:
-            when.append(TimeInterval(interval))
-        if checkpoint_wall is not None:
-            when.append(WallTimeInterval(checkpoint_wall))
-        return [
-            Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
-            Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
-            *(
-                [Callback(self.write_gauges, IterationInterval(1), name="gauges")]
-                if self.gauges is not None
-                else []
-            ),
-            Callback(
-                self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100, checked=True
-            ),
-        ]
+        """A callback per registered writer (`RUN_WRITERS`) that this run has, on its schedule:
+        by default fields at ``times`` (snapshots), a diagnostics row per step, gauges, and
+        the checkpoint."""
+        out = []
+        for w in RUN_WRITERS.values():
+            schedule = w.schedule(self, times, checkpoint_wall)
+            if schedule is not None:
+                out.append(
+                    Callback(
+                        functools.partial(w.write, self),
+                        schedule,
+                        name=w.name,
+                        snapshot=w.snapshot,
+                        order=w.order,
+                        checked=w.checked,
+                    )
+                )
+        return out
 
     def write_fields(self, snap) -> None:
+        """The snapshot's variables: the state's primitive fields and those computed from them
+        (`tiseg.output.fields`)."""
         with self._writing(self.fields.path):
-            self.fields.write(snap.t, **snap.fields())
+            self.fields.write(snap.t, **with_computed(snap.fields(), self.fields.fields))
             self._write_peaks()
         self.counts()
 
@@ -427,7 +432,7 @@ class RunFolder:
                 "tiseg_arch": sim.backend.arch,
                 "tiseg_precision": sim.backend.precision,
             },
-            fields=sim.scene.fields,
+            fields=snapshot_fields(sim.scene.fields),
             dtype=sim.scene.output.dtype(sim.backend.precision),
             h_min=sim.scene.numerics.h_min,
             significant_digits=sim.scene.output.significant_digits,
@@ -455,4 +460,74 @@ class RunFolder:
         return self._new_fields_writer(old)
 
 
-__all__ = ["RunFolder", "OutputError", "DIAGNOSTICS", "RUN_FILES", "check_fresh_folder"]
+# ---- the writers of a run folder, each named and on its schedule -------------------------------
+@dataclass(frozen=True)
+class RunWriter:
+    """A named writer of every run folder. ``schedule(folder, times, checkpoint_wall)``: its
+    `tiseg.run.schedules` schedule for this run, or None where the run has nothing for it;
+    ``write(folder, arg)``: what it writes, with ``arg`` a `Snapshot` at each scheduled time
+    (``snapshot``) or the simulation after a step that fell due. ``order`` and ``checked`` as
+    for a `Callback` (the checkpoint runs last, on a checked state)."""
+
+    name: str
+    schedule: Callable
+    write: Callable
+    snapshot: bool = False
+    order: int = 0
+    checked: bool = False
+
+
+RUN_WRITERS: dict[str, RunWriter] = {}
+
+
+def register_writer(writer: RunWriter) -> RunWriter:
+    """Add (or replace) a writer of every run folder opened from now on."""
+    RUN_WRITERS[writer.name] = writer
+    return writer
+
+
+def _checkpoint_schedule(folder: RunFolder, times, checkpoint_wall):
+    """After every step that crossed an output time, each checkpoint_interval of simulated
+    time and each ``checkpoint_wall`` seconds of wall time."""
+    when = [SpecifiedTimes(times)]
+    interval = folder.sim.scene.output.checkpoint_interval
+    if interval:
+        when.append(TimeInterval(interval))
+    if checkpoint_wall is not None:
+        when.append(WallTimeInterval(checkpoint_wall))
+    return AnyOf(*when)
+
+
+for _w in (
+    RunWriter(
+        "fields",
+        lambda f, times, wall: SpecifiedTimes(times),
+        RunFolder.write_fields,
+        snapshot=True,
+    ),
+    RunWriter(
+        "diagnostics", lambda f, times, wall: IterationInterval(1), RunFolder.write_diagnostics
+    ),
+    RunWriter(
+        "gauges",
+        lambda f, times, wall: IterationInterval(1) if f.gauges is not None else None,
+        RunFolder.write_gauges,
+    ),
+    RunWriter(
+        "checkpoint", _checkpoint_schedule, RunFolder.save_checkpoint, order=100, checked=True
+    ),
+):
+    register_writer(_w)
+del _w
+
+
+__all__ = [
+    "RunFolder",
+    "RunWriter",
+    "RUN_WRITERS",
+    "register_writer",
+    "OutputError",
+    "DIAGNOSTICS",
+    "RUN_FILES",
+    "check_fresh_folder",
+]
