@@ -36,18 +36,20 @@ MINIMAL = MINIMAL_SCENE  # a small valid 2D scene, the base of the malformed-tex
 
 
 def test_scenes_are_package_data():
-    """The built-in scenes sit inside the package (an installed wheel has them), and the old
-    assets/scenes paths still name them, with a note."""
+    """The built-in scenes sit inside the package (an installed wheel has them); the paths of
+    before, under assets/, name no file and say so."""
     assert SCENE_DIR == Path(tiseg.__file__).resolve().parent / "data" / "scenes"
     assert SCENE_DIR.is_dir()
-    assert load_scene("assets/scenes/fingers.toml") == load_scene("fingers")
+    with pytest.raises(InputError, match=r"scene file 'assets/scenes/fingers.toml' not found"):
+        load_scene("assets/scenes/fingers.toml")
 
 
 def test_sweeps_are_package_data_and_named():
     from tiseg.apps.sweep import list_builtin_sweeps, load_sweep
 
     assert {"grid-study", "nu-study", "width-study", "tiny"} <= set(list_builtin_sweeps())
-    assert load_sweep("assets/sweeps/tiny.toml").name == load_sweep("tiny").name
+    with pytest.raises(InputError, match="assets/sweeps/tiny.toml"):
+        load_sweep("assets/sweeps/tiny.toml")
     with pytest.raises(InputError, match="did you mean 'grid-study'"):
         load_sweep("grid-stud")
 

@@ -5,12 +5,9 @@ its steady uniform states (section 4), its linear stability (section 5, appendic
 simulations (section 6) with a Kurganov-Tadmor scheme in Taichi on CPU or GPU.
 """
 
-from . import _aliases
 from ._version import __version__
 from .backend import init
 from .errors import InputError, TisegError
-
-_aliases.install()  # the module paths of before the layer folders keep working
 
 __all__ = [
     "init",

@@ -439,7 +439,7 @@ def calibrate(
     op, lay = sim.op, sim.layout
     rng = np.random.default_rng(0)
     stepper = sim.stepper
-    rkc = scene.numerics.stepper == "rkc"
+    rkc = stepper.stage_cap and not stepper.split  # stages of L as many as the stiffness asks
     n_terms = 5 if rkc else 3
     terms = [(1.0, 0)] + [(0.0, 0)] * (n_terms - 1)
     spare = op.nslots - 1

@@ -3,23 +3,19 @@ wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.t
 `tiseg.setup.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
 `tiseg.apps.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
 `tiseg.post.problems.load_problem`).
-
-Up to version 0.1.0 they lived in ``assets/scenes`` and ``assets/sweeps`` beside the package;
-`legacy_path` maps those paths onto the built-ins, so scripts that name them still work.
 """
 
 from __future__ import annotations
 
 from importlib import resources
-from pathlib import Path, PurePath
+from pathlib import Path
+
 from ..errors import InputError
-from ..log import note
 
 # A wheel installs packages as plain folders, so these are real paths (pathlib.Path).
 SCENE_DIR = Path(str(resources.files(__name__) / "scenes"))
 SWEEP_DIR = Path(str(resources.files(__name__) / "sweeps"))
 PROBLEM_DIR = Path(str(resources.files(__name__) / "problems"))
-LEGACY_DIRS = {"scenes": SCENE_DIR, "sweeps": SWEEP_DIR}
 
 
 def builtin_names(folder: Path) -> list[str]:
@@ -31,8 +27,7 @@ def builtin_file(path, folder: Path, kind: str) -> Path | None:
     """The built-in file ``path`` names, or None when it is a plain path to use as it is.
 
     A str without '/', '\\' and '.toml' is a name: the ``kind`` ("scene", "sweep") of that
-    name in ``folder``, or an InputError naming the closest one. An old ``assets/...`` path
-    that no longer exists maps onto its built-in (`legacy_path`), with a note."""
+    name in ``folder``, or an InputError naming the closest one."""
     import difflib
 
     text = str(path)
@@ -51,19 +46,4 @@ def builtin_file(path, folder: Path, kind: str) -> Path | None:
             f"unknown built-in {kind} {text!r}{hint}; built-in {kind}s: "
             f"{', '.join(names) or '(none)'}; or give a path to a .toml file"
         )
-    old = legacy_path(text)
-    if old is not None:
-        note(f"{text} moved into the package: using the built-in {kind} {old.stem!r}")
-    return old
-
-
-def legacy_path(text: str) -> Path | None:
-    """The built-in file an old ``assets/scenes/<name>.toml`` or ``assets/sweeps/<name>.toml``
-    path meant, when no such file exists any more; else None."""
-    parts = PurePath(text).parts
-    if len(parts) < 3 or parts[-3] != "assets" or parts[-2] not in LEGACY_DIRS:
-        return None
-    if Path(text).expanduser().exists():
-        return None
-    candidate = LEGACY_DIRS[parts[-2]] / parts[-1]
-    return candidate if candidate.is_file() else None
+    return None

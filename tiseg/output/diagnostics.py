@@ -27,6 +27,8 @@ returns both names for either file, and a resumed old run keeps its old header.
 
 from __future__ import annotations
 
+from .names import UNITS_SUFFIX
+
 import csv
 import json
 import math
@@ -178,7 +180,7 @@ def write_units(csv_path, columns: Sequence[str], one_d: bool = False) -> Path:
         "dc:title": "tiseg per-step diagnostics",
         "tableSchema": {"columns": cols},
     }
-    return write_json_atomic(csv_path.with_name(csv_path.name + "-metadata.json"), meta)
+    return write_json_atomic(csv_path.with_name(csv_path.name + UNITS_SUFFIX), meta)
 
 
 # a gauge column's quantity (the part after the gauge's name) -> (unit, description)
@@ -217,7 +219,7 @@ def write_gauge_units(csv_path, columns: Sequence[str]) -> Path:
         "dc:title": "tiseg gauges: h, u, v, phi at points after every step",
         "tableSchema": {"columns": cols},
     }
-    return write_json_atomic(csv_path.with_name(csv_path.name + "-metadata.json"), meta)
+    return write_json_atomic(csv_path.with_name(csv_path.name + UNITS_SUFFIX), meta)
 
 
 def write_text_atomic(path, text: str) -> Path:

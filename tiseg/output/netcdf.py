@@ -39,6 +39,8 @@ new complete file.
 
 from __future__ import annotations
 
+from .names import FIELDS_FILE
+
 import contextlib
 import datetime as _dt
 import json
@@ -50,6 +52,7 @@ import netCDF4
 import numpy as np
 
 from .atomic import replacing
+from .fields import OUTPUT_FIELDS, peak_variables, specs
 from .._version import __version__
 from ..errors import InputError
 from ..errors import TisegError
@@ -82,51 +85,15 @@ COORD_ATTRS = {
     },
 }
 
-# CF attributes of the primitive fields of (6.1)-(6.3).
-FIELD_ATTRS = {
-    "h": {"long_name": "flow thickness", "units": "m"},
-    "u": {"long_name": "depth-averaged downslope velocity", "units": "m s-1"},
-    "v": {"long_name": "depth-averaged cross-slope velocity", "units": "m s-1"},
-    "phi": {"long_name": "depth-averaged small-particle concentration", "units": "1"},
-}
 
-# CF attributes of the 2D fields without a time axis (tiseg.run.peaks)
-STATIC_ATTRS = {
-    "h_max": {
-        "long_name": "largest flow thickness over the step states",
-        "units": "m",
-        "cell_methods": "time: maximum",
-        "comment": "over the simulated time from 0 to peak_time",
-    },
-    "speed_max": {
-        "long_name": "largest depth-averaged speed over the step states where h >= h_min",
-        "units": "m s-1",
-        "cell_methods": "time: maximum",
-        "comment": "over the simulated time from 0 to peak_time; missing where the flow never "
-        "reached the cell",
-    },
-    "arrival_time": {
-        "long_name": "time of arrival of the flow, the first step state where h >= h_min",
-        "units": "s",
-        "comment": "seconds since t = 0 of the run; missing where the flow never came",
-    },
-    "deposit_h": {
-        "long_name": "thickness of the material at rest at peak_time",
-        "units": "m",
-        "comment": "h where h >= h_min and the material is at rest, |u| <= 1e-06 m s-1 "
-        "(tiseg.model.material.REST_SPEED); missing elsewhere",
-    },
-    "deposit_phi": {
-        "long_name": "small-particle concentration of the material at rest at peak_time",
-        "units": "1",
-        "comment": "phi where deposit_h is given; missing elsewhere",
-    },
-}
-
-
-def peak_variables(segregation: bool) -> tuple[str, ...]:
-    """The 2D variables of a run that keeps peak fields (deposit_phi only with segregation)."""
-    return tuple(n for n in STATIC_ATTRS if segregation or n != "deposit_phi")
+# The variables and their CF attributes are those of the registered output fields
+# (`tiseg.output.fields`): ``FIELD_ATTRS`` (the snapshot variables) and ``STATIC_ATTRS`` (the
+# peak fields) are read from the registry when asked.
+def __getattr__(name: str):
+    if name in ("FIELD_ATTRS", "STATIC_ATTRS"):
+        kind = "snapshot" if name == "FIELD_ATTRS" else "peak"
+        return {n: dict(spec.attrs) for n, spec in specs(kind).items()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 _DTYPES = {"f8": "f8", "f4": "f4", "float64": "f8", "float32": "f4", "f64": "f8", "f32": "f4"}
@@ -160,12 +127,13 @@ class FieldsWriter:
     ):
         self.path = Path(path)
         self.fields = tuple(fields)
-        unknown = [f for f in self.fields if f not in FIELD_ATTRS]
+        known = specs("snapshot")
+        unknown = [f for f in self.fields if f not in known]
         if unknown or len(set(self.fields)) != len(self.fields) or not self.fields:
-            raise ValueError(f"fields={fields!r}: choose distinct names from {tuple(FIELD_ATTRS)}")
+            raise ValueError(f"fields={fields!r}: choose distinct names from {tuple(known)}")
         self.static = tuple(static)
-        if any(n not in STATIC_ATTRS for n in self.static):
-            raise ValueError(f"static={static!r}: choose names from {tuple(STATIC_ATTRS)}")
+        if any(n not in specs("peak") for n in self.static):
+            raise ValueError(f"static={static!r}: choose names from {tuple(specs('peak'))}")
         if dtype not in _DTYPES:
             raise ValueError(f"dtype={dtype!r}: choose 'f8' or 'f4'")
         self.dtype = _DTYPES[dtype]
@@ -248,8 +216,8 @@ class FieldsWriter:
                 fill_value=netCDF4.default_fillvals[self.dtype],
                 **kw,
             )
-            var.setncatts(FIELD_ATTRS[name])
-            if name == "phi" and self.h_min is not None:
+            var.setncatts(OUTPUT_FIELDS[name].attrs)
+            if OUTPUT_FIELDS[name].missing_where_dry and self.h_min is not None:
                 var.setncattr(
                     "comment", f"missing where h < h_min = {self.h_min:g} m (no material)"
                 )
@@ -284,7 +252,7 @@ class FieldsWriter:
             fill_value=netCDF4.default_fillvals[self.dtype],
             **kw,
         )
-        var.setncatts({**STATIC_ATTRS[name], "coordinates": "peak_time"})
+        var.setncatts({**OUTPUT_FIELDS[name].attrs, "coordinates": "peak_time"})
         return var
 
     @classmethod
@@ -310,8 +278,8 @@ class FieldsWriter:
         path = Path(path)
         try:
             with netCDF4.Dataset(path, "r") as ds:
-                fields = tuple(v for v in ds.variables if v in FIELD_ATTRS)
-                static = tuple(v for v in ds.variables if v in STATIC_ATTRS)
+                fields = tuple(v for v in ds.variables if v in specs("snapshot"))
+                static = tuple(v for v in ds.variables if v in specs("peak"))
                 times = np.ma.filled(ds.variables["time"][:].astype("f8"), np.nan)
                 n = ds.dimensions["time"].size
                 grid = (ds.dimensions["y"].size, ds.dimensions["x"].size)
@@ -392,8 +360,10 @@ class FieldsWriter:
             if a.shape != self.shape and not (self.shape[0] == 1 and a.shape == self.shape[1:]):
                 raise ValueError(f"write(): {name} has shape {a.shape}, expected {self.shape}")
             data[name] = a.reshape(self.shape)
-        if "phi" in data and self.h_min is not None:
-            data["phi"] = np.ma.masked_where(data["h"] < self.h_min, data["phi"])
+        if self.h_min is not None and "h" in data:
+            for name in data:  # no material, no value
+                if OUTPUT_FIELDS[name].missing_where_dry:
+                    data[name] = np.ma.masked_where(data["h"] < self.h_min, data[name])
         i = self.count
         for name, a in data.items():
             self._ds.variables[name][i, :, :] = a
@@ -410,8 +380,8 @@ class FieldsWriter:
         if self._ds is None:
             raise ValueError(f"{self.path}: writer is closed")
         for name, a in arrays.items():
-            if name not in STATIC_ATTRS:
-                raise ValueError(f"write_static(): {name!r} is not one of {tuple(STATIC_ATTRS)}")
+            if name not in specs("peak"):
+                raise ValueError(f"write_static(): {name!r} is not one of {tuple(specs('peak'))}")
             a = np.asarray(a, dtype="f8")
             if a.shape != self.shape and not (self.shape[0] == 1 and a.shape == self.shape[1:]):
                 raise ValueError(
@@ -525,7 +495,7 @@ def reading(path):
     `read_fields` opened it) become one InputError line: a damaged data block is a
     damaged file, not a bug of tiseg. ``path``: the file, or the run folder that holds it."""
 
-    path = Path(path) / "fields.nc" if Path(path).is_dir() else Path(path)
+    path = Path(path) / FIELDS_FILE if Path(path).is_dir() else Path(path)
 
     try:
         yield
@@ -585,6 +555,5 @@ __all__ = [
     "reading",
     "written_times",
     "COORD_ATTRS",
-    "FIELD_ATTRS",
-    "STATIC_ATTRS",
+    "peak_variables",
 ]

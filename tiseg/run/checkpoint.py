@@ -73,6 +73,8 @@ killed run), and appends from there.
 
 from __future__ import annotations
 
+from ..output.names import CHECKPOINT_FILE, DIAGNOSTICS_FILE, FIELDS_FILE, SCENE_FILE
+
 import math
 import zipfile
 from pathlib import Path
@@ -85,7 +87,7 @@ from .._version import __version__
 from ..output import DiagnosticsWriter, write_text_atomic
 from ..log import logger
 
-CHECKPOINT_NAME = "checkpoint.npz"
+CHECKPOINT_NAME = CHECKPOINT_FILE
 FORMAT = "tiseg-checkpoint"
 VERSION = 1
 DEFAULT_WALL_INTERVAL = 300.0  # [s] of wall time between checkpoints at most (see above)
@@ -312,7 +314,7 @@ def open_run_dir(run_dir) -> tuple[object, dict]:
     d = Path(run_dir)
     if not d.is_dir():
         raise InputError(f"--resume {str(run_dir)!r}: no such folder")
-    missing = [n for n in ("scene.toml", "fields.nc", "diagnostics.csv") if not (d / n).is_file()]
+    missing = [n for n in (SCENE_FILE, FIELDS_FILE, DIAGNOSTICS_FILE) if not (d / n).is_file()]
     if missing:
         raise InputError(
             f"--resume {str(run_dir)!r} is not a tiseg run folder (missing {', '.join(missing)})"
@@ -332,8 +334,8 @@ def open_run_dir(run_dir) -> tuple[object, dict]:
             "a whole checkpoint"
         )
     try:
-        saved = load_scene(str(d / "scene.toml"))
-        scene = scene_from_text(ck["scene"], name=saved.name, source=str(d / "scene.toml"))
+        saved = load_scene(str(d / SCENE_FILE))
+        scene = scene_from_text(ck["scene"], name=saved.name, source=str(d / SCENE_FILE))
     except InputError as exc:
         raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
     if saved.to_dict() != scene.to_dict():
@@ -345,7 +347,7 @@ def open_run_dir(run_dir) -> tuple[object, dict]:
         validate(ck, scene, CHECKPOINT_NAME)
     except CheckpointError as exc:
         raise InputError(f"--resume {str(run_dir)!r}: {exc}") from None
-    _check_fields_grid(d / "fields.nc", scene, run_dir)
+    _check_fields_grid(d / FIELDS_FILE, scene, run_dir)
     return scene, ck
 
 

@@ -11,6 +11,8 @@ the kernel kills the process with no message).
 
 from __future__ import annotations
 
+from ..output.fields import snapshot_fields
+
 import os
 import shutil
 from pathlib import Path
@@ -148,7 +150,9 @@ def check_memory(layout, nslots: int, precision: str) -> None:
 def output_volume(scene, precision: str, snapshots: int) -> int:
     """Bytes of fields.nc for ``snapshots`` records, uncompressed (an upper bound)."""
     value = 8 if precision == "f64" else 4
-    return snapshots * len(scene.fields) * scene.domain.nx * scene.domain.ny * value
+    return (
+        snapshots * len(snapshot_fields(scene.fields)) * scene.domain.nx * scene.domain.ny * value
+    )
 
 
 def disk_note(folder, scene, precision: str, snapshots: int) -> None:

@@ -22,8 +22,22 @@ step that ends ``checkpoint_wall`` seconds of wall time after the last checkpoin
 
 from __future__ import annotations
 
+from ..output.names import (
+    DIAGNOSTICS_FILE,
+    DONE_FILE,
+    FAILURE_DIR,
+    FIELDS_FILE,
+    FINGERS_FILE,
+    GAUGES_FILE,
+    SCENE_FILE,
+    UNITS_SUFFIX,
+)
+
 import contextlib
+import functools
 import math
+from dataclasses import dataclass
+from typing import Callable
 from pathlib import Path
 
 from . import checkpoint as _ckpt
@@ -39,25 +53,26 @@ from ..output.diagnostics import (
     write_units,
 )
 from ..output.manifest import MANIFEST_NAME, Manifest, record
-from ..output.netcdf import FieldsFileError, FieldsWriter, peak_variables
+from ..output.fields import peak_variables, snapshot_fields, with_computed
+from ..output.netcdf import FieldsFileError, FieldsWriter
 from ..log import logger
 
-DIAGNOSTICS = "diagnostics.csv"
-GAUGES = "gauges.csv"
+DIAGNOSTICS = DIAGNOSTICS_FILE
+GAUGES = GAUGES_FILE
 # what a run folder writes there itself (listed in the manifest before the first of them)
 WRITES = (
-    "scene.toml",
-    "fields.nc",
+    SCENE_FILE,
+    FIELDS_FILE,
     DIAGNOSTICS,
-    DIAGNOSTICS + "-metadata.json",
+    DIAGNOSTICS + UNITS_SUFFIX,
     GAUGES,
-    GAUGES + "-metadata.json",
+    GAUGES + UNITS_SUFFIX,
     _ckpt.CHECKPOINT_NAME,
-    "failure",
+    FAILURE_DIR,
 )
 # what a run (and a sweep member, and the demo) writes into its folder: those, the finger
 # diagnostics and completion marker of a sweep member, and the lock
-RUN_FILES = WRITES + ("fingers.json", "done.json", LOCK_NAME, HOLDER_NAME)
+RUN_FILES = WRITES + (FINGERS_FILE, DONE_FILE, LOCK_NAME, HOLDER_NAME)
 
 
 # tiseg's by name: the run lock is taken before anything in the folder can be checked, and the
@@ -114,8 +129,8 @@ def check_fresh_folder(folder, overwrite: bool = False, also=(), replace_run: bo
     started_only = manifest is not None and not manifest.saved
     if (
         not replace_run
-        and (folder / "fields.nc").exists()
-        and not (started_only and not (folder / "failure").exists())
+        and (folder / FIELDS_FILE).exists()
+        and not (started_only and not (folder / FAILURE_DIR).exists())
     ):
         raise InputError(
             f"output folder {str(folder)!r} holds an earlier run; choose another "
@@ -128,9 +143,9 @@ def clear_earlier_run(folder: Path) -> None:
     diagnostics and failure states go (a later --resume must never find them)."""
     import shutil
 
-    for name in (_ckpt.CHECKPOINT_NAME, "done.json", "fingers.json"):
+    for name in (_ckpt.CHECKPOINT_NAME, DONE_FILE, FINGERS_FILE):
         (Path(folder) / name).unlink(missing_ok=True)
-    shutil.rmtree(Path(folder) / "failure", ignore_errors=True)
+    shutil.rmtree(Path(folder) / FAILURE_DIR, ignore_errors=True)
 
 
 def remove_stale_temporaries(folder: Path) -> None:
@@ -191,7 +206,7 @@ class RunFolder:
                 f"cannot create output folder {str(out)!r}: {exc.strerror or exc}"
             ) from None
         refuse_symlinks(out, RUN_FILES)
-        refuse_symlinks(out / "failure", ("last_good.npz", "offending.npz"))
+        refuse_symlinks(out / FAILURE_DIR, ("last_good.npz", "offending.npz"))
         self.lock = RunLock(out).acquire()
         try:
             if resume is None:
@@ -207,7 +222,7 @@ class RunFolder:
             raise
         self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
         self.saved_t = sim.t if resume is not None else None  # the last checkpoint's time
-        sim.failure_dir = out / "failure"
+        sim.failure_dir = out / FAILURE_DIR
         self.counts()
 
     def _check_still_current(self) -> None:
@@ -238,8 +253,8 @@ class RunFolder:
             # listed before they are written: a kill in between leaves no unlisted file
             record(out, WRITES, saved=resume is not None)  # a resumed run has saved
             if resume is None:
-                write_text_atomic(out / "scene.toml", sc.to_toml())
-                self.fields = self._new_fields_writer(out / "fields.nc")
+                write_text_atomic(out / SCENE_FILE, sc.to_toml())
+                self.fields = self._new_fields_writer(out / FIELDS_FILE)
                 self.diag = DiagnosticsWriter(out / DIAGNOSTICS)
                 write_units(out / DIAGNOSTICS, self.diag.columns, one_d=sim.layout.is_1d)
                 if sim.gauges is not None:
@@ -255,7 +270,7 @@ class RunFolder:
                     )
                 try:
                     self.fields = FieldsWriter.append(
-                        out / "fields.nc",
+                        out / FIELDS_FILE,
                         resume["snapshots"],
                         sim.t,
                         h_min=sc.numerics.h_min,
@@ -271,29 +286,30 @@ class RunFolder:
 
     # ------------------------------------------------------------------ callbacks
     def callbacks(self, times, checkpoint_wall: float | None) -> list[Callback]:
-        """Fields at ``times`` (snapshots), a diagnostics row per step, and the checkpoint."""
-        when = [SpecifiedTimes(times)]
-        interval = self.sim.scene.output.checkpoint_interval
-        if interval:
-            when.append(TimeInterval(interval))
-        if checkpoint_wall is not None:
-            when.append(WallTimeInterval(checkpoint_wall))
-        return [
-            Callback(self.write_fields, SpecifiedTimes(times), name="fields", snapshot=True),
-            Callback(self.write_diagnostics, IterationInterval(1), name="diagnostics"),
-            *(
-                [Callback(self.write_gauges, IterationInterval(1), name="gauges")]
-                if self.gauges is not None
-                else []
-            ),
-            Callback(
-                self.save_checkpoint, AnyOf(*when), name="checkpoint", order=100, checked=True
-            ),
-        ]
+        """A callback per registered writer (`RUN_WRITERS`) that this run has, on its schedule:
+        by default fields at ``times`` (snapshots), a diagnostics row per step, gauges, and
+        the checkpoint."""
+        out = []
+        for w in RUN_WRITERS.values():
+            schedule = w.schedule(self, times, checkpoint_wall)
+            if schedule is not None:
+                out.append(
+                    Callback(
+                        functools.partial(w.write, self),
+                        schedule,
+                        name=w.name,
+                        snapshot=w.snapshot,
+                        order=w.order,
+                        checked=w.checked,
+                    )
+                )
+        return out
 
     def write_fields(self, snap) -> None:
+        """The snapshot's variables: the state's primitive fields and those computed from them
+        (`tiseg.output.fields`)."""
         with self._writing(self.fields.path):
-            self.fields.write(snap.t, **snap.fields())
+            self.fields.write(snap.t, **with_computed(snap.fields(), self.fields.fields))
             self._write_peaks()
         self.counts()
 
@@ -416,7 +432,7 @@ class RunFolder:
                 "tiseg_arch": sim.backend.arch,
                 "tiseg_precision": sim.backend.precision,
             },
-            fields=sim.scene.fields,
+            fields=snapshot_fields(sim.scene.fields),
             dtype=sim.scene.output.dtype(sim.backend.precision),
             h_min=sim.scene.numerics.h_min,
             significant_digits=sim.scene.output.significant_digits,
@@ -426,7 +442,7 @@ class RunFolder:
     def _salvage_fields(self, exc: Exception) -> FieldsWriter:
         """Resume with a fields.nc that cannot be continued: keep it under another name and
         start a new one from the checkpoint on (the state itself is safe in the checkpoint)."""
-        old = self.path / "fields.nc"
+        old = self.path / FIELDS_FILE
         n = 1
         while (self.path / f"fields.damaged-{n}.nc").exists():
             n += 1
@@ -444,4 +460,74 @@ class RunFolder:
         return self._new_fields_writer(old)
 
 
-__all__ = ["RunFolder", "OutputError", "DIAGNOSTICS", "RUN_FILES", "check_fresh_folder"]
+# ---- the writers of a run folder, each named and on its schedule -------------------------------
+@dataclass(frozen=True)
+class RunWriter:
+    """A named writer of every run folder. ``schedule(folder, times, checkpoint_wall)``: its
+    `tiseg.run.schedules` schedule for this run, or None where the run has nothing for it;
+    ``write(folder, arg)``: what it writes, with ``arg`` a `Snapshot` at each scheduled time
+    (``snapshot``) or the simulation after a step that fell due. ``order`` and ``checked`` as
+    for a `Callback` (the checkpoint runs last, on a checked state)."""
+
+    name: str
+    schedule: Callable
+    write: Callable
+    snapshot: bool = False
+    order: int = 0
+    checked: bool = False
+
+
+RUN_WRITERS: dict[str, RunWriter] = {}
+
+
+def register_writer(writer: RunWriter) -> RunWriter:
+    """Add (or replace) a writer of every run folder opened from now on."""
+    RUN_WRITERS[writer.name] = writer
+    return writer
+
+
+def _checkpoint_schedule(folder: RunFolder, times, checkpoint_wall):
+    """After every step that crossed an output time, each checkpoint_interval of simulated
+    time and each ``checkpoint_wall`` seconds of wall time."""
+    when = [SpecifiedTimes(times)]
+    interval = folder.sim.scene.output.checkpoint_interval
+    if interval:
+        when.append(TimeInterval(interval))
+    if checkpoint_wall is not None:
+        when.append(WallTimeInterval(checkpoint_wall))
+    return AnyOf(*when)
+
+
+for _w in (
+    RunWriter(
+        "fields",
+        lambda f, times, wall: SpecifiedTimes(times),
+        RunFolder.write_fields,
+        snapshot=True,
+    ),
+    RunWriter(
+        "diagnostics", lambda f, times, wall: IterationInterval(1), RunFolder.write_diagnostics
+    ),
+    RunWriter(
+        "gauges",
+        lambda f, times, wall: IterationInterval(1) if f.gauges is not None else None,
+        RunFolder.write_gauges,
+    ),
+    RunWriter(
+        "checkpoint", _checkpoint_schedule, RunFolder.save_checkpoint, order=100, checked=True
+    ),
+):
+    register_writer(_w)
+del _w
+
+
+__all__ = [
+    "RunFolder",
+    "RunWriter",
+    "RUN_WRITERS",
+    "register_writer",
+    "OutputError",
+    "DIAGNOSTICS",
+    "RUN_FILES",
+    "check_fresh_folder",
+]

@@ -35,7 +35,7 @@ def eigenmode(scene) -> tuple[complex, np.ndarray]:
     from ..model.stability.base import base_state
 
     ini, fl = scene.initial, scene.flow
-    bs = base_state(fl.h0, fl.phi0, fl.nu if scene.viscous else 0.0, scene.material)
+    bs = base_state(fl.h0, fl.phi0, scene.acting_nu, scene.material)
     if scene.is_1d or not ini.ky:
         from ..model.stability.dispersion1d import matrix
 

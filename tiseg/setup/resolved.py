@@ -2,6 +2,9 @@
 
 Build it with `tiseg.setup.scene.load_scene`; its properties are the switches and numbers the
 run derives from the sections (``viscous``, ``feedback``, ``dx``, the Reynolds number (5.7)).
+`build_labelled` turns the nested dict of a scene into a `Scene`, section by section; it lives
+here, beside the class, because `Scene.with_overrides` builds a new scene as well (the reading
+of files and names, `tiseg.setup.reading`, sits on top of both).
 """
 
 from __future__ import annotations
@@ -11,9 +14,12 @@ from dataclasses import dataclass, field
 
 import tomli_w
 
+from ..errors import InputError
 from ..model.material import Material
 from ..model.physics.friction import FRICTION_LAWS as LAWS
+from ..output.paths import check_name, safe_name
 from .overrides import apply_overrides
+from .schema import read_section
 from .sections import (
     BoundaryConfig,
     DomainConfig,
@@ -24,6 +30,21 @@ from .sections import (
     NumericsConfig,
     OutputConfig,
     TimeConfig,
+    section_keys,
+    top_level_keys,
+)
+from .table import Table
+from .validators import (
+    initial_kind,
+    read_boundary,
+    read_domain,
+    read_effects,
+    read_flow,
+    read_inflow,
+    read_initial,
+    read_material,
+    read_numerics,
+    read_output,
 )
 from .writing import scene_to_dict
 
@@ -56,6 +77,12 @@ class Scene:
     def viscous(self) -> bool:
         """The viscous term of (6.2) is present (switched on and nu > 0)."""
         return self.effects.viscosity and self.flow.nu > 0.0
+
+    @property
+    def acting_nu(self) -> float:
+        """The viscosity nu of (6.2) that acts in the run [m^(3/2) s^-1]: flow.nu when
+        `viscous`, else 0 (the reference flow keeps its nu for the scalings either way)."""
+        return self.flow.nu if self.viscous else 0.0
 
     @property
     def feedback(self) -> bool:
@@ -168,9 +195,6 @@ class Scene:
         """A new, re-validated scene with ``section.key`` overrides applied."""
         data = scene_to_dict(self)
         apply_overrides(data, overrides)
-        # reading builds Scenes, so it is imported when first needed, not at the top
-        from .reading import build_labelled
-
         return build_labelled(data, self.name, self.source, f"{self.name!r}")
 
     @property
@@ -183,3 +207,74 @@ class Scene:
             for law in LAWS.values()
             for c in law.constants
         }
+
+
+def build_labelled(data: dict, name: str, source: str | None, label: str) -> Scene:
+    try:
+        return _build(data, name, source)
+    except InputError as exc:
+        raise InputError(f"scene {label}: {exc}") from None
+
+
+def _build(data: dict, default_name: str, source: str | None) -> Scene:
+    """Each section read and checked, in the order the cross-key rules need them."""
+    keys = section_keys()
+    top = Table(data, "", top_level_keys())
+    if top.has("name"):
+        name = check_name(top.string("name", default_name))
+    else:
+        name = safe_name(default_name)  # a file's stem: made safe, not refused
+    description = top.string("description", "")
+
+    def table(section: str) -> Table:
+        return top.table(section, keys[section])
+
+    material = read_material(table("material"))
+    effects = read_effects(table("effects"))
+    flow = read_flow(table("flow"), material, effects)
+
+    ini_t = table("initial")
+    kind = initial_kind(ini_t)
+
+    time = TimeConfig(**read_section(TimeConfig, table("time")))
+    domain, wavelengths = read_domain(table("domain"), ini_t, kind, flow)
+    boundary = read_boundary(table("boundary"), domain)
+    inflow = read_inflow(table("inflow"), top.has("inflow"), boundary, domain, flow)
+    initial = read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects, material)
+    numerics = read_numerics(table("numerics"), flow, domain.ny == 1, effects)
+    output = read_output(table("output"), time.t_end, domain)
+    _check_forcing_phase(inflow, time.t_end)
+    return Scene(
+        name=name,
+        description=description,
+        material=material,
+        flow=flow,
+        effects=effects,
+        domain=domain,
+        boundary=boundary,
+        inflow=inflow,
+        initial=initial,
+        numerics=numerics,
+        time=time,
+        output=output,
+        source=source,
+    )
+
+
+# the most periods of the inflow's forcing a run may span: past 2**40 the phase 2 pi f t has
+# lost all but a few of its digits (and past about 1e307 Hz s it overflows)
+MAX_FORCING_PERIODS = 2.0**40
+
+
+def _check_forcing_phase(inflow, t_end: float) -> None:
+    """Refuse a forcing frequency whose phase over the run cannot be represented: the
+    modulation would be noise (or the run would stop in a math domain error)."""
+    if inflow is None or not inflow.forcing_amplitude or not inflow.forcing_frequency:
+        return
+    f = inflow.forcing_frequency
+    if not f * t_end <= MAX_FORCING_PERIODS:
+        raise InputError(
+            f"inflow.forcing_frequency={f!r}: {f * t_end:.3g} periods in time.t_end="
+            f"{t_end:g} s, more than {MAX_FORCING_PERIODS:.3g}; the phase 2 pi f t cannot be "
+            f"resolved (give at most {MAX_FORCING_PERIODS / t_end:.3g} Hz)"
+        )

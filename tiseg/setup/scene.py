@@ -29,16 +29,8 @@ from __future__ import annotations
 
 from ..data import SCENE_DIR
 from ..errors import InputError
-from ..solver.numerics.config import (
-    BOUNDARIES,
-    FLUXES,
-    FRICTION_SCHEMES,
-    PHI_FLUXES,
-    RECONSTRUCTIONS,
-    STEP_RULES,
-)
-from ..model.physics.friction import DEFAULT_COULOMB_MU, FRICTION_LAWS as _LAWS
-from ..model.physics.segregation import TRANSPORTS as _TRANSPORTS
+from ..solver.numerics.config import CHOICE_NAMES, FRICTION_SCHEMES, STEP_RULES, registered
+from ..model.physics.friction import DEFAULT_COULOMB_MU
 from .overrides import parse_override
 from .reading import list_builtin_scenes, load_scene, scene_from_dict, scene_from_text
 from .resolved import Scene
@@ -73,15 +65,19 @@ from .validators import (
 )
 from .table import MAX_NESTING
 from .writing import scene_to_dict
-from ..solver.timestepping import STEPPERS as _STEPPERS
 
-# ---- the allowed choices and keys as they stand at import (a scene reads them live) ----------
-FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registry of tiseg.model.physics.friction
-TRANSPORTS = tuple(
-    _TRANSPORTS
-)  # material.transport: the registry of tiseg.model.physics.segregation
-STEPPERS = tuple(_STEPPERS)  # numerics.stepper: every registered stepper
-BOUNDARY_KINDS = BOUNDARIES
+# ---- the allowed choices and keys --------------------------------------------------------------
+# The registered choices, read when asked (a component registered by user code counts): the
+# names of before, each the keys of its registry (`tiseg.solver.numerics.config.REGISTRIES`).
+_CHOICES = tuple(CHOICE_NAMES)
+
+
+def __getattr__(name: str):
+    if name in _CHOICES:
+        return registered(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 INITIAL_KEYS = initial_keys()
 SECTION_KEYS = section_keys()
 TOP_LEVEL_KEYS = top_level_keys()
@@ -106,18 +102,11 @@ __all__ = [
     "SCENE_DIR",
     "InputError",
     # the choices and limits, for code that read them from here before
-    "FRICTION_LAWS",
-    "TRANSPORTS",
-    "STEPPERS",
-    "RECONSTRUCTIONS",
     "RECONSTRUCTION_ALIASES",
-    "FLUXES",
-    "PHI_FLUXES",
     "FRICTION_SCHEMES",
     "STEP_RULES",
     "PRECISIONS",
     "OUTPUT_PRECISIONS",
-    "BOUNDARY_KINDS",
     "INITIAL_KINDS",
     "PERTURBATION_MODES",
     "INITIAL_KEYS",
@@ -133,4 +122,5 @@ __all__ = [
     "MIN_H_EPS",
     "MAX_NESTING",
     "MAX_OUTPUT_TIMES",
+    *_CHOICES,  # the registered choices, read when asked
 ]

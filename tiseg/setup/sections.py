@@ -1,6 +1,6 @@
 """The sections of a scene, each key declared once: default, range or choices, doc, compiled.
 
-Choices are read from the registries when a scene is read (``lambda: FRICTION_LAWS``), so a
+Choices are read from the registries when a scene is read (``lambda: tuple(LAWS)``), so a
 friction law, stepper or transport that user code registers is a valid choice. The constants of
 the friction laws are declared by the laws themselves (`tiseg.model.physics.friction.Constant`)
 and join the section they name (`law_constants`). What no single key can say (a key needed
@@ -17,19 +17,14 @@ import numpy as np
 
 from ..model.material import TABLE1
 from ..solver.numerics.config import (
-    BOUNDARIES,
-    FLUXES,
     FRICTION_SCHEMES,
-    PHI_FLUXES,
-    RECONSTRUCTIONS,
+    REGISTRIES,
     STEP_RULES,
     inflow_concentration,
     inflow_forcing,
 )
 from ..model.physics.friction import FRICTION_LAWS as LAWS
 from ..model.physics.friction import ConstantsByName
-from ..model.physics.segregation import TRANSPORTS as _TRANSPORTS
-from ..solver.timestepping import STEPPERS as _STEPPERS
 from .schema import constant_field, key, key_fields, key_names, key_of
 from .table import MISSING
 
@@ -104,7 +99,7 @@ class MaterialKeys:
         default=TABLE1.transport,
         metadata=key(
             '"linear" (2.17) or "bagnold" (2.18)',
-            choices=lambda: tuple(_TRANSPORTS),
+            choices=lambda: tuple(REGISTRIES["material.transport"]),
             compiled="operator",
         ),
     )
@@ -261,7 +256,8 @@ class DomainConfig:
 
 def _side(default: str, doc: str):
     return field(
-        default=default, metadata=key(doc, choices=lambda: BOUNDARIES, compiled="operator")
+        default=default,
+        metadata=key(doc, choices=lambda: tuple(REGISTRIES["boundary"]), compiled="operator"),
     )
 
 
@@ -512,11 +508,6 @@ def initial_keys() -> dict[str, tuple[str, ...]]:
 
 
 # ---- numerics -----------------------------------------------------------------------------------
-def is_split(stepper: str) -> bool:
-    """The stepper advances by dimensionally split sweeps (the registry now, not at import)."""
-    return bool(getattr(_STEPPERS.get(stepper), "split", False))
-
-
 @dataclass(frozen=True)
 class NumericsConfig:
     reconstruction: str = field(
@@ -524,7 +515,7 @@ class NumericsConfig:
         metadata=key(
             '"weno" (a WENO-type slope; docs/numerics.md says how it differs from Noelle '
             '2000\'s), "minmod", "first-order"',
-            choices=lambda: RECONSTRUCTIONS,
+            choices=lambda: tuple(REGISTRIES["numerics.reconstruction"]),
             order=("weno", "minmod", "first-order"),  # the most accurate first
             aliases=RECONSTRUCTION_ALIASES,
             compiled="operator",
@@ -540,7 +531,7 @@ class NumericsConfig:
             '"kt" (Kurganov-Tadmor 2000, as in section 6.2), "central-upwind" (Kurganov, '
             'Noelle & Petrova 2001) or "rusanov" (local Lax-Friedrichs: on these edge states '
             'the same as "kt")',
-            choices=lambda: FLUXES,
+            choices=lambda: tuple(REGISTRIES["numerics.flux"]),
             compiled="operator",
         ),
     )
@@ -550,7 +541,7 @@ class NumericsConfig:
             "h phi flux: the mass flux times the upwind phi - G(phi) "
             '("upwind", keeps contacts sharp), or the flux scheme\'s own ("central", the '
             "paper's)",
-            choices=lambda: PHI_FLUXES,
+            choices=lambda: tuple(REGISTRIES["numerics.phi_flux"]),
             compiled="operator",
         ),
     )
@@ -560,7 +551,7 @@ class NumericsConfig:
             'Runge-Kutta-Chebyshev as in section 6.2, or SSP RK / Euler, or "hancock": '
             "dimensionally split MUSCL-Hancock sweeps (projected friction; the viscosity as "
             "a sub-step of RKC stages)",
-            choices=lambda: tuple(_STEPPERS),
+            choices=lambda: tuple(REGISTRIES["numerics.stepper"]),
             compiled="simulation",
         ),
     )

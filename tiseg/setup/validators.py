@@ -17,7 +17,7 @@ from types import SimpleNamespace
 from ..errors import InputError
 from ..log import note
 from ..model.material import Material, Species
-from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, noise_modes
+from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, is_split, noise_modes
 from ..model.physics.friction import FRICTION_LAWS as LAWS, layer_thresholds
 from ..model.steady import steady_state
 from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section, read_tables
@@ -33,7 +33,6 @@ from .sections import (
     NumericsConfig,
     OutputConfig,
     SpeciesKeys,
-    is_split,
     effects_fields,
     initial_keys,
     material_fields,

@@ -21,6 +21,8 @@ what a stepper costs there (benchmarks/README.md, section 3).
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, SCENE_FILE
+
 import math
 import time
 from pathlib import Path
@@ -42,7 +44,7 @@ REFERENCE_CFL_FACTOR = 0.2
 def _run_scene(run_dir: Path):
     from ...setup.scene import load_scene
 
-    path = run_dir / "scene.toml"
+    path = run_dir / SCENE_FILE
     if not path.is_file():
         raise InputError(f"{run_dir}: no scene.toml here; give the folder of a tiseg run")
     return load_scene(path)
@@ -53,7 +55,7 @@ def _states(run_dir: Path, times: Sequence[float] | None, count: int = 2):
     ``times`` (default: ``count`` snapshots, the last and ones evenly before it, t > 0)."""
     from ...output.netcdf import read_fields
 
-    path = run_dir / "fields.nc"
+    path = run_dir / FIELDS_FILE
     if not path.is_file():
         raise InputError(f"{run_dir}: no fields.nc here (the run saved no snapshots)")
     ds = read_fields(path)

@@ -8,13 +8,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from ...backend import threads_problem
 from ...errors import InputError
 from ...log import stderr_line
 from ...output import write_json_atomic
 from ...output.atomic import remove_stale_temporaries, replacing
 from ...output.paths import refuse_symlinks
-from ..sweep.runner import SWEEP_OUTPUTS, check_workers
+from ..sweep.runner import SWEEP_OUTPUTS, check_dask_options, create_output_folder
 from ..sweep.spec import _canonical
 from .search import FD_STEP, PENALTY, Evaluator, MemberFailed, best_of, search, uncertainty
 from .spec import Calibration
@@ -109,19 +108,10 @@ def run_calibration(
     this process with that function instead of `tiseg.apps.sweep.execute_run` on Dask."""
     out = Path(out)
     say = echo or (lambda _s: None)
-    check_workers(workers, scheduler)
-    if threads_per_task is not None and threads_per_task < 0:
-        raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
-    if threads_per_task and scheduler is None:
-        problem = threads_problem(threads_per_task, "--threads-per-task")
-        if problem:
-            raise InputError(problem)
+    check_dask_options(workers, scheduler, threads_per_task)
     if not overwrite:
         check_calibration_folder(cal, out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
+    create_output_folder(out)
     refuse_symlinks(out, (RESULT_FILE, PLOT_FILE))  # before any run, as `tiseg run` does
     remove_stale_temporaries(out, (RESULT_FILE, PLOT_FILE))  # a killed calibration's
     ev = Evaluator(

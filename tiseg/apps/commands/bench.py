@@ -9,10 +9,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...backend import ARCHS
-from ...solver.numerics.config import FLUXES, PHI_FLUXES, SPLIT_STEPPERS
-from ...setup.scene import STEPPERS as STEPPER_CHOICES
-from .common import check_threads, print_json, stdout_for_json
+from ...solver.numerics.config import REGISTRIES, is_split
+from .common import (
+    add_arch,
+    add_json,
+    add_out,
+    add_threads,
+    check_threads,
+    print_json,
+    stdout_for_json,
+)
 from ...errors import InputError
 
 
@@ -51,7 +57,7 @@ def register(sub) -> None:
         "writes accuracy.csv, one PNG per problem with the Pareto front, and "
         "summary.json/summary.md (do the scene defaults sit on the front?).",
     )
-    a.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    add_out(a, "output folder", required=True)
     a.add_argument(
         "--quick",
         action="store_true",
@@ -82,14 +88,14 @@ def register(sub) -> None:
         "--fluxes",
         nargs="+",
         default=["kt"],
-        choices=FLUXES,
+        choices=tuple(REGISTRIES["numerics.flux"]),
         help="numerics.flux values (default kt)",
     )
     a.add_argument(
         "--phi-fluxes",
         nargs="+",
         default=["upwind"],
-        choices=PHI_FLUXES,
+        choices=tuple(REGISTRIES["numerics.phi_flux"]),
         help="numerics.phi_flux values (default upwind, the scenes' default)",
     )
     a.add_argument(
@@ -97,10 +103,10 @@ def register(sub) -> None:
         nargs="+",
         default=None,
         # the split sweeps are left out: every problem of this bench has friction
-        choices=tuple(c for c in STEPPER_CHOICES if c not in SPLIT_STEPPERS),
+        choices=tuple(c for c in REGISTRIES["numerics.stepper"] if not is_split(c)),
     )
     a.add_argument("--cfl", nargs="+", type=float, default=[0.25], help="Courant numbers (0.25)")
-    a.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_json(a)
     a.set_defaults(func=run_accuracy)
 
     t = bsub.add_parser(
@@ -118,13 +124,8 @@ def register(sub) -> None:
     t.add_argument("--ny", type=int, default=None, help="cells across (default 375)")
     t.add_argument("--quick", action="store_true", help="small grid and few repeats, for CI")
     _add_machine_options(t, precisions=["f64", "f32"])
-    t.add_argument(
-        "--out",
-        default=None,
-        metavar="DIR",
-        help="also write throughput.json, throughput.md and effects.md there",
-    )
-    t.add_argument("--json", action="store_true", help="print the full report as JSON")
+    add_out(t, "also write throughput.json, throughput.md and effects.md there")
+    add_json(t, "print the full report as JSON")
     t.set_defaults(func=run_throughput)
 
     s = bsub.add_parser(
@@ -159,19 +160,14 @@ def register(sub) -> None:
         "--steppers",
         nargs="+",
         default=None,
-        choices=STEPPER_CHOICES,
+        choices=tuple(REGISTRIES["numerics.stepper"]),
         help="default: rkc, ssprk3, ssprk2, ssprk4_2, ssprk10_4, euler, and the run's own",
     )
     s.add_argument("--repeats", type=int, default=2, help="timed repeats, the minimum is kept (2)")
-    s.add_argument("--arch", choices=ARCHS, default="cpu")
-    s.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
-    s.add_argument(
-        "--out",
-        default=None,
-        metavar="DIR",
-        help="where steppers.json/.md go (default: RUN_DIR/bench-steppers)",
-    )
-    s.add_argument("--json", action="store_true", help="print the report as JSON")
+    add_arch(s)
+    add_threads(s)
+    add_out(s, "where steppers.json/.md go (default: RUN_DIR/bench-steppers)")
+    add_json(s, "print the report as JSON")
     s.set_defaults(func=run_steppers)
 
     g = bsub.add_parser(
@@ -195,13 +191,8 @@ def register(sub) -> None:
         action="store_true",
         help="small grids and short runs (about a minute on software Vulkan)",
     )
-    g.add_argument(
-        "--out",
-        default=None,
-        metavar="DIR",
-        help="where gpu_check.json and gpu_check.md go (default: not written)",
-    )
-    g.add_argument("--json", action="store_true", help="print the report as JSON")
+    add_out(g, "where gpu_check.json and gpu_check.md go (default: not written)")
+    add_json(g, "print the report as JSON")
     g.set_defaults(func=run_gpu)
 
 
@@ -215,7 +206,7 @@ def _add_machine_options(p, precisions) -> None:
         choices=("cpu", "gpu", "vulkan"),
         help="default: cpu, and gpu where one is present (vulkan only when named)",
     )
-    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+    add_threads(p)
 
 
 def run_accuracy(args) -> int:

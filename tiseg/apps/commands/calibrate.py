@@ -5,12 +5,20 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ...backend import ARCHS
 from ...errors import InputError
-from ...log import info
 from ...setup.scene import parse_override
 from ..calibration import calibration_from_args, run_calibration
-from .common import print_json, results_written, sigterm_stops
+from .common import (
+    add_dask_options,
+    add_json,
+    add_out,
+    add_overrides,
+    add_overwrite,
+    dask_options,
+    print_json,
+    results_written,
+    sigterm_stops,
+)
 
 
 # `tiseg calibrate --help` ends with these (`tiseg.apps.examples`); a test parses each.
@@ -69,14 +77,7 @@ def register(sub) -> None:
         metavar="T",
         help="output time of the per-time targets [s] (default: the last output time)",
     )
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="SECTION.KEY=VALUE",
-        help="override a scene key in every run, e.g. --set domain.nx=200 (repeatable)",
-    )
+    add_overrides(p, "override a scene key in every run, e.g. --set domain.nx=200 (repeatable)")
     p.add_argument(
         "--budget",
         type=int,
@@ -100,38 +101,13 @@ def register(sub) -> None:
         metavar="S",
         help="seed of the Latin hypercube that starts a search of several parameters (default 0)",
     )
-    p.add_argument(
-        "--out",
-        default=None,
-        metavar="DIR",
-        help="output folder (default: runs/calibrations/<scene name>)",
-    )
-    p.add_argument("--json", action="store_true", help="print calibration.json on stdout")
+    add_out(p, "output folder (default: runs/calibrations/<scene name>)")
+    add_json(p, "print calibration.json on stdout")
     g = p.add_argument_group("where the runs go (as for tiseg sweep)")
-    g.add_argument(
-        "--scheduler", default=None, metavar="ADDRESS", help="an existing Dask scheduler"
-    )
-    g.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help="local worker processes (default: CPU cores, at most the runs asked for at once)",
-    )
-    g.add_argument(
-        "--threads-per-task",
-        type=int,
-        default=None,
-        metavar="N",
-        help="Taichi CPU threads per run (default: cores / workers; 0 = all cores)",
-    )
-    g.add_argument(
-        "--arch", choices=ARCHS, default="cpu", help="Taichi backend of each run (default cpu)"
-    )
-    g.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into a DIR that holds a calibration of another scene or other --set "
+    add_dask_options(g, runs="runs")
+    add_overwrite(
+        g,
+        "write into a DIR that holds a calibration of another scene or other --set "
         "overrides, and replace files in member folders that tiseg did not write",
     )
     p.set_defaults(func=run)
@@ -158,18 +134,7 @@ def run(args) -> int:
     out = Path(args.out) if args.out else Path("runs") / "calibrations" / name
     kept = "its finished members are kept: run the same command again to go on"
     with sigterm_stops("the calibration", kept), results_written(out, kept):
-        result = run_calibration(
-            cal,
-            out,
-            scheduler=args.scheduler,
-            workers=args.workers,
-            threads_per_task=args.threads_per_task,
-            arch=args.arch,
-            echo=info,
-            overwrite=args.overwrite,
-            # the closing results on stdout (kept by -q); with --json stdout holds the JSON only
-            report=info if args.json else print,
-        )
+        result = run_calibration(cal, out, **dask_options(args))
     if args.json:
         print_json(result.result)
     # a failed member stopped the search: not a result to take as final (exit 1, as a sweep

@@ -71,6 +71,92 @@ def stdout_for_json(as_json: bool):
     return contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext()
 
 
+# ---- the options several commands share, each declared once -------------------------------------
+ARCH_HELP = (
+    "Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
+    "(software Vulkan where there is no GPU; default cpu)"
+)
+
+
+def add_overrides(p, help: str) -> None:
+    """--set SECTION.KEY=VALUE (repeatable) into ``args.overrides``."""
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help=help,
+    )
+
+
+def add_out(p, help: str, default=None, required: bool = False) -> None:
+    """--out DIR, the folder a command writes."""
+    p.add_argument("--out", default=default, required=required, metavar="DIR", help=help)
+
+
+def add_json(p, help: str = "print the summary as JSON") -> None:
+    p.add_argument("--json", action="store_true", help=help)
+
+
+def add_overwrite(p, help: str) -> None:
+    p.add_argument("--overwrite", action="store_true", help=help)
+
+
+def add_arch(p, help: str = ARCH_HELP) -> None:
+    p.add_argument("--arch", choices=ARCHS, default="cpu", help=help)
+
+
+def add_threads(p) -> None:
+    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+
+
+def add_dask_options(p, runs: str) -> None:
+    """Where the members of a sweep or a calibration run: --scheduler, --workers,
+    --threads-per-task, --arch (``runs``: what a member is called in the help)."""
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="address of an existing Dask scheduler (e.g. tcp://host:8786); default: "
+        "start a local cluster of worker processes",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"local worker processes, i.e. {runs} at the same time (default: CPU "
+        f"cores, at most the number of {runs})",
+    )
+    p.add_argument(
+        "--threads-per-task",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Taichi CPU threads per run (default: cores / workers locally; all "
+        "cores on a remote cluster; 0 = all cores)",
+    )
+    add_arch(p, help="Taichi backend of each run (default cpu)")
+
+
+def dask_options(args) -> dict:
+    """The keyword arguments of `tiseg.apps.sweep.run_sweep` and
+    `tiseg.apps.calibration.run_calibration` that `add_dask_options` and --overwrite give,
+    with the closing results on stdout (kept by -q), or on stderr when stdout holds JSON."""
+    from ...log import info
+
+    return dict(
+        scheduler=args.scheduler,
+        workers=args.workers,
+        threads_per_task=args.threads_per_task,
+        arch=args.arch,
+        echo=info,
+        overwrite=args.overwrite,
+        report=info if args.json else print,
+    )
+
+
 def add_scene_arguments(p, scene_optional: bool = False) -> None:
     """SCENE, --set, --arch, --precision, --threads: how every command that runs a scene picks it."""
     p.add_argument(
@@ -79,28 +165,15 @@ def add_scene_arguments(p, scene_optional: bool = False) -> None:
         default=None,
         help="built-in scene name (e.g. fingers) or path to a TOML file",
     )
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="SECTION.KEY=VALUE",
-        help="override a scene value, e.g. --set domain.resolution=250 (repeatable)",
-    )
-    p.add_argument(
-        "--arch",
-        choices=ARCHS,
-        default="cpu",
-        help="Taichi backend: cpu, gpu (CUDA/Metal; error if none), auto, or vulkan "
-        "(software Vulkan where there is no GPU; default cpu)",
-    )
+    add_overrides(p, "override a scene value, e.g. --set domain.resolution=250 (repeatable)")
+    add_arch(p)
     p.add_argument(
         "--precision",
         choices=("f32", "f64"),
         default=None,
         help="floating-point precision (default: the scene's numerics.precision)",
     )
-    p.add_argument("--threads", type=int, default=0, help="CPU threads (0 = all cores)")
+    add_threads(p)
 
 
 def load_scene_args(args):

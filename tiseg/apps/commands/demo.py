@@ -11,9 +11,11 @@ values (`CONVERGED`) and says where those come from.
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, FINGERS_FILE
+
 from pathlib import Path
 
-from ...backend import ARCHS
+from .common import add_arch, add_out, add_overwrite
 from ...post.analysis import analyse_run
 from ...post.analysis.fingers import count_text
 from ...errors import InputError
@@ -52,7 +54,7 @@ def register(sub) -> None:
         description=__doc__.splitlines()[0] + " Runs the fingers scene, writes a "
         "movie, figures 8-14 and the finger diagnostics into the output folder.",
     )
-    p.add_argument("--out", default="runs/demo", metavar="DIR", help="output folder (runs/demo)")
+    add_out(p, "output folder (runs/demo)", default="runs/demo")
     p.add_argument(
         "--resolution",
         type=float,
@@ -60,12 +62,8 @@ def register(sub) -> None:
         help="cells per metre (paper: 750; 200 forms fingers in about a minute on 2 cores)",
     )
     p.add_argument("--t-end", type=float, default=7.5, help="end time [s] (7.5 as in the paper)")
-    p.add_argument("--arch", choices=ARCHS, default="cpu")
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an --out folder that holds files other than the demo's",
-    )
+    add_arch(p)
+    add_overwrite(p, "write into an --out folder that holds files other than the demo's")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=run)
 
@@ -120,8 +118,8 @@ def run(args) -> int:
         )
         written.append(path)
     metrics = measured_all(analyse_run(out))  # 12 significant digits (output.numbers)
-    write_json_atomic(out / "fingers.json", metrics)
-    written.append(out / "fingers.json")
+    write_json_atomic(out / FINGERS_FILE, metrics)
+    written.append(out / FINGERS_FILE)
     written += make_all(out / "stability", scene.material)
     last = {
         k: metrics[k][-1]
@@ -167,4 +165,4 @@ def what_the_numbers_are(resolution: float, time: float) -> str:
 
 def _is_demo_folder(out: Path) -> bool:
     """An earlier demo's folder (its movie is there): the demo may replace its own run."""
-    return (out / "fingers.mp4").is_file() and (out / "fields.nc").is_file()
+    return (out / "fingers.mp4").is_file() and (out / FIELDS_FILE).is_file()

@@ -14,6 +14,9 @@ from pathlib import Path
 
 from ...errors import TisegError
 from .common import (
+    add_json,
+    add_out,
+    add_overwrite,
     add_scene_arguments,
     check_output_folder,
     check_threads,
@@ -48,9 +51,7 @@ def register(sub) -> None:
         "diagnostics table into the output folder.",
     )
     add_scene_arguments(p, scene_optional=True)
-    p.add_argument(
-        "--out", default=None, metavar="DIR", help="output folder (default: runs/<scene name>)"
-    )
+    add_out(p, "output folder (default: runs/<scene name>)")
     p.add_argument(
         "--resume",
         default=None,
@@ -58,11 +59,7 @@ def register(sub) -> None:
         help="continue the killed run in DIR from its checkpoint.npz (no SCENE, "
         "--set, --precision, --out or --movie: the run keeps its own settings)",
     )
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an --out folder that holds another run or other files",
-    )
+    add_overwrite(p, "write into an --out folder that holds another run or other files")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument(
         "--estimate",
@@ -70,10 +67,9 @@ def register(sub) -> None:
         help="print the predicted steps, RKC stages and wall time (as `tiseg "
         "estimate`) and exit without running",
     )
-    p.add_argument(
-        "--json",
-        action="store_true",
-        help="print a JSON summary at the end (shape: [ny, nx], the order of the arrays in "
+    add_json(
+        p,
+        "print a JSON summary at the end (shape: [ny, nx], the order of the arrays in "
         "fields.nc; grid: the same as [nx, ny], its older name)",
     )
     p.add_argument(

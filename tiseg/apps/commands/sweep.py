@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...backend import ARCHS
 from ...errors import InputError
-from ...log import info
 from ...log import note
+from .common import add_dask_options, add_json, add_out, add_overrides, add_overwrite
 
 
 # `tiseg sweep --help` ends with these (`tiseg.apps.examples`); a test parses each.
@@ -51,20 +50,8 @@ def register(sub) -> None:
         "nu-study, inviscid-study, finite-release, monodisperse, tiny, tiny-sample, "
         "gate-probability)",
     )
-    p.add_argument(
-        "--out",
-        default=None,
-        metavar="DIR",
-        help="output folder (default: runs/sweeps/<sweep name>)",
-    )
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="SECTION.KEY=VALUE",
-        help="add a fixed override to every run, e.g. --set time.t_end=5 (repeatable)",
-    )
+    add_out(p, "output folder (default: runs/sweeps/<sweep name>)")
+    add_overrides(p, "add a fixed override to every run, e.g. --set time.t_end=5 (repeatable)")
     p.add_argument(
         "--grid",
         dest="grid",
@@ -73,36 +60,10 @@ def register(sub) -> None:
         metavar="SECTION.KEY=[V1,V2,...]",
         help="replace (or add) a grid axis, e.g. --grid 'domain.resolution=[250,375]' (repeatable)",
     )
-    p.add_argument(
-        "--scheduler",
-        default=None,
-        metavar="ADDRESS",
-        help="address of an existing Dask scheduler (e.g. tcp://host:8786); default: "
-        "start a local cluster of worker processes",
-    )
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help="local worker processes, i.e. runs at the same time (default: CPU "
-        "cores, at most the number of runs)",
-    )
-    p.add_argument(
-        "--threads-per-task",
-        type=int,
-        default=None,
-        metavar="N",
-        help="Taichi CPU threads per run (default: cores / workers locally; all "
-        "cores on a remote cluster; 0 = all cores)",
-    )
-    p.add_argument(
-        "--arch", choices=ARCHS, default="cpu", help="Taichi backend of each run (default cpu)"
-    )
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an --out folder that holds another sweep, replacing its table and "
+    add_dask_options(p, runs="runs")
+    add_overwrite(
+        p,
+        "write into an --out folder that holds another sweep, replacing its table and "
         "the runs it shares folder names with, and files in run folders that tiseg did not "
         "write",
     )
@@ -118,10 +79,9 @@ def register(sub) -> None:
         metavar="S",
         help="seconds between progress lines of one running run (default 30)",
     )
-    p.add_argument(
-        "--json",
-        action="store_true",
-        help="print a JSON summary (folders, counts, one entry per run) on stdout; "
+    add_json(
+        p,
+        "print a JSON summary (folders, counts, one entry per run) on stdout; "
         "progress goes to stderr as always",
     )
     p.set_defaults(func=run)
@@ -170,22 +130,12 @@ def run(args) -> int:
             )
         return 0
 
-    from .common import results_written, sigterm_stops
+    from .common import dask_options, results_written, sigterm_stops
 
     kept = "its finished runs are kept: run the same command again to go on"
     with sigterm_stops(f"sweep {sweep.name!r}", kept), results_written(out, kept):
         result = run_sweep(
-            sweep,
-            out,
-            scheduler=args.scheduler,
-            workers=args.workers,
-            threads_per_task=args.threads_per_task,
-            arch=args.arch,
-            echo=info,
-            progress_interval=args.progress_interval,
-            overwrite=args.overwrite,
-            # the closing results on stdout (kept by -q); with --json stdout holds the JSON only
-            report=info if args.json else print,
+            sweep, out, progress_interval=args.progress_interval, **dask_options(args)
         )
     if args.json:
         from .common import print_json

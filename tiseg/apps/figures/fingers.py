@@ -23,6 +23,8 @@ diagnostics are those of `tiseg.post.analysis.fingers` (section 6.3 definitions)
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, SCENE_FILE
+
 import csv
 import io
 import json
@@ -126,7 +128,7 @@ class StudyRun:
         """The run's resolved scene (read once from its scene.toml)."""
         from ...setup.scene import load_scene
 
-        return load_scene(self.dir / "scene.toml")
+        return load_scene(self.dir / SCENE_FILE)
 
 
 @dataclass
@@ -251,7 +253,7 @@ def _render_phi(run: StudyRun, t: float):
     from ...post.render.frame import render_fields
 
     sc = run.scene
-    with read_fields(run.dir / "fields.nc") as ds:
+    with read_fields(run.dir / FIELDS_FILE) as ds:
         k = nearest_indices(ds["time"].values, [t])[0]
         snap = _snapshot(ds, k)
     img = render_fields(snap, sc.numerics.h_min, field="phi", colourbar=False, aspect=sc.dy / sc.dx)
@@ -432,8 +434,7 @@ def fig16(grid: Study | None, width: Study | None, out: Path, dpi: int) -> Path 
 
 def _nu(run: StudyRun) -> float:
     """The viscosity coefficient the run solved with: 0 where the viscous term is off."""
-    sc = run.scene
-    return sc.flow.nu if sc.viscous else 0.0
+    return run.scene.acting_nu
 
 
 def fig17(nu: Study | None, out: Path, dpi: int) -> Path | None:

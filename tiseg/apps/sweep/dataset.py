@@ -22,6 +22,8 @@ Layout:
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE
+
 import datetime as _dt
 import json
 import logging
@@ -230,7 +232,7 @@ def _peak_fields(sweep: Sweep, records: Mapping[str, dict], out: Path):
         rec = records.get(run.name)
         if rec is None or rec.get("status") not in ("done", "reused"):
             continue
-        path = out / run.name / "fields.nc"
+        path = out / run.name / FIELDS_FILE
         try:
             with netCDF4.Dataset(path, "r") as ds:
                 names = [

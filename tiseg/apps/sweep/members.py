@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, SCENE_FILE
+
 import hashlib
 import logging
 import json
@@ -72,11 +74,11 @@ def read_marker(run_dir, scene: Scene | None = None) -> dict | None:
         return None
     if not isinstance(rec, dict) or rec.get("marker_version") != MARKER_VERSION:
         return None
-    if not fields_readable(run_dir / "fields.nc", rec.get("fields_bytes")):
+    if not fields_readable(run_dir / FIELDS_FILE, rec.get("fields_bytes")):
         return None  # the results are gone or damaged: not a finished run, run it again
     if scene is not None:
         try:
-            stored = scene_from_text((run_dir / "scene.toml").read_text(encoding="utf-8"))
+            stored = scene_from_text((run_dir / SCENE_FILE).read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, InputError):
             return None
         if stored != scene:
@@ -189,7 +191,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
         "ny": ny,
         "cells": nx * ny,
         "dx": scene.dx,
-        "fields_bytes": (run_dir / "fields.nc").stat().st_size,  # checked when reused
+        "fields_bytes": (run_dir / FIELDS_FILE).stat().st_size,  # checked when reused
         "t_end": sim.t,
         "wall_s": stats.wall,
         "task_s": _time.perf_counter() - t0,

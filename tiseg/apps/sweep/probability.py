@@ -36,6 +36,8 @@ made before they existed) is left out, with a log line naming it.
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, PROBABILITY_FILE
+
 import datetime as _dt
 import difflib
 import logging
@@ -52,7 +54,6 @@ from ...output.atomic import replacing
 
 PROBABILITY_KEYS = ("h_thresholds", "speed_thresholds")
 QUANTILES = (0.05, 0.5, 0.95)
-PROBABILITY_FILE = "probability.nc"
 # the peak fields of a member's fields.nc that the maps are drawn from (tiseg.run.peaks)
 MEMBER_FIELDS = ("h_max", "speed_max", "arrival_time")
 # the keys that decide a member's grid: members differing in any cannot be stacked per cell
@@ -164,7 +165,7 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
         rec = records.get(run.name)
         if rec is None or rec.get("status") not in ("done", "reused"):
             continue
-        path = Path(out) / run.name / "fields.nc"
+        path = Path(out) / run.name / FIELDS_FILE
         try:
             with netCDF4.Dataset(path, "r") as ds:
                 missing = [

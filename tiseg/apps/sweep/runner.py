@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from __future__ import annotations
-
 import json
 import logging
 import math
@@ -84,6 +82,26 @@ RESULT_NAMES = SWEEP_OUTPUTS + (PROBABILITY_FILE, "sensitivity.csv", "sensitivit
 CALIBRATION_FILE = "calibration.json"
 # what makes two sweeps the same: the runs and what is tabulated (not the file's place or text)
 SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "sample", "times")
+
+
+def check_dask_options(workers: int | None, scheduler: str | None, threads_per_task) -> None:
+    """The options of where members run (`check_workers`, and --threads-per-task: at least 0,
+    and on a local cluster no more than this process may use), checked before any run."""
+    check_workers(workers, scheduler)
+    if threads_per_task is not None and threads_per_task < 0:
+        raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
+    if threads_per_task and scheduler is None:
+        problem = threads_problem(threads_per_task, "--threads-per-task")
+        if problem:
+            raise InputError(problem)
+
+
+def create_output_folder(out: Path) -> None:
+    """``out`` and its parents, or an InputError naming it."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
 
 
 def check_workers(workers: int | None, scheduler: str | None) -> None:
@@ -171,19 +189,10 @@ def run_sweep(
     """
     out = Path(out)
     say = echo or (lambda _s: None)
-    check_workers(workers, scheduler)
-    if threads_per_task is not None and threads_per_task < 0:
-        raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
-    if threads_per_task and scheduler is None:
-        problem = threads_problem(threads_per_task, "--threads-per-task")
-        if problem:
-            raise InputError(problem)
+    check_dask_options(workers, scheduler, threads_per_task)
     if not overwrite:
         check_sweep_folder(sweep, out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder {str(out)!r}: {exc.strerror}") from None
+    create_output_folder(out)
     # before any run, as `tiseg run` does: the results are never written through a link
     charts = tuple(p.name for p in out.glob("sensitivity*.png"))
     refuse_symlinks(out, RESULT_NAMES + charts)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from __future__ import annotations
+from ...output.names import DONE_FILE, FINGERS_FILE  # noqa: F401  (FINGERS_FILE: read from here)
 
 import difflib
 import hashlib
@@ -34,8 +34,7 @@ SWEEP_KEYS = (
     "sample",
     "probability",
 )
-DONE_MARKER = "done.json"
-FINGERS_FILE = "fingers.json"
+DONE_MARKER = DONE_FILE
 PROGRESS_TOPIC = "tiseg-sweep-progress"
 MAX_RUNS = 10_000  # a guard against a grid that multiplies out by mistake
 MAX_NAME = 120  # longest run-folder name before it is shortened with a hash

@@ -83,6 +83,8 @@ Undefined quantities are None (JSON null), never NaN.
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, SCENE_FILE
+
 import math
 from pathlib import Path
 from typing import Sequence
@@ -549,7 +551,7 @@ def _spacing(y) -> float:
 def _fields_path(run_dir) -> Path:
     p = Path(run_dir)
     if p.is_dir():
-        f = p / "fields.nc"
+        f = p / FIELDS_FILE
         if not f.is_file():
             raise InputError(f"run folder {str(p)!r} has no fields.nc (written by `tiseg run`)")
         return f
@@ -565,7 +567,7 @@ def _stored_scene(ds, path: Path):
     text = ds.attrs.get("scene")
     where = f"the scene attribute of {str(path)!r}"
     if not isinstance(text, str):
-        side = path.parent / "scene.toml"
+        side = path.parent / SCENE_FILE
         if not side.is_file():
             return None
         text, where = side.read_text(encoding="utf-8"), repr(str(side))

@@ -111,7 +111,7 @@ def channel_profile(scene, tol: float = 1e-5) -> ChannelProfile:
 
     u_l = balance(ini.phi_levee)
     u_c = balance(ini.phi_channel)
-    nu = scene.flow.nu if scene.viscous else 0.0
+    nu = scene.acting_nu
     if nu <= 0.0:
         return ChannelProfile(Ly, width, u_c, u_l, None)
     D = 0.5 * nu * h * math.sqrt(h)  # u'' = -(g h / D) accel(u)

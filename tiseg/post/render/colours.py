@@ -28,6 +28,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from ...output.fields import OUTPUT_FIELDS
+
 FINES_RGB = (245 / 255, 242 / 255, 233 / 255)  # white ballotini (phi = 1)
 COARSE_RGB = (140 / 255, 84 / 255, 44 / 255)  # brown carborundum (phi = 0)
 CHUTE_RGB = (58 / 255, 178 / 255, 178 / 255)  # turquoise chute, h < h_min
@@ -40,17 +42,13 @@ FIELD_CODES = {"phi": 0, "h": 1, "speed": 2, "u": 3, "v": 4}
 FIELD_ALIASES = {"|u|": "speed", "umag": "speed", "concentration": "phi", "thickness": "h"}
 FIELD_NAMES = tuple(FIELD_CODES)
 
-# Axis labels and the unit each field is shown in (value * factor, unit).
+# Axis labels and the unit each field is shown in (value * factor, unit), and plain-ASCII short
+# labels for burned-in captions (the small bitmap text has no Greek glyph guarantee across
+# fonts): from each field's spec (`tiseg.output.fields`), which the writer reads as well.
 FIELD_LABELS = {
-    "phi": ("concentration φ", 1.0, ""),
-    "h": ("thickness h", 1e3, "mm"),
-    "speed": ("speed |u|", 1.0, "m/s"),
-    "u": ("downslope velocity u", 1.0, "m/s"),
-    "v": ("cross-slope velocity v", 1.0, "m/s"),
+    n: (OUTPUT_FIELDS[n].label, OUTPUT_FIELDS[n].factor, OUTPUT_FIELDS[n].unit) for n in FIELD_CODES
 }
-# Plain-ASCII short labels for burned-in captions (the small bitmap text has no Greek glyph
-# guarantee across fonts; DejaVu has them, but keep captions simple).
-FIELD_SHORT = {"phi": "phi", "h": "h [mm]", "speed": "|u| [m/s]", "u": "u [m/s]", "v": "v [m/s]"}
+FIELD_SHORT = {n: OUTPUT_FIELDS[n].short for n in FIELD_CODES}
 
 
 def canonical_field(name: str) -> str:
@@ -101,7 +99,9 @@ def phi_colours(phi) -> np.ndarray:
 
 def colours_for(field: str, t) -> np.ndarray:
     """Colour bar colours of a field at normalised positions t in [0, 1]."""
-    return phi_colours(t) if canonical_field(field) == "phi" else map_values(t)
+    return (
+        phi_colours(t) if OUTPUT_FIELDS[canonical_field(field)].colours == "phi" else map_values(t)
+    )
 
 
 def to_uint8(rgb) -> np.ndarray:
@@ -113,7 +113,7 @@ def matplotlib_cmap(field: str):
     """A matplotlib colour map with the same colours as the frame kernel for ``field``."""
     from matplotlib.colors import LinearSegmentedColormap, ListedColormap
 
-    if canonical_field(field) == "phi":
+    if OUTPUT_FIELDS[canonical_field(field)].colours == "phi":
         return LinearSegmentedColormap.from_list("tiseg_phi", [COARSE_RGB, FINES_RGB], N=256)
     return ListedColormap(viridis_table(LUT_SIZE), name="tiseg_viridis")
 

@@ -4,6 +4,8 @@ a line per gauge, against the simulated time; phi is left blank while a gauge is
 
 from __future__ import annotations
 
+from ...output.names import GAUGES_FILE
+
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +29,7 @@ def gauges_csv(run_dir) -> Path:
     when the run had no gauges."""
     p = Path(run_dir)
     folder = p if p.is_dir() else p.parent
-    path = folder / "gauges.csv"
+    path = folder / GAUGES_FILE
     if not path.is_file():
         raise InputError(
             f"{str(folder)!r} has no gauges.csv: the run had no gauges; add [[output.gauges]] "

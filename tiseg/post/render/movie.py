@@ -13,6 +13,8 @@ cropped to the first frame's size, because a video has one size.
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, SCENE_FILE
+
 import contextlib
 import errno
 import math
@@ -322,7 +324,7 @@ def open_writer(path, fps: float = DEFAULT_FPS):
 def _fields_path(run) -> Path:
     p = Path(run)
     if p.is_dir():
-        p = p / "fields.nc"
+        p = p / FIELDS_FILE
     if not p.is_file():
         raise InputError(
             f"no fields file at {str(p)!r}: give a run folder (with fields.nc, as "
@@ -337,8 +339,8 @@ def run_h_min(ds, run_dir: Path | None = None) -> float:
     from ...setup.scene import load_scene, scene_from_text
 
     try:
-        if run_dir is not None and (run_dir / "scene.toml").is_file():
-            return float(load_scene(run_dir / "scene.toml").numerics.h_min)
+        if run_dir is not None and (run_dir / SCENE_FILE).is_file():
+            return float(load_scene(run_dir / SCENE_FILE).numerics.h_min)
         if "scene" in ds.attrs:
             return float(scene_from_text(str(ds.attrs["scene"])).numerics.h_min)
     except Exception:  # an unreadable scene must not stop a movie: use the default

@@ -1,6 +1,6 @@
 """A run's peak fields and deposit as ESRI ASCII grids (``tiseg render RUN_DIR --raster``).
 
-One ``.asc`` per 2D variable of fields.nc (`tiseg.output.netcdf.STATIC_ATTRS`: ``h_max``,
+One ``.asc`` per 2D variable of fields.nc (the peak fields of `tiseg.output.fields`: ``h_max``,
 ``speed_max``, ``arrival_time``, ``deposit_h`` and, with segregation, ``deposit_phi``), in the
 units of fields.nc, missing cells as NODATA (`tiseg.output.ascii_grid`). They hold the run up to
 the file's ``peak_time``, the whole run once it finished.
@@ -14,7 +14,8 @@ import numpy as np
 
 from ...errors import InputError
 from ...output.ascii_grid import write_asc
-from ...output.netcdf import STATIC_ATTRS, read_fields
+from ...output.fields import specs
+from ...output.netcdf import read_fields
 
 
 def export_peak_grids(run_dir, out_dir=None) -> dict:
@@ -30,7 +31,7 @@ def export_peak_grids(run_dir, out_dir=None) -> dict:
         raise InputError(f"--raster {str(out)!r} is a file, not a folder")
     ds = read_fields(path)
     try:
-        names = [n for n in STATIC_ATTRS if n in ds.variables and ds[n].dims == ("y", "x")]
+        names = [n for n in specs("peak") if n in ds.variables and ds[n].dims == ("y", "x")]
         if not names:
             raise InputError(
                 f"{str(path)!r} holds no peak fields (the run had output.peak_fields = false)"

@@ -9,6 +9,8 @@ curves against x, the quantiles as a band around the median.
 
 from __future__ import annotations
 
+from ...output.names import FIELDS_FILE, PROBABILITY_FILE
+
 from pathlib import Path
 
 import numpy as np
@@ -28,10 +30,10 @@ def probability_source(path) -> Path | None:
     sweep folder with probability.nc and no fields.nc of a run; None otherwise."""
     p = Path(path)
     if p.is_dir():
-        if (p / "fields.nc").exists() or not (p / "probability.nc").is_file():
+        if (p / FIELDS_FILE).exists() or not (p / PROBABILITY_FILE).is_file():
             return None
-        return p / "probability.nc"
-    if not p.is_file() or p.suffix != ".nc" or p.name == "fields.nc":
+        return p / PROBABILITY_FILE
+    if not p.is_file() or p.suffix != ".nc" or p.name == FIELDS_FILE:
         return None
     import netCDF4
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from ...errors import InputError
 from ...model.physics.friction import FRICTION_LAWS as _LAWS
 from ...model.physics.friction import FrictionParams  # the laws own it; imported from here before
 from ...model.physics.segregation import TRANSPORTS as _TRANSPORTS
@@ -28,26 +29,67 @@ from .fluxes import FLUXES as _FLUXES
 from .fluxes import PHI_FLUXES as _PHI_FLUXES
 from .reconstruction import RECONSTRUCTIONS as _RECONSTRUCTIONS
 
-FRICTION_LAWS = tuple(_LAWS)  # effects.friction: the registered laws (tiseg.model.physics.friction)
-TRANSPORTS = tuple(_TRANSPORTS)  # material.transport: G(phi) (tiseg.model.physics.segregation)
-# numerics.reconstruction: the registered slopes (tiseg.solver.numerics.reconstruction)
-RECONSTRUCTIONS = tuple(_RECONSTRUCTIONS)
-# numerics.flux: face flux of the whole system, the registered ones (tiseg.solver.numerics.fluxes)
-FLUXES = tuple(_FLUXES)
-PHI_FLUXES = tuple(_PHI_FLUXES)  # numerics.phi_flux: the h phi component of that flux
+# The registries behind the scene's choices are read when asked, never frozen: a friction law,
+# transport, slope, flux, boundary or stepper that user code registers after import is a valid
+# choice everywhere. `REGISTRIES` names each by the scene key it serves; the module attributes
+# of before (``FRICTION_LAWS``, ``FLUXES``, ..., ``SPLIT_STEPPERS``) give their keys now.
+REGISTRIES = {
+    "effects.friction": _LAWS,  # tiseg.model.physics.friction
+    "material.transport": _TRANSPORTS,  # G(phi), tiseg.model.physics.segregation
+    "numerics.reconstruction": _RECONSTRUCTIONS,  # the slopes (.reconstruction)
+    "numerics.flux": _FLUXES,  # face flux of the whole system (.fluxes)
+    "numerics.phi_flux": _PHI_FLUXES,  # the h phi component of that flux (.fluxes)
+    "boundary": _BOUNDARIES,  # boundary.*: the conditions (.boundaries)
+    "numerics.stepper": _STEPPERS,  # tiseg.solver.timestepping
+}
+# the names of before, each now the keys of its registry as they stand (`registered`)
+CHOICE_NAMES = {
+    "FRICTION_LAWS": "effects.friction",
+    "TRANSPORTS": "material.transport",
+    "RECONSTRUCTIONS": "numerics.reconstruction",
+    "FLUXES": "numerics.flux",
+    "PHI_FLUXES": "numerics.phi_flux",
+    "BOUNDARIES": "boundary",
+    "BOUNDARY_KINDS": "boundary",
+    "STEPPERS": "numerics.stepper",
+}
+
+
+def registered(name: str) -> tuple[str, ...]:
+    """The registered choices that the old module attribute ``name`` stood for, read now."""
+    return tuple(REGISTRIES[CHOICE_NAMES[name]])
+
+
+def __getattr__(name: str):
+    if name in CHOICE_NAMES:
+        return registered(name)
+    if name == "SPLIT_STEPPERS":
+        return tuple(n for n in _STEPPERS if is_split(n))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def is_split(stepper: str) -> bool:
+    """Whether the registered stepper ``stepper`` advances by dimensionally split sweeps
+    (tiseg.solver.numerics.split)."""
+    return bool(getattr(_STEPPERS.get(stepper), "split", False))
+
+
+def check_choice(key: str, value, allowed) -> None:
+    """An InputError naming ``key``, ``value`` and the allowed values, unless ``value`` is one of
+    ``allowed`` (a registry or a tuple, read now)."""
+    if value not in allowed:
+        raise InputError(f"{key}={value!r}: choose one of {', '.join(map(str, allowed))}")
+
+
 # numerics.friction_scheme: basal friction as an explicit source regularised by u_eps, or as a
 # projection after each stage that stops cells exactly (tiseg.model.physics.pointwise)
 FRICTION_SCHEMES = ("regularised", "projected")
 # numerics.step_rule -> the Courant number at the forward-Euler positivity bound of that rule
 STEP_RULES = {"max": 0.25, "sum": 0.5, "local": 0.5}
-# numerics.stepper values that advance by dimensionally split sweeps (tiseg.solver.numerics.split):
-# the registered steppers that say so
-SPLIT_STEPPERS = tuple(name for name, cls in _STEPPERS.items() if cls.split)
-# their default Courant number per sweep: stable up to 1, and 0.6 did the least work for a
+# the default Courant number per sweep: stable up to 1, and 0.6 did the least work for a
 # given error on the Stoker dam break (benchmarks/README.md section 7; the error of a fan
 # grows with cfl, a smooth wave's much less)
 SPLIT_CFL = 0.6
-BOUNDARIES = tuple(_BOUNDARIES)  # boundary.*: the registered conditions (.boundaries)
 # codes of the conditions (kept for callers that used them; the kernels take the components)
 INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
@@ -231,16 +273,25 @@ class OperatorConfig:
     inflow_rows: tuple | None = field(default=None, metadata=compiled("inflow.width and inflow.y0"))
 
     def __post_init__(self):
-        assert self.friction in _LAWS, self.friction  # the registry now: user laws count
-        assert self.transport in TRANSPORTS, self.transport
-        assert self.reconstruction in RECONSTRUCTIONS, self.reconstruction
-        assert self.flux in FLUXES, self.flux
-        assert self.phi_flux in PHI_FLUXES, self.phi_flux
-        assert self.friction_scheme in FRICTION_SCHEMES, self.friction_scheme
-        for b in self.bc:
-            assert b in BOUNDARIES, b
+        """Checked also when the config is built by hand, not from a scene: the registries as
+        they stand now (a component registered by user code counts), InputErrors (kept under
+        ``python -O``)."""
+        for key, value in (
+            ("effects.friction", self.friction),
+            ("material.transport", self.transport),
+            ("numerics.reconstruction", self.reconstruction),
+            ("numerics.flux", self.flux),
+            ("numerics.phi_flux", self.phi_flux),
+            *(("boundary", b) for b in self.bc),
+        ):
+            check_choice(key, value, REGISTRIES[key])
+        check_choice("numerics.friction_scheme", self.friction_scheme, FRICTION_SCHEMES)
         regularised = self.friction != "none" and not self.friction_projected
-        assert not (self.split and regularised), "split: friction only as the projection"
+        if self.split and regularised:
+            raise InputError(
+                "a split stepper takes friction only as the projection: "
+                'numerics.friction_scheme = "projected"'
+            )
 
     @property
     def friction_projected(self) -> bool:
@@ -320,7 +371,7 @@ def config_from_scene(scene) -> OperatorConfig:
         zeta=m.zeta,
         transport=m.transport,
         alpha=m.alpha,
-        nu=scene.flow.nu if scene.viscous else 0.0,
+        nu=scene.acting_nu,
         phi_ref=scene.flow.phi0,
         fric=fric,
         reconstruction=num.reconstruction,
@@ -334,7 +385,7 @@ def config_from_scene(scene) -> OperatorConfig:
         u_eps=num.u_eps,
         friction_scheme=num.friction_scheme,
         local_step_rate=num.step_rule == "local" and not lay.is_1d,
-        split=num.stepper in SPLIT_STEPPERS,
+        split=is_split(num.stepper),
         bc=scene.boundary.as_tuple(),
         **kw,
     )

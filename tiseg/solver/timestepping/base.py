@@ -30,6 +30,9 @@ class Stepper:
     keeps_rest = True
     # advances by dimensionally split sweeps (tiseg.solver.numerics.split) rather than stages of L
     split = False
+    # its stage count follows the stiffness (dt rho), up to the scene's numerics.max_stages,
+    # which its constructor takes as ``max_stages``; a fixed-stage stepper takes none
+    stage_cap = False
     # how many convective limits a step may span: 2 for the split step with viscosity (two
     # half steps of sweeps, each at most the limit), else 1
     halves = 1
@@ -60,7 +63,7 @@ def stepper_for(
     viscous sub-step, ``viscous``)."""
     name = name or numerics.stepper
     kw = {}
-    if name == "rkc":
+    if getattr(STEPPERS.get(name), "stage_cap", False):
         kw["max_stages"] = numerics.max_stages
     if getattr(STEPPERS.get(name), "split", False):
         kw["dims"] = 1 if is_1d else 2

@@ -63,6 +63,7 @@ class RKC(Stepper):
     name = "rkc"
     slots = 4
     order = 2
+    stage_cap = True
 
     def __init__(self, max_stages: int = 200):
         self.max_stages = max(2, int(max_stages))
