@@ -8,10 +8,20 @@
 * release of a finite block of material at rest;
 * a straight channel between levees, at rest (the sharp-contact verification case);
 * a uniform static layer at rest, the erodible bed of erosion-deposition waves (Edwards &
-  Gray 2015).
+  Gray 2015);
+* a parabolic cap sliding downslope (Savage & Hutter 1991).
+
+Each kind is an `InitialKind` in the registry `INITIAL_KINDS` (read when asked): its name, the
+``initial.*`` keys it reads beyond the built-ins' own (declared on the scene's fields, `kinds`),
+its checks against the domain, and the function that builds h, u, v, phi from the scene and the
+cell centres. A kind registered by user code (`register_initial`) is accepted by the scene and
+built by the simulation without touching the package.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -84,78 +94,158 @@ def channel_fraction(y, dy: float, Ly: float, width: float) -> np.ndarray:
     return np.clip((hi - lo) / dy, 0.0, 1.0)
 
 
+@dataclass(frozen=True)
+class InitialKind:
+    """One initial state. ``build(scene, X, Y)`` returns the interior (h, u, v, phi) on the
+    cell centres X, Y (each (nx, ny)); phi is clipped to [0, 1] afterwards and ignored without
+    segregation, v in 1D. ``keys``: the ``initial.*`` keys a kind registered by user code reads
+    (the built-ins declare theirs on the scene's fields); ``check(values, domain)``: raises
+    `InputError` for values that do not fit the domain (the built-ins' rules are in
+    `tiseg.setup.validators.read_initial`)."""
+
+    name: str
+    build: Callable
+    keys: tuple[str, ...] = ()
+    check: Callable | None = None
+
+
+INITIAL_KINDS: dict[str, InitialKind] = {}
+
+
+def register_initial(kind: InitialKind) -> InitialKind:
+    """Add an initial state to the registry (the last one of a name wins)."""
+    INITIAL_KINDS[kind.name] = kind
+    return kind
+
+
+def _zeros(X):
+    return np.zeros_like(X), np.zeros_like(X), np.zeros_like(X), np.zeros_like(X)
+
+
+def _phi_or_phi0(scene) -> float:
+    return scene.initial.phi if scene.initial.phi is not None else scene.flow.phi0
+
+
+def _empty(scene, X, Y):
+    return _zeros(X)
+
+
+def _uniform(scene, X, Y):
+    ini, fl = scene.initial, scene.flow
+    if fl.u0 is None:
+        raise InputError(
+            "initial.kind='uniform' needs a steady velocity: give flow.u0 or use "
+            "the pouliquen-mixture friction"
+        )
+    h, u, v, phi = _zeros(X)
+    h[:], u[:], phi[:] = fl.h0, fl.u0, fl.phi0
+    eps = ini.amplitude or 0.0
+    if eps:
+        kx, ky = scene.perturbation_wavenumbers  # SI [1/m]
+        wave = _cell_avg_wave(kx, scene.dx, X) * (
+            1.0 if scene.is_1d else _cell_avg_wave(ky, scene.dy, Y)
+        )
+        if ini.mode == "eigen":
+            _, W = eigenmode(scene)
+            H, U = W[0], W[1]
+            V = W[2] if len(W) == 4 else 0.0
+            P = W[-1]
+            h = fl.h0 * (1 + eps * np.real(H * wave))
+            u = fl.u0 * (1 + eps * np.real(U * wave))
+            v = fl.u0 * eps * np.real(V * wave)
+            phi = fl.phi0 + eps * np.real(P * wave)
+        elif ini.mode == "h":
+            h = fl.h0 * (1 + eps * np.real(wave))
+        elif ini.mode == "phi":
+            phi = fl.phi0 + eps * np.real(wave)
+        elif ini.mode == "h-noise":
+            x = X[:, 0]
+            r = thickness_noise(x, scene.dx, scene.domain.Lx, ini.seed or 0)
+            h = fl.h0 * (1 + eps * r[:, None])
+        elif ini.mode == "noise":
+            rng = np.random.default_rng(ini.seed or 0)
+            phi = fl.phi0 + eps * (rng.random(X.shape) - 0.5)
+    return h, u, v, phi
+
+
+def _dam_break(scene, X, Y):
+    ini = scene.initial
+    h, u, v, phi = _zeros(X)
+    h[:] = np.where(X < ini.x0, ini.h_left, ini.h_right or 0.0)
+    phi[:] = _phi_or_phi0(scene)
+    return h, u, v, phi
+
+
+def _release(scene, X, Y):
+    ini = scene.initial
+    h, u, v, phi = _zeros(X)
+    inside = (X >= ini.x0) & (X <= ini.x1)
+    if not scene.is_1d:
+        inside &= (Y >= ini.y0) & (Y <= ini.y1)
+    h[:] = np.where(inside, ini.h, 0.0)
+    phi[:] = _phi_or_phi0(scene)
+    return h, u, v, phi
+
+
+def _channel(scene, X, Y):
+    ini = scene.initial
+    h, u, v, phi = _zeros(X)
+    h[:] = ini.h
+    phi[:] = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * channel_fraction(
+        Y, scene.dy, scene.domain.Ly, ini.width
+    )
+    return h, u, v, phi
+
+
+def _layer(scene, X, Y):
+    h, u, v, phi = _zeros(X)
+    h[:] = scene.initial.layer_h
+    phi[:] = _phi_or_phi0(scene)
+    return h, u, v, phi
+
+
+def _cap(scene, X, Y):
+    # exact cell averages of the parabola: h (1 - s^2) integrated over each cell's part inside
+    # |s| < 1, s = (x - x0) / half_width
+    ini = scene.initial
+    h, u, v, phi = _zeros(X)
+    a = ini.half_width
+    lo = np.clip((X - 0.5 * scene.dx - ini.x0) / a, -1.0, 1.0)
+    hi = np.clip((X + 0.5 * scene.dx - ini.x0) / a, -1.0, 1.0)
+    h[:] = ini.h * a * ((hi - hi**3 / 3) - (lo - lo**3 / 3)) / scene.dx
+    u[:] = np.where(h > 0, ini.u, 0.0)
+    phi[:] = _phi_or_phi0(scene)
+    return h, u, v, phi
+
+
+for _name, _build in (
+    ("empty", _empty),
+    ("uniform", _uniform),
+    ("dam-break", _dam_break),
+    ("release", _release),
+    ("channel", _channel),
+    ("layer", _layer),
+    ("cap", _cap),
+):
+    register_initial(InitialKind(_name, _build))
+
+# the built-ins, in the order the scene reference lists them
+BUILTIN_KINDS = tuple(INITIAL_KINDS)
+
+
 def initial_state(scene, lay: Layout) -> np.ndarray:
+    """The conserved state (nc, NX, NY) with ghost cells of the scene's initial kind."""
+    kind = INITIAL_KINDS.get(scene.initial.kind)
+    if kind is None:
+        raise InputError(
+            f"initial.kind={scene.initial.kind!r} is not registered; "
+            f"the registered kinds: {', '.join(INITIAL_KINDS)}"
+        )
     q = np.zeros((lay.nc, lay.NX, lay.NY))
     ix, iy = lay.interior()
     x, y = scene.domain.cell_centres()
     X, Y = np.meshgrid(x, y, indexing="ij")  # (nx, ny)
-    ini, fl = scene.initial, scene.flow
-    h = np.zeros_like(X)
-    u = np.zeros_like(X)
-    v = np.zeros_like(X)
-    phi = np.zeros_like(X)
-    if ini.kind == "empty":
-        pass
-    elif ini.kind == "uniform":
-        if fl.u0 is None:
-            raise InputError(
-                "initial.kind='uniform' needs a steady velocity: give flow.u0 or use "
-                "the pouliquen-mixture friction"
-            )
-        h[:], u[:], phi[:] = fl.h0, fl.u0, fl.phi0
-        eps = ini.amplitude or 0.0
-        if eps:
-            kx, ky = scene.perturbation_wavenumbers  # SI [1/m]
-            wave = _cell_avg_wave(kx, scene.dx, X) * (
-                1.0 if scene.is_1d else _cell_avg_wave(ky, scene.dy, Y)
-            )
-            if ini.mode == "eigen":
-                _, W = eigenmode(scene)
-                H, U = W[0], W[1]
-                V = W[2] if len(W) == 4 else 0.0
-                P = W[-1]
-                h = fl.h0 * (1 + eps * np.real(H * wave))
-                u = fl.u0 * (1 + eps * np.real(U * wave))
-                v = fl.u0 * eps * np.real(V * wave)
-                phi = fl.phi0 + eps * np.real(P * wave)
-            elif ini.mode == "h":
-                h = fl.h0 * (1 + eps * np.real(wave))
-            elif ini.mode == "phi":
-                phi = fl.phi0 + eps * np.real(wave)
-            elif ini.mode == "h-noise":
-                r = thickness_noise(x, scene.dx, scene.domain.Lx, ini.seed or 0)
-                h = fl.h0 * (1 + eps * r[:, None])
-            elif ini.mode == "noise":
-                rng = np.random.default_rng(ini.seed or 0)
-                phi = fl.phi0 + eps * (rng.random(X.shape) - 0.5)
-    elif ini.kind == "dam-break":
-        h[:] = np.where(X < ini.x0, ini.h_left, ini.h_right or 0.0)
-        phi[:] = ini.phi if ini.phi is not None else fl.phi0
-    elif ini.kind == "release":
-        inside = (X >= ini.x0) & (X <= ini.x1)
-        if not scene.is_1d:
-            inside &= (Y >= ini.y0) & (Y <= ini.y1)
-        h[:] = np.where(inside, ini.h, 0.0)
-        phi[:] = ini.phi if ini.phi is not None else fl.phi0
-    elif ini.kind == "channel":
-        h[:] = ini.h
-        phi[:] = ini.phi_levee + (ini.phi_channel - ini.phi_levee) * channel_fraction(
-            Y, scene.dy, scene.domain.Ly, ini.width
-        )
-    elif ini.kind == "layer":
-        h[:] = ini.layer_h
-        phi[:] = ini.phi if ini.phi is not None else fl.phi0
-    elif ini.kind == "cap":
-        # exact cell averages of the parabola: h (1 - s^2) integrated over each cell's part
-        # inside |s| < 1, s = (x - x0) / half_width
-        a = ini.half_width
-        lo = np.clip((X - 0.5 * scene.dx - ini.x0) / a, -1.0, 1.0)
-        hi = np.clip((X + 0.5 * scene.dx - ini.x0) / a, -1.0, 1.0)
-        h[:] = ini.h * a * ((hi - hi**3 / 3) - (lo - lo**3 / 3)) / scene.dx
-        u[:] = np.where(h > 0, ini.u, 0.0)
-        phi[:] = ini.phi if ini.phi is not None else fl.phi0
-    else:  # pragma: no cover - the scene validator allows only the kinds above
-        raise InputError(f"initial.kind={ini.kind!r} is not known")
+    h, u, v, phi = kind.build(scene, X, Y)
     phi = np.clip(phi, 0.0, 1.0)
     q[lay.H][ix, iy] = h
     q[lay.HU][ix, iy] = h * u

@@ -34,8 +34,8 @@ from ..model.physics.friction import DEFAULT_COULOMB_MU
 from .overrides import parse_override
 from .reading import list_builtin_scenes, load_scene, scene_from_dict, scene_from_text
 from .resolved import Scene
+from .initial import INITIAL_KINDS as _INITIAL_KINDS
 from .sections import (
-    INITIAL_KINDS,
     OUTPUT_PRECISIONS,
     PERTURBATION_MODES,
     PRECISIONS,
@@ -72,13 +72,19 @@ from .writing import scene_to_dict
 _CHOICES = tuple(CHOICE_NAMES)
 
 
+_LIVE = ("INITIAL_KINDS", "INITIAL_KEYS")
+
+
 def __getattr__(name: str):
     if name in _CHOICES:
         return registered(name)
+    if name == "INITIAL_KINDS":  # the registered initial states (tiseg.setup.initial)
+        return tuple(_INITIAL_KINDS)
+    if name == "INITIAL_KEYS":
+        return initial_keys()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-INITIAL_KEYS = initial_keys()
 SECTION_KEYS = section_keys()
 TOP_LEVEL_KEYS = top_level_keys()
 
@@ -107,9 +113,8 @@ __all__ = [
     "STEP_RULES",
     "PRECISIONS",
     "OUTPUT_PRECISIONS",
-    "INITIAL_KINDS",
     "PERTURBATION_MODES",
-    "INITIAL_KEYS",
+    *_LIVE,  # the registered initial kinds and their keys, read when asked
     "SECTION_KEYS",
     "TOP_LEVEL_KEYS",
     "SPECIES_KEYS",

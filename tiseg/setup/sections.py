@@ -26,13 +26,13 @@ from ..solver.numerics.config import (
 from ..model.physics.friction import FRICTION_LAWS as LAWS
 from ..model.physics.friction import ConstantsByName
 from .schema import constant_field, key, key_fields, key_names, key_of
+from .initial import BUILTIN_KINDS, INITIAL_KINDS
 from .table import MISSING
 
 OUTPUT_PRECISIONS = ("f8", "f4")
 PRECISIONS = ("f64", "f32")
 RECONSTRUCTION_ALIASES = {"first_order": "first-order", "first": "first-order"}
 PERTURBATION_MODES = ("eigen", "h", "phi", "noise", "h-noise")
-INITIAL_KINDS = ("empty", "uniform", "dam-break", "release", "channel", "layer", "cap")
 
 
 # ---- the friction laws' constants ---------------------------------------------------------------
@@ -418,7 +418,10 @@ class InitialConfig:
     kind: str = field(
         default="empty",
         metadata=key(
-            "which initial state (the list above)", choices=INITIAL_KINDS, kinds=INITIAL_KINDS
+            "which initial state (the list above, or one registered by "
+            "tiseg.setup.initial.register_initial)",
+            choices=lambda: tuple(INITIAL_KINDS),
+            kinds=BUILTIN_KINDS,
         ),
     )
     amplitude: float | None = _ini(
@@ -502,9 +505,13 @@ class InitialConfig:
 
 def initial_keys() -> dict[str, tuple[str, ...]]:
     """{initial.kind: the keys it accepts}: a key of another kind is an error (it would
-    otherwise be unused)."""
+    otherwise be unused). The built-in kinds' keys are declared on the fields above (``kinds``);
+    a registered kind lists its own (`tiseg.setup.initial.InitialKind.keys`)."""
     fs = key_fields(InitialConfig)
-    return {kind: tuple(f.name for f in fs if kind in key_of(f).kinds) for kind in INITIAL_KINDS}
+    return {
+        kind: tuple(f.name for f in fs if kind in key_of(f).kinds or f.name in ("kind", *spec.keys))
+        for kind, spec in INITIAL_KINDS.items()
+    }
 
 
 # ---- numerics -----------------------------------------------------------------------------------

@@ -21,6 +21,7 @@ from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, is_split, noise_mode
 from ..model.physics.friction import FRICTION_LAWS as LAWS, layer_thresholds
 from ..model.steady import steady_state
 from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section, read_tables
+from .initial import INITIAL_KINDS
 from .sections import (
     SPECIES_KEYS,
     BoundaryConfig,
@@ -441,7 +442,7 @@ def read_initial(
             x0,
             f"the cap [x0 - half_width, x0 + half_width] must lie in [0, Lx={domain.Lx!r}]",
         )
-    else:  # release: a block of material at rest
+    elif kind == "release":  # a block of material at rest
         x0, x1, y0, y1 = v["x0"], v["x1"], v["y0"], v["y1"]
         require(x0 >= 0.0, "initial.x0", t.get("x0"), "must be >= 0")
         require(
@@ -456,6 +457,8 @@ def read_initial(
             y1,
             f"need initial.y0={y0!r} < y1 <= Ly={domain.Ly!r}",
         )
+    elif INITIAL_KINDS[kind].check is not None:  # a kind registered by user code
+        INITIAL_KINDS[kind].check(v, domain)
     return InitialConfig(kind=kind, **v)
 
 
