@@ -5,7 +5,7 @@ output times. A `Gauges` therefore reads the step state (slot 0) after every ste
 fields do (`tiseg.run.peaks`), so a gauge series is exact per step whatever the output schedule.
 
 Value at a point (x, y): the bilinear interpolation of the primitive fields of the four cell
-centres around it, the fields exactly as fields.nc stores them (`StateAccess.fields`: u = hu / h,
+centres around it, the fields exactly as fields.nc stores them (`StateArrays.fields`: u = hu / h,
 v = hv / h and phi = h phi / h where h > 0, else 0, phi clipped to [0, 1]; phi missing, NaN,
 where h < numerics.h_min). So interpolating a snapshot of fields.nc by hand at a gauge gives
 that gauge's value at the snapshot time (when the snapshot is a step state). phi is NaN where

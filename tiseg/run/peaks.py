@@ -145,7 +145,7 @@ class PeakFields:
 
 def deposit(fields: dict, h_min: float, rest_speed: float = REST_SPEED) -> dict:
     """``deposit_h`` (and ``deposit_phi`` when ``fields`` has phi) of one state given as the
-    primitive fields (ny, nx) of `tiseg.run.state_access.StateAccess.fields`: h and phi
+    primitive fields (ny, nx) of `tiseg.run.state_access.StateArrays.fields`: h and phi
     where the cell is wet (h >= h_min) and at rest (|u| <= rest_speed), NaN elsewhere."""
     h = np.asarray(fields["h"], dtype=float)
     speed = np.abs(np.asarray(fields["u"], dtype=float))

@@ -68,12 +68,12 @@ class FiniteVolume:
         if (
             self.state.rest is not None and self.state.rest_stale
         ):  # a step begins: slot 0 was written
-            self.rules._mark_rest(self.state.serial_loops())
+            self.rules.mark_rest(self.state.serial_loops())
             self.state.rest_stale = False
             self.state.first_stage = True
             self.state.mask_inflow = self.state.inflow_on(t)
 
-    def _no_operator(self) -> None:
+    def no_operator(self) -> None:
         if self.state.split:
             raise TisegError(
                 "numerics.stepper 'hancock' advances by sweeps (tiseg.solver.numerics.split) and "
@@ -82,25 +82,25 @@ class FiniteVolume:
 
     def rhs(self, src: int, dst: int, t: float) -> None:
         """slot dst := L(slot src, t) on interior cells (fills src's ghost cells)."""
-        self._no_operator()
+        self.no_operator()
         self.prepare(src, t)
         self.state.written(dst)
         self._rates(dst, self.state.serial_loops())
 
     @ti.func
-    def _primitive(self, q):
+    def primitive(self, q):
         """Desingularised primitives, u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)).
-        (The split scheme's cheaper form of the same, SplitSweeps._fast_primitive, in a split
+        (The split scheme's cheaper form of the same, FiniteVolume.fast_primitive, in a split
         scene: every primitive of a run then comes from one formula.)"""
         if ti.static(self.state.split):
-            return self._fast_primitive(q)
+            return self.fast_primitive(q)
         h = ti.max(q[0], 0.0)
         h4 = h * h * h * h
         denom = ti.sqrt(h4 + ti.max(h4, self.state.par[Params.H_EPS4]))
-        return self._primitive_of(q, h, ti.sqrt(2.0) * h / denom)
+        return self.primitive_of(q, h, ti.sqrt(2.0) * h / denom)
 
     @ti.func
-    def _primitive_of(self, q, h, r):
+    def primitive_of(self, q, h, r):
         """w of q with h = max(q_h, 0) and the velocities r times the momenta."""
         w = q
         w[0] = h
@@ -116,7 +116,7 @@ class FiniteVolume:
         return w
 
     @ti.func
-    def _slope(self, wm, w0, wp):
+    def slope(self, wm, w0, wp):
         """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2: the
         reconstruction's slope, limited so that the edges keep h >= 0 and 0 <= phi <= 1."""
         dm = w0 - wm
@@ -138,7 +138,7 @@ class FiniteVolume:
         launch costs tens of microseconds of Python and thread start-up: on small grids
         that, not arithmetic, sets the pace). Top-level loops run in order."""
         self.ghosts.fill(s)
-        self._primitives(s, serial)
+        self.primitives(s, serial)
         self._slopes(serial)
 
     @ti.kernel
@@ -146,21 +146,21 @@ class FiniteVolume:
         """The same when a limited combine already left the primitives of slot s's interior
         cells in w: ghost cells, their primitives, the slopes."""
         self.ghosts.fill(s)
-        self._edge_primitives(s, serial)
+        self.edge_primitives(s, serial)
         self._slopes(serial)
 
     @ti.func
-    def _primitives(self, s, serial: ti.template()):
+    def primitives(self, s, serial: ti.template()):
         a, b = self.state.act[0], self.state.act[1]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(
             (ti.max(a - 3, 0), ti.min(b + 3, self.state.NX)), (0, self.state.NY)
         ):
-            self.state.w[i, j] = self._primitive(self.state.q[s, i, j])
+            self.state.w[i, j] = self.primitive(self.state.q[s, i, j])
 
     @ti.func
-    def _edge_primitives(self, s, serial: ti.template()):
-        """Primitives of the ghost cells among those _primitives covers (the x range
+    def edge_primitives(self, s, serial: ti.template()):
+        """Primitives of the ghost cells among those primitives covers (the x range
         [a - 3, b + 3), every row); the interior ones are those _combine_cells wrote."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         a, b = self.state.act[0], self.state.act[1]
@@ -169,16 +169,16 @@ class FiniteVolume:
             il = gx - 1 - k
             ih = gx + nx + k
             if il >= a - 3:
-                self.state.w[il, j] = self._primitive(self.state.q[s, il, j])
+                self.state.w[il, j] = self.primitive(self.state.q[s, il, j])
             if ih < b + 3:
-                self.state.w[ih, j] = self._primitive(self.state.q[s, ih, j])
+                self.state.w[ih, j] = self.primitive(self.state.q[s, ih, j])
         if ti.static(not self.state.is_1d):
             ti.loop_config(serialize=serial)
             for i, k in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), gy):
                 jl = gy - 1 - k
                 jh = gy + ny + k
-                self.state.w[i, jl] = self._primitive(self.state.q[s, i, jl])
-                self.state.w[i, jh] = self._primitive(self.state.q[s, i, jh])
+                self.state.w[i, jl] = self.primitive(self.state.q[s, i, jl])
+                self.state.w[i, jh] = self.primitive(self.state.q[s, i, jh])
 
     @ti.func
     def _slopes(self, serial: ti.template()):
@@ -195,17 +195,17 @@ class FiniteVolume:
             ):
                 w0 = self.state.w[i, j]
                 if gy <= j < gy + ny:
-                    self.state.sx[i, j] = self._slope(
+                    self.state.sx[i, j] = self.slope(
                         self.state.w[i - 1, j], w0, self.state.w[i + 1, j]
                     )
                 if ti.static(not self.state.is_1d):
                     if a <= i < b:
-                        self.state.sy[i, j] = self._slope(
+                        self.state.sy[i, j] = self.slope(
                             self.state.w[i, j - 1], w0, self.state.w[i, j + 1]
                         )
 
     @ti.func
-    def _face_flux(self, wl, wr, d: ti.template()):
+    def face_flux(self, wl, wr, d: ti.template()):
         """Numerical flux between edge states wl | wr along d: the chosen numerical flux
         (numerics.flux), then, with segregation, the h phi modifier (numerics.phi_flux); both
         components of tiseg.solver.numerics.fluxes."""
@@ -218,28 +218,28 @@ class FiniteVolume:
     def _rates(self, d: ti.i32, serial: ti.template()):
         """slot d := L from the prepared primitives and slopes: face fluxes, their divergence
         plus sources, and the boundary budget rates, in one launch."""
-        self._face_fluxes(serial)
+        self.face_fluxes(serial)
         self._divergence(d, serial)
-        self._boundary_rates(d)
+        self.boundary_rates(d)
 
     @ti.func
-    def _face_wet(self, w0, w1, hmin, i0, j0, i1, j1):
+    def face_wet(self, w0, w1, hmin, i0, j0, i1, j1):
         """Whether the face between cells (i0, j0) and (i1, j1), primitives w0 and w1, carries
         a convective flux: one of the cells is at least h_min thick; with the projected
-        friction also where one of them was at the step's start (RestRules._wet_at_start).
+        friction also where one of them was at the step's start (RestRules.wet_at_start).
         In the split sweeps also where one is a film (thinner) that moves, or with the
-        projected friction moved at the step's start (RestRules._live_at_start). So no mass
+        projected friction moved at the step's start (RestRules.live_at_start). So no mass
         moves between two films at rest (a dry bed stays dry), while a film that flows
         carries its mass on: a front thins as the exact one does instead of waiting at h_min
         in each cell it enters (Physics.acts)."""
         wet = ti.max(w0[0], w1[0]) >= hmin
         if not wet:
             if ti.static(self.state.phys.fr_projected and self.state.phys.films):
-                wet = self.rules._live_at_start(i0, j0, i1, j1)
+                wet = self.rules.live_at_start(i0, j0, i1, j1)
             elif ti.static(self.state.phys.fr_projected):
-                wet = self.rules._wet_at_start(i0, j0, i1, j1)
+                wet = self.rules.wet_at_start(i0, j0, i1, j1)
             elif ti.static(self.state.phys.films):
-                wet = self.rules._moving(w0) or self.rules._moving(w1)
+                wet = self.rules.moving(w0) or self.rules.moving(w1)
         return wet
 
     @ti.func
@@ -249,20 +249,20 @@ class FiniteVolume:
         w0 = self.state.w[i, j]
         w1 = self.state.w[i + 1, j]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        if self._face_wet(w0, w1, hmin, i, j, i + 1, j):
+        if self.face_wet(w0, w1, hmin, i, j, i + 1, j):
             wl = w0
             wr = w1
             if ti.static(not self.state.rec_first):
                 wl = w0 + 0.5 * self.state.sx[i, j]
                 wr = w1 - 0.5 * self.state.sx[i + 1, j]
-            F = self._face_flux(wl, wr, 0)
-            F = self.rules._rest_face(F, wl, wr, 0, i, j, i + 1, j)
+            F = self.face_flux(wl, wr, 0)
+            F = self.rules.rest_face(F, wl, wr, 0, i, j, i + 1, j)
         if ti.static(self.state.visc):  # the viscous stress (tiseg.model.physics.viscosity)
-            F = self._x_viscous(F, i, j, w0, w1)
+            F = self.x_viscous(F, i, j, w0, w1)
         return F
 
     @ti.func
-    def _x_viscous(self, F, i, j, w0, w1):
+    def x_viscous(self, F, i, j, w0, w1):
         """F minus the viscous stress of (6.2) through the x face (i, j) | (i + 1, j), whose
         cells' primitives are w0, w1 (the cross derivative from the rows j -+ 1 of w)."""
         ph = self.state.phys
@@ -287,20 +287,20 @@ class FiniteVolume:
         w0 = self.state.w[i, j]
         w1 = self.state.w[i, j + 1]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        if self._face_wet(w0, w1, hmin, i, j, i, j + 1):
+        if self.face_wet(w0, w1, hmin, i, j, i, j + 1):
             wl = w0
             wr = w1
             if ti.static(not self.state.rec_first):
                 wl = w0 + 0.5 * self.state.sy[i, j]
                 wr = w1 - 0.5 * self.state.sy[i, j + 1]
-            F = self._face_flux(wl, wr, 1)
-            F = self.rules._rest_face(F, wl, wr, 1, i, j, i, j + 1)
+            F = self.face_flux(wl, wr, 1)
+            F = self.rules.rest_face(F, wl, wr, 1, i, j, i, j + 1)
         if ti.static(self.state.visc):
-            F = self._y_viscous(F, i, j, w0, w1)
+            F = self.y_viscous(F, i, j, w0, w1)
         return F
 
     @ti.func
-    def _y_viscous(self, F, i, j, w0, w1):
+    def y_viscous(self, F, i, j, w0, w1):
         """F minus the viscous stress of (6.2) through the y face (i, j) | (i, j + 1) (2D)."""
         HV = ti.static(self.state.HV)
         ph = self.state.phys
@@ -316,7 +316,7 @@ class FiniteVolume:
         return F
 
     @ti.func
-    def _face_fluxes(self, serial: ti.template()):
+    def face_fluxes(self, serial: ti.template()):
         """x faces (i, i + 1) for i in [a - 1, b) on the interior rows; y faces (j, j + 1) for
         j in [gy - 1, gy + ny) on the columns [a, b). In 2D one pass does both, so each cell's
         primitives and slopes are read once per evaluation."""
@@ -335,7 +335,7 @@ class FiniteVolume:
                     self.state.fy[i, j] = self._y_face(i, j)
 
     @ti.func
-    def _cell_rate(self, i, j):
+    def cell_rate(self, i, j):
         """L at cell (i, j) from the face fluxes and the source: (6.1)-(6.6) in flux form;
         zero outside the active x range."""
         idx = self.state.par[Params.INV_DX]
@@ -357,11 +357,11 @@ class FiniteVolume:
         # reads; further out nothing reads them while this range holds (see _combine)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
-            self.state.q[d, i, j] = self._cell_rate(i, j)
+            self.state.q[d, i, j] = self.cell_rate(i, j)
 
     @ti.func
-    def _fast_primitive(self, q):
-        """TaichiOperator._primitive, with its square root only where it matters: for
+    def fast_primitive(self, q):
+        """FiniteVolume.primitive, with its square root only where it matters: for
         h >= h_eps the desingularised velocity sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4))
         is (hu) / h, up to rounding."""
         h = ti.max(q[0], 0.0)
@@ -371,10 +371,10 @@ class FiniteVolume:
             r = 1.0 / h
         else:
             r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.state.par[Params.H_EPS4])
-        return self._primitive_of(q, h, r)
+        return self.primitive_of(q, h, r)
 
     @ti.func
-    def _limit(self, v):
+    def limit(self, v):
         """The stage limiter: h >= 0, no momentum in films thinner than h_min (where there
         is no material in the split sweeps, whose films flow: Physics.acts), 0 <= h phi <= h."""
         h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
@@ -388,7 +388,7 @@ class FiniteVolume:
         return v
 
     @ti.func
-    def _boundary_rates(self, d):
+    def boundary_rates(self, d):
         """Net inflow rates through the domain's faces, summed in a fixed order."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         dx = self.state.par[Params.DX]

@@ -8,17 +8,21 @@ bitwise:
 
 * the rest mask of a step's start (``rest``: REST where u = v = 0, else the signs of u and v;
   HELD where a law with hysteresis holds the cell for the whole step; WET where h >= h_min),
-  `RestRules._mark_rest`;
-* the face rules (`RestRules._rest_face`): no mass between two cells at rest, and at least
+  `RestRules.mark_rest`;
+* the face rules (`RestRules.rest_face`): no mass between two cells at rest, and at least
   the upwind cell's outrunning flux where it moves into a slower neighbour; and a face next
   to a cell that was wet or moving at the step's start keeps its flux through all the
-  step's stages (`RestRules._live_at_start`);
-* the projection of a limited stage (`RestRules._project`) and the exact rest of
-  `RestRules._keep_rest`;
+  step's stages (`RestRules.live_at_start`);
+* the projection of a limited stage (`RestRules.project`) and the exact rest of
+  `RestRules.keep_rest`;
 * the skipping of quiescent regions (`RestRules._quiescent`, the wet scan
   `RestRules.wet_extent`) and the mask as part of a checkpoint (`RestRules.rest_state`).
 
-A part of `tiseg.solver.numerics.operator.TaichiOperator`, whose fields and caches it works on.
+A collaborator of `tiseg.solver.numerics.operator.TaichiOperator` that receives the operator's
+state (`state.OperatorState`, which holds the rest mask ``rest`` and the caches that say where
+a step stands) and its ghost cells (`ghosts.GhostCells`, which the wet scan fills first); the
+evaluation of L (`finite_volume.FiniteVolume`), the slot algebra and the split sweeps call its
+Taichi functions.
 """
 
 import numpy as np
@@ -27,11 +31,11 @@ import taichi as ti
 from ...model.physics.params import Params
 from .ranges import piece_at, piece_count
 
-# bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
+# bits of the rest mask (projected friction), set at a step's start (mark_rest, project)
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
 X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
-WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: _live_at_start)
+WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: live_at_start)
 
 
 @ti.data_oriented
@@ -44,12 +48,12 @@ class RestRules:
         self.ghosts = ghosts
 
     @ti.kernel
-    def _mark_rest(self, serial: ti.template()):
+    def mark_rest(self, serial: ti.template()):
         """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
         (X_POS / X_NEG, Y_POS / Y_NEG), and WET where h >= h_min, on the cells the faces near
         the active range read (further out no face flux is computed). With a law with
         hysteresis the step's first stage then adds HELD to the cells the static friction
-        holds (_project)."""
+        holds (project)."""
         hmin = self.state.par[Params.H_MIN]
         lo = ti.max(self.state.act[0] - 4, 0)
         hi = ti.min(self.state.act[1] + 4, self.state.NX)
@@ -99,11 +103,11 @@ class RestRules:
         return self.state.gy + lo, self.state.gy + hi
 
     @ti.func
-    def _wet_at_start(self, i0, j0, i1, j1):
+    def wet_at_start(self, i0, j0, i1, j1):
         """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) at the step's start: their
         face then carries its flux in every stage of the step, even where both cells have
-        thinned below h_min since (_face_wet), so that the step's rates are one smooth
-        function, as for the rest rules (_rest_face). Switched off mid-step, the face's flux
+        thinned below h_min since (face_wet), so that the step's rates are one smooth
+        function, as for the rest rules (rest_face). Switched off mid-step, the face's flux
         stayed in the rate of the step's start only, which RKC's last stage weighs with a
         negative coefficient (about -1.6 dt at 2 stages): a thin cell fed through that face
         was emptied below zero, and the stage limiter's clip to h = 0 then created mass (a
@@ -113,19 +117,19 @@ class RestRules:
         return (r & WET) != 0
 
     @ti.func
-    def _live_at_start(self, i0, j0, i1, j1):
-        """_wet_at_start, or one of the two cells moved at the step's start (a film with a
+    def live_at_start(self, i0, j0, i1, j1):
+        """wet_at_start, or one of the two cells moved at the step's start (a film with a
         velocity, the split sweeps, whose films flow): the face then carries its flux in every
-        stage of the step even where both cells are films now (_face_wet). Between two films
+        stage of the step even where both cells are films now (face_wet). Between two films
         at rest no mass moves: a dry bed stays dry, and the film a flow leaves behind stays
         where the friction stopped it."""
         r = ti.cast(self.state.rest[i0, j0], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
-        return self._wet_at_start(i0, j0, i1, j1) or (r & REST) == 0
+        return self.wet_at_start(i0, j0, i1, j1) or (r & REST) == 0
 
     @ti.func
-    def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
+    def rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
         """With the projected friction scheme, the mass (and h phi) flux at a face next to a
-        cell at rest. "At rest" is read from the step's initial state (_mark_rest), not from
+        cell at rest. "At rest" is read from the step's initial state (mark_rest), not from
         the stage's: a cell that the first stage stops must not switch its faces off for the
         later ones. The rates of a step are then one smooth function, which RKC's stage
         weights (of both signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a
@@ -168,11 +172,11 @@ class RestRules:
         return out
 
     @ti.func
-    def _film_faces(self, Fm, Fp, i, j, im, jm, ip, jp):
+    def film_faces(self, Fm, Fp, i, j, im, jm, ip, jp):
         """The fluxes through the low (Fm) and high (Fp) face of cell (i, j) along one
         direction as that cell takes them: a film (thinner than h_min) at rest at the step's
         start takes no momentum through a face to a neighbour at rest. No mass crosses such a
-        face (_rest_face), but its momentum flux, the pressure of the neighbour, stays for the
+        face (rest_face), but its momentum flux, the pressure of the neighbour, stays for the
         neighbour's friction hold to see; a film, with next to no mass to carry it, was given
         speeds of km/s by it. The neighbour still feels it (the cells' friction projections
         already take momentum out of the books)."""
@@ -197,7 +201,7 @@ class RestRules:
         """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
         the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
         the upwind edge state wu, f_d the same of the downwind one wd; h phi then moves at
-        the upwind cell's phi (_rest_face)."""
+        the upwind cell's phi (rest_face)."""
         out = F
         c = ti.static(1 if d == 0 else self.state.HV)
         fu = wu[0] * ti.max(s * wu[c], 0.0)
@@ -213,7 +217,7 @@ class RestRules:
         return out
 
     @ti.func
-    def _project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
+    def project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
         """The friction projection of a stage's result (Physics.project_friction, with the
         coefficient at ``spd0``, the speed of the state the stage started from, and the
         impulse on the thickness ``hb``). With a law
@@ -247,7 +251,7 @@ class RestRules:
         return next(k for k in range(n) if k != rate and not (rmask >> k) & 1)
 
     @ti.func
-    def _keep_rest(
+    def keep_rest(
         self, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
     ):
         """A cell at rest after the projection whose state terms all hold the same h and h phi
@@ -368,8 +372,8 @@ class RestRules:
         """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
         next one as well if nothing within the step's reach has changed: it was at rest at
         the step's start, the static friction held it (HELD) or it is dry (_dry_film), and its four
-        neighbours were at rest too. No mass then crossed its faces (_rest_face), so
-        _keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
+        neighbours were at rest too. No mass then crossed its faces (rest_face), so
+        keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
         friction holds a cell does not depend on the step length (Physics.holds), so the same
         data around the cell give the same answer in the next step: a cell further than the
         next step's reach from every live cell keeps its bits without being computed. (Rest
@@ -397,14 +401,14 @@ class RestRules:
     @ti.func
     def _live(self, q, hmin):
         """Whether a cell of conserved state q is wet (h >= h_min) or a moving film (its
-        momentum, which is zero exactly where its velocity is: TaichiOperator._moving)."""
+        momentum, which is zero exactly where its velocity is: RestRules.moving)."""
         out = q[0] >= hmin
         if not out:
-            out = self._moving(q)
+            out = self.moving(q)
         return out
 
     @ti.func
-    def _moving(self, w):
+    def moving(self, w):
         """Whether primitives w have a velocity."""
         out = w[1] != 0.0
         if ti.static(not self.state.is_1d):

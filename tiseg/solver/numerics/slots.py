@@ -36,10 +36,10 @@ class SlotAlgebra:
     def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
         can touch (the active range and its stencil halo; all cells without an active range);
-        ``limit=True`` applies the stage limiter (`_limit`) in the same pass, and with
+        ``limit=True`` applies the stage limiter (`limit`) in the same pass, and with
         the projected friction scheme the friction projection over ``tau`` seconds (the
         stage's share of the step). ``rates``: the slots among the terms that hold rates, not
-        states (for the exact rest of _keep_rest).
+        states (for the exact rest of keep_rest).
 
         dst may be one of the sources: the update is element-wise.
         """
@@ -59,7 +59,7 @@ class SlotAlgebra:
         bits, in one launch and without storing the rate. Exactly one term is the rate.
         ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
         stage is a convex combination of states and one Euler step of that length."""
-        self.fv._no_operator()
+        self.fv.no_operator()
         rate = [k for k, (_, s) in enumerate(terms) if s < 0]
         assert len(rate) == 1, terms
         tau = terms[rate[0]][0] if tau is None else tau
@@ -135,8 +135,8 @@ class SlotAlgebra:
         cs = ti.Vector([c0, c1, c2, c3, c4, c5])
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
         if ti.static(rate >= 0):
-            self.fv._face_fluxes(serial)
-            self.fv._boundary_rates(self.state.nslots)
+            self.fv.face_fluxes(serial)
+            self.fv.boundary_rates(self.state.nslots)
         self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, first, serial)
 
     @ti.func
@@ -154,14 +154,14 @@ class SlotAlgebra:
         serial: ti.template(),
     ):
         """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
-        L at the cell (_cell_rate); then the stage limiter if ``limit``, which also leaves the
+        L at the cell (cell_rate); then the stage limiter if ``limit``, which also leaves the
         result's primitives in w (the next evaluation is of slot d). The sum runs in the order
         of the terms, so a fused stage gives the bits of _rates followed by _combine.
 
         Cells: the active x range widened by the 3 cells either side that the next
         evaluation's stencil reads. Why that is enough: the active range is fixed for the
         whole step (set_active runs between steps), every rate is zero on the widened range
-        outside the active one (_cell_rate), and the first stage combines from slot 0, which
+        outside the active one (cell_rate), and the first stage combines from slot 0, which
         is valid everywhere. So within a step every slot is valid on the widened range, and
         nothing beyond it is read. Cells further out are dry films that the step does not
         change; skipping them saves two passes over the dry chute per stage.
@@ -170,7 +170,7 @@ class SlotAlgebra:
         the rate is of, or any of the sources: the update is element-wise.
 
         With the projected friction scheme the limiter is followed by the friction projection
-        over ``tau``, the stage's share of the step (_project), and by _keep_rest; bit k of
+        over ``tau``, the stage's share of the step (project), and by keep_rest; bit k of
         ``rmask`` marks term k as a stored rate rather than a state; ``first``: this is the
         step's first stage (its static-friction decisions are made here)."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
@@ -185,7 +185,7 @@ class SlotAlgebra:
             if ti.static(limit and self.state.phys.fr_projected):
                 spd0 = self.state.phys.speed_mag(self.state.w[i, j])
             if ti.static(rate >= 0):
-                r = self.fv._cell_rate(i, j)
+                r = self.fv.cell_rate(i, j)
             acc = ti.Vector.zero(self.state.fp, self.state.nc)
             for k in ti.static(range(n)):
                 term = r if ti.static(k == rate) else self.state.q[ss[k], i, j]
@@ -194,11 +194,11 @@ class SlotAlgebra:
                 else:
                     acc += cs[k] * term
             if ti.static(limit):
-                acc = self.fv._limit(acc)
+                acc = self.fv.limit(acc)
                 if ti.static(self.state.phys.fr_projected):
-                    acc = self.rules._project(acc, tau, i, j, first, spd0, acc[0])
-                    acc = self.rules._keep_rest(acc, r, i, j, n, rate, rmask, ss)
-                self.state.w[i, j] = self.fv._primitive(acc)
+                    acc = self.rules.project(acc, tau, i, j, first, spd0, acc[0])
+                    acc = self.rules.keep_rest(acc, r, i, j, n, rate, rmask, ss)
+                self.state.w[i, j] = self.fv.primitive(acc)
             self.state.q[d, i, j] = acc
         ti.loop_config(serialize=True)  # a handful of iterations
         for b in range(NBUDGET):

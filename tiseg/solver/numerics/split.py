@@ -6,7 +6,7 @@ integrated by Runge-Kutta stages that each need the fluxes of both directions, a
 the state a whole step along one direction from a single flux evaluation. Along direction d
 (spacing D, lambda = dt / D), on the cells' primitives w:
 
-1. the limited slopes s of the operator (`TaichiOperator._slope`: minmod-theta or the
+1. the limited slopes s of the operator (`FiniteVolume.slope`: minmod-theta or the
    WENO-type slope, with h >= 0 and 0 <= phi <= 1 at the edges);
 2. the edge states w -+ s/2, conserved q_W, q_E, evolved half a step by the cell's own flux
    difference (Hancock's predictor; van Leer 1984, Toro 2009 section 14.4):
@@ -43,13 +43,13 @@ The basal friction (6.4) is the projected one (Physics.project_friction; numeric
 
 * the x predictor projects each evolved edge over dt/2 at its cell's speed, so that the
   half-step edges see the friction with the gravity it balances;
-* the first sweep of a step takes the step's rest mask (RestRules._mark_rest): no mass or
+* the first sweep of a step takes the step's rest mask (RestRules.mark_rest): no mass or
   h phi crosses a face between two cells at rest at the step's start, and such a face's flux
   is computed with both edges' velocities zero (the momentum a sweep gives a resting cell is
   not yet frictioned, and the flux's dissipation would trade it between the next sweep's
   cells); the flux floor of a cell moving into a slower one applies as in the unsplit scheme;
 * the last sweep projects the friction of the whole step, over dt, at each cell's speed at
-  the step's start (RestRules._project). The hold then sees the whole step's driving
+  the step's start (RestRules.project). The hold then sees the whole step's driving
   (gravity, pressure along x and along y), and the steady uniform flow (4.3) is kept to
   round-off whichever sweep comes first. A projection after each sweep would see one
   direction's driving at a time and could release in y a cell held in x.
@@ -62,7 +62,7 @@ The viscous stress of (6.2) is a third operator V: with viscosity a step of dt i
 symmetric pair of half steps x(dt/2) y(dt/2) | V(dt) | y(dt/2) x(dt/2) (x | V | x in 1D),
 Strang's splitting, so the splitting error is second order. V (`viscous_stage`) moves only
 the momenta: the divergence of the unsplit operator's
-viscous face stresses (TaichiOperator._x_viscous, _y_viscous: harmonic face coefficients,
+viscous face stresses (FiniteVolume.x_viscous, y_viscous: harmonic face coefficients,
 cross derivatives over four cells), integrated by s RKC stages (the stepper,
 tiseg.solver.timestepping.split, picks s from dt rho_visc as RKC does, at least 2), so the
 step stays the convective one where the explicit viscous limit is shorter. The stages are
@@ -159,9 +159,9 @@ class SplitSweeps:
         if ti.static(fresh < 2):
             self.ghosts.fill(0)
             if ti.static(fresh == 1):
-                self.fv._edge_primitives(0, serial)
+                self.fv.edge_primitives(0, serial)
             else:
-                self.fv._primitives(0, serial)
+                self.fv.primitives(0, serial)
         self._predict(d, lam, dt, serial)
         self._sweep_faces(d, serial)
         self._drain_factors(d, lam, serial)
@@ -198,7 +198,7 @@ class SplitSweeps:
             if ti.static(not self.state.rec_first):
                 im, jm = self._nb(i, j, d, -1)
                 ip, jp = self._nb(i, j, d, 1)
-                s = self.fv._slope(self.state.w[im, jm], w0, self.state.w[ip, jp])
+                s = self.fv.slope(self.state.w[im, jm], w0, self.state.w[ip, jp])
             wW = w0 - 0.5 * s
             wE = w0 + 0.5 * s
             qW = ph.conserved(wW)
@@ -219,8 +219,8 @@ class SplitSweeps:
                 spd = ph.speed_mag(w0)
                 pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0])
                 pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0])
-            self.state.ew[i, j] = self.fv._fast_primitive(pW)
-            self.state.ee[i, j] = self.fv._fast_primitive(pE)
+            self.state.ew[i, j] = self.fv.fast_primitive(pW)
+            self.state.ee[i, j] = self.fv.fast_primitive(pE)
 
     @ti.func
     def _ghost_source(self, i):
@@ -257,7 +257,7 @@ class SplitSweeps:
     def _sweep_faces(self, d: ti.template(), serial: ti.template()):
         """Numerical fluxes between the predicted edges: the face (m, m + 1) along d at m's
         index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min at rest
-        (TaichiOperator._face_wet)."""
+        (FiniteVolume.face_wet)."""
         gy, ny = ti.static(self.state.gy, self.state.ny)
         a, b = self.state.act[0], self.state.act[1]
         hmin = self.state.par[Params.H_MIN]
@@ -270,7 +270,7 @@ class SplitSweeps:
         for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.state.fp, self.state.nc)
-            if self.fv._face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1):
+            if self.fv.face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1):
                 wl = self.state.ee[i, j]
                 wr = self.state.ew[i1, j1]
                 if ti.static(self.state.phys.fr_projected):
@@ -282,9 +282,9 @@ class SplitSweeps:
                         # scheme's first stage does)
                         wl = self._still(wl)
                         wr = self._still(wr)
-                F = self.fv._face_flux(wl, wr, d)
+                F = self.fv.face_flux(wl, wr, d)
                 # the projected friction's face rules, from the step's rest mask
-                F = self.rules._rest_face(F, wl, wr, d, i, j, i1, j1)
+                F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
             if ti.static(d == 0):
                 self.state.fx[i, j] = F
             else:
@@ -422,7 +422,7 @@ class SplitSweeps:
         factors (+ the gravity source in the x sweep), limited, with its primitives into w;
         then the boundary fluxes of the sweep times dt into slot 0's budget. With the
         projected friction: the first sweep of a step keeps the initial speeds (2D), the
-        last one projects the friction over the whole step at those speeds (RestRules._project,
+        last one projects the friction over the whole step at those speeds (RestRules.project,
         where ``hold`` lets a law with hysteresis hold the cells at rest)."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         fr = ti.static(first or last)  # (the projected friction: a sweep that opens or closes)
@@ -435,7 +435,7 @@ class SplitSweeps:
             Fp = self._scaled(self._face(i, j, d), th, self.state.drain[ip, jp])
             Fm = self._scaled(self._face(im, jm, d), self.state.drain[im, jm], th)
             if ti.static(self.state.phys.fr_projected):
-                Fm, Fp = self.rules._film_faces(Fm, Fp, i, j, im, jm, ip, jp)
+                Fm, Fp = self.rules.film_faces(Fm, Fp, i, j, im, jm, ip, jp)
             q0 = self.state.q[0, i, j]
             upd = -lam * (Fp - Fm)
             hg = 0.0 * dt  # the mean thickness gravity acted on over the step
@@ -450,7 +450,7 @@ class SplitSweeps:
                         self.state.hg[i, j] = hg  # for the friction of the step's last sweep
             elif ti.static(last and not first):
                 hg = self.state.hg[i, j]  # (written by the step's x sweep)
-            acc = self.fv._limit(q0 + upd)
+            acc = self.fv.limit(q0 + upd)
             if ti.static(d == 1 and first and last):
                 hg = acc[0]  # a lone y sweep: no gravity acted, the friction on the cell's h
             if ti.static(first or last):
@@ -465,10 +465,10 @@ class SplitSweeps:
                     spd0 = self.state.spd0[i, j]
                 if ti.static(last):
                     # the friction acts on the thickness the gravity acted on
-                    acc = self.rules._project(acc, dt, i, j, hold, spd0, hg)
-            self.state.w[i, j] = self.fv._fast_primitive(acc)
+                    acc = self.rules.project(acc, dt, i, j, hold, spd0, hg)
+            self.state.w[i, j] = self.fv.fast_primitive(acc)
             self.state.q[0, i, j] = acc
-        # the budget: what entered through the domain's faces along d (as _boundary_rates;
+        # the budget: what entered through the domain's faces along d (as boundary_rates;
         # along x a face beyond the active range carried no flux this time)
         g, n = ti.static((gx, nx) if d == 0 else (gy, ny))
         wl = 1.0
@@ -518,7 +518,7 @@ class SplitSweeps:
         cg). ``src`` = 0 (with ``prev2`` < 0) is the first stage, which also stores V(Y0) in
         slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter; the
         friction is projected by the sweep that closes the half, not here). V is the
-        divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
+        divergence of the viscous stress of (6.2) (FiniteVolume.x_viscous, y_viscous):
         only the momenta change, and a cell whose rates are zero at every stage keeps its bits
         (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
         ghost cells); ``first``: the stage opens the second half of the split step (the rest
@@ -574,9 +574,9 @@ class SplitSweeps:
         if ti.static(fresh < 2):
             self.ghosts.fill(src)
             if ti.static(fresh == 1):
-                self.fv._edge_primitives(src, serial)
+                self.fv.edge_primitives(src, serial)
             else:
-                self.fv._primitives(src, serial)
+                self.fv.primitives(src, serial)
         if ti.static(self.state.bcs[0].prescribed):
             self._inlet_velocities()
         self._viscous_faces(serial)
@@ -613,7 +613,7 @@ class SplitSweeps:
             ti.loop_config(serialize=serial)
             for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
                 zero = ti.Vector.zero(self.state.fp, self.state.nc)
-                self.state.fx[i, j] = self.fv._x_viscous(
+                self.state.fx[i, j] = self.fv.x_viscous(
                     zero, i, j, self.state.w[i, j], self.state.w[i + 1, j]
                 )
         else:
@@ -622,9 +622,9 @@ class SplitSweeps:
                 zero = ti.Vector.zero(self.state.fp, self.state.nc)
                 w0 = self.state.w[i, j]
                 if j >= gy:
-                    self.state.fx[i, j] = self.fv._x_viscous(zero, i, j, w0, self.state.w[i + 1, j])
+                    self.state.fx[i, j] = self.fv.x_viscous(zero, i, j, w0, self.state.w[i + 1, j])
                 if i >= a:
-                    self.state.fy[i, j] = self.fv._y_viscous(zero, i, j, w0, self.state.w[i, j + 1])
+                    self.state.fy[i, j] = self.fv.y_viscous(zero, i, j, w0, self.state.w[i, j + 1])
 
     @ti.func
     def _viscous_update(
@@ -671,10 +671,10 @@ class SplitSweeps:
                 acc = y0 + (inc + ct * r + cg * self.state.q[1, i, j])
             if ti.static(final):
                 if inside:
-                    acc = self.fv._limit(acc)
+                    acc = self.fv.limit(acc)
                     self.state.q[0, i, j] = acc
                 else:
                     acc = y0
             else:
                 self.state.q[dst, i, j] = acc
-            self.state.w[i, j] = self.fv._fast_primitive(acc)
+            self.state.w[i, j] = self.fv.fast_primitive(acc)

@@ -67,18 +67,17 @@ class OperatorState:
         self.bc = tuple(cfg.bc)
         self.bcs = tuple(BOUNDARIES[b] for b in cfg.bc)  # x_lo, x_hi, y_lo, y_hi
         # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the
-        # effects), in one field tree that is freed with this object
+        # effects), in one field tree that is freed with this object; a field the scene does
+        # not need is not an attribute (fy, sy, ew, ee, drain) or None (the others)
         ft = self.field_tree = FieldTree()
         self.q = ft.vector(nc, self.fp, (nslots, NX, NY))
         self.w = ft.vector(nc, self.fp, (NX, NY))
         self.fx = ft.vector(nc, self.fp, (NX, NY))
         slopes = not self.rec_first and not self.split
         self.sx = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
-        self.fy = self.sy = None
         if not self.is_1d:
             self.fy = ft.vector(nc, self.fp, (NX, NY))
             self.sy = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
-        self.ew = self.ee = self.drain = None
         if self.split:  # a sweep's predicted edge states and draining factors
             self.ew = ft.vector(nc, self.fp, (NX, NY))
             self.ee = ft.vector(nc, self.fp, (NX, NY))
@@ -116,7 +115,7 @@ class OperatorState:
         self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
         self.phys = Physics(cfg, self.par)
         # With the projected friction: which cells were at rest at the start of the step,
-        # the state in slot 0 (RestRules._rest_face). Recomputed at the first preparation
+        # the state in slot 0 (RestRules.rest_face). Recomputed at the first preparation
         # after slot 0 is written, so every stage of a step sees the same rest faces.
         self.rest = ft.field(ti.i8, (NX, NY)) if self.phys.fr_projected else None
         # the split step's friction acts once, after its last sweep, at the speed of the
@@ -263,7 +262,7 @@ class OperatorState:
     def first_of_step(self, limit: bool) -> bool:
         """Whether this limited combination is the step's first stage, where a law with
         hysteresis decides which resting cells the static friction holds
-        (RestRules._project): the first one after the rest mask was computed for a new
+        (RestRules.project): the first one after the rest mask was computed for a new
         step."""
         first = bool(limit) and self.first_stage and self.phys.law.hysteresis
         if limit:
@@ -285,7 +284,7 @@ class OperatorState:
             return  # each field write from Python is a kernel launch
         self.prepared = self.interior = None
         if self.rest is not None and self.first_stage:
-            # the step's rest mask was taken on the old range (_mark_rest: act +- 4) and the
+            # the step's rest mask was taken on the old range (mark_rest: act +- 4) and the
             # step has not begun: take it again on the new one (slot 0 is the same), or
             # cells the range now takes in would keep bits of an earlier step, or none
             self.rest_stale = True
