@@ -43,7 +43,8 @@ def stencil(coord: float, first: float, d: float, n: int) -> tuple[int, int, flo
 
 @ti.data_oriented
 class Gauges:
-    """The gauges ``points`` ((name, x, y), ...) on the grid of ``op``; ``dx``, ``dy``: the cell
+    """The gauges ``points`` ((name, x, y), ...) on the grid of ``op`` (the operator's state,
+    `tiseg.solver.numerics.state.OperatorState`, or the operator); ``dx``, ``dy``: the cell
     size [m]; ``h_min``: where phi is missing."""
 
     def __init__(self, op, points, dx: float, dy: float, h_min: float):

@@ -49,7 +49,8 @@ STENCIL_HALO = 3  # cells either side of the active range that a step writes
 
 @ti.data_oriented
 class PeakFields:
-    """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision."""
+    """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision.
+    ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator."""
 
     def __init__(self, op):
         self.op = op

@@ -132,9 +132,10 @@ class Simulation:
         self.op.skip_rest = (
             self.op.skip_rest and bool(skip_rest) and self.active_region and self.stepper.keeps_rest
         )
-        self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
+        # the run's observers read the operator's state (its fields, slots and ranges)
+        self.guard = StateGuard(self.op.state, h_ref=scene.flow.h0, mass_tol=mass_tol)
         # the peak fields (tiseg.run.peaks), updated after every step; none when switched off
-        self.peaks = PeakFields(self.op) if scene.output.peak_fields else None
+        self.peaks = PeakFields(self.op.state) if scene.output.peak_fields else None
         # the gauges (tiseg.run.gauges): read after every step by the run folder; none without
         self.gauges = self._make_gauges(scene)
         self.callbacks: dict[str, Callback] = {}
@@ -346,7 +347,7 @@ class Simulation:
         pts = [(g.name, g.x, g.y) for g in scene.output.gauges]
         if not pts:
             return None
-        return Gauges(self.op, pts, scene.dx, scene.dy, scene.numerics.h_min)
+        return Gauges(self.op.state, pts, scene.dx, scene.dy, scene.numerics.h_min)
 
     def gauge_values(self) -> dict:
         """{gauge name: {quantity: value}} of the current state (tiseg.run.gauges): h, u, v,
