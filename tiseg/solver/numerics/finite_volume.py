@@ -353,8 +353,8 @@ class FiniteVolume:
     def _divergence(self, d, serial: ti.template()):
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         a, b = self.state.act[0], self.state.act[1]
-        # rates on the active range and zero on the 3 cells either side that _combine also
-        # reads; further out nothing reads them while this range holds (see _combine)
+        # rates on the active range and zero on the 3 cells either side that a combination also
+        # reads; further out nothing reads them while this range holds (SlotAlgebra._combine)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
             self.state.q[d, i, j] = self.cell_rate(i, j)
