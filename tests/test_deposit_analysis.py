@@ -220,7 +220,7 @@ def test_deposit_figure(deposit_run, tmp_path, capsys):
 def test_the_finite_release_deposit_scene_comes_to_rest(ti_cpu, tmp_path, capsys):
     """The finite-release-deposit scene at 75 cells/m: every cell is at rest by 90 s, and the
     deposit then keeps its h bit for bit. Before the mass flux had a floor where a cell
-    outruns its neighbour (TaichiOperator._rest_face), 11 isolated fine-rich films
+    outruns its neighbour (RestRules.rest_face), 11 isolated fine-rich films
     just thicker than h_stop kept 5e-3 m/s from 90 s on at this resolution, while no mass
     moved."""
     out = tmp_path / "run"

@@ -168,8 +168,10 @@ def test_reductions_over_pieces_of_rows_see_every_cell(ti_cpu, monkeypatch, piec
     with serial and parallel loops."""
     from solver_helpers import make_config
     import tiseg.solver.numerics.operator as operator_module
+    import tiseg.solver.numerics.state as state_module
 
-    monkeypatch.setattr(operator_module, "row_pieces", lambda *a: pieces)
+    # (the operator's state decides the pieces: OperatorState.row_pieces)
+    monkeypatch.setattr(state_module, "row_pieces", lambda *a: pieces)
     cfg = make_config(12, 11, segregation=False, bc=("outflow", "outflow", "wall", "wall"))
     lay = cfg.layout
     for serial in (True, False):

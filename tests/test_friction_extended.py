@@ -246,7 +246,7 @@ def test_a_steady_flow_cut_off_leaves_a_deposit_of_h_stop(ti_cpu):
     step, it did: 1.0040 h_stop against 0.9883 at 0.8 of the step, 1.0268 with RKC.
 
     Every one of the 400 cells is then exactly at rest and keeps h bit for bit. Before the
-    mass flux had a floor where a cell outruns its neighbour (TaichiOperator._rest_face), 3
+    mass flux had a floor where a cell outruns its neighbour (RestRules.rest_face), 3
     cells crept on at 3e-6 to 2e-5 m/s, each just below a step of about 1.5e-5 m in the
     deposit's surface, held there by the central flux's dissipation. Mass is
     conserved up to what left through the outflow."""

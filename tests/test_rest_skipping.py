@@ -1,6 +1,6 @@
 """Regions held at rest cost nothing: with the projected friction and a law with hysteresis,
 columns whose cells the static friction holds, far from every moving cell, are left out of
-the active x range (TaichiOperator._quiescent, Simulation._set_active). For the same steps
+the active x range (RestRules._quiescent, Simulation._set_active). For the same steps
 that must change no bit, and a resumed run must skip what the run it continues skipped."""
 
 from __future__ import annotations

@@ -242,7 +242,7 @@ def validate(ck: dict, scene, path="checkpoint") -> None:
     for k in ("q", "budget", "initial"):
         a = np.asarray(ck[k])
         if k == "initial" and not scene.segregation:
-            a = a[:1]  # no small particles: their initial mass is NaN (StateAccess.totals)
+            a = a[:1]  # no small particles: their initial mass is NaN (StateArrays.totals)
         if a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):
             raise CheckpointError(
                 f"{path}: {k} holds NaN, Inf or non-numbers: the state is "

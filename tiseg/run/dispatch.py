@@ -1,8 +1,11 @@
 """Callbacks after each step: which are due, snapshots interpolated at their times, in order.
 
-A mixin of `tiseg.run.simulation.Simulation`. Output observes the run: a snapshot at a
-scheduled time between two steps is interpolated from the states around it, so what is written,
-and when, never changes the steps."""
+A collaborator of `tiseg.run.simulation.Simulation` (issue 49; a mixin before) that receives
+the run: it reads the run's callbacks (``callbacks``, a dictionary the run owns and may swap),
+step count, time and operator (whose slots PREV and SNAP hold the snapshots), and calls the
+run's guard. Output observes the run: a snapshot at a scheduled time between two steps is
+interpolated from the states around it, so what is written, and when, never changes the
+steps."""
 
 from __future__ import annotations
 
@@ -17,7 +20,10 @@ class CallbackDispatch:
     """Registering callbacks and calling them after a step of a
     `tiseg.run.simulation.Simulation`."""
 
-    def add_callback(
+    def __init__(self, run):
+        self.run = run
+
+    def add(
         self,
         func,
         schedule: Schedule | None = None,
@@ -36,76 +42,74 @@ class CallbackDispatch:
             )
         else:
             cb = Callback(func, schedule, name, snapshot, order)
-        self.callbacks[cb.name] = cb
+        self.run.callbacks[cb.name] = cb
         return cb
 
-    def remove_callback(self, name: str) -> None:
-        self.callbacks.pop(name, None)
+    def remove(self, name: str) -> None:
+        self.run.callbacks.pop(name, None)
 
-    @property
-    def check_every(self) -> int:
-        """Steps between guard checks (0: only on steps that make a snapshot)."""
-        return self._check_every
-
-    @check_every.setter
-    def check_every(self, n: int) -> None:
+    def set_check_every(self, n: int) -> None:
+        """Register the guard callback every ``n`` steps (0: only on steps that make a
+        snapshot)."""
         if not (isinstance(n, int) and n >= 0):
             raise InputError(f"check_every={n!r} must be an integer >= 0")
-        self._check_every = n
-        self.callbacks.pop("guard", None)
+        self.run.callbacks.pop("guard", None)
         if n:
             # before the step's snapshots (negative order): nothing is written unchecked
-            self.callbacks["guard"] = Callback(
+            self.run.callbacks["guard"] = Callback(
                 lambda sim: sim._guard(), IterationInterval(n), name="guard", order=GUARD_ORDER
             )
 
-    def _pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
+    def pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
         """(time, snapshot callbacks) for every scheduled snapshot time in (t0, t1], in order."""
         by_time: dict[float, list[Callback]] = {}
-        for cb in self.callbacks.values():
+        for cb in self.run.callbacks.values():
             if cb.snapshot:
                 for tk in cb.schedule.times_in(t0, t1):
                     by_time.setdefault(tk, []).append(cb)
         return sorted(by_time.items(), key=lambda item: item[0])
 
-    def _snapshot(self, tk: float, t0: float, t1: float) -> Snapshot:
+    def snapshot(self, tk: float, t0: float, t1: float) -> Snapshot:
         """The state at tk in (t0, t1]: slot 0 when tk is the step's end, else interpolated
         linearly from the state before the step (slot PREV) into slot SNAP."""
+        run = self.run
         if t1 - tk <= 1e-12 * max(1.0, abs(t1)):
-            return Snapshot(self, tk, 0, self.stats.steps, 1.0)
+            return Snapshot(run, tk, 0, run.stats.steps, 1.0)
         theta = (tk - t0) / (t1 - t0)
-        self.op.blend(self.SNAP, self.PREV, 0, theta)
-        return Snapshot(self, tk, self.SNAP, self.stats.steps, theta)
+        run.op.blend(run.SNAP, run.PREV, 0, theta)
+        return Snapshot(run, tk, run.SNAP, run.stats.steps, theta)
 
-    def _after_step(self, t0: float, t1: float, pending) -> None:
+    def after_step(self, t0: float, t1: float, pending) -> None:
         """The callbacks of the step: those due with a negative order (the guard), the
         snapshots at the scheduled times the step crossed, then the other callbacks due, in
         increasing order (the checkpoint last)."""
-        steps = self.stats.steps
+        run = self.run
+        steps = run.stats.steps
         due = sorted(
             (
                 cb
-                for cb in self.callbacks.values()
+                for cb in run.callbacks.values()
                 if not cb.snapshot and cb.schedule.due(t0, t1, steps)
             ),
             key=lambda c: c.order,
         )  # every schedule is asked (wall clocks)
         before = [cb for cb in due if cb.order < 0]
         if (pending or any(cb.checked for cb in due)) and "guard" not in (cb.name for cb in before):
-            self._guard()  # nothing is saved from an unchecked state
+            run._guard()  # nothing is saved from an unchecked state
         for cb in before:
-            cb(self)
+            cb(run)
         for tk, cbs in pending:
-            snap = self._snapshot(tk, t0, t1)
+            snap = self.snapshot(tk, t0, t1)
             for cb in cbs:
                 cb(snap)
         for cb in due:
             if cb.order >= 0:
-                cb(self)
+                cb(run)
 
-    def _initial_snapshots(self) -> None:
+    def initial_snapshots(self) -> None:
         """Snapshot callbacks whose schedule holds the current time get the current state."""
-        snap = Snapshot(self, self.t, 0, self.stats.steps, 1.0)
-        for cb in list(self.callbacks.values()):
-            if cb.snapshot and cb.schedule.contains(self.t):
+        run = self.run
+        snap = Snapshot(run, run.t, 0, run.stats.steps, 1.0)
+        for cb in list(run.callbacks.values()):
+            if cb.snapshot and cb.schedule.contains(run.t):
                 cb(snap)

@@ -5,7 +5,7 @@ output times. A `Gauges` therefore reads the step state (slot 0) after every ste
 fields do (`tiseg.run.peaks`), so a gauge series is exact per step whatever the output schedule.
 
 Value at a point (x, y): the bilinear interpolation of the primitive fields of the four cell
-centres around it, the fields exactly as fields.nc stores them (`StateAccess.fields`: u = hu / h,
+centres around it, the fields exactly as fields.nc stores them (`StateArrays.fields`: u = hu / h,
 v = hv / h and phi = h phi / h where h > 0, else 0, phi clipped to [0, 1]; phi missing, NaN,
 where h < numerics.h_min). So interpolating a snapshot of fields.nc by hand at a gauge gives
 that gauge's value at the snapshot time (when the snapshot is a step state). phi is NaN where
@@ -43,7 +43,8 @@ def stencil(coord: float, first: float, d: float, n: int) -> tuple[int, int, flo
 
 @ti.data_oriented
 class Gauges:
-    """The gauges ``points`` ((name, x, y), ...) on the grid of ``op``; ``dx``, ``dy``: the cell
+    """The gauges ``points`` ((name, x, y), ...) on the grid of ``op`` (the operator's state,
+    `tiseg.solver.numerics.state.OperatorState`, or the operator); ``dx``, ``dy``: the cell
     size [m]; ``h_min``: where phi is missing."""
 
     def __init__(self, op, points, dx: float, dy: float, h_min: float):

@@ -79,6 +79,7 @@ class Violation:
 @ti.data_oriented
 class StateGuard:
     """Bounds and finiteness check of slot 0 of ``op``, plus a device copy of the last good state.
+    ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator.
 
     ``h_ref``: thickness scale [m] for the round-off tolerance on h; ``mass_tol``: relative
     tolerance of the mass balance (None: a default for the precision, 1e-6 in f64 and 1e-3 in

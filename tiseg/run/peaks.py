@@ -49,7 +49,8 @@ STENCIL_HALO = 3  # cells either side of the active range that a step writes
 
 @ti.data_oriented
 class PeakFields:
-    """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision."""
+    """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision.
+    ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator."""
 
     def __init__(self, op):
         self.op = op
@@ -145,7 +146,7 @@ class PeakFields:
 
 def deposit(fields: dict, h_min: float, rest_speed: float = REST_SPEED) -> dict:
     """``deposit_h`` (and ``deposit_phi`` when ``fields`` has phi) of one state given as the
-    primitive fields (ny, nx) of `tiseg.run.state_access.StateAccess.fields`: h and phi
+    primitive fields (ny, nx) of `tiseg.run.state_access.StateArrays.fields`: h and phi
     where the cell is wet (h >= h_min) and at rest (|u| <= rest_speed), NaN elsewhere."""
     h = np.asarray(fields["h"], dtype=float)
     speed = np.abs(np.asarray(fields["u"], dtype=float))

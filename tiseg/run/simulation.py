@@ -36,16 +36,25 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
-from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 
 from .. import backend
 from . import checkpoint as _ckpt
 from .callbacks import Callback, ProgressBar
 from .dispatch import CallbackDispatch
-from .failures import FailureChecks, SimulationError
-from .state_access import StateAccess
+from .failures import FailureChecks, SimulationError  # noqa: F401 (public name)
+from .plan import (  # noqa: F401 (public names, shared with tiseg.apps.estimate)
+    ACTIVE_MARGIN,
+    RunStats,
+    StepInfo,
+    StepPlan,
+    gravity_step,
+    largest_acceleration,
+    step_limits,
+)
+from .state_access import StateArrays
 from ..errors import InputError, RunInterrupted
 from .guards import StateGuard
 from .gauges import Gauges
@@ -53,8 +62,7 @@ from .peaks import PeakFields, deposit
 from ..setup.initial import initial_state
 from .limits import check_memory
 from ..solver.numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
-from ..model.physics.friction import FRICTION_LAWS
-from .schedules import IterationInterval, SpecifiedTimes
+from .schedules import IterationInterval, Schedule, SpecifiedTimes
 from ..setup.schema import compiled_keys
 from ..setup.sections import SECTIONS
 from ..solver.timestepping import stepper_for
@@ -62,114 +70,14 @@ from ..solver.numerics.operator import TaichiOperator
 from ..solver.numerics.operator import StabilityNumbers
 from .run_folder import RunFolder
 
-# Cells beyond the wet region that the active x range keeps on top of one cell per RKC stage
-# (the stencil's reach): the range stays exact (see TaichiOperator._combine).
-ACTIVE_MARGIN = 3
 
-
-def step_limits(
-    ax: float,
-    ay: float,
-    rho_stiff: float,
-    scene,
-    rate_local: float | None = None,
-    dt_gravity: float = math.inf,
-) -> tuple[float, float]:
-    """(dt_cfl, rho): the rules every step is planned with, shared with tiseg.apps.estimate.
-
-    dt_cfl is the forward-Euler step of the KT positivity proof (Kurganov & Petrova 2007,
-    section 3) at the Courant number C = numerics.cfl, infinite when nothing moves:
-
-    * step_rule "max": dt = C min(dx / a_x, dy / a_y), positive for C <= 1/4 in 2D (1/2 in 1D);
-    * step_rule "sum": dt = C / (a_x/dx + a_y/dy), positive for C <= 1/2. The proof writes the
-      cell average as a convex mix of its four edge values; weighting the x and y pairs by
-      their shares of a_x/dx + a_y/dy instead of 1/2 each gives this bound, which equals the
-      1D one where a single direction carries the waves and is never below the max rule's.
-    * step_rule "local": dt = C / max over cells of (A/dx + B/dy), positive for C <= 1/2,
-      with A and B the largest speeds among the cell and its two neighbours along x and along
-      y (``rate_local``, from the stability pass): the same proof with the weights chosen
-      cell by cell, each cell needing only the speeds of its own four faces. The global
-      maxima of a_x and a_y need not meet in one cell (a dam break's fastest x wave runs
-      where the flow is shallow, its fastest y wave where it is deep), so this step is
-      never below the sum rule's and is 1.17x it on the Stoker dam break. Without
-      ``rate_local`` (tiseg.apps.estimate) it falls back to the sum rule, an upper bound on the
-      steps. 1D: all three rules are dt = C dx / a_x.
-
-    Where anything moves or could (rate > 0), dt_cfl is also at most ``dt_gravity``
-    (`gravity_step`, C sqrt(dx / a) with a the largest acceleration gravity and the least
-    friction give): the speed a cell gains in one step, a dt, may then carry it at most C^2
-    of a cell in the next, whatever the speeds now. Material released from rest has none,
-    and without this rule its first steps were as long as the pressure waves of a thin
-    layer allow (at 89 degrees one step spanned 0.2 s, and a release fell 10 % short of
-    g sin(zeta) t^2 / 2 in 1 s). It binds only where gravity outruns the waves (steep
-    slopes, releases from rest); the fingers scene's steps are over 5x shorter than it.
-
-    SSP steppers multiply it by their SSP coefficient. rho is the spectral radius the steppers
-    plan with: the viscous + friction stiffness plus the KT dissipation 2 (a_x/dx + a_y/dy),
-    a Gershgorin bound of the convective Jacobian, whose rows are cells: with the local rule
-    2 rate_local bounds it. Without the dissipation term the SSP steppers' step is too long
-    for their stability interval."""
-    rx = ax / scene.dx
-    ry = ay / scene.dy if not scene.is_1d else 0.0
-    rule = scene.numerics.step_rule
-    if rule == "local" and rate_local is not None:  # (the operator gives none in 1D)
-        rate = conv = min(rate_local, rx + ry)  # (the bound can only be tighter)
-    else:
-        rate = rx + ry if rule in ("sum", "local") else max(rx, ry)
-        conv = rx + ry
-    dt_cfl = min(scene.numerics.cfl / rate, dt_gravity) if rate > 0 else math.inf
-    return dt_cfl, rho_stiff + 2.0 * conv
-
-
-def largest_acceleration(scene) -> float:
-    """g (sin(zeta) - mu cos(zeta)) with mu the least coefficient the friction law can give:
-    the largest downslope acceleration gravity and friction give a cell (6.4), 0 where the
-    friction can always hold it."""
-    m = scene.material
-    mu = FRICTION_LAWS[scene.effects.friction].least_mu(config_from_scene(scene).fric)
-    zeta = math.radians(m.zeta_deg)
-    return max(0.0, m.g * (math.sin(zeta) - mu * math.cos(zeta)))
-
-
-def gravity_step(scene) -> float:
-    """C sqrt(dx / a), a = `largest_acceleration`: the step in which a cell at rest gains
-    the speed that crosses C^2 of a cell in the next (C = numerics.cfl); infinite where
-    nothing accelerates (flat ground, or a slope the friction holds)."""
-    a = largest_acceleration(scene)
-    return scene.numerics.cfl * math.sqrt(scene.dx / a) if a > 0 else math.inf
-
-
-@dataclass
-class StepInfo:
-    t: float
-    dt: float
-    stages: int
-    rhs_evals: int
-
-
-@dataclass
-class StepPlan:
-    """The next step: ``dt``, ``stages``, the stability numbers it was planned from, and the
-    time it ends at (``t_next``, exactly the stop time when it lands there)."""
-
-    dt: float
-    stages: int
-    stability: object
-    t_next: float
-    dt_cfl: float = math.inf  # the convective limit it was planned from
-    lands: bool = False  # it ends exactly on the stop time
-
-
-@dataclass
-class RunStats:
-    steps: int = 0
-    stages: int = 0  # operator evaluations
-    wall: float = 0.0  # cumulative wall time of run() calls (resumed runs continue it)
-    history: list = field(default_factory=list)
-
-
-class Simulation(StateAccess, CallbackDispatch, FailureChecks):
+class Simulation:
     """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``.
+
+    Its collaborators (issue 49): the operator ``op`` (`TaichiOperator`), the state as arrays
+    ``arrays`` (`tiseg.run.state_access.StateArrays`, on the operator's state), the callbacks'
+    ``dispatch`` (`tiseg.run.dispatch.CallbackDispatch`) and the ``failures`` that end a run
+    (`tiseg.run.failures.FailureChecks`).
 
     Taichi is initialised on first use (``arch`` default cpu, the scene's precision). Once it
     is, a simulation asking for another precision, arch or thread count is an
@@ -213,17 +121,21 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         if self.backend.arch == "cpu":  # before Taichi tries the allocation
             check_memory(self.layout, nstep + 2, self.backend.precision)
         self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
+        self.arrays = StateArrays(self.op.state, self.op.reduce, scene.dx, scene.dy)
+        self.dispatch = CallbackDispatch(self)
+        self.failures = FailureChecks(self)
         # Work only on the x range that can change (the wet region and a margin): exact,
         # because a dry cell away from wet ones has a zero right-hand side. Not with periodic x.
         self.active_region = active_region and scene.boundary.x_lo != "periodic"
-        # and leave out the regions held at rest (TaichiOperator._quiescent): exact as well
+        # and leave out the regions held at rest (RestRules._quiescent): exact as well
         # (for steppers that keep a resting cell's bits)
         self.op.skip_rest = (
             self.op.skip_rest and bool(skip_rest) and self.active_region and self.stepper.keeps_rest
         )
-        self.guard = StateGuard(self.op, h_ref=scene.flow.h0, mass_tol=mass_tol)
+        # the run's observers read the operator's state (its fields, slots and ranges)
+        self.guard = StateGuard(self.op.state, h_ref=scene.flow.h0, mass_tol=mass_tol)
         # the peak fields (tiseg.run.peaks), updated after every step; none when switched off
-        self.peaks = PeakFields(self.op) if scene.output.peak_fields else None
+        self.peaks = PeakFields(self.op.state) if scene.output.peak_fields else None
         # the gauges (tiseg.run.gauges): read after every step by the run folder; none without
         self.gauges = self._make_gauges(scene)
         self.callbacks: dict[str, Callback] = {}
@@ -313,7 +225,82 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         self.guard.set_params()  # h_min of the phi rule
 
     # ------------------------------------------------------------------ callbacks
+    def add_callback(
+        self,
+        func,
+        schedule: Schedule | None = None,
+        name: str | None = None,
+        snapshot: bool = False,
+        order: int = 0,
+    ) -> Callback:
+        """Register ``func`` to run on ``schedule`` after steps (see `tiseg.run.callbacks`),
+        or a ready `Callback`; a callback of the same name is replaced. Returns it."""
+        return self.dispatch.add(func, schedule, name, snapshot, order)
+
+    def remove_callback(self, name: str) -> None:
+        self.dispatch.remove(name)
+
+    @property
+    def check_every(self) -> int:
+        """Steps between guard checks (0: only on steps that make a snapshot)."""
+        return self._check_every
+
+    @check_every.setter
+    def check_every(self, n: int) -> None:
+        self.dispatch.set_check_every(n)
+        self._check_every = n
+
+    # ------------------------------------------------------------------ checks
+    def check_state(self) -> None:
+        """Stop with a `SimulationError` naming time, step, cell and field when the state
+        holds NaN/Inf, h < 0, phi outside [0, 1] on a wet cell, or breaks the mass balance."""
+        self._guard()
+
+    def _guard(self, full: bool = True) -> None:
+        """One guard check (FailureChecks.guard): every check of the run goes through here."""
+        self.failures.guard(full)
+
     # ------------------------------------------------------------------ state
+    def set_state(self, h, u=None, v=None, phi=None) -> None:
+        """Replace the state by primitive fields shaped (ny, nx) as `state` returns them
+        (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
+        afresh from this state (its mass is the new initial mass, the boundary budget 0), and
+        so do the peak fields (tiseg.run.peaks: arrival at the current time where it is wet)."""
+        q = self.arrays.from_primitives(h, u, v, phi, self.scene.flow.phi0)
+        self.set_conserved(q)
+        self.op.reset_budget()
+        self.initial_totals = self.totals()
+        self.guard.keep(self.checkpoint_meta())
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as `fields`)."""
+        return self.fields()
+
+    def conserved(self, slot: int = 0) -> np.ndarray:
+        """Interior conserved variables (nc, nx, ny)."""
+        return self.arrays.conserved(slot)
+
+    def set_conserved(self, q_interior: np.ndarray) -> None:
+        """Replace the interior conserved variables (nc, nx, ny); the peak fields start again
+        from this state (tiseg.run.peaks)."""
+        self.arrays.set_conserved(q_interior)
+        if self.peaks is not None:
+            self.peaks.start(self.t)
+
+    def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
+        """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files
+        (StateArrays.fields)."""
+        return self.arrays.fields(slot)
+
+    def totals(self, slot: int = 0) -> dict[str, float]:
+        """Total mass and small-particle mass [m^3] (per metre of width in 1D), deterministic
+        for any thread count (StateArrays.totals)."""
+        return self.arrays.totals(slot)
+
+    def budget(self, slot: int = 0) -> dict[str, float]:
+        """Mass and small-particle mass that entered through the boundaries since the start."""
+        return self.arrays.budget(slot)
+
     def checkpoint_meta(self) -> dict:
         """The numbers besides slot 0 and the budget that a checkpoint needs (tiseg.run.checkpoint)."""
         snaps, rows = self._io_counts
@@ -360,7 +347,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         pts = [(g.name, g.x, g.y) for g in scene.output.gauges]
         if not pts:
             return None
-        return Gauges(self.op, pts, scene.dx, scene.dy, scene.numerics.h_min)
+        return Gauges(self.op.state, pts, scene.dx, scene.dy, scene.numerics.h_min)
 
     def gauge_values(self) -> dict:
         """{gauge name: {quantity: value}} of the current state (tiseg.run.gauges): h, u, v,
@@ -499,13 +486,13 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         if not (dt > 0 and math.isfinite(dt)):
             # usually a NaN in the state: name it if the guard finds one
             self._guard(full=False)
-            self._fail(
+            self.failures.fail(
                 None,
                 f"time step collapsed to dt={dt!r} at t={self.t:.9g} s (step {self.stats.steps})",
             )
         t0, t1 = self.t, p.t_next
-        self._check_progress(p)
-        pending = self._pending_snapshots(t0, t1)
+        self.failures.check_progress(p)
+        pending = self.dispatch.pending_snapshots(t0, t1)
         if any(tk < t1 for tk, _ in pending):
             self.op.blend(self.PREV, 0, 0, 0.0)  # keep the state before the step
         self.stepper.index = self.stats.steps  # (a split step's sweep order follows it)
@@ -516,7 +503,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
         self.stats.steps += 1
         self.stats.stages += s
         self.last_step = StepInfo(t1, dt, s, s)
-        self._after_step(t0, t1, pending)
+        self.dispatch.after_step(t0, t1, pending)
         return self.last_step
 
     def advance(self, t_target: float, on_step=None) -> None:
@@ -606,7 +593,7 @@ class Simulation(StateAccess, CallbackDispatch, FailureChecks):
             self._wall0 = _time.perf_counter() - self.stats.wall
             self._guard()
             if resume is None:
-                self._initial_snapshots()
+                self.dispatch.initial_snapshots()
                 if folder is not None:
                     folder.start()
             while self.t < t_end - 1e-12 * max(1.0, t_end):

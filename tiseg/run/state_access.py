@@ -1,8 +1,12 @@
 """The state of a simulation as arrays: read it, replace it, sum it.
 
-A mixin of `tiseg.run.simulation.Simulation`: the conserved slots of its Taichi operator
-seen as NumPy arrays shaped (ny, nx) (primitive fields) or (nc, nx, ny) (conserved, no ghost
-cells), the totals that the mass balance compares and the boundary budget."""
+A collaborator of `tiseg.run.simulation.Simulation` (issue 49; a mixin before) that receives
+the operator's state (`tiseg.solver.numerics.state.OperatorState`: its slots, budgets and
+layout) and its reductions (`tiseg.solver.numerics.reductions.StepReductions`, the
+deterministic totals): the conserved slots seen as NumPy arrays shaped (ny, nx) (primitive
+fields) or (nc, nx, ny) (conserved, no ghost cells), the totals that the mass balance compares
+and the boundary budget. What a new state means for the run (the mass balance, the peak
+fields) is the simulation's."""
 
 from __future__ import annotations
 
@@ -11,14 +15,22 @@ import numpy as np
 from ..errors import InputError
 
 
-class StateAccess:
-    """Reading and replacing the state of a `tiseg.run.simulation.Simulation`."""
+class StateArrays:
+    """Reading and replacing the state of a `tiseg.run.simulation.Simulation`'s operator."""
 
-    def set_state(self, h, u=None, v=None, phi=None) -> None:
-        """Replace the state by primitive fields shaped (ny, nx) as `state` returns them
-        (u, v default to 0, phi to the scene's phi0). The time stays; the mass balance starts
-        afresh from this state (its mass is the new initial mass, the boundary budget 0), and
-        so do the peak fields (tiseg.run.peaks: arrival at the current time where it is wet)."""
+    def __init__(self, state, reductions, dx: float, dy: float):
+        """``state``: the operator's `OperatorState`; ``reductions``: its `StepReductions`;
+        ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life)."""
+        self.state = state
+        self.reductions = reductions
+        self.layout = state.lay
+        # a cell's area (per metre of width in 1D)
+        self.cell = dx * (dy if not self.layout.is_1d else 1.0)
+        self._per_width = 1.0 if not self.layout.is_1d else 1.0 / dy
+
+    def from_primitives(self, h, u, v, phi, phi0: float) -> np.ndarray:
+        """Interior conserved variables (nc, nx, ny) of primitive fields shaped (ny, nx) as
+        `fields` returns them (u, v default to 0, phi to ``phi0``), checked."""
         lay = self.layout
         shape = (lay.ny, lay.nx)
 
@@ -47,33 +59,23 @@ class StateAccess:
         if not lay.is_1d:
             q[lay.HV] = (h * arr("v", v, 0.0)).T
         if lay.segregation:
-            phi = arr("phi", phi, self.scene.flow.phi0)
+            phi = arr("phi", phi, phi0)
             if np.any((phi < 0) | (phi > 1)):
                 raise InputError("set_state: phi must lie in [0, 1]")
             q[lay.HPHI] = (h * phi).T
-        self.set_conserved(q)
-        self.op.reset_budget()
-        self.initial_totals = self.totals()
-        self.guard.keep(self.checkpoint_meta())
-
-    def state(self) -> dict[str, np.ndarray]:
-        """The primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) (as `fields`)."""
-        return self.fields()
+        return q
 
     def conserved(self, slot: int = 0) -> np.ndarray:
         """Interior conserved variables (nc, nx, ny)."""
         ix, iy = self.layout.interior()
-        return self.op.get(slot)[:, ix, iy]
+        return self.state.get(slot)[:, ix, iy]
 
     def set_conserved(self, q_interior: np.ndarray) -> None:
-        """Replace the interior conserved variables (nc, nx, ny); the peak fields start again
-        from this state (tiseg.run.peaks)."""
-        full = self.op.get(0)
+        """Replace the interior conserved variables (nc, nx, ny) of slot 0."""
+        full = self.state.get(0)
         ix, iy = self.layout.interior()
         full[:, ix, iy] = q_interior
-        self.op.set(0, full)
-        if self.peaks is not None:
-            self.peaks.start(self.t)
+        self.state.set(0, full)
 
     def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
         """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.
@@ -93,16 +95,14 @@ class StateAccess:
     def totals(self, slot: int = 0) -> dict[str, float]:
         """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
         fixed order on the device: deterministic for any thread count."""
-        lay = self.layout
-        sh, shphi = self.op.sums(slot)
-        cell = self.scene.dx * (self.scene.dy if not lay.is_1d else 1.0)
-        return {"mass": sh * cell, "small_mass": shphi * cell if lay.segregation else float("nan")}
+        sh, shphi = self.reductions.totals(slot, self.state.serial_loops(whole=True))
+        seg = self.layout.segregation
+        return {"mass": sh * self.cell, "small_mass": shphi * self.cell if seg else float("nan")}
 
     def budget(self, slot: int = 0) -> dict[str, float]:
         """Mass and small-particle mass that entered through the boundaries since the start."""
-        b = self.op.budget(slot)
-        scale = 1.0 if not self.layout.is_1d else 1.0 / self.scene.dy
+        b = self.state.budget(slot)
         return {
-            "mass_in": float((b[0] + b[2]) * scale),
-            "small_mass_in": float((b[1] + b[3]) * scale),
+            "mass_in": float((b[0] + b[2]) * self._per_width),
+            "small_mass_in": float((b[1] + b[3]) * self._per_width),
         }

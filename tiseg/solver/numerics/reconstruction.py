@@ -5,7 +5,7 @@ A cell's edge values along a direction are w0 -+ s/2, s an undivided slope of th
 from the cell and its two neighbours, w_m, w0, w_p. The operator computes the one-sided and
 central differences dm = w0 - w_m, dp = w_p - w0, dc = (w_p - w_m)/2, asks the chosen
 reconstruction for s, and then limits s so that the edges keep h >= 0 and 0 <= phi <= 1
-(`limit_edges_np` and the operator's ``_slope``, the same for every reconstruction). Each
+(`limit_edges_np` and the operator's ``slope``, the same for every reconstruction). Each
 reconstruction holds:
 
 * ``slopes``: whether it has slopes at all (first order has none: the operator then stores no

@@ -1,10 +1,10 @@
 """Step-size reductions of the operator: the stability pass and the conservation totals.
 
-A collaborator of `tiseg.solver.numerics.operator.TaichiOperator` with fields of its own (the
-reduced numbers ``red``, the per-cell speeds ``spd`` of step_rule "local", the row sums of the
-totals) and read-only views of the operator's (primitives ``w``, states ``q``, parameters,
-active range) and its pointwise physics. It holds no reference to the operator, so the
-operator's fields are freed with it as before.
+A collaborator of `tiseg.solver.numerics.operator.TaichiOperator` that receives the operator's
+state (`state.OperatorState`): it reads the primitives ``w``, the states ``q``, the parameters,
+the active range and the pointwise physics, and writes only its own scratch fields, which the
+state allocates with the others (the reduced numbers ``red``, the per-cell speeds ``spd`` of
+step_rule "local", the row sums of the totals).
 
 * `StepReductions.stability`: max wave speeds and stiffness bounds of the prepared state
   (`StabilityNumbers`), from which the time steppers and
@@ -40,23 +40,12 @@ NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in orde
 
 @ti.data_oriented
 class StepReductions:
-    def __init__(self, op, ft):
-        """Views of ``op``'s fields and compile-time constants (no reference to ``op``
-        itself); this collaborator's own fields are allocated in ``op``'s field tree ``ft``
-        (before it is finalised)."""
-        self.fp, self.nc = op.fp, op.nc
-        self.NX, self.NY = op.NX, op.NY
-        self.nx, self.ny, self.gx, self.gy = op.nx, op.ny, op.gx, op.gy
-        self.is_1d, self.seg, self.visc, self.HPHI = op.is_1d, op.seg, op.visc, op.HPHI
-        self.local_rate = op.local_rate
-        self.rows_per_block, self.row_pieces = op.rows_per_block, op.row_pieces
-        self.q, self.w, self.par, self.act, self.phys = op.q, op.w, op.par, op.act, op.phys
-        # step_rule "local": each cell's wave speeds along x and y, for the stability pass
-        self.spd = ft.vector(2, self.fp, (op.NX, op.NY)) if self.local_rate else None
-        self.red = ft.field(self.fp, NSTAB)
-        self.rowsum = ft.field(ti.f64, (op.NX, 2))
-        self.total = ft.field(ti.f64, 2)
-        self._stability = self._stability_f64 if self.fp == ti.f64 else self._stability_f32
+    def __init__(self, state):
+        """``state``: the operator's fields, slots and ranges (`state.OperatorState`), which
+        also holds this collaborator's fields (``spd``, ``red``, ``rowsum``, ``total``)."""
+        self.state = state
+        fp = state.fp
+        self._stability = self._stability_f64 if fp == ti.f64 else self._stability_f32
 
     def stability(self, serial: bool) -> StabilityNumbers:
         """The numbers of the prepared primitives (the caller prepares them)."""
@@ -68,7 +57,7 @@ class StepReductions:
             rho_fric=r[3],
             max_speed=r[4],
             rho_stiff=r[5],
-            rate_local=r[6] if self.local_rate else None,
+            rate_local=r[6] if self.state.local_rate else None,
         )
 
     def totals(self, slot: int, serial: bool) -> tuple[float, float]:
@@ -108,26 +97,28 @@ class StepReductions:
         max(a_x over i-1..i+1)/dx + max(a_y over j-1..j+1)/dy: the speeds of the faces of the
         cell, which bound the forward-Euler step that keeps that cell's h >= 0 (see
         tiseg.run.simulation.step_limits). Only such runs compute it."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         ti.loop_config(serialize=True)  # a handful of iterations
         for k in range(NSTAB):
-            self.red[k] = 0.0
-        hmin = self.par[Params.H_MIN]
-        idx = self.par[Params.INV_DX]
-        idy = self.par[Params.INV_DY]
+            self.state.red[k] = 0.0
+        hmin = self.state.par[Params.H_MIN]
+        idx = self.state.par[Params.INV_DX]
+        idy = self.state.par[Params.INV_DY]
         # include the first ghost layer in x so that an inflow into an empty chute sets a speed
-        lo = ti.max(self.act[0] - 1, gx - 1)
-        hi = ti.min(self.act[1] + 1, gx + nx + 1)
-        B = ti.static(self.rows_per_block)
-        if ti.static(self.local_rate):
+        lo = ti.max(self.state.act[0] - 1, gx - 1)
+        hi = ti.min(self.state.act[1] + 1, gx + nx + 1)
+        B = ti.static(self.state.rows_per_block)
+        if ti.static(self.state.local_rate):
             # each cell's (a_x, a_y) once, neighbours and ghost rows included: the rate reads
             # 5 speeds per cell, and recomputing them (a square root each) cost 10 % of a
             # Stoker step on one thread
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.NY)):
-                w = self.w[i, j]
-                self.spd[i, j] = ti.Vector([self.phys.speed(w, 0), self.phys.speed(w, 1)])
-        P = ti.static(self.row_pieces)
+            for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.state.NY)):
+                w = self.state.w[i, j]
+                self.state.spd[i, j] = ti.Vector(
+                    [self.state.phys.speed(w, 0), self.state.phys.speed(w, 1)]
+                )
+        P = ti.static(self.state.row_pieces)
         ti.loop_config(serialize=serial)
         for it in range(piece_count(lo, hi, B, P)):
             i0, j0, j1 = piece_at(it, lo, B, P, gy, ny)
@@ -142,38 +133,40 @@ class StepReductions:
                 i = i0 + r
                 if i < hi:
                     for j in range(j0, j1):
-                        w = self.w[i, j]
-                        if ti.static(self.local_rate):
-                            sp = self.spd[i, j]
+                        w = self.state.w[i, j]
+                        if ti.static(self.state.local_rate):
+                            sp = self.state.spd[i, j]
                             m0 = ti.max(m0, sp[0])
                             m1 = ti.max(m1, sp[1])
                             axm = ti.max(
-                                ti.max(self.spd[i - 1, j][0], sp[0]), self.spd[i + 1, j][0]
+                                ti.max(self.state.spd[i - 1, j][0], sp[0]),
+                                self.state.spd[i + 1, j][0],
                             )
                             aym = ti.max(
-                                ti.max(self.spd[i, j - 1][1], sp[1]), self.spd[i, j + 1][1]
+                                ti.max(self.state.spd[i, j - 1][1], sp[1]),
+                                self.state.spd[i, j + 1][1],
                             )
                             m6 = ti.max(m6, axm * idx + aym * idy)
                         else:
-                            m0 = ti.max(m0, self.phys.speed(w, 0))
-                            if ti.static(not self.is_1d):
-                                m1 = ti.max(m1, self.phys.speed(w, 1))
-                        m4 = ti.max(m4, self.phys.speed_mag(w))
-                        fr = self.phys.friction_rate(w)
+                            m0 = ti.max(m0, self.state.phys.speed(w, 0))
+                            if ti.static(not self.state.is_1d):
+                                m1 = ti.max(m1, self.state.phys.speed(w, 1))
+                        m4 = ti.max(m4, self.state.phys.speed_mag(w))
+                        fr = self.state.phys.friction_rate(w)
                         m3 = ti.max(m3, fr)
                         rho = 0.0 * fr
-                        if ti.static(self.visc):
+                        if ti.static(self.state.visc):
                             h = w[0]
                             if h >= hmin and gx <= i < gx + nx:
                                 hn = h  # (not read in 1D)
                                 hs = h
-                                if ti.static(not self.is_1d):
-                                    hn = self.w[i, j + 1][0]
-                                    hs = self.w[i, j - 1][0]
-                                rho = self.phys.visc_stiffness(
+                                if ti.static(not self.state.is_1d):
+                                    hn = self.state.w[i, j + 1][0]
+                                    hs = self.state.w[i, j - 1][0]
+                                rho = self.state.phys.visc_stiffness(
                                     h,
-                                    self.w[i + 1, j][0],
-                                    self.w[i - 1, j][0],
+                                    self.state.w[i + 1, j][0],
+                                    self.state.w[i - 1, j][0],
                                     hn,
                                     hs,
                                     idx,
@@ -185,30 +178,30 @@ class StepReductions:
             # maxima only grow), so the atomic is never skipped where it is needed, and the
             # threads no longer take turns on one cache line for every piece
             for k, m in ti.static(enumerate((m0, m1, m2, m3, m4, m5, m6))):
-                if m > self.red[k]:
-                    ti.atomic_max(self.red[k], m)
-        return ti.Vector([self.red[k] for k in ti.static(range(NSTAB))])
+                if m > self.state.red[k]:
+                    ti.atomic_max(self.state.red[k], m)
+        return ti.Vector([self.state.red[k] for k in ti.static(range(NSTAB))])
 
     @ti.kernel
     def _totals(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
         """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
         summed serially, then the rows serially): the same bits for any thread count."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        self.total[0] = 0.0
-        self.total[1] = 0.0
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        self.state.total[0] = 0.0
+        self.state.total[1] = 0.0
         ti.loop_config(serialize=serial)
         for i in range(gx, gx + nx):
             a = ti.cast(0.0, ti.f64)
             b = ti.cast(0.0, ti.f64)
             for j in range(gy, gy + ny):
-                v = self.q[s, i, j]
+                v = self.state.q[s, i, j]
                 a += ti.cast(v[0], ti.f64)
-                if ti.static(self.seg):
-                    b += ti.cast(v[self.HPHI], ti.f64)
-            self.rowsum[i, 0] = a
-            self.rowsum[i, 1] = b
+                if ti.static(self.state.seg):
+                    b += ti.cast(v[self.state.HPHI], ti.f64)
+            self.state.rowsum[i, 0] = a
+            self.state.rowsum[i, 1] = b
         ti.loop_config(serialize=True)
         for i in range(gx, gx + nx):
-            self.total[0] += self.rowsum[i, 0]
-            self.total[1] += self.rowsum[i, 1]
-        return ti.Vector([self.total[0], self.total[1]])
+            self.state.total[0] += self.state.rowsum[i, 0]
+            self.state.total[1] += self.state.rowsum[i, 1]
+        return ti.Vector([self.state.total[0], self.state.total[1]])

@@ -8,17 +8,21 @@ bitwise:
 
 * the rest mask of a step's start (``rest``: REST where u = v = 0, else the signs of u and v;
   HELD where a law with hysteresis holds the cell for the whole step; WET where h >= h_min),
-  `RestRules._mark_rest`;
-* the face rules (`RestRules._rest_face`): no mass between two cells at rest, and at least
+  `RestRules.mark_rest`;
+* the face rules (`RestRules.rest_face`): no mass between two cells at rest, and at least
   the upwind cell's outrunning flux where it moves into a slower neighbour; and a face next
   to a cell that was wet or moving at the step's start keeps its flux through all the
-  step's stages (`RestRules._live_at_start`);
-* the projection of a limited stage (`RestRules._project`) and the exact rest of
-  `RestRules._keep_rest`;
+  step's stages (`RestRules.live_at_start`);
+* the projection of a limited stage (`RestRules.project`) and the exact rest of
+  `RestRules.keep_rest`;
 * the skipping of quiescent regions (`RestRules._quiescent`, the wet scan
   `RestRules.wet_extent`) and the mask as part of a checkpoint (`RestRules.rest_state`).
 
-A part of `tiseg.solver.numerics.operator.TaichiOperator`, whose fields and caches it works on.
+A collaborator of `tiseg.solver.numerics.operator.TaichiOperator` that receives the operator's
+state (`state.OperatorState`, which holds the rest mask ``rest`` and the caches that say where
+a step stands) and its ghost cells (`ghosts.GhostCells`, which the wet scan fills first); the
+evaluation of L (`finite_volume.FiniteVolume`), the slot algebra and the split sweeps call its
+Taichi functions.
 """
 
 import numpy as np
@@ -27,31 +31,38 @@ import taichi as ti
 from ...model.physics.params import Params
 from .ranges import piece_at, piece_count
 
-# bits of the rest mask (projected friction), set at a step's start (_mark_rest, _project)
+# bits of the rest mask (projected friction), set at a step's start (mark_rest, project)
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
 X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
-WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: _live_at_start)
+WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: live_at_start)
 
 
 @ti.data_oriented
 class RestRules:
+    def __init__(self, state, ghosts):
+        """``state``: the operator's fields, slots and ranges (`state.OperatorState`, whose
+        rest mask ``rest`` these rules take and read); ``ghosts``: its ghost cells, which the
+        wet scan fills first (`ghosts.GhostCells`)."""
+        self.state = state
+        self.ghosts = ghosts
+
     @ti.kernel
-    def _mark_rest(self, serial: ti.template()):
+    def mark_rest(self, serial: ti.template()):
         """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
         (X_POS / X_NEG, Y_POS / Y_NEG), and WET where h >= h_min, on the cells the faces near
         the active range read (further out no face flux is computed). With a law with
         hysteresis the step's first stage then adds HELD to the cells the static friction
-        holds (_project)."""
-        hmin = self.par[Params.H_MIN]
-        lo = ti.max(self.act[0] - 4, 0)
-        hi = ti.min(self.act[1] + 4, self.NX)
+        holds (project)."""
+        hmin = self.state.par[Params.H_MIN]
+        lo = ti.max(self.state.act[0] - 4, 0)
+        hi = ti.min(self.state.act[1] + 4, self.state.NX)
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((lo, hi), (0, self.NY)):
-            w = self.w[i, j]
+        for i, j in ti.ndrange((lo, hi), (0, self.state.NY)):
+            w = self.state.w[i, j]
             r = w[1] == 0.0
-            if ti.static(not self.is_1d):
-                r = r and w[self.HV] == 0.0
+            if ti.static(not self.state.is_1d):
+                r = r and w[self.state.HV] == 0.0
             flag = 0
             if r:
                 flag = REST
@@ -60,16 +71,16 @@ class RestRules:
                     flag |= X_POS
                 elif w[1] < 0.0:
                     flag |= X_NEG
-                if ti.static(not self.is_1d):
-                    if w[self.HV] > 0.0:
+                if ti.static(not self.state.is_1d):
+                    if w[self.state.HV] > 0.0:
                         flag |= Y_POS
-                    elif w[self.HV] < 0.0:
+                    elif w[self.state.HV] < 0.0:
                         flag |= Y_NEG
             if w[0] >= hmin:
                 flag |= WET
-            if ti.static(self.bcs[0].prescribed):
+            if ti.static(self.state.bcs[0].prescribed):
                 flag = self._inlet_moves(flag, i, j)
-            self.rest[i, j] = ti.cast(flag, ti.i8)
+            self.state.rest[i, j] = ti.cast(flag, ti.i8)
 
     @ti.func
     def _inlet_moves(self, flag, i, j):
@@ -80,45 +91,45 @@ class RestRules:
         ramped inflow admitted nothing, and a one-step run nothing at all)."""
         out = flag
         lo, hi = ti.static(self._inlet_row_range())
-        if i < self.gx and lo <= j < hi:
-            if self.par[Params.IN_ON] > 0.5 and self.par[Params.IN_U] > 0.0:
+        if i < self.state.gx and lo <= j < hi:
+            if self.state.par[Params.IN_ON] > 0.5 and self.state.par[Params.IN_U] > 0.0:
                 out = (flag & ~REST) | X_POS
         return out
 
     def _inlet_row_range(self) -> tuple[int, int]:
         """The array rows [lo, hi) of the inlet's ghost cells (inflow.width, inflow.y0)."""
-        rows = self.cfg.inflow_rows
-        lo, hi = (0, self.ny) if rows is None else rows
-        return self.gy + lo, self.gy + hi
+        rows = self.state.cfg.inflow_rows
+        lo, hi = (0, self.state.ny) if rows is None else rows
+        return self.state.gy + lo, self.state.gy + hi
 
     @ti.func
-    def _wet_at_start(self, i0, j0, i1, j1):
+    def wet_at_start(self, i0, j0, i1, j1):
         """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) at the step's start: their
         face then carries its flux in every stage of the step, even where both cells have
-        thinned below h_min since (_face_wet), so that the step's rates are one smooth
-        function, as for the rest rules (_rest_face). Switched off mid-step, the face's flux
+        thinned below h_min since (face_wet), so that the step's rates are one smooth
+        function, as for the rest rules (rest_face). Switched off mid-step, the face's flux
         stayed in the rate of the step's start only, which RKC's last stage weighs with a
         negative coefficient (about -1.6 dt at 2 stages): a thin cell fed through that face
         was emptied below zero, and the stage limiter's clip to h = 0 then created mass (a
         relative 1e-6 in one step at the margin of a flow spreading from a narrow inlet, the
         levees scene at 150 cells/m). A face that becomes wet mid-step switches on as before."""
-        r = ti.cast(self.rest[i0, j0], ti.i32) | ti.cast(self.rest[i1, j1], ti.i32)
+        r = ti.cast(self.state.rest[i0, j0], ti.i32) | ti.cast(self.state.rest[i1, j1], ti.i32)
         return (r & WET) != 0
 
     @ti.func
-    def _live_at_start(self, i0, j0, i1, j1):
-        """_wet_at_start, or one of the two cells moved at the step's start (a film with a
+    def live_at_start(self, i0, j0, i1, j1):
+        """wet_at_start, or one of the two cells moved at the step's start (a film with a
         velocity, the split sweeps, whose films flow): the face then carries its flux in every
-        stage of the step even where both cells are films now (_face_wet). Between two films
+        stage of the step even where both cells are films now (face_wet). Between two films
         at rest no mass moves: a dry bed stays dry, and the film a flow leaves behind stays
         where the friction stopped it."""
-        r = ti.cast(self.rest[i0, j0], ti.i32) & ti.cast(self.rest[i1, j1], ti.i32)
-        return self._wet_at_start(i0, j0, i1, j1) or (r & REST) == 0
+        r = ti.cast(self.state.rest[i0, j0], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
+        return self.wet_at_start(i0, j0, i1, j1) or (r & REST) == 0
 
     @ti.func
-    def _rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
+    def rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
         """With the projected friction scheme, the mass (and h phi) flux at a face next to a
-        cell at rest. "At rest" is read from the step's initial state (_mark_rest), not from
+        cell at rest. "At rest" is read from the step's initial state (mark_rest), not from
         the stage's: a cell that the first stage stops must not switch its faces off for the
         later ones. The rates of a step are then one smooth function, which RKC's stage
         weights (of both signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a
@@ -143,13 +154,13 @@ class RestRules:
           whose flux does not collapse from one cell to the next the bound lies below the
           central flux and changes nothing; the momentum flux stays the central one."""
         out = F
-        if ti.static(self.phys.fr_projected):
-            r0 = ti.cast(self.rest[i0, j0], ti.i32)
-            r1 = ti.cast(self.rest[i1, j1], ti.i32)
+        if ti.static(self.state.phys.fr_projected):
+            r0 = ti.cast(self.state.rest[i0, j0], ti.i32)
+            r1 = ti.cast(self.state.rest[i1, j1], ti.i32)
             if (r0 & REST) != 0 and (r1 & REST) != 0:
                 out[0] = 0.0
-                if ti.static(self.seg):
-                    out[self.HPHI] = 0.0
+                if ti.static(self.state.seg):
+                    out[self.state.HPHI] = 0.0
             else:
                 # at least the flux by which the upwind cell outruns its neighbour
                 pos = ti.static(X_POS if d == 0 else Y_POS)
@@ -161,19 +172,19 @@ class RestRules:
         return out
 
     @ti.func
-    def _film_faces(self, Fm, Fp, i, j, im, jm, ip, jp):
+    def film_faces(self, Fm, Fp, i, j, im, jm, ip, jp):
         """The fluxes through the low (Fm) and high (Fp) face of cell (i, j) along one
         direction as that cell takes them: a film (thinner than h_min) at rest at the step's
         start takes no momentum through a face to a neighbour at rest. No mass crosses such a
-        face (_rest_face), but its momentum flux, the pressure of the neighbour, stays for the
+        face (rest_face), but its momentum flux, the pressure of the neighbour, stays for the
         neighbour's friction hold to see; a film, with next to no mass to carry it, was given
         speeds of km/s by it. The neighbour still feels it (the cells' friction projections
         already take momentum out of the books)."""
-        r = ti.cast(self.rest[i, j], ti.i32)
+        r = ti.cast(self.state.rest[i, j], ti.i32)
         if (r & REST) != 0 and (r & WET) == 0:
-            if (ti.cast(self.rest[im, jm], ti.i32) & REST) != 0:
+            if (ti.cast(self.state.rest[im, jm], ti.i32) & REST) != 0:
                 Fm = self._no_momentum(Fm)
-            if (ti.cast(self.rest[ip, jp], ti.i32) & REST) != 0:
+            if (ti.cast(self.state.rest[ip, jp], ti.i32) & REST) != 0:
                 Fp = self._no_momentum(Fp)
         return Fm, Fp
 
@@ -181,8 +192,8 @@ class RestRules:
     def _no_momentum(self, F):
         out = F
         out[1] = 0.0
-        if ti.static(not self.is_1d):
-            out[self.HV] = 0.0
+        if ti.static(not self.state.is_1d):
+            out[self.state.HV] = 0.0
         return out
 
     @ti.func
@@ -190,9 +201,9 @@ class RestRules:
         """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
         the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
         the upwind edge state wu, f_d the same of the downwind one wd; h phi then moves at
-        the upwind cell's phi (_rest_face)."""
+        the upwind cell's phi (rest_face)."""
         out = F
-        c = ti.static(1 if d == 0 else self.HV)
+        c = ti.static(1 if d == 0 else self.state.HV)
         fu = wu[0] * ti.max(s * wu[c], 0.0)
         fd = wd[0] * ti.max(s * wd[c], 0.0)
         # f_u - f_d^2 / f_u > s F  <=>  f_u^2 - f_d^2 > s F f_u (f_u > 0): the division only
@@ -201,12 +212,12 @@ class RestRules:
             b = s * (fu - fd * fd / fu)
             if s * b > s * out[0]:  # never false but at a tie of rounding
                 out[0] = b
-                if ti.static(self.seg):
-                    out[self.HPHI] = b * self.phys.transported(wu[self.HPHI])
+                if ti.static(self.state.seg):
+                    out[self.state.HPHI] = b * self.state.phys.transported(wu[self.state.HPHI])
         return out
 
     @ti.func
-    def _project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
+    def project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
         """The friction projection of a stage's result (Physics.project_friction, with the
         coefficient at ``spd0``, the speed of the state the stage started from, and the
         impulse on the thickness ``hb``). With a law
@@ -216,23 +227,23 @@ class RestRules:
         projected. Deciding per stage instead made the starts depend on the step length and
         on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
         out = acc
-        if ti.static(self.phys.law.hysteresis):
-            flag = ti.cast(self.rest[i, j], ti.i32)
+        if ti.static(self.state.phys.law.hysteresis):
+            flag = ti.cast(self.state.rest[i, j], ti.i32)
             if ti.static(first):
                 # nested, not `and`: Taichi's `and` evaluates both sides, and holds() (the start
                 # coefficient mu_S) on every moving cell cost ~5 % of a fingers step
                 if (flag & REST) != 0:
-                    if self.phys.holds(acc, tau) == 1:
+                    if self.state.phys.holds(acc, tau) == 1:
                         flag |= HELD
-                        self.rest[i, j] = ti.cast(flag, ti.i8)
+                        self.state.rest[i, j] = ti.cast(flag, ti.i8)
             if (flag & HELD) != 0:
                 out[1] = 0.0
-                if ti.static(not self.is_1d):
-                    out[self.HV] = 0.0
+                if ti.static(not self.state.is_1d):
+                    out[self.state.HV] = 0.0
             else:
-                out = self.phys.project_friction(acc, tau, spd0, hb)
+                out = self.state.phys.project_friction(acc, tau, spd0, hb)
         else:
-            out = self.phys.project_friction(acc, tau, spd0, hb)
+            out = self.state.phys.project_friction(acc, tau, spd0, hb)
         return out
 
     @staticmethod
@@ -240,7 +251,7 @@ class RestRules:
         return next(k for k in range(n) if k != rate and not (rmask >> k) & 1)
 
     @ti.func
-    def _keep_rest(
+    def keep_rest(
         self, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
     ):
         """A cell at rest after the projection whose state terms all hold the same h and h phi
@@ -250,49 +261,49 @@ class RestRules:
         f = ti.static(self._first_state(n, rate, rmask))
         out = acc
         moving = acc[1] != 0.0
-        if ti.static(not self.is_1d):
-            moving = moving or acc[self.HV] != 0.0
+        if ti.static(not self.state.is_1d):
+            moving = moving or acc[self.state.HV] != 0.0
         # a moving cell (most of a flow) reads no term again: the test costs one branch there
         if not moving:
-            ref = self.q[ss[f], i, j]
+            ref = self.state.q[ss[f], i, j]
             keep = 1
             for k in ti.static(range(n)):
                 if ti.static(k == rate):
                     if r[0] != 0.0:
                         keep = 0
-                    if ti.static(self.seg):
-                        if r[self.HPHI] != 0.0:
+                    if ti.static(self.state.seg):
+                        if r[self.state.HPHI] != 0.0:
                             keep = 0
                 elif ti.static((rmask >> k) & 1):
-                    v = self.q[ss[k], i, j]
+                    v = self.state.q[ss[k], i, j]
                     if v[0] != 0.0:
                         keep = 0
-                    if ti.static(self.seg):
-                        if v[self.HPHI] != 0.0:
+                    if ti.static(self.state.seg):
+                        if v[self.state.HPHI] != 0.0:
                             keep = 0
                 elif ti.static(k != f):
-                    v = self.q[ss[k], i, j]
+                    v = self.state.q[ss[k], i, j]
                     if v[0] != ref[0]:
                         keep = 0
-                    if ti.static(self.seg):
-                        if v[self.HPHI] != ref[self.HPHI]:
+                    if ti.static(self.state.seg):
+                        if v[self.state.HPHI] != ref[self.state.HPHI]:
                             keep = 0
             if keep == 1:
                 out[0] = ref[0]
-                if ti.static(self.seg):
-                    out[self.HPHI] = ref[self.HPHI]
+                if ti.static(self.state.seg):
+                    out[self.state.HPHI] = ref[self.state.HPHI]
         return out
 
     def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts, (NX, -1) if
         none; then (first, last) x index of a live cell, one that may change in the next step
         (_quiescent), found only where resting regions are skipped (else (NX, -1))."""
-        self._set_time(t)
-        if self.skip_rest and self._mask_inflow != self.inflow_on(t):
+        self.state.set_time(t)
+        if self.state.skip_rest and self.state.mask_inflow != self.state.inflow_on(t):
             # the inflow stopped since the last step began: the inlet is a wall now, and the
             # rest mask, taken with the inflow's ghost cells, says nothing of it
-            self._forget_rest()
-        w = self._wet_extent(slot, self.serial_loops())
+            self.state.forget_rest()
+        w = self._wet_extent(slot, self.state.serial_loops())
         return int(w[0]), int(w[1]), int(w[2]), int(w[3])
 
     @ti.kernel
@@ -308,71 +319,75 @@ class RestRules:
         front, not the empty chute. Live cells are looked for on the range the last step
         wrote, [a - 3, b + 3) around the active range: every cell beyond it was quiescent when
         it was left out, and nothing has touched it since."""
-        self._ghosts(s)
-        self.wet[0] = self.NX
-        self.wet[1] = -1
-        self.wet[2] = self.NX
-        self.wet[3] = -1
-        hmin = self.par[Params.H_MIN]
-        lo = ti.max(self.wrng[0] - 3, 0)
-        hi = ti.min(self.wrng[1] + 3, self.NX)
+        self.ghosts.fill(s)
+        self.state.wet[0] = self.state.NX
+        self.state.wet[1] = -1
+        self.state.wet[2] = self.state.NX
+        self.state.wet[3] = -1
+        hmin = self.state.par[Params.H_MIN]
+        lo = ti.max(self.state.wrng[0] - 3, 0)
+        hi = ti.min(self.state.wrng[1] + 3, self.state.NX)
         # the live scan: interior cells only (their neighbours, ghosts included, are read)
-        llo = ti.max(self.act[0] - 3, self.gx)
-        lhi = ti.min(self.act[1] + 3, self.gx + self.nx)
-        B = ti.static(self.rows_per_block)
-        P = ti.static(self.row_pieces)  # pieces of a row, as in _stability
+        llo = ti.max(self.state.act[0] - 3, self.state.gx)
+        lhi = ti.min(self.state.act[1] + 3, self.state.gx + self.state.nx)
+        B = ti.static(self.state.rows_per_block)
+        P = ti.static(self.state.row_pieces)  # pieces of a row, as in _stability
         ti.loop_config(serialize=serial)
         for it in range(piece_count(lo, hi, B, P)):
-            i0, j0, j1 = piece_at(it, lo, B, P, self.gy, self.ny)
-            first = self.NX
+            i0, j0, j1 = piece_at(it, lo, B, P, self.state.gy, self.state.ny)
+            first = self.state.NX
             last = -1
-            lfirst = self.NX
+            lfirst = self.state.NX
             llast = -1
             for r in range(B):
                 i = i0 + r
                 if i < hi:
                     scan_live = llo <= i < lhi
                     for j in range(j0, j1):
-                        if self._live(self.q[s, i, j], hmin):
+                        if self._live(self.state.q[s, i, j], hmin):
                             first = ti.min(first, i)
                             last = ti.max(last, i)
-                        if ti.static(self.skip_rest):
+                        if ti.static(self.state.skip_rest):
                             if scan_live:
                                 if self._quiescent(s, i, j) == 0:
                                     lfirst = ti.min(lfirst, i)
                                     llast = ti.max(llast, i)
             # an atomic per piece only where it moves a bound (see _stability)
             if last >= 0:
-                if first < self.wet[0]:
-                    ti.atomic_min(self.wet[0], first)
-                if last > self.wet[1]:
-                    ti.atomic_max(self.wet[1], last)
+                if first < self.state.wet[0]:
+                    ti.atomic_min(self.state.wet[0], first)
+                if last > self.state.wet[1]:
+                    ti.atomic_max(self.state.wet[1], last)
             if llast >= 0:
-                if lfirst < self.wet[2]:
-                    ti.atomic_min(self.wet[2], lfirst)
-                if llast > self.wet[3]:
-                    ti.atomic_max(self.wet[3], llast)
-        return ti.Vector([self.wet[0], self.wet[1], self.wet[2], self.wet[3]])
+                if lfirst < self.state.wet[2]:
+                    ti.atomic_min(self.state.wet[2], lfirst)
+                if llast > self.state.wet[3]:
+                    ti.atomic_max(self.state.wet[3], llast)
+        return ti.Vector(
+            [self.state.wet[0], self.state.wet[1], self.state.wet[2], self.state.wet[3]]
+        )
 
     @ti.func
     def _quiescent(self, s, i, j):
         """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
         next one as well if nothing within the step's reach has changed: it was at rest at
         the step's start, the static friction held it (HELD) or it is dry (_dry_film), and its four
-        neighbours were at rest too. No mass then crossed its faces (_rest_face), so
-        _keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
+        neighbours were at rest too. No mass then crossed its faces (rest_face), so
+        keep_rest kept its h and h phi bitwise and its momentum stayed 0. Whether the static
         friction holds a cell does not depend on the step length (Physics.holds), so the same
         data around the cell give the same answer in the next step: a cell further than the
         next step's reach from every live cell keeps its bits without being computed. (Rest
         mask of the last step: REST from its start, HELD from its first stage.)"""
-        r = ti.cast(self.rest[i, j], ti.i32)
+        r = ti.cast(self.state.rest[i, j], ti.i32)
         q = 0
         if (r & REST) != 0:
-            if (r & HELD) != 0 or self._dry_film(self.q[s, i, j][0]):
-                nb = ti.cast(self.rest[i - 1, j], ti.i32) & ti.cast(self.rest[i + 1, j], ti.i32)
-                if ti.static(not self.is_1d):
-                    nb &= ti.cast(self.rest[i, j - 1], ti.i32)
-                    nb &= ti.cast(self.rest[i, j + 1], ti.i32)
+            if (r & HELD) != 0 or self._dry_film(self.state.q[s, i, j][0]):
+                nb = ti.cast(self.state.rest[i - 1, j], ti.i32) & ti.cast(
+                    self.state.rest[i + 1, j], ti.i32
+                )
+                if ti.static(not self.state.is_1d):
+                    nb &= ti.cast(self.state.rest[i, j - 1], ti.i32)
+                    nb &= ti.cast(self.state.rest[i, j + 1], ti.i32)
                 if (nb & REST) != 0:
                     q = 1
         return q
@@ -381,41 +396,42 @@ class RestRules:
     def _dry_film(self, h):
         """A cell that no source acts on (Physics.acts): h = 0 where films flow (the split
         sweeps), thinner than h_min in the unsplit scheme."""
-        return not self.phys.acts(h)
+        return not self.state.phys.acts(h)
 
     @ti.func
     def _live(self, q, hmin):
         """Whether a cell of conserved state q is wet (h >= h_min) or a moving film (its
-        momentum, which is zero exactly where its velocity is: TaichiOperator._moving)."""
+        momentum, which is zero exactly where its velocity is: RestRules.moving)."""
         out = q[0] >= hmin
         if not out:
-            out = self._moving(q)
+            out = self.moving(q)
         return out
 
-    def _forget_rest(self) -> None:
-        """Clear the rest mask: every cell counts as live until a step has marked it again."""
-        if getattr(self, "rest", None) is not None:
-            self.rest.fill(0)
-        # whether an inflow ran when the mask was taken (None: no mask)
-        self._mask_inflow = None
+    @ti.func
+    def moving(self, w):
+        """Whether primitives w have a velocity."""
+        out = w[1] != 0.0
+        if ti.static(not self.state.is_1d):
+            out = out or w[self.state.HV] != 0.0
+        return out
 
     def rest_state(self) -> dict[str, np.ndarray] | None:
         """What the skipping of resting regions needs besides slot 0, for a checkpoint: the
         rest mask of the last step and the active and wet ranges (None without skipping)."""
-        if not self.skip_rest:
+        if not self.state.skip_rest:
             return None
-        on = -1 if self._mask_inflow is None else int(self._mask_inflow)
+        on = -1 if self.state.mask_inflow is None else int(self.state.mask_inflow)
         return {
-            "rest_mask": self.rest.to_numpy(),
-            "ranges": np.array([*self.active, *self.wet_range, on], dtype=np.int64),
+            "rest_mask": self.state.rest.to_numpy(),
+            "ranges": np.array([*self.state.active, *self.state.wet_range, on], dtype=np.int64),
         }
 
     def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
         """Inverse of `rest_state` (after slot 0 was set): the next step then skips
         what the run it continues would have skipped, so a resumed run keeps its bits."""
-        if not self.skip_rest:
+        if not self.state.skip_rest:
             return
-        self.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
+        self.state.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
         a, b, wa, wb, on = (int(v) for v in ranges)
-        self.set_active(a, b, (wa, wb))
-        self._mask_inflow = None if on < 0 else bool(on)
+        self.state.set_active(a, b, (wa, wb))
+        self.state.mask_inflow = None if on < 0 else bool(on)

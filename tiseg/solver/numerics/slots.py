@@ -9,39 +9,47 @@ the same launch) and `SlotAlgebra.blend` (snapshots between two step states). Ea
 applies the same combination to the boundary budgets (``bud``), so slot 0 accumulates exactly
 the time integral of the inflow the scheme uses.
 
-A part of `tiseg.solver.numerics.operator.TaichiOperator`, whose fields and caches it works on
-(as `tiseg.solver.numerics.split.SplitSweeps` is); the friction projection of a limited stage
-is `tiseg.solver.numerics.rest.RestRules`'.
+A collaborator of `tiseg.solver.numerics.operator.TaichiOperator`: it receives the operator's
+state (`state.OperatorState`, whose slots, budgets and caches it writes), the evaluation of L
+(`finite_volume.FiniteVolume`: a fused stage's rate, the stage limiter) and the rest rules
+(`rest.RestRules`: the friction projection of a limited stage and its exact rest).
 """
 
-import numpy as np
 import taichi as ti
 
-from ...model.physics.params import Params
+from .state import NBUDGET
 
 MAX_TERMS = 6
-NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 
 
 @ti.data_oriented
 class SlotAlgebra:
+    def __init__(self, state, fv, rules):
+        """``state``: the slots and the budgets they carry (`state.OperatorState`); ``fv``:
+        the evaluation of L whose rate a fused stage uses and whose limiter a limited stage
+        applies (`finite_volume.FiniteVolume`); ``rules``: the friction projection and exact
+        rest of a limited stage (`rest.RestRules`)."""
+        self.state = state
+        self.fv = fv
+        self.rules = rules
+
     def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
         can touch (the active range and its stencil halo; all cells without an active range);
-        ``limit=True`` applies the stage limiter (`_limit`) in the same pass, and with
+        ``limit=True`` applies the stage limiter (`limit`) in the same pass, and with
         the projected friction scheme the friction projection over ``tau`` seconds (the
         stage's share of the step). ``rates``: the slots among the terms that hold rates, not
-        states (for the exact rest of _keep_rest).
+        states (for the exact rest of keep_rest).
 
         dst may be one of the sources: the update is element-wise.
         """
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
-        first = self._first_of_step(limit)
+        first = self.state.first_of_step(limit)
         self._combine(
-            dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
+            dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, first, self.state.serial_loops()
         )
-        self._written(dst, primitives=bool(limit))
+        self.state.written(dst, primitives=bool(limit))
 
     def stage(
         self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
@@ -51,27 +59,27 @@ class SlotAlgebra:
         bits, in one launch and without storing the rate. Exactly one term is the rate.
         ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
         stage is a convex combination of states and one Euler step of that length."""
-        self._no_operator()
+        self.fv.no_operator()
         rate = [k for k, (_, s) in enumerate(terms) if s < 0]
         assert len(rate) == 1, terms
         tau = terms[rate[0]][0] if tau is None else tau
-        self._prepare(src, t)
+        self.fv.prepare(src, t)
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
-        first = self._first_of_step(limit)
+        first = self.state.first_of_step(limit)
         self._combine(
-            dst, n, rate[0], bool(limit), *cs, *ss, float(tau), rmask, first, self.serial_loops()
+            dst,
+            n,
+            rate[0],
+            bool(limit),
+            *cs,
+            *ss,
+            float(tau),
+            rmask,
+            first,
+            self.state.serial_loops(),
         )
-        self._written(dst, primitives=bool(limit))
-
-    def _first_of_step(self, limit: bool) -> bool:
-        """Whether this limited combination is the step's first stage, where a law with
-        hysteresis decides which resting cells the static friction holds (_project): the
-        first one after the rest mask was computed for a new step."""
-        first = bool(limit) and self._first_stage and self.phys.law.hysteresis
-        if limit:
-            self._first_stage = False
-        return first
+        self.state.written(dst, primitives=bool(limit))
 
     @staticmethod
     def _rate_mask(terms, rates) -> int:
@@ -88,17 +96,8 @@ class SlotAlgebra:
     def blend(self, dst: int, a: int, b: int, theta: float) -> None:
         """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
         theta = 0 a copy of slot a. For snapshots between two step states (tiseg.run.callbacks)."""
-        self._written(dst)
-        self._blend(dst, a, b, float(theta), self.serial_loops(whole=True))
-
-    def budget(self, slot: int = 0) -> np.ndarray:
-        """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
-        return self.bud.to_numpy()[slot].astype(float)
-
-    def reset_budget(self, values=None) -> None:
-        b = self.bud.to_numpy()
-        b[0] = 0.0 if values is None else values
-        self.bud.from_numpy(b)
+        self.state.written(dst)
+        self._blend(dst, a, b, float(theta), self.state.serial_loops(whole=True))
 
     @ti.kernel
     def _combine(
@@ -136,8 +135,8 @@ class SlotAlgebra:
         cs = ti.Vector([c0, c1, c2, c3, c4, c5])
         ss = ti.Vector([s0, s1, s2, s3, s4, s5], dt=ti.i32)
         if ti.static(rate >= 0):
-            self._face_fluxes(serial)
-            self._boundary_rates(self.nslots)
+            self.fv.face_fluxes(serial)
+            self.fv.boundary_rates(self.state.nslots)
         self._combine_cells(d, n, rate, limit, cs, ss, tau, rmask, first, serial)
 
     @ti.func
@@ -155,14 +154,14 @@ class SlotAlgebra:
         serial: ti.template(),
     ):
         """slot d := sum of c_k * term k, term k being slot s_k, or for k == ``rate`` (>= 0)
-        L at the cell (_cell_rate); then the stage limiter if ``limit``, which also leaves the
+        L at the cell (cell_rate); then the stage limiter if ``limit``, which also leaves the
         result's primitives in w (the next evaluation is of slot d). The sum runs in the order
         of the terms, so a fused stage gives the bits of _rates followed by _combine.
 
         Cells: the active x range widened by the 3 cells either side that the next
         evaluation's stencil reads. Why that is enough: the active range is fixed for the
         whole step (set_active runs between steps), every rate is zero on the widened range
-        outside the active one (_cell_rate), and the first stage combines from slot 0, which
+        outside the active one (cell_rate), and the first stage combines from slot 0, which
         is valid everywhere. So within a step every slot is valid on the widened range, and
         nothing beyond it is read. Cells further out are dry films that the step does not
         change; skipping them saves two passes over the dry chute per stage.
@@ -171,60 +170,50 @@ class SlotAlgebra:
         the rate is of, or any of the sources: the update is element-wise.
 
         With the projected friction scheme the limiter is followed by the friction projection
-        over ``tau``, the stage's share of the step (_project), and by _keep_rest; bit k of
+        over ``tau``, the stage's share of the step (project), and by keep_rest; bit k of
         ``rmask`` marks term k as a stored rate rather than a state; ``first``: this is the
         step's first stage (its static-friction decisions are made here)."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        lo = ti.max(self.act[0] - 3, gx)
-        hi = ti.min(self.act[1] + 3, gx + nx)
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        lo = ti.max(self.state.act[0] - 3, gx)
+        hi = ti.min(self.state.act[1] + 3, gx + nx)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
-            r = ti.Vector.zero(self.fp, self.nc)
+            r = ti.Vector.zero(self.state.fp, self.state.nc)
             # the speed of the state the stage starts from (the prepared one): the friction
             # coefficient of the projection (Physics.project_friction)
             spd0 = 0.0 * r[0]
-            if ti.static(limit and self.phys.fr_projected):
-                spd0 = self.phys.speed_mag(self.w[i, j])
+            if ti.static(limit and self.state.phys.fr_projected):
+                spd0 = self.state.phys.speed_mag(self.state.w[i, j])
             if ti.static(rate >= 0):
-                r = self._cell_rate(i, j)
-            acc = ti.Vector.zero(self.fp, self.nc)
+                r = self.fv.cell_rate(i, j)
+            acc = ti.Vector.zero(self.state.fp, self.state.nc)
             for k in ti.static(range(n)):
-                term = r if ti.static(k == rate) else self.q[ss[k], i, j]
+                term = r if ti.static(k == rate) else self.state.q[ss[k], i, j]
                 if ti.static(k == 0):
                     acc = cs[0] * term
                 else:
                     acc += cs[k] * term
             if ti.static(limit):
-                acc = self._limit(acc)
-                if ti.static(self.phys.fr_projected):
-                    acc = self._project(acc, tau, i, j, first, spd0, acc[0])
-                    acc = self._keep_rest(acc, r, i, j, n, rate, rmask, ss)
-                self.w[i, j] = self._primitive(acc)
-            self.q[d, i, j] = acc
+                acc = self.fv.limit(acc)
+                if ti.static(self.state.phys.fr_projected):
+                    acc = self.rules.project(acc, tau, i, j, first, spd0, acc[0])
+                    acc = self.rules.keep_rest(acc, r, i, j, n, rate, rmask, ss)
+                self.state.w[i, j] = self.fv.primitive(acc)
+            self.state.q[d, i, j] = acc
         ti.loop_config(serialize=True)  # a handful of iterations
         for b in range(NBUDGET):
             acc = 0.0 * cs[0]
             for k in ti.static(range(n)):
-                bk = self.bud[self.nslots, b] if ti.static(k == rate) else self.bud[ss[k], b]
+                bk = (
+                    self.state.bud[self.state.nslots, b]
+                    if ti.static(k == rate)
+                    else self.state.bud[ss[k], b]
+                )
                 if ti.static(k == 0):
                     acc = cs[0] * bk
                 else:
                     acc += cs[k] * bk
-            self.bud[d, b] = acc
-
-    @ti.func
-    def _limit(self, v):
-        """The stage limiter: h >= 0, no momentum in films thinner than h_min (where there
-        is no material in the split sweeps, whose films flow: Physics.acts), 0 <= h phi <= h."""
-        h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
-        v[0] = h
-        if not self.phys.acts(h):
-            v[1] = 0.0
-            if ti.static(not self.is_1d):
-                v[self.HV] = 0.0
-        if ti.static(self.seg):
-            v[self.HPHI] = ti.min(ti.max(v[self.HPHI], 0.0), h)
-        return v
+            self.state.bud[d, b] = acc
 
     @ti.kernel
     def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
@@ -233,37 +222,11 @@ class SlotAlgebra:
         which gives a's bits where b == a: a deposit at rest then has the same h in every
         snapshot, as it has in the step states ((1 - theta) a + theta a can be an ulp off)."""
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange(self.NX, self.NY):
-            qa = self.q[a, i, j]
-            self.q[d, i, j] = qa + theta * (self.q[b, i, j] - qa)
+        for i, j in ti.ndrange(self.state.NX, self.state.NY):
+            qa = self.state.q[a, i, j]
+            self.state.q[d, i, j] = qa + theta * (self.state.q[b, i, j] - qa)
         ti.loop_config(serialize=True)  # a handful of iterations
         for k in range(NBUDGET):
-            self.bud[d, k] = self.bud[a, k] + theta * (self.bud[b, k] - self.bud[a, k])
-
-    @ti.func
-    def _boundary_rates(self, d):
-        """Net inflow rates through the domain's faces, summed in a fixed order."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        dx = self.par[Params.DX]
-        dy = self.par[Params.DY]
-        ti.loop_config(serialize=True)
-        for b in range(NBUDGET):
-            self.bud[d, b] = 0.0
-        # faces outside the active range were not computed this time: they carry no flux
-        wl = 1.0 if self.act[0] == gx else 0.0
-        wr = 1.0 if self.act[1] == gx + nx else 0.0
-        ti.loop_config(serialize=True)
-        for j in range(gy, gy + ny):
-            self.bud[d, 0] += (wl * self.fx[gx - 1, j][0] - wr * self.fx[gx + nx - 1, j][0]) * dy
-            if ti.static(self.seg):
-                self.bud[d, 1] += (
-                    wl * self.fx[gx - 1, j][self.HPHI] - wr * self.fx[gx + nx - 1, j][self.HPHI]
-                ) * dy
-        if ti.static(not self.is_1d):
-            ti.loop_config(serialize=True)
-            for i in range(self.act[0], self.act[1]):
-                self.bud[d, 2] += (self.fy[i, gy - 1][0] - self.fy[i, gy + ny - 1][0]) * dx
-                if ti.static(self.seg):
-                    self.bud[d, 3] += (
-                        self.fy[i, gy - 1][self.HPHI] - self.fy[i, gy + ny - 1][self.HPHI]
-                    ) * dx
+            self.state.bud[d, k] = self.state.bud[a, k] + theta * (
+                self.state.bud[b, k] - self.state.bud[a, k]
+            )

@@ -6,7 +6,7 @@ integrated by Runge-Kutta stages that each need the fluxes of both directions, a
 the state a whole step along one direction from a single flux evaluation. Along direction d
 (spacing D, lambda = dt / D), on the cells' primitives w:
 
-1. the limited slopes s of the operator (`TaichiOperator._slope`: minmod-theta or the
+1. the limited slopes s of the operator (`FiniteVolume.slope`: minmod-theta or the
    WENO-type slope, with h >= 0 and 0 <= phi <= 1 at the edges);
 2. the edge states w -+ s/2, conserved q_W, q_E, evolved half a step by the cell's own flux
    difference (Hancock's predictor; van Leer 1984, Toro 2009 section 14.4):
@@ -43,13 +43,13 @@ The basal friction (6.4) is the projected one (Physics.project_friction; numeric
 
 * the x predictor projects each evolved edge over dt/2 at its cell's speed, so that the
   half-step edges see the friction with the gravity it balances;
-* the first sweep of a step takes the step's rest mask (RestRules._mark_rest): no mass or
+* the first sweep of a step takes the step's rest mask (RestRules.mark_rest): no mass or
   h phi crosses a face between two cells at rest at the step's start, and such a face's flux
   is computed with both edges' velocities zero (the momentum a sweep gives a resting cell is
   not yet frictioned, and the flux's dissipation would trade it between the next sweep's
   cells); the flux floor of a cell moving into a slower one applies as in the unsplit scheme;
 * the last sweep projects the friction of the whole step, over dt, at each cell's speed at
-  the step's start (RestRules._project). The hold then sees the whole step's driving
+  the step's start (RestRules.project). The hold then sees the whole step's driving
   (gravity, pressure along x and along y), and the steady uniform flow (4.3) is kept to
   round-off whichever sweep comes first. A projection after each sweep would see one
   direction's driving at a time and could release in y a cell held in x.
@@ -62,7 +62,7 @@ The viscous stress of (6.2) is a third operator V: with viscosity a step of dt i
 symmetric pair of half steps x(dt/2) y(dt/2) | V(dt) | y(dt/2) x(dt/2) (x | V | x in 1D),
 Strang's splitting, so the splitting error is second order. V (`viscous_stage`) moves only
 the momenta: the divergence of the unsplit operator's
-viscous face stresses (TaichiOperator._x_viscous, _y_viscous: harmonic face coefficients,
+viscous face stresses (FiniteVolume.x_viscous, y_viscous: harmonic face coefficients,
 cross derivatives over four cells), integrated by s RKC stages (the stepper,
 tiseg.solver.timestepping.split, picks s from dt rho_visc as RKC does, at least 2), so the
 step stays the convective one where the explicit viscous limit is shorter. The stages are
@@ -93,9 +93,20 @@ from .rest import REST
 
 @ti.data_oriented
 class SplitSweeps:
-    """The sweeps of the split scheme, a part of `TaichiOperator` (its fields ``w``,
-    ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
-    which only a split scene allocates)."""
+    """The sweeps of the split scheme and its viscous sub-step."""
+
+    def __init__(self, state, ghosts, fv, rules):
+        """``state``: the operator's fields, slots and ranges (`state.OperatorState`: ``w``,
+        ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
+        which only a split scene allocates); ``ghosts``: its ghost cells
+        (`ghosts.GhostCells`); ``fv``: the evaluation of L whose slopes, numerical fluxes,
+        viscous stresses and limiter the sweeps use (`finite_volume.FiniteVolume`);
+        ``rules``: the projected friction's face rules and projection (`rest.RestRules`)."""
+        self.state = state
+        self.ghosts = ghosts
+        self.fv = fv
+        self.rules = rules
+        self.inlet_rows = (0, 0)  # (set by viscous_stage before its kernel compiles)
 
     def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
         """One sweep along d (0 = x, 1 = y) of slot 0 over dt from time t: ghost cells (an
@@ -104,32 +115,30 @@ class SplitSweeps:
         ``first``, ``last``: the sweep opens or closes its step (both in 1D). With the
         projected friction the first sweep takes the step's rest mask and initial speeds,
         and the last one projects the friction of the whole step."""
-        if d == 0 and self.bc[0] == "periodic":
+        if d == 0 and self.state.bc[0] == "periodic":
             # the ghosts' draining factors are copied from the edge cells, which the factor
             # pass computes only on the active range (the simulation keeps it whole then)
-            assert self.active == (self.gx, self.gx + self.nx), "periodic x: whole range"
-        fr = self.phys.fr_projected
+            assert self.state.active == (self.state.gx, self.state.gx + self.state.nx), (
+                "periodic x: whole range"
+            )
+        fr = self.state.phys.fr_projected
         if fr and first:
-            self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
+            self.fv.prepare(0, t)  # the rest mask of the step's initial state (if not taken)
         # an inflow's ghost cells hold its state at mid-step, the time of the predicted edges
         # they face (the ramp of (6.8) to second order; a step that begins when the inflow
         # stops sees a wall); other ghost cells do not depend on the time
-        tg = t + 0.5 * dt if self.bc[0] == "inflow" else t
-        self._set_time(tg)
-        key = (0, tg, self.active)
+        tg = t + 0.5 * dt if self.state.bc[0] == "inflow" else t
+        self.state.set_time(tg)
         # what the last preparation left valid in w: everything (a stability pass at tg on
         # slot 0), the interior (the last sweep, or a stability pass at another time), or
         # nothing
-        interior = self._interior == (0, self.active) or (
-            self._prepared is not None and self._prepared[::2] == key[::2]
-        )
-        fresh = 2 if self._prepared == key else (1 if interior else 0)
-        lam = dt / (self.cfg.dx if d == 0 else self.cfg.dy)
+        fresh = self.state.fresh(0, tg)
+        lam = dt / (self.state.cfg.dx if d == 0 else self.state.cfg.dy)
         # compile-time flags only where they change the code: with the projected friction
         first, last = bool(fr and first), bool(fr and last)
-        hold = self._first_of_step(True) if last else False
-        self._sweep(d, fresh, lam, dt, first, last, hold, self.serial_loops())
-        self._written(0, primitives=True)
+        hold = self.state.first_of_step(True) if last else False
+        self._sweep(d, fresh, lam, dt, first, last, hold, self.state.serial_loops())
+        self.state.written(0, primitives=True)
 
     @ti.kernel
     def _sweep(
@@ -148,11 +157,11 @@ class SplitSweeps:
         draining factors, the update with its budget (with the friction projection of the
         step if ``last``; ``hold``: a law with hysteresis decides which cells it holds)."""
         if ti.static(fresh < 2):
-            self._ghosts(0)
+            self.ghosts.fill(0)
             if ti.static(fresh == 1):
-                self._edge_primitives(0, serial)
+                self.fv.edge_primitives(0, serial)
             else:
-                self._primitives(0, serial)
+                self.fv.primitives(0, serial)
         self._predict(d, lam, dt, serial)
         self._sweep_faces(d, serial)
         self._drain_factors(d, lam, serial)
@@ -174,22 +183,22 @@ class SplitSweeps:
     def _predict(self, d: ti.template(), lam, dt, serial: ti.template()):
         """Hancock's predicted edge states of every cell a face of this sweep reads, as
         primitives: west/south edge in ew, east/north edge in ee."""
-        gy, ny = ti.static(self.gy, self.ny)
-        a, b = self.act[0], self.act[1]
-        ph = self.phys
+        gy, ny = ti.static(self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        ph = self.state.phys
         ilo, ihi, jlo, jhi = a, b, gy, gy + ny
         if ti.static(d == 0):
-            ilo, ihi = ti.max(a - 1, 1), ti.min(b + 1, self.NX - 1)
+            ilo, ihi = ti.max(a - 1, 1), ti.min(b + 1, self.state.NX - 1)
         else:
             jlo, jhi = gy - 1, gy + ny + 1
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
-            w0 = self.w[i, j]
+            w0 = self.state.w[i, j]
             s = w0 * 0.0
-            if ti.static(not self.rec_first):
+            if ti.static(not self.state.rec_first):
                 im, jm = self._nb(i, j, d, -1)
                 ip, jp = self._nb(i, j, d, 1)
-                s = self._slope(self.w[im, jm], w0, self.w[ip, jp])
+                s = self.fv.slope(self.state.w[im, jm], w0, self.state.w[ip, jp])
             wW = w0 - 0.5 * s
             wE = w0 + 0.5 * s
             qW = ph.conserved(wW)
@@ -210,8 +219,8 @@ class SplitSweeps:
                 spd = ph.speed_mag(w0)
                 pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0])
                 pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0])
-            self.ew[i, j] = self._fast_primitive(pW)
-            self.ee[i, j] = self._fast_primitive(pE)
+            self.state.ew[i, j] = self.fv.fast_primitive(pW)
+            self.state.ee[i, j] = self.fv.fast_primitive(pE)
 
     @ti.func
     def _ghost_source(self, i):
@@ -223,17 +232,19 @@ class SplitSweeps:
         it (with +1 the gravity source pushed mass through a wall on a slope). An inflow's
         ghost cells hold the prescribed state, which is not evolved (keep = 1); a stopped
         inflow is a wall."""
-        gx, nx = ti.static(self.gx, self.nx)
+        gx, nx = ti.static(self.state.gx, self.state.nx)
         # the components' kinds as compile-time bools (ti.static takes no objects)
-        lo_mirrors, lo_prescribed = ti.static(self.bcs[0].mirrors, self.bcs[0].prescribed)
-        hi_mirrors = ti.static(self.bcs[1].mirrors)
+        lo_mirrors, lo_prescribed = ti.static(
+            self.state.bcs[0].mirrors, self.state.bcs[0].prescribed
+        )
+        hi_mirrors = ti.static(self.state.bcs[1].mirrors)
         sgn = 1.0
         keep = 0
         if i < gx:
             if ti.static(lo_mirrors):
                 sgn = -1.0
             elif ti.static(lo_prescribed):
-                if self.par[Params.IN_ON] > 0.5:
+                if self.state.par[Params.IN_ON] > 0.5:
                     keep = 1
                 else:
                     sgn = -1.0
@@ -243,27 +254,13 @@ class SplitSweeps:
         return sgn, keep
 
     @ti.func
-    def _fast_primitive(self, q):
-        """TaichiOperator._primitive, with its square root only where it matters: for
-        h >= h_eps the desingularised velocity sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4))
-        is (hu) / h, up to rounding."""
-        h = ti.max(q[0], 0.0)
-        h4 = h * h * h * h
-        r = 0.0 * h
-        if h4 >= self.par[Params.H_EPS4]:
-            r = 1.0 / h
-        else:
-            r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.par[Params.H_EPS4])
-        return self._primitive_of(q, h, r)
-
-    @ti.func
     def _sweep_faces(self, d: ti.template(), serial: ti.template()):
         """Numerical fluxes between the predicted edges: the face (m, m + 1) along d at m's
         index, in fx (d = 0) or fy (d = 1); zero between two films thinner than h_min at rest
-        (TaichiOperator._face_wet)."""
-        gy, ny = ti.static(self.gy, self.ny)
-        a, b = self.act[0], self.act[1]
-        hmin = self.par[Params.H_MIN]
+        (FiniteVolume.face_wet)."""
+        gy, ny = ti.static(self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        hmin = self.state.par[Params.H_MIN]
         ilo, ihi, jlo, jhi = a, b, gy, gy + ny
         if ti.static(d == 0):
             ilo = a - 1
@@ -272,11 +269,11 @@ class SplitSweeps:
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
             i1, j1 = self._nb(i, j, d, 1)
-            F = ti.Vector.zero(self.fp, self.nc)
-            if self._face_wet(self.w[i, j], self.w[i1, j1], hmin, i, j, i1, j1):
-                wl = self.ee[i, j]
-                wr = self.ew[i1, j1]
-                if ti.static(self.phys.fr_projected):
+            F = ti.Vector.zero(self.state.fp, self.state.nc)
+            if self.fv.face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1):
+                wl = self.state.ee[i, j]
+                wr = self.state.ew[i1, j1]
+                if ti.static(self.state.phys.fr_projected):
                     if self._both_at_rest(i, j, i1, j1):
                         # two cells at rest at the step's start meet with no velocity: the
                         # momentum a sweep gave them is not yet frictioned, and the flux's
@@ -285,18 +282,18 @@ class SplitSweeps:
                         # scheme's first stage does)
                         wl = self._still(wl)
                         wr = self._still(wr)
-                F = self._face_flux(wl, wr, d)
+                F = self.fv.face_flux(wl, wr, d)
                 # the projected friction's face rules, from the step's rest mask
-                F = self._rest_face(F, wl, wr, d, i, j, i1, j1)
+                F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
             if ti.static(d == 0):
-                self.fx[i, j] = F
+                self.state.fx[i, j] = F
             else:
-                self.fy[i, j] = F
+                self.state.fy[i, j] = F
 
     @ti.func
     def _both_at_rest(self, i, j, i1, j1):
         """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
-        r = ti.cast(self.rest[i, j], ti.i32) & ti.cast(self.rest[i1, j1], ti.i32)
+        r = ti.cast(self.state.rest[i, j], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
         return (r & REST) != 0
 
     @ti.func
@@ -304,17 +301,17 @@ class SplitSweeps:
         """The primitive state w with its velocities zero."""
         out = w
         out[1] = 0.0
-        if ti.static(not self.is_1d):
-            out[self.HV] = 0.0
+        if ti.static(not self.state.is_1d):
+            out[self.state.HV] = 0.0
         return out
 
     @ti.func
     def _across(self, d: ti.template()):
         """The range [lo, hi) of cells across d that a sweep along d updates: the interior
         rows in x, the active columns in y."""
-        lo, hi = self.gy, self.gy + self.ny
+        lo, hi = self.state.gy, self.state.gy + self.state.ny
         if ti.static(d == 1):
-            lo, hi = self.act[0], self.act[1]
+            lo, hi = self.state.act[0], self.state.act[1]
         return lo, hi
 
     @ti.func
@@ -327,9 +324,9 @@ class SplitSweeps:
 
     @ti.func
     def _face(self, i, j, d: ti.template()):
-        F = self.fx[i, j]
+        F = self.state.fx[i, j]
         if ti.static(d == 1):
-            F = self.fy[i, j]
+            F = self.state.fy[i, j]
         return F
 
     @ti.func
@@ -340,8 +337,8 @@ class SplitSweeps:
         are (ghosts, cells beyond the active range), except that a periodic boundary's ghost
         cells take their images' factors. A pass of its own: the update must read its
         neighbours' factors, computed from their h before the update."""
-        gy, ny = ti.static(self.gy, self.ny)
-        a, b = self.act[0], self.act[1]
+        gy, ny = ti.static(self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
         ilo, ihi, jlo, jhi = a, b, gy, gy + ny
         if ti.static(d == 0):
             ilo, ihi = a - 1, b + 1
@@ -357,46 +354,48 @@ class SplitSweeps:
                 im, jm = self._nb(i, j, d, -1)
                 Fp = self._face(i, j, d)
                 Fm = self._face(im, jm, d)
-                q0 = self.q[0, i, j]
+                q0 = self.state.q[0, i, j]
                 out = lam * (ti.max(Fp[0], 0.0) - ti.min(Fm[0], 0.0))
                 if out > q0[0]:
                     th = q0[0] / out
-                if ti.static(self.seg):
+                if ti.static(self.state.seg):
                     # the small particles (h phi) and the large ones (h (1 - phi)) of the cell
                     # as well: phi then stays in [0, 1] without the limiter's clip, which
                     # would create or destroy particles (with phi_flux "upwind" all three
                     # fluxes of a face run the same way, so one factor serves the face)
-                    P = ti.static(self.HPHI)
+                    P = ti.static(self.state.HPHI)
                     out_s = lam * (ti.max(Fp[P], 0.0) - ti.min(Fm[P], 0.0))
                     if out_s * th > q0[P]:
                         th = q0[P] / out_s
                     out_l = lam * (ti.max(Fp[0] - Fp[P], 0.0) - ti.min(Fm[0] - Fm[P], 0.0))
                     if out_l * th > q0[0] - q0[P]:
                         th = (q0[0] - q0[P]) / out_l
-            self.drain[i, j] = th
+            self.state.drain[i, j] = th
         # across a periodic boundary the ghost cell is its image: the face there is one face
         # of two cells, so both must scale it by the same factor (else mass is made or lost)
-        if ti.static(self.bcs[2 * d].periodic):
+        if ti.static(self.state.bcs[2 * d].periodic):
             lo, hi = self._across(d)
-            ti.loop_config(serialize=self.strip_serial)  # a column or a row of cells
+            ti.loop_config(serialize=self.state.strip_serial)  # a column or a row of cells
             for k in range(lo, hi):
                 self._periodic_image(d, k)
 
     @ti.func
     def _periodic_image(self, d: ti.template(), k):
         """The draining factors of the two ghost cells at index k across d from their images."""
-        g, n = ti.static((self.gx, self.nx) if d == 0 else (self.gy, self.ny))
+        g, n = ti.static(
+            (self.state.gx, self.state.nx) if d == 0 else (self.state.gy, self.state.ny)
+        )
         i0, j0 = self._along(d, g - 1, k)
         i1, j1 = self._along(d, g + n - 1, k)
-        self.drain[i0, j0] = self.drain[i1, j1]
+        self.state.drain[i0, j0] = self.state.drain[i1, j1]
         i0, j0 = self._along(d, g + n, k)
         i1, j1 = self._along(d, g, k)
-        self.drain[i0, j0] = self.drain[i1, j1]
+        self.state.drain[i0, j0] = self.state.drain[i1, j1]
 
     @ti.func
     def _gravity(self, h):
         """g sin(zeta) h (Physics.source without friction; films included)."""
-        return h * self.par[Params.G_SIN]
+        return h * self.state.par[Params.G_SIN]
 
     @ti.func
     def _scaled(self, F, th_lo, th_hi):
@@ -423,21 +422,21 @@ class SplitSweeps:
         factors (+ the gravity source in the x sweep), limited, with its primitives into w;
         then the boundary fluxes of the sweep times dt into slot 0's budget. With the
         projected friction: the first sweep of a step keeps the initial speeds (2D), the
-        last one projects the friction over the whole step at those speeds (RestRules._project,
+        last one projects the friction over the whole step at those speeds (RestRules.project,
         where ``hold`` lets a law with hysteresis hold the cells at rest)."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         fr = ti.static(first or last)  # (the projected friction: a sweep that opens or closes)
-        a, b = self.act[0], self.act[1]
+        a, b = self.state.act[0], self.state.act[1]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((a, b), (gy, gy + ny)):
             im, jm = self._nb(i, j, d, -1)
             ip, jp = self._nb(i, j, d, 1)
-            th = self.drain[i, j]
-            Fp = self._scaled(self._face(i, j, d), th, self.drain[ip, jp])
-            Fm = self._scaled(self._face(im, jm, d), self.drain[im, jm], th)
-            if ti.static(self.phys.fr_projected):
-                Fm, Fp = self._film_faces(Fm, Fp, i, j, im, jm, ip, jp)
-            q0 = self.q[0, i, j]
+            th = self.state.drain[i, j]
+            Fp = self._scaled(self._face(i, j, d), th, self.state.drain[ip, jp])
+            Fm = self._scaled(self._face(im, jm, d), self.state.drain[im, jm], th)
+            if ti.static(self.state.phys.fr_projected):
+                Fm, Fp = self.rules.film_faces(Fm, Fp, i, j, im, jm, ip, jp)
+            q0 = self.state.q[0, i, j]
             upd = -lam * (Fp - Fm)
             hg = 0.0 * dt  # the mean thickness gravity acted on over the step
             if ti.static(d == 0):
@@ -448,26 +447,28 @@ class SplitSweeps:
                 if ti.static(fr):
                     hg = 0.5 * (q0[0] + h1)
                     if ti.static(not last):
-                        self.hg[i, j] = hg  # for the friction of the step's last sweep
+                        self.state.hg[i, j] = hg  # for the friction of the step's last sweep
             elif ti.static(last and not first):
-                hg = self.hg[i, j]  # (written by the step's x sweep)
-            acc = self._limit(q0 + upd)
+                hg = self.state.hg[i, j]  # (written by the step's x sweep)
+            acc = self.fv.limit(q0 + upd)
             if ti.static(d == 1 and first and last):
                 hg = acc[0]  # a lone y sweep: no gravity acted, the friction on the cell's h
             if ti.static(first or last):
                 spd0 = 0.0 * dt
                 if ti.static(first):
-                    spd0 = self.phys.speed_mag(self.w[i, j])  # (w: the step's initial state)
+                    spd0 = self.state.phys.speed_mag(
+                        self.state.w[i, j]
+                    )  # (w: the step's initial state)
                     if ti.static(not last):
-                        self.spd0[i, j] = spd0
+                        self.state.spd0[i, j] = spd0
                 else:
-                    spd0 = self.spd0[i, j]
+                    spd0 = self.state.spd0[i, j]
                 if ti.static(last):
                     # the friction acts on the thickness the gravity acted on
-                    acc = self._project(acc, dt, i, j, hold, spd0, hg)
-            self.w[i, j] = self._fast_primitive(acc)
-            self.q[0, i, j] = acc
-        # the budget: what entered through the domain's faces along d (as _boundary_rates;
+                    acc = self.rules.project(acc, dt, i, j, hold, spd0, hg)
+            self.state.w[i, j] = self.fv.fast_primitive(acc)
+            self.state.q[0, i, j] = acc
+        # the budget: what entered through the domain's faces along d (as boundary_rates;
         # along x a face beyond the active range carried no flux this time)
         g, n = ti.static((gx, nx) if d == 0 else (gy, ny))
         wl = 1.0
@@ -483,16 +484,20 @@ class SplitSweeps:
             for k in range(lo, hi):
                 i0, j0 = self._along(d, g - 1, k)
                 i1, j1 = self._along(d, g, k)
-                Fl = self._scaled(self._face(i0, j0, d), self.drain[i0, j0], self.drain[i1, j1])
+                Fl = self._scaled(
+                    self._face(i0, j0, d), self.state.drain[i0, j0], self.state.drain[i1, j1]
+                )
                 i0, j0 = self._along(d, g + n - 1, k)
                 i1, j1 = self._along(d, g + n, k)
-                Fr = self._scaled(self._face(i0, j0, d), self.drain[i0, j0], self.drain[i1, j1])
+                Fr = self._scaled(
+                    self._face(i0, j0, d), self.state.drain[i0, j0], self.state.drain[i1, j1]
+                )
                 mass += wl * Fl[0] - wr * Fr[0]
-                if ti.static(self.seg):
-                    small += wl * Fl[self.HPHI] - wr * Fr[self.HPHI]
-            width = self.par[Params.DY] if ti.static(d == 0) else self.par[Params.DX]
-            self.bud[0, 2 * d] += dt * mass * width
-            self.bud[0, 2 * d + 1] += dt * small * width
+                if ti.static(self.state.seg):
+                    small += wl * Fl[self.state.HPHI] - wr * Fr[self.state.HPHI]
+            width = self.state.par[Params.DY] if ti.static(d == 0) else self.state.par[Params.DX]
+            self.state.bud[0, 2 * d] += dt * mass * width
+            self.state.bud[0, 2 * d + 1] += dt * small * width
 
     # -------------------------------------------------------------- the viscous sub-step
     def viscous_stage(
@@ -513,29 +518,25 @@ class SplitSweeps:
         cg). ``src`` = 0 (with ``prev2`` < 0) is the first stage, which also stores V(Y0) in
         slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter; the
         friction is projected by the sweep that closes the half, not here). V is the
-        divergence of the viscous stress of (6.2) (TaichiOperator._x_viscous, _y_viscous):
+        divergence of the viscous stress of (6.2) (FiniteVolume.x_viscous, y_viscous):
         only the momenta change, and a cell whose rates are zero at every stage keeps its bits
         (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
         ghost cells); ``first``: the stage opens the second half of the split step (the rest
         mask and the speeds of the state V starts from, as a first sweep)."""
-        fr = self.phys.fr_projected
+        fr = self.state.phys.fr_projected
         one = src == 0
         assert one == (prev2 < 0) and (dst != 0 or not one), (src, prev2, dst)
         if fr and first:
             assert one
-            self._prepare(0, t)  # the rest mask of the step's initial state (if not taken)
-        self._set_time(t)
-        key = (src, t, self.active)
-        interior = self._interior == (src, self.active) or (
-            self._prepared is not None and self._prepared[::2] == key[::2]
-        )
-        fresh = 2 if self._prepared == key else (1 if interior else 0)
+            self.fv.prepare(0, t)  # the rest mask of the step's initial state (if not taken)
+        self.state.set_time(t)
+        fresh = self.state.fresh(src, t)
         first = bool(fr and first)
         mu, nu, ct, cg = (float(c) for c in coeffs)
         # the inlet's rows of w (_inlet_velocities; inflow.width and inflow.y0 are compiled
         # in), the ghost rows where it reaches the domain's side: the cross derivatives at
         # the inlet's faces read them
-        self.inlet_rows = inlet_rows(self.cfg.layout, self.cfg.inflow_rows)
+        self.inlet_rows = inlet_rows(self.state.cfg.layout, self.state.cfg.inflow_rows)
         self._viscous(
             src,
             max(prev2, 0),
@@ -548,9 +549,9 @@ class SplitSweeps:
             one,
             dst == 0,
             first,
-            self.serial_loops(),
+            self.state.serial_loops(),
         )
-        self._written(dst, primitives=True)
+        self.state.written(dst, primitives=True)
 
     @ti.kernel
     def _viscous(
@@ -571,12 +572,12 @@ class SplitSweeps:
         """A stage of V (viscous_stage): ghosts and primitives of slot src as far as
         ``fresh`` says they are stale, the viscous face stresses, the stage's combination."""
         if ti.static(fresh < 2):
-            self._ghosts(src)
+            self.ghosts.fill(src)
             if ti.static(fresh == 1):
-                self._edge_primitives(src, serial)
+                self.fv.edge_primitives(src, serial)
             else:
-                self._primitives(src, serial)
-        if ti.static(self.bcs[0].prescribed):
+                self.fv.primitives(src, serial)
+        if ti.static(self.state.bcs[0].prescribed):
             self._inlet_velocities()
         self._viscous_faces(serial)
         self._viscous_update(src, prev2, dst, mu, nu, ct, cg, one, final, first, serial)
@@ -590,38 +591,40 @@ class SplitSweeps:
         impulse and the projection of the half step act on them): a prescribed ghost
         velocity would drag them toward it at every V (with V after the sweeps, before the
         friction, it left the fingers chute at 250 cells/m 0.35 % thin all the way down)."""
-        gx = ti.static(self.gx)
+        gx = ti.static(self.state.gx)
         lo, hi = ti.static(self.inlet_rows)
-        if self.par[Params.IN_ON] > 0.5:
-            ti.loop_config(serialize=self.strip_serial)  # the inlet's ghost columns
+        if self.state.par[Params.IN_ON] > 0.5:
+            ti.loop_config(serialize=self.state.strip_serial)  # the inlet's ghost columns
             for k, m in ti.ndrange(gx, (lo, hi)):
-                g = self.w[gx - 1 - k, m]
-                g[1] = self.w[gx, m][1]
-                if ti.static(not self.is_1d):
-                    g[self.HV] = self.w[gx, m][self.HV]
-                self.w[gx - 1 - k, m] = g
+                g = self.state.w[gx - 1 - k, m]
+                g[1] = self.state.w[gx, m][1]
+                if ti.static(not self.state.is_1d):
+                    g[self.state.HV] = self.state.w[gx, m][self.state.HV]
+                self.state.w[gx - 1 - k, m] = g
 
     @ti.func
     def _viscous_faces(self, serial: ti.template()):
         """The viscous stresses alone through the faces a sweep's update reads: x faces
         (i, i + 1) for i in [a - 1, b) on the interior rows, y faces (j, j + 1) for j in
         [gy - 1, gy + ny) on the columns [a, b), in fx and fy."""
-        gy, ny = ti.static(self.gy, self.ny)
-        a, b = self.act[0], self.act[1]
-        if ti.static(self.is_1d):
+        gy, ny = ti.static(self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        if ti.static(self.state.is_1d):
             ti.loop_config(serialize=serial)
             for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
-                zero = ti.Vector.zero(self.fp, self.nc)
-                self.fx[i, j] = self._x_viscous(zero, i, j, self.w[i, j], self.w[i + 1, j])
+                zero = ti.Vector.zero(self.state.fp, self.state.nc)
+                self.state.fx[i, j] = self.fv.x_viscous(
+                    zero, i, j, self.state.w[i, j], self.state.w[i + 1, j]
+                )
         else:
             ti.loop_config(serialize=serial)
             for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
-                zero = ti.Vector.zero(self.fp, self.nc)
-                w0 = self.w[i, j]
+                zero = ti.Vector.zero(self.state.fp, self.state.nc)
+                w0 = self.state.w[i, j]
                 if j >= gy:
-                    self.fx[i, j] = self._x_viscous(zero, i, j, w0, self.w[i + 1, j])
+                    self.state.fx[i, j] = self.fv.x_viscous(zero, i, j, w0, self.state.w[i + 1, j])
                 if i >= a:
-                    self.fy[i, j] = self._y_viscous(zero, i, j, w0, self.w[i, j + 1])
+                    self.state.fy[i, j] = self.fv.y_viscous(zero, i, j, w0, self.state.w[i, j + 1])
 
     @ti.func
     def _viscous_update(
@@ -642,34 +645,36 @@ class SplitSweeps:
         the next stage's primitives read (the rate is zero outside the active range [a, b),
         so there every stage equals Y0), with the primitives of the result into w; the last
         stage writes slot 0 on [a, b) only."""
-        gx, nx, gy, ny = ti.static(self.gx, self.nx, self.gy, self.ny)
-        a, b = self.act[0], self.act[1]
-        idx = self.par[Params.INV_DX]
-        idy = self.par[Params.INV_DY]
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        idx = self.state.par[Params.INV_DX]
+        idy = self.state.par[Params.INV_DY]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
-            y0 = self.q[0, i, j]
-            r = ti.Vector.zero(self.fp, self.nc)
+            y0 = self.state.q[0, i, j]
+            r = ti.Vector.zero(self.state.fp, self.state.nc)
             inside = a <= i < b
             if inside:
-                r = -(self.fx[i, j] - self.fx[i - 1, j]) * idx
-                if ti.static(not self.is_1d):
-                    r -= (self.fy[i, j] - self.fy[i, j - 1]) * idy
+                r = -(self.state.fx[i, j] - self.state.fx[i - 1, j]) * idx
+                if ti.static(not self.state.is_1d):
+                    r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
             acc = y0
             if ti.static(one):
-                self.q[1, i, j] = r  # F0
+                self.state.q[1, i, j] = r  # F0
                 acc = y0 + ct * r
                 if ti.static(first):
-                    self.spd0[i, j] = self.phys.speed_mag(self.w[i, j])  # (the step's start)
+                    self.state.spd0[i, j] = self.state.phys.speed_mag(
+                        self.state.w[i, j]
+                    )  # (the step's start)
             else:
-                inc = mu * (self.q[src, i, j] - y0) + nu * (self.q[prev2, i, j] - y0)
-                acc = y0 + (inc + ct * r + cg * self.q[1, i, j])
+                inc = mu * (self.state.q[src, i, j] - y0) + nu * (self.state.q[prev2, i, j] - y0)
+                acc = y0 + (inc + ct * r + cg * self.state.q[1, i, j])
             if ti.static(final):
                 if inside:
-                    acc = self._limit(acc)
-                    self.q[0, i, j] = acc
+                    acc = self.fv.limit(acc)
+                    self.state.q[0, i, j] = acc
                 else:
                     acc = y0
             else:
-                self.q[dst, i, j] = acc
-            self.w[i, j] = self._fast_primitive(acc)
+                self.state.q[dst, i, j] = acc
+            self.state.w[i, j] = self.fv.fast_primitive(acc)

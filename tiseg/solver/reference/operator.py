@@ -203,7 +203,7 @@ class ReferenceOperator:
         wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
         wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
         H = self.numerical_flux(wl, wr, direction)
-        if self.projected:  # the near-rest face rules (TaichiOperator._rest_face)
+        if self.projected:  # the near-rest face rules (RestRules.rest_face)
             self.rest_faces(H, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
         H = np.where(self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])[None], 0.0, H)
         out = np.zeros_like(w)
@@ -216,7 +216,7 @@ class ReferenceOperator:
         return h > 0.0 if self.films else h >= self.cfg.h_min
 
     def moving(self, w: np.ndarray) -> np.ndarray:
-        """Cells of primitives w with a velocity (TaichiOperator._moving)."""
+        """Cells of primitives w with a velocity (RestRules.moving)."""
         lay = self.lay
         m = w[lay.HU] != 0
         if not lay.is_1d:
@@ -224,7 +224,7 @@ class ReferenceOperator:
         return m
 
     def dry_faces(self, w, start, lo, hi) -> np.ndarray:
-        """The faces that carry no convective flux (TaichiOperator._face_wet): both cells
+        """The faces that carry no convective flux (FiniteVolume.face_wet): both cells
         thinner than h_min, with the projected friction at the step's start (primitives
         ``start``) too; where films flow (split sweeps) also neither moving (at the step's
         start with the projected friction). lo and hi index the cells below and above each
@@ -243,7 +243,7 @@ class ReferenceOperator:
         return dry
 
     def rest_faces(self, H, wl, wr, w, direction, lo, hi) -> None:
-        """The projected friction's face rules (TaichiOperator._rest_face), in place on the
+        """The projected friction's face rules (RestRules.rest_face), in place on the
         face fluxes H between edge states wl | wr along direction: w holds the primitives of
         the cells whose rest decides (the step's initial state), lo and hi index the cells
         below and above each face."""
@@ -403,7 +403,7 @@ class ReferenceOperator:
         of a step. With the projected friction its cells decide the face rules: which cells
         are at rest (`rest_faces`), and which faces carry a flux although both their cells are
         now thinner than h_min (one of them was not at the step's start:
-        TaichiOperator._face_wet). Default: q itself, the step's first evaluation."""
+        FiniteVolume.face_wet). Default: q itself, the step's first evaluation."""
         c, lay = self.cfg, self.lay
         self.fill_ghosts(q, t)
         w = self.primitives(q)
@@ -432,7 +432,7 @@ class ReferenceOperator:
 
     def rest_view(self, start: np.ndarray, t: float) -> np.ndarray:
         """The primitives of a step's initial state (at time t) as its rest decisions see
-        them (RestRules._mark_rest): a running inflow's ghost cells move at the inflow's
+        them (RestRules.mark_rest): a running inflow's ghost cells move at the inflow's
         speed whatever their thickness (RestRules._inlet_moves)."""
         c, lay = self.cfg, self.lay
         if not (self.projected and c.bc[0] == "inflow") or t > c.inflow_stop:
@@ -450,7 +450,7 @@ class ReferenceOperator:
         return out
 
     def film_faces(self, Flo, Fhi, start, cell, lo, hi):
-        """TaichiOperator._film_faces on arrays: the fluxes Flo, Fhi through the low and
+        """RestRules.film_faces on arrays: the fluxes Flo, Fhi through the low and
         high face of the cells ``cell`` (an index into the grid; ``lo``, ``hi`` index their
         neighbours) as those cells take them: no momentum into a film at rest at the step's
         start (primitives ``start``) from a neighbour at rest."""

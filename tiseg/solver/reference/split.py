@@ -14,7 +14,7 @@ from .operator import SQRT2, ReferenceOperator
 
 
 def split_primitives(ref: ReferenceOperator, q: np.ndarray) -> np.ndarray:
-    """The primitives of a split scene (SplitSweeps._fast_primitive): the reference's
+    """The primitives of a split scene (FiniteVolume.fast_primitive): the reference's
     desingularised ones computed as (hu) / h where h >= h_eps, which they equal up to
     rounding, and the desingularised formula below."""
     c, lay = ref.cfg, ref.lay

@@ -25,7 +25,7 @@ class Stepper:
     slots = 1
     order = 1
     # whether a cell held at rest keeps its h bit for bit through a step (every stage a
-    # limited combination of states and rates: TaichiOperator._keep_rest); the skipping of
+    # limited combination of states and rates: RestRules.keep_rest); the skipping of
     # resting regions is exact only then
     keeps_rest = True
     # advances by dimensionally split sweeps (tiseg.solver.numerics.split) rather than stages of L

@@ -1,0 +1,422 @@
+"""The finite-volume evaluation of the semi-discrete operator dq/dt = L(q, t) of (6.1)-(6.6).
+
+A collaborator of `tiseg.solver.numerics.operator.TaichiOperator` that receives the operator's
+state (`state.OperatorState`: fields, slots, ranges), its ghost cells (`ghosts.GhostCells`) and
+its rest rules (`rest.RestRules`, the projected friction's face rules). Same discretisation as
+the NumPy reference (`tiseg.solver.reference.operator`, whose docstring lists the steps): ghost
+cells, desingularised primitives, slopes, numerical fluxes with local speeds (optionally with
+the h phi flux upwinded by the mass flux), the viscous stress with harmonic face
+coefficients, and the friction source. Its Taichi functions are also the pieces the slot
+algebra (`slots.SlotAlgebra`: a fused stage's rate, the stage limiter) and the split sweeps
+(`split.SplitSweeps`: slopes, face fluxes, viscous stresses) are built of.
+
+The numerics components chosen by the scene are composed at construction (`compose`): the
+reconstruction (`reconstruction`), the numerical flux and the h phi modifier (`fluxes`); each
+returns the Taichi function the loops call, and has its NumPy twin in the reference.
+"""
+
+import taichi as ti
+
+from ...errors import TisegError
+from ...model.physics.params import Params
+from .fluxes import FLUXES, PHI_FLUXES
+from .reconstruction import RECONSTRUCTIONS
+from .state import NBUDGET
+
+
+@ti.data_oriented
+class FiniteVolume:
+    def __init__(self, state, ghosts, rules):
+        self.state = state
+        self.ghosts = ghosts
+        self.rules = rules
+        cfg = state.cfg
+        self.rec = RECONSTRUCTIONS[cfg.reconstruction]
+        self.num_flux = FLUXES[cfg.flux]
+        self.phi_flux = PHI_FLUXES[cfg.phi_flux]
+
+    def compose(self) -> None:
+        """The numerics components' Taichi functions, fixed at construction (once the fields
+        exist): the kernels call them through ``ti.static`` choices, so a component not chosen
+        leaves no code. ``_rec_slope``: the reconstruction's slope (None at first order);
+        ``_num_flux``: the numerical flux; ``_phi_mod``: the h phi modifier (None when there is
+        nothing to apply)."""
+        st = self.state
+        self._rec_slope = self.rec.taichi(ti, st.par, st.lay, st.fp)
+        self._num_flux = self.num_flux.taichi(ti, st.phys)
+        self._phi_mod = self.phi_flux.taichi(ti, st.phys, st.lay) if st.seg else None
+        self._phi_modifies = self._phi_mod is not None  # (Taichi scope has no `is not`)
+
+    # ------------------------------------------------------------------ host side
+
+    def prepare(self, slot: int, t: float) -> None:
+        """Ghost cells, primitives and slopes of ``slot`` at time t, unless still current.
+
+        A step measures its stability numbers on slot 0 and then evaluates L(slot 0) at the same
+        time: the second preparation is skipped (about a third of an evaluation). A limited
+        combine leaves its result's interior primitives in w, so preparing that slot next
+        computes only the ghost cells' ones. Any write to the slot, a parameter change or a
+        new active range makes these caches stale."""
+        key = (slot, t, self.state.active)
+        if self.state.prepared != key:
+            self.state.set_time(t)
+            if self.state.interior == (slot, self.state.active):
+                self._ghosts_edges_slopes(slot, self.state.serial_loops())
+            else:
+                self._ghosts_primitives_slopes(slot, self.state.serial_loops())
+            self.state.prepared = key
+        if (
+            self.state.rest is not None and self.state.rest_stale
+        ):  # a step begins: slot 0 was written
+            self.rules.mark_rest(self.state.serial_loops())
+            self.state.rest_stale = False
+            self.state.first_stage = True
+            self.state.mask_inflow = self.state.inflow_on(t)
+
+    def no_operator(self) -> None:
+        if self.state.split:
+            raise TisegError(
+                "numerics.stepper 'hancock' advances by sweeps (tiseg.solver.numerics.split) and "
+                "has no semi-discrete operator L to evaluate"
+            )
+
+    def rhs(self, src: int, dst: int, t: float) -> None:
+        """slot dst := L(slot src, t) on interior cells (fills src's ghost cells)."""
+        self.no_operator()
+        self.prepare(src, t)
+        self.state.written(dst)
+        self._rates(dst, self.state.serial_loops())
+
+    @ti.func
+    def primitive(self, q):
+        """Desingularised primitives, u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)).
+        (The split scheme's cheaper form of the same, FiniteVolume.fast_primitive, in a split
+        scene: every primitive of a run then comes from one formula.)"""
+        if ti.static(self.state.split):
+            return self.fast_primitive(q)
+        h = ti.max(q[0], 0.0)
+        h4 = h * h * h * h
+        denom = ti.sqrt(h4 + ti.max(h4, self.state.par[Params.H_EPS4]))
+        return self.primitive_of(q, h, ti.sqrt(2.0) * h / denom)
+
+    @ti.func
+    def primitive_of(self, q, h, r):
+        """w of q with h = max(q_h, 0) and the velocities r times the momenta."""
+        w = q
+        w[0] = h
+        for c in ti.static(range(1, self.state.nc)):
+            w[c] = r * q[c]
+        if ti.static(self.state.seg):
+            # phi is bounded (0 <= h phi <= h after every stage), so it needs no
+            # desingularisation, which would pull it towards 0 in thin films
+            phi = 0.0 * h
+            if h > 0:
+                phi = ti.min(ti.max(q[self.state.HPHI] / h, 0.0), 1.0)
+            w[self.state.HPHI] = phi
+        return w
+
+    @ti.func
+    def slope(self, wm, w0, wp):
+        """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2: the
+        reconstruction's slope, limited so that the edges keep h >= 0 and 0 <= phi <= 1."""
+        dm = w0 - wm
+        dp = wp - w0
+        dc = 0.5 * (wp - wm)
+        # the reconstruction's slope (tiseg.solver.numerics.reconstruction)
+        s = self._rec_slope(dm, dp, dc)
+        # positivity of h and 0 <= phi <= 1 at the edges
+        s[0] = ti.min(ti.max(s[0], -2.0 * w0[0]), 2.0 * w0[0])
+        if ti.static(self.state.seg):
+            p = w0[self.state.HPHI]
+            lim = 2.0 * ti.min(p, 1.0 - p)
+            s[self.state.HPHI] = ti.min(ti.max(s[self.state.HPHI], -lim), lim)
+        return s
+
+    @ti.kernel
+    def _ghosts_primitives_slopes(self, s: ti.i32, serial: ti.template()):
+        """Everything an evaluation needs from slot s before the fluxes, in one launch (each
+        launch costs tens of microseconds of Python and thread start-up: on small grids
+        that, not arithmetic, sets the pace). Top-level loops run in order."""
+        self.ghosts.fill(s)
+        self.primitives(s, serial)
+        self._slopes(serial)
+
+    @ti.kernel
+    def _ghosts_edges_slopes(self, s: ti.i32, serial: ti.template()):
+        """The same when a limited combine already left the primitives of slot s's interior
+        cells in w: ghost cells, their primitives, the slopes."""
+        self.ghosts.fill(s)
+        self.edge_primitives(s, serial)
+        self._slopes(serial)
+
+    @ti.func
+    def primitives(self, s, serial: ti.template()):
+        a, b = self.state.act[0], self.state.act[1]
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange(
+            (ti.max(a - 3, 0), ti.min(b + 3, self.state.NX)), (0, self.state.NY)
+        ):
+            self.state.w[i, j] = self.primitive(self.state.q[s, i, j])
+
+    @ti.func
+    def edge_primitives(self, s, serial: ti.template()):
+        """Primitives of the ghost cells among those primitives covers (the x range
+        [a - 3, b + 3), every row); the interior ones are those _combine_cells wrote."""
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        ti.loop_config(serialize=self.state.strip_serial)  # 2 x 2 columns
+        for k, j in ti.ndrange(gx, self.state.NY):
+            il = gx - 1 - k
+            ih = gx + nx + k
+            if il >= a - 3:
+                self.state.w[il, j] = self.primitive(self.state.q[s, il, j])
+            if ih < b + 3:
+                self.state.w[ih, j] = self.primitive(self.state.q[s, ih, j])
+        if ti.static(not self.state.is_1d):
+            ti.loop_config(serialize=serial)
+            for i, k in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), gy):
+                jl = gy - 1 - k
+                jh = gy + ny + k
+                self.state.w[i, jl] = self.primitive(self.state.q[s, i, jl])
+                self.state.w[i, jh] = self.primitive(self.state.q[s, i, jh])
+
+    @ti.func
+    def _slopes(self, serial: ti.template()):
+        a, b = self.state.act[0], self.state.act[1]
+        if ti.static(not self.state.rec_first and not self.state.split):
+            # x slopes on the interior rows of [a - 2, b + 2), y slopes on [a, b) and the
+            # ghost rows next to the interior: one pass over w for both (memory, not
+            # arithmetic, sets the pace of these loops on large grids)
+            gy, ny = ti.static(self.state.gy, self.state.ny)
+            jlo, jhi = ti.static((1, self.state.NY - 1) if not self.state.is_1d else (0, 1))
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange(
+                (ti.max(a - 2, 1), ti.min(b + 2, self.state.NX - 1)), (jlo, jhi)
+            ):
+                w0 = self.state.w[i, j]
+                if gy <= j < gy + ny:
+                    self.state.sx[i, j] = self.slope(
+                        self.state.w[i - 1, j], w0, self.state.w[i + 1, j]
+                    )
+                if ti.static(not self.state.is_1d):
+                    if a <= i < b:
+                        self.state.sy[i, j] = self.slope(
+                            self.state.w[i, j - 1], w0, self.state.w[i, j + 1]
+                        )
+
+    @ti.func
+    def face_flux(self, wl, wr, d: ti.template()):
+        """Numerical flux between edge states wl | wr along d: the chosen numerical flux
+        (numerics.flux), then, with segregation, the h phi modifier (numerics.phi_flux); both
+        components of tiseg.solver.numerics.fluxes."""
+        F = self._num_flux(wl, wr, d)
+        if ti.static(self._phi_modifies):
+            F = self._phi_mod(F, wl, wr)
+        return F
+
+    @ti.kernel
+    def _rates(self, d: ti.i32, serial: ti.template()):
+        """slot d := L from the prepared primitives and slopes: face fluxes, their divergence
+        plus sources, and the boundary budget rates, in one launch."""
+        self.face_fluxes(serial)
+        self._divergence(d, serial)
+        self.boundary_rates(d)
+
+    @ti.func
+    def face_wet(self, w0, w1, hmin, i0, j0, i1, j1):
+        """Whether the face between cells (i0, j0) and (i1, j1), primitives w0 and w1, carries
+        a convective flux: one of the cells is at least h_min thick; with the projected
+        friction also where one of them was at the step's start (RestRules.wet_at_start).
+        In the split sweeps also where one is a film (thinner) that moves, or with the
+        projected friction moved at the step's start (RestRules.live_at_start). So no mass
+        moves between two films at rest (a dry bed stays dry), while a film that flows
+        carries its mass on: a front thins as the exact one does instead of waiting at h_min
+        in each cell it enters (Physics.acts)."""
+        wet = ti.max(w0[0], w1[0]) >= hmin
+        if not wet:
+            if ti.static(self.state.phys.fr_projected and self.state.phys.films):
+                wet = self.rules.live_at_start(i0, j0, i1, j1)
+            elif ti.static(self.state.phys.fr_projected):
+                wet = self.rules.wet_at_start(i0, j0, i1, j1)
+            elif ti.static(self.state.phys.films):
+                wet = self.rules.moving(w0) or self.rules.moving(w1)
+        return wet
+
+    @ti.func
+    def _x_face(self, i, j):
+        """Flux through the face between cells (i, j) and (i + 1, j): convective plus viscous."""
+        hmin = self.state.par[Params.H_MIN]
+        w0 = self.state.w[i, j]
+        w1 = self.state.w[i + 1, j]
+        F = ti.Vector.zero(self.state.fp, self.state.nc)
+        if self.face_wet(w0, w1, hmin, i, j, i + 1, j):
+            wl = w0
+            wr = w1
+            if ti.static(not self.state.rec_first):
+                wl = w0 + 0.5 * self.state.sx[i, j]
+                wr = w1 - 0.5 * self.state.sx[i + 1, j]
+            F = self.face_flux(wl, wr, 0)
+            F = self.rules.rest_face(F, wl, wr, 0, i, j, i + 1, j)
+        if ti.static(self.state.visc):  # the viscous stress (tiseg.model.physics.viscosity)
+            F = self.x_viscous(F, i, j, w0, w1)
+        return F
+
+    @ti.func
+    def x_viscous(self, F, i, j, w0, w1):
+        """F minus the viscous stress of (6.2) through the x face (i, j) | (i + 1, j), whose
+        cells' primitives are w0, w1 (the cross derivative from the rows j -+ 1 of w)."""
+        ph = self.state.phys
+        idx = self.state.par[Params.INV_DX]
+        K = ph.face_K(w0[0], w1[0])
+        F[1] -= ph.normal_stress(K, w1[1] - w0[1], idx)
+        if ti.static(not self.state.is_1d):
+            HV = ti.static(self.state.HV)
+            idy = self.state.par[Params.INV_DY]
+            # paired differences: exactly zero for y-independent data
+            dudy = (
+                (self.state.w[i, j + 1][1] - self.state.w[i, j - 1][1])
+                + (self.state.w[i + 1, j + 1][1] - self.state.w[i + 1, j - 1][1])
+            ) * (0.25 * idy)
+            F[HV] -= ph.shear_stress(K, w1[HV] - w0[HV], idx, dudy)
+        return F
+
+    @ti.func
+    def _y_face(self, i, j):
+        """Flux through the face between cells (i, j) and (i, j + 1) (2D only)."""
+        hmin = self.state.par[Params.H_MIN]
+        w0 = self.state.w[i, j]
+        w1 = self.state.w[i, j + 1]
+        F = ti.Vector.zero(self.state.fp, self.state.nc)
+        if self.face_wet(w0, w1, hmin, i, j, i, j + 1):
+            wl = w0
+            wr = w1
+            if ti.static(not self.state.rec_first):
+                wl = w0 + 0.5 * self.state.sy[i, j]
+                wr = w1 - 0.5 * self.state.sy[i, j + 1]
+            F = self.face_flux(wl, wr, 1)
+            F = self.rules.rest_face(F, wl, wr, 1, i, j, i, j + 1)
+        if ti.static(self.state.visc):
+            F = self.y_viscous(F, i, j, w0, w1)
+        return F
+
+    @ti.func
+    def y_viscous(self, F, i, j, w0, w1):
+        """F minus the viscous stress of (6.2) through the y face (i, j) | (i, j + 1) (2D)."""
+        HV = ti.static(self.state.HV)
+        ph = self.state.phys
+        idx = self.state.par[Params.INV_DX]
+        idy = self.state.par[Params.INV_DY]
+        K = ph.face_K(w0[0], w1[0])
+        F[HV] -= ph.normal_stress(K, w1[HV] - w0[HV], idy)
+        dvdx = (
+            (self.state.w[i + 1, j][HV] - self.state.w[i - 1, j][HV])
+            + (self.state.w[i + 1, j + 1][HV] - self.state.w[i - 1, j + 1][HV])
+        ) * (0.25 * idx)
+        F[1] -= ph.shear_stress(K, w1[1] - w0[1], idy, dvdx)
+        return F
+
+    @ti.func
+    def face_fluxes(self, serial: ti.template()):
+        """x faces (i, i + 1) for i in [a - 1, b) on the interior rows; y faces (j, j + 1) for
+        j in [gy - 1, gy + ny) on the columns [a, b). In 2D one pass does both, so each cell's
+        primitives and slopes are read once per evaluation."""
+        gy, ny = ti.static(self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        if ti.static(self.state.is_1d):
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
+                self.state.fx[i, j] = self._x_face(i, j)
+        else:
+            ti.loop_config(serialize=serial)
+            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
+                if j >= gy:
+                    self.state.fx[i, j] = self._x_face(i, j)
+                if i >= a:
+                    self.state.fy[i, j] = self._y_face(i, j)
+
+    @ti.func
+    def cell_rate(self, i, j):
+        """L at cell (i, j) from the face fluxes and the source: (6.1)-(6.6) in flux form;
+        zero outside the active x range."""
+        idx = self.state.par[Params.INV_DX]
+        idy = self.state.par[Params.INV_DY]
+        a, b = self.state.act[0], self.state.act[1]
+        r = ti.Vector.zero(self.state.fp, self.state.nc)
+        if a <= i < b:
+            r = -(self.state.fx[i, j] - self.state.fx[i - 1, j]) * idx
+            if ti.static(not self.state.is_1d):
+                r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
+            r += self.state.phys.source(self.state.w[i, j])
+        return r
+
+    @ti.func
+    def _divergence(self, d, serial: ti.template()):
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        a, b = self.state.act[0], self.state.act[1]
+        # rates on the active range and zero on the 3 cells either side that a combination also
+        # reads; further out nothing reads them while this range holds (SlotAlgebra._combine)
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
+            self.state.q[d, i, j] = self.cell_rate(i, j)
+
+    @ti.func
+    def fast_primitive(self, q):
+        """FiniteVolume.primitive, with its square root only where it matters: for
+        h >= h_eps the desingularised velocity sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4))
+        is (hu) / h, up to rounding."""
+        h = ti.max(q[0], 0.0)
+        h4 = h * h * h * h
+        r = 0.0 * h
+        if h4 >= self.state.par[Params.H_EPS4]:
+            r = 1.0 / h
+        else:
+            r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.state.par[Params.H_EPS4])
+        return self.primitive_of(q, h, r)
+
+    @ti.func
+    def limit(self, v):
+        """The stage limiter: h >= 0, no momentum in films thinner than h_min (where there
+        is no material in the split sweeps, whose films flow: Physics.acts), 0 <= h phi <= h."""
+        h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
+        v[0] = h
+        if not self.state.phys.acts(h):
+            v[1] = 0.0
+            if ti.static(not self.state.is_1d):
+                v[self.state.HV] = 0.0
+        if ti.static(self.state.seg):
+            v[self.state.HPHI] = ti.min(ti.max(v[self.state.HPHI], 0.0), h)
+        return v
+
+    @ti.func
+    def boundary_rates(self, d):
+        """Net inflow rates through the domain's faces, summed in a fixed order."""
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        dx = self.state.par[Params.DX]
+        dy = self.state.par[Params.DY]
+        ti.loop_config(serialize=True)
+        for b in range(NBUDGET):
+            self.state.bud[d, b] = 0.0
+        # faces outside the active range were not computed this time: they carry no flux
+        wl = 1.0 if self.state.act[0] == gx else 0.0
+        wr = 1.0 if self.state.act[1] == gx + nx else 0.0
+        ti.loop_config(serialize=True)
+        for j in range(gy, gy + ny):
+            self.state.bud[d, 0] += (
+                wl * self.state.fx[gx - 1, j][0] - wr * self.state.fx[gx + nx - 1, j][0]
+            ) * dy
+            if ti.static(self.state.seg):
+                self.state.bud[d, 1] += (
+                    wl * self.state.fx[gx - 1, j][self.state.HPHI]
+                    - wr * self.state.fx[gx + nx - 1, j][self.state.HPHI]
+                ) * dy
+        if ti.static(not self.state.is_1d):
+            ti.loop_config(serialize=True)
+            for i in range(self.state.act[0], self.state.act[1]):
+                self.state.bud[d, 2] += (
+                    self.state.fy[i, gy - 1][0] - self.state.fy[i, gy + ny - 1][0]
+                ) * dx
+                if ti.static(self.state.seg):
+                    self.state.bud[d, 3] += (
+                        self.state.fy[i, gy - 1][self.state.HPHI]
+                        - self.state.fy[i, gy + ny - 1][self.state.HPHI]
+                    ) * dx

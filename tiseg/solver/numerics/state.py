@@ -1,0 +1,309 @@
+"""The operator's state: its fields, slots and ranges, in one object that the operator's
+collaborators receive.
+
+Issue 49 replaced the mixins of `tiseg.solver.numerics.operator.TaichiOperator` (four files
+sharing ``self``) by collaborators (`ghosts.GhostCells`, `rest.RestRules`,
+`finite_volume.FiniteVolume`, `slots.SlotAlgebra`, `split.SplitSweeps`,
+`reductions.StepReductions`) that each receive this object and say so in their constructor. It
+is the one place that allocates fields, so a field a later feature needs (a bed height, a
+member axis on every field) is added here once:
+
+* the compile-time constants of the layout (``nc``, ``NX``, ``gx``, ``is_1d``, the component
+  indices ...), which the kernels read through ``ti.static``;
+* every field, in one field tree freed with this object: the state slots ``q`` (Taichi compiles
+  one kernel per distinct field passed as template, so buffers are slots selected by an
+  integer), primitives ``w``, fluxes, slopes, the split sweeps' edges, the parameters ``par``,
+  the boundary budgets ``bud``, the rest mask, and the reductions' scratch fields;
+* the active and wet x ranges (`ranges.ActiveRange`) and the serial-or-parallel choice;
+* the caches that say what the scratch fields hold (``prepared``, ``interior``) and where a
+  step stands (``rest_stale``, ``first_stage``, ``mask_inflow``), which every collaborator
+  that writes a slot keeps current through `OperatorState.written`.
+
+The run-time numbers (`set_params`, `set_time`) are written here too: they are fields.
+"""
+
+import numpy as np
+import taichi as ti
+
+from ... import backend
+from ...errors import TisegError
+from ...model.physics.pointwise import Params, Physics, param_count, param_values
+from ..field_tree import FieldTree
+from .boundaries import BOUNDARIES
+from .config import OperatorConfig
+from .ranges import ActiveRange, row_pieces
+from .reconstruction import RECONSTRUCTIONS
+from .reductions import NSTAB
+
+NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
+
+
+@ti.data_oriented
+class OperatorState:
+    def __init__(self, cfg: OperatorConfig, nslots: int, serial: bool | None):
+        """The constants and fields of ``cfg``'s layout with ``nslots`` state slots; the field
+        tree is finalised by `finalize` (the operator calls it once its collaborators are
+        built). ``serial``: see `TaichiOperator`."""
+        st = backend.state()
+        self.generation = st.generation
+        self.cfg = cfg
+        lay = cfg.layout
+        self.lay = lay
+        self.nslots = nslots
+        self.fp = ti.f64 if st.precision == "f64" else ti.f32
+        self.np_fp = np.float64 if st.precision == "f64" else np.float32
+        nc, NX, NY = lay.nc, lay.NX, lay.NY
+        # compile-time constants
+        self.nc, self.NX, self.NY = nc, NX, NY
+        self.nx, self.ny, self.gx, self.gy = lay.nx, lay.ny, lay.gx, lay.gy
+        self.is_1d, self.seg, self.visc = lay.is_1d, lay.segregation, cfg.viscous
+        self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
+        # first order: no slopes (tiseg.solver.numerics.reconstruction)
+        self.rec_first = not RECONSTRUCTIONS[cfg.reconstruction].slopes
+        self.local_rate = bool(cfg.local_step_rate) and not self.is_1d
+        # the split scheme (numerics.stepper "hancock", tiseg.solver.numerics.split): sweeps
+        # instead of evaluations of L, with their own edge fields and no stored slopes
+        self.split = bool(cfg.split)
+        self.bc = tuple(cfg.bc)
+        self.bcs = tuple(BOUNDARIES[b] for b in cfg.bc)  # x_lo, x_hi, y_lo, y_hi
+        # fields: only what this scene needs (no y slopes/fluxes in 1D, nc follows the
+        # effects), in one field tree that is freed with this object; a field the scene does
+        # not need is not an attribute (fy, sy, ew, ee, drain) or None (the others)
+        ft = self.field_tree = FieldTree()
+        self.q = ft.vector(nc, self.fp, (nslots, NX, NY))
+        self.w = ft.vector(nc, self.fp, (NX, NY))
+        self.fx = ft.vector(nc, self.fp, (NX, NY))
+        slopes = not self.rec_first and not self.split
+        self.sx = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
+        if not self.is_1d:
+            self.fy = ft.vector(nc, self.fp, (NX, NY))
+            self.sy = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
+        if self.split:  # a sweep's predicted edge states and draining factors
+            self.ew = ft.vector(nc, self.fp, (NX, NY))
+            self.ee = ft.vector(nc, self.fp, (NX, NY))
+            self.drain = ft.field(self.fp, (NX, NY))
+        self.par = ft.field(self.fp, param_count(cfg))
+        # inflow concentration per cross-slope cell: only with an inflow that carries phi
+        self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
+        # Active range [a, b) of x indices whose cells may change, the wet scan's range and
+        # the serial-or-parallel choice (tiseg.solver.numerics.ranges); its fields, which the
+        # kernels read, under their old names. Serial loops: forced (True/False), or chosen
+        # from the cells a launch covers, for the active range when the range is set.
+        threads = st.threads or backend.available_cores()
+        self.ranges = ActiveRange(ft, lay, serial, threads, st.arch == "cpu")
+        # loops over a strip of cells (ghost columns and rows: a few thousand cells) run on
+        # one CPU thread, where a hand-off costs more than the work; on a GPU one thread
+        # would walk the strip alone (1 ms a launch at 750 cells/m on an H200, most of a
+        # step), so there they run in parallel. Each iteration writes its own cells: the
+        # same bits.
+        self.strip_serial = st.arch == "cpu"
+        self.act, self.wet, self.wrng = self.ranges.act, self.ranges.wet, self.ranges.wrng
+        # rows reduced by one thread before one atomic (_stability, _wet_extent): a row in
+        # 2D, 256 cells in 1D (one row of NX cells), where per-cell atomics would contend
+        self.rows_per_block = max(1, 256 // NY)
+        # ... and each row cut into this many pieces along y, reduced one by one: Taichi's
+        # CPU backend hands a parallel loop to its threads in equal chunks of at least 512
+        # iterations, so a loop over the ~500 rows of a fingers run's active range ran on
+        # one thread; the pieces give the smallest range that runs in parallel
+        # (SERIAL_CELLS cells) 512 iterations per thread. On a GPU, many threads.
+        self.row_pieces = row_pieces(lay, threads, st.arch == "cpu")
+        # Boundary budgets per slot: rates of (mass, small-particle mass) entering through
+        # the x faces and the y faces. A combination of slots applies the same linear
+        # combination to them as to the states, so slot 0 accumulates exactly the time
+        # integral the scheme uses. (row nslots: the boundary rates of a fused stage, whose
+        # rate has no slot)
+        self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
+        self.phys = Physics(cfg, self.par)
+        # With the projected friction: which cells were at rest at the start of the step,
+        # the state in slot 0 (RestRules.rest_face). Recomputed at the first preparation
+        # after slot 0 is written, so every stage of a step sees the same rest faces.
+        self.rest = ft.field(ti.i8, (NX, NY)) if self.phys.fr_projected else None
+        # the split step's friction acts once, after its last sweep, at the speed of the
+        # step's initial state (SplitSweeps.sweep): in 2D that speed is kept from the first
+        # sweep (in 1D as well when a viscous sub-step may open the step)
+        spd = self.split and self.phys.fr_projected and (not self.is_1d or self.visc)
+        self.spd0 = ft.field(self.fp, (NX, NY)) if spd else None
+        # and the thickness the x sweep's gravity acted on, for the friction of a 2D step
+        # whose last sweep is along y (SplitSweeps._sweep_update)
+        hg = self.split and self.phys.fr_projected and not self.is_1d
+        self.hg = ft.field(self.fp, (NX, NY)) if hg else None
+        # the reductions' numbers (tiseg.solver.numerics.reductions): step_rule "local"'s
+        # per-cell speeds, the reduced stability numbers, the row sums of the totals
+        self.spd = ft.vector(2, self.fp, (NX, NY)) if self.local_rate else None
+        self.red = ft.field(self.fp, NSTAB)
+        self.rowsum = ft.field(ti.f64, (NX, 2))
+        self.total = ft.field(ti.f64, 2)
+        # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
+        # of such cells far from any moving one then need no work at all, and the active
+        # range leaves them out (RestRules._quiescent, Simulation._set_active). Decided from
+        # the rest mask of the step before, so the mask is part of the run's state
+        # (checkpoints keep it). Settable until the first step compiles the wet scan.
+        self.skip_rest = bool(self.phys.fr_projected and self.phys.law.hysteresis)
+        # the caches
+        self.prepared = None  # (slot, t, active range) whose primitives are in w
+        # (slot, active range) whose interior primitives a limited combine left in w (ghost
+        # cells and slopes still to do)
+        self.interior = None
+        self.rest_stale = True  # slot 0 was written: the next preparation takes the mask
+        self.first_stage = False  # the next limited combination is a step's first stage
+        self.mask_inflow = None  # whether an inflow ran when the mask was taken (None: none)
+        self.inflow_key = None  # the (h, on) of the inflow last written into par
+
+    def finalize(self) -> None:
+        """The fields exist from here on; they are freed with this object."""
+        self.field_tree.finalize()
+        self.field_tree.free_with(self)
+
+    # ------------------------------------------------------------------ run-time numbers
+    def set_params(self, cfg: OperatorConfig) -> None:
+        """Copy run-time numbers into the parameter field (no recompilation)."""
+        P = Params
+        p = np.zeros(param_count(cfg))
+        p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
+        p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.h_min, cfg.h_eps**4, cfg.u_eps
+        p[P.THETA], p[P.WENO_EPS] = cfg.theta, cfg.weno_eps
+        p[P.PHI_REF], p[P.DX], p[P.DY] = cfg.phi_ref, cfg.dx, cfg.dy
+        comp = param_values(cfg)  # the components' numbers, from COUNT on
+        p[P.COUNT : P.COUNT + len(comp)] = comp
+        p[P.IN_U] = cfg.inflow_u
+        p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
+        p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
+        self.cfg = cfg
+        self.prepared = self.interior = None
+        self.rest_stale = True
+        # a new h_min may make films outside the active range wet (the range is set before
+        # the first call, in TaichiOperator.__init__), and new numbers may start resting cells
+        self.set_active(self.gx, self.gx + self.nx)
+        self.forget_rest()
+        self.par.from_numpy(p.astype(self.np_fp))
+        if self.inflow_prof is not None:
+            # the inflow concentration profile (6.9) + noise, computed once on the host: no
+            # 64-bit transcendental functions in the kernels (SPIR-V has none), and the same
+            # numbers as the NumPy reference
+            prof = np.zeros(self.NY)
+            y = (np.arange(self.ny) + 0.5) * cfg.dy
+            prof[self.gy : self.gy + self.ny] = cfg.inflow_phi_profile(y)
+            self.inflow_prof.from_numpy(prof.astype(self.np_fp))
+        self.inflow_key = None
+
+    def set_time(self, t: float) -> None:
+        """Inflow thickness of (6.8) at the stage time t (ramp) and whether it still flows."""
+        if self.bc[0] != "inflow":
+            return
+        h, _, _ = self.cfg.inflow_state(t)
+        on = 1.0 if self.inflow_on(t) else 0.0
+        key = (h, on)
+        if key != self.inflow_key:
+            self.par[Params.IN_H] = h
+            self.par[Params.IN_ON] = on
+            self.inflow_key = key
+
+    def inflow_on(self, t: float) -> bool:
+        """Whether an inflow runs at time t (until the scene's inflow stop time)."""
+        return self.bc[0] == "inflow" and not t > self.cfg.inflow_stop
+
+    # ------------------------------------------------------------------ host access
+    def check_alive(self) -> None:
+        if backend.state().generation != self.generation:
+            raise TisegError(
+                "Taichi was re-initialised (tiseg.init with other settings); "
+                "this simulation's fields no longer exist: create it again"
+            )
+
+    def get(self, slot: int = 0) -> np.ndarray:
+        """Slot as a float64 array shaped (nc, NX, NY)."""
+        a = self.q.to_numpy()[slot]
+        return np.moveaxis(a, -1, 0).astype(np.float64)
+
+    def set(self, slot: int, arr: np.ndarray) -> None:
+        """Replace slot ``slot`` by ``arr`` shaped (nc, NX, NY)."""
+        self.prepared = self.interior = None
+        self.rest_stale = self.rest_stale or slot == 0
+        self.set_active(self.gx, self.gx + self.nx)  # wet cells may now lie anywhere
+        if slot == 0:
+            self.forget_rest()  # and any of them may move
+        full = self.q.to_numpy()
+        full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
+        self.q.from_numpy(full)
+
+    def budget(self, slot: int = 0) -> np.ndarray:
+        """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
+        return self.bud.to_numpy()[slot].astype(float)
+
+    def reset_budget(self, values=None) -> None:
+        b = self.bud.to_numpy()
+        b[0] = 0.0 if values is None else values
+        self.bud.from_numpy(b)
+
+    # ------------------------------------------------------------------ the caches
+    def written(self, dst: int, primitives: bool = False) -> None:
+        """Slot dst changed; with ``primitives`` its interior primitives are now in w."""
+        if dst == 0:
+            self.rest_stale = True
+        if primitives:
+            self.prepared = None
+            self.interior = (dst, self.active)
+            return
+        if self.prepared is not None and self.prepared[0] == dst:
+            self.prepared = None
+        if self.interior is not None and self.interior[0] == dst:
+            self.interior = None
+
+    def fresh(self, slot: int, t: float) -> int:
+        """What the last preparation left valid in w for ``slot`` at time t: 2 everything
+        (the slot prepared at t), 1 the interior (a limited combine's or sweep's result, or
+        the slot prepared at another time), 0 nothing."""
+        key = (slot, t, self.active)
+        interior = self.interior == (slot, self.active) or (
+            self.prepared is not None and self.prepared[::2] == key[::2]
+        )
+        return 2 if self.prepared == key else (1 if interior else 0)
+
+    def first_of_step(self, limit: bool) -> bool:
+        """Whether this limited combination is the step's first stage, where a law with
+        hysteresis decides which resting cells the static friction holds
+        (RestRules.project): the first one after the rest mask was computed for a new
+        step."""
+        first = bool(limit) and self.first_stage and self.phys.law.hysteresis
+        if limit:
+            self.first_stage = False
+        return first
+
+    def forget_rest(self) -> None:
+        """Clear the rest mask: every cell counts as live until a step has marked it again."""
+        if self.rest is not None:
+            self.rest.fill(0)
+        self.mask_inflow = None
+
+    # ------------------------------------------------------------------ ranges
+    def set_active(self, a: int, b: int, wet: tuple[int, int] | None = None) -> None:
+        """Restrict the operator to interior x indices [a, b) (array indices, ghosts counted).
+        ``wet``: the range [wa, wb) the next wet scan covers, which holds [a, b); by default
+        [a, b) itself. It is wider where resting regions are left out (ActiveRange.set)."""
+        if not self.ranges.set(a, b, wet):
+            return  # each field write from Python is a kernel launch
+        self.prepared = self.interior = None
+        if self.rest is not None and self.first_stage:
+            # the step's rest mask was taken on the old range (mark_rest: act +- 4) and the
+            # step has not begun: take it again on the new one (slot 0 is the same), or
+            # cells the range now takes in would keep bits of an earlier step, or none
+            self.rest_stale = True
+
+    @property
+    def active(self) -> tuple[int, int]:
+        """The active x range [a, b) (ActiveRange)."""
+        return self.ranges.active
+
+    @property
+    def wet_range(self) -> tuple[int, int]:
+        """The x range [wa, wb) the next wet scan covers (ActiveRange)."""
+        return self.ranges.wet_range
+
+    @property
+    def force_serial(self) -> bool | None:
+        return self.ranges.force_serial
+
+    def serial_loops(self, whole: bool = False) -> bool:
+        """Whether the next launch runs its loops on one thread (ActiveRange.serial_loops):
+        both modes give the same bits (tests/test_determinism.py)."""
+        return self.ranges.serial_loops(whole)
