@@ -40,6 +40,15 @@ def _rank(module: str) -> int | None:
     return LAYERS.index(parts[1]) if parts[1] in LAYERS else None
 
 
+def _import_target(node: ast.ImportFrom, package: list[str]) -> str:
+    """The dotted module a ``from ... import`` names, its relative level resolved in
+    ``package``."""
+    if not node.level:
+        return node.module or ""
+    base = package[: len(package) - node.level + 1]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports():
     """(importer, imported module, deferred) for every import of a tiseg module."""
     found = []
@@ -51,11 +60,7 @@ def _imports():
             for child in ast.iter_child_nodes(node):
                 inner = deferred or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef))
                 if isinstance(child, ast.ImportFrom):
-                    if child.level:
-                        base = package[: len(package) - child.level + 1]
-                        target = ".".join(base + ([child.module] if child.module else []))
-                    else:
-                        target = child.module or ""
+                    target = _import_target(child, package)
                     if target.split(".")[0] == "tiseg":
                         found.append((mod, target, deferred))
                 elif isinstance(child, ast.Import):
@@ -107,11 +112,7 @@ def _class_sizes() -> dict[str, int]:
         names = {}  # a name bound by `from X import name` -> "X.name"
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = package[: len(package) - node.level + 1]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    target = node.module or ""
+                target = _import_target(node, package)
                 for alias in node.names:
                     names[alias.asname or alias.name] = f"{target}.{alias.name}"
         for node in ast.walk(tree):
@@ -183,11 +184,7 @@ def _module_level_graph() -> dict[str, set[str]]:
                 for handler in getattr(node, "handlers", []):
                     body.extend(handler.body)
             elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = package[: len(package) - node.level + 1]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    target = node.module or ""
+                target = _import_target(node, package)
                 for alias in node.names:
                     sub = f"{target}.{alias.name}"
                     hit = sub if sub in modules else target
