@@ -132,7 +132,17 @@ def test_ctrl_c_while_the_command_line_is_imported_is_one_line():
     """Ctrl-C 0.05 s after the start lands in the command line's imports, before any handler
     of tiseg could be in place: the console script's entry (tiseg.__main__.main, light to
     import) turns it into one line and status 130, not a traceback."""
-    r = subprocess.run([sys.executable, "-c", EARLY], capture_output=True, text=True, timeout=60)
+    import signal
+
+    # as from a terminal: a parent started in the background (`cmd &` in a script) ignores
+    # SIGINT, and Python then keeps ignoring it
+    r = subprocess.run(
+        [sys.executable, "-c", EARLY],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     assert r.returncode == 130, r.stderr
     assert r.stderr.strip() == "tiseg: interrupted", r.stderr
     import tomllib
