@@ -15,7 +15,12 @@ import pytest
 
 from tiseg.setup import scene as S
 from tiseg.errors import InputError
-from tiseg.solver.numerics.config import COMPILED, OperatorConfig, config_from_scene
+from tiseg.solver.numerics.config import (
+    FIELD_KEYS,
+    OperatorConfig,
+    compiled_fields,
+    config_from_scene,
+)
 from tiseg.model.physics.friction import FRICTION_LAWS, Constant, FrictionLaw, FrictionParams
 from tiseg.setup import reference, sections
 from tiseg.setup.schema import compiled_keys, key_fields, key_of
@@ -64,9 +69,9 @@ def test_a_registered_law_and_its_constant_are_read_from_a_scene(plateau):
     assert sc.friction_constants["plateau_mu"] == 0.7
     cfg = config_from_scene(sc)  # the operator sees it through the chosen law
     assert cfg.fric.plateau_mu == 0.7 and plateau.values(cfg.fric) == [0.7]
-    from tiseg.model.physics.pointwise import param_values
+    from tiseg.model.physics.param_layout import ParamLayout
 
-    assert param_values(cfg)[-1] == 0.7
+    assert ParamLayout.of(cfg).values[-1] == 0.7
     # the law's default when the key is left out, and the resolved TOML round trip
     assert _dam(**{"effects.friction": "test-plateau"}).effects.plateau_mu == 0.4
     assert S.scene_to_dict(sc)["effects"]["plateau_mu"] == 0.7
@@ -164,12 +169,19 @@ def test_initial_keys_come_from_the_kinds_each_field_declares():
 
 def test_compiled_lists_come_from_the_declarations():
     """The simulation refuses changes of what the kernels were compiled for: the operator's
-    fields marked compiled, and the scene keys the simulation builds itself."""
-    from tiseg.run import simulation
-
-    marked = {f.name for f in dataclasses.fields(OperatorConfig) if "compiled" in f.metadata}
-    assert simulation.COMPILED is COMPILED and set(COMPILED) == marked
-    assert {"reconstruction", "friction", "bc", "layout"} <= marked
+    fields made from a key the schema declares compiled "operator", and the scene keys the
+    simulation builds itself. The operator's fields name real keys, and every key compiled
+    for the operator reaches one of its fields."""
+    operator_keys = compiled_keys(SECTIONS, "operator")
+    compiled = compiled_fields(operator_keys)
+    assert {"reconstruction", "friction", "bc", "layout", "inflow_rows", "sources"} <= set(compiled)
+    assert not {"nu", "g", "zeta", "inflow_h", "constants"} & set(compiled)  # run-time numbers
+    named = {k for keys, _ in FIELD_KEYS.values() for k in keys}
+    all_keys = {f"{s}.{f.name}" for s in SECTIONS for f in sections.section_fields(s)}
+    assert named <= all_keys, named - all_keys
+    assert set(operator_keys) <= named, set(operator_keys) - named
+    for name in compiled:  # a compiled field is made from compiled keys only
+        assert set(FIELD_KEYS[name][0]) <= set(operator_keys), name
     assert compiled_keys(SECTIONS, "simulation") == (
         "numerics.stepper",
         "numerics.precision",
@@ -177,7 +189,7 @@ def test_compiled_lists_come_from_the_declarations():
         "output.peak_fields",
         "output.gauges",
     )
-    assert "numerics.reconstruction" in compiled_keys(SECTIONS, "operator")
+    assert "numerics.reconstruction" in operator_keys
     assert "flow.nu" not in compiled_keys(SECTIONS)
 
 

@@ -61,7 +61,7 @@ from .gauges import Gauges
 from .peaks import PeakFields, deposit
 from ..setup.initial import initial_state
 from .limits import check_memory
-from ..solver.numerics.config import COMPILED, config_from_scene  # what set_parameters keeps
+from ..solver.numerics.config import compiled_fields, config_from_scene
 from .schedules import IterationInterval, Schedule, SpecifiedTimes
 from ..setup.schema import compiled_keys
 from ..setup.sections import SECTIONS
@@ -203,7 +203,9 @@ class Simulation:
         cfg = config_from_scene(scene)
         if self.cfg.viscous and not cfg.viscous and scene.effects.viscosity:
             cfg = dataclasses.replace(cfg, viscous=True, nu=0.0)  # nu = 0: the same kernels
-        what = sorted({v for k, v in COMPILED.items() if getattr(cfg, k) != getattr(self.cfg, k)})
+        # the operator's fields made from keys the schema says the kernels are compiled for
+        compiled = compiled_fields(compiled_keys(SECTIONS, "operator"))
+        what = sorted({v for k, v in compiled.items() if getattr(cfg, k) != getattr(self.cfg, k)})
         for full in compiled_keys(SECTIONS, "simulation"):  # built by the simulation itself
             section, key = full.split(".")
             if getattr(getattr(scene, section), key) != getattr(getattr(old, section), key):
@@ -410,8 +412,12 @@ class Simulation:
             dt_cfl = remaining if math.isfinite(remaining) else 1.0
         if self.stepper.split:
             # the sweeps need no spectral radius; a viscous sub-step takes its stages from
-            # the viscous stiffness alone (Hancock.plan)
-            rho = stab.rho_stiff
+            # the viscous stiffness alone (Hancock.plan). The friction is projected, so
+            # rho_fric is that of stiff source terms, which the x sweep takes as one Euler
+            # step: dt rho_fric <= cfl keeps it stable and its sign
+            rho = stab.rho_visc
+            if stab.rho_fric > 0.0:
+                dt_cfl = min(dt_cfl, sc.numerics.cfl / stab.rho_fric)
         dt, s = self.stepper.plan(dt_cfl, rho, math.inf, stages)
         t_next = self.t + dt
         if remaining <= dt * (1.0 + 1e-9):  # the last step lands on the stop

@@ -78,6 +78,10 @@ def _key(f: dataclasses.Field) -> dict:
         out["enum"] = [*k.allowed(), *(k.aliases or {})]
     elif kind == "string":
         out["type"] = "string"
+    elif kind == "choices":  # distinct registered words (Table.choice_list)
+        out["type"] = "array"
+        out["items"] = {"enum": list(k.allowed())}
+        out["uniqueItems"] = True
     else:  # numbers
         out["type"] = "array"
         out["items"] = {"type": "number"}

@@ -154,7 +154,8 @@ def default_of(f: dataclasses.Field):
 
 
 def kind_of(f: dataclasses.Field) -> str:
-    """number, integer, boolean, choice, string or numbers, from the annotation."""
+    """number, integer, boolean, choice, string, numbers or choices (an array of distinct
+    allowed words), from the annotation."""
     base = str(f.type).split("|")[0].strip()
     if base == "float":
         return "number"
@@ -166,6 +167,8 @@ def kind_of(f: dataclasses.Field) -> str:
         return "choice" if key_of(f).choices is not None else "string"
     if base.startswith("tuple[float"):
         return "numbers"
+    if base.startswith("tuple[str"):
+        return "choices"
     raise TypeError(f"scene key {f.name}: no reader for the type {f.type!r}")
 
 
@@ -196,6 +199,8 @@ def read_key(t: Table, f: dataclasses.Field, default=DECLARED):
         return t.choice(f.name, k.allowed(), d, aliases=k.aliases)
     if kind == "string":
         return t.string(f.name, d)
+    if kind == "choices":
+        return tuple(t.choice_list(f.name, k.allowed(), d))
     return tuple(t.number_list(f.name, d))
 
 

@@ -25,6 +25,7 @@ from ..solver.numerics.config import (
 )
 from ..model.physics.friction import FRICTION_LAWS as LAWS
 from ..model.physics.friction import ConstantsByName
+from ..model.physics.sources import SOURCES, declared_constants
 from .schema import constant_field, key, key_fields, key_names, key_of
 from .initial import BUILTIN_KINDS, INITIAL_KINDS
 from .table import MISSING
@@ -197,12 +198,26 @@ class EffectsConfig(ConstantsByName):
             compiled="operator",
         ),
     )
+    sources: tuple[str, ...] = field(
+        default=(),
+        metadata=key(
+            "source terms beyond (6.4), by name (tiseg.model.physics.sources; each brings its "
+            "constants as keys of this section)",
+            choices=lambda: tuple(SOURCES),
+            compiled="operator",
+        ),
+    )
     constants: tuple[tuple[str, float], ...] = ()
 
 
 def effects_fields() -> list:
-    """The effects section's key fields: its switches, then the laws' constants."""
-    return key_fields(EffectsConfig) + law_constants("effects")
+    """The effects section's key fields: its switches, the laws' constants, then those of the
+    registered source terms and the fields they read (keys only while a term that needs them
+    is on, `tiseg.setup.validators.read_effects`)."""
+    laws = law_constants("effects")
+    known = {f.name for f in laws}
+    comps = [constant_field(c) for n, c in declared_constants("effects").items() if n not in known]
+    return key_fields(EffectsConfig) + laws + comps
 
 
 # ---- domain, boundary ---------------------------------------------------------------------------
@@ -339,12 +354,16 @@ class InflowConfig:
     width: float | None = field(
         default=None,
         metadata=key(
-            "[m] of a localised inlet centred at y0; None = the whole width", positive=True
+            "[m] of a localised inlet centred at y0; None = the whole width",
+            positive=True,
+            compiled="operator",
         ),
     )
     y0: float | None = field(
         default=None,
-        metadata=key("[m] cross-slope centre of the inlet (default Ly/2)", nonneg=True),
+        metadata=key(
+            "[m] cross-slope centre of the inlet (default Ly/2)", nonneg=True, compiled="operator"
+        ),
     )
 
     def rows(self, ny: int, dy: float) -> tuple[int, int] | None:

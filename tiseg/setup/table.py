@@ -159,6 +159,25 @@ class Table:
             raise InputError(f"{full}={i}: must be an integer >= {lo}")
         return i
 
+    def choice_list(self, key: str, choices: tuple[str, ...], default=MISSING) -> list[str]:
+        """An array of distinct words, each one of ``choices``."""
+        v = self.get(key, default)
+        full = self.full(key)
+        if not isinstance(v, (list, tuple)):
+            raise InputError(
+                f"{full}={show(v)}: expected an array of names such as "
+                f"[{', '.join(map(repr, choices[:1] or ('name',)))}], got {type_name(v)}"
+            )
+        out: list[str] = []
+        for i, x in enumerate(v):
+            word = Table({f"{key}[{i}]": x}, self.prefix, (f"{key}[{i}]",)).choice(
+                f"{key}[{i}]", choices
+            )
+            if word in out:
+                raise InputError(f"{full}={show(v)}: {word!r} is named twice")
+            out.append(word)
+        return out
+
     def number_list(self, key: str, default=MISSING) -> list[float]:
         v = self.get(key, default)
         full = self.full(key)

@@ -19,6 +19,7 @@ from ..log import note
 from ..model.material import Material, Species
 from ..solver.numerics.config import STEP_RULES, SPLIT_CFL, is_split, noise_modes
 from ..model.physics.friction import FRICTION_LAWS as LAWS, layer_thresholds
+from ..model.physics.sources import AUX_FIELDS, SOURCES, components
 from ..model.steady import steady_state
 from .schema import DECLARED, field_named, key_fields, key_of, read_key, read_section, read_tables
 from .initial import INITIAL_KINDS
@@ -36,6 +37,7 @@ from .sections import (
     SpeciesKeys,
     effects_fields,
     initial_keys,
+    law_constants,
     material_fields,
 )
 from .table import Table, close, near_integer, require, show
@@ -76,9 +78,30 @@ def read_material(t: Table) -> Material:
 
 
 def read_effects(t: Table) -> EffectsConfig:
-    """The switches and the values of the laws' constants kept with the effects."""
-    values = {f.name: read_key(t, f) for f in effects_fields()}
+    """The switches and the values of the constants kept with the effects: the laws' always,
+    a source term's (and those of the fields it reads) only while ``effects.sources`` names
+    it; given for a term that is off, a constant is an error (it would do nothing)."""
     own = {f.name for f in key_fields(EffectsConfig)}
+    laws = {f.name for f in law_constants("effects")}
+    fields = {f.name: f for f in effects_fields()}
+    values = {n: read_key(t, f) for n, f in fields.items() if n in own or n in laws}
+    on = {c.name for comp in components(values["sources"]) for c in comp.constants}
+    for name in fields:
+        if name in own or name in laws:
+            continue
+        if name in on:
+            values[name] = read_key(t, fields[name])
+        elif t.has(name):
+            owners = [
+                c.name
+                for c in (*SOURCES.values(), *AUX_FIELDS.values())
+                if any(k.name == name for k in c.constants)
+            ]
+            raise InputError(
+                f"effects.{name}={show(t.get(name))}: a constant of {' and '.join(map(repr, owners))}, "
+                "which no term of effects.sources uses; add the term to effects.sources or "
+                "remove the key"
+            )
     constants = tuple((k, v) for k, v in values.items() if k not in own)
     return EffectsConfig(**{k: v for k, v in values.items() if k in own}, constants=constants)
 

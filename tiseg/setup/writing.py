@@ -27,7 +27,8 @@ from .sections import (
 def _fields_of(fields, value) -> dict:
     out = {}
     for f in fields:
-        v = getattr(value, f.name)
+        # (a constant of a source term that is off has no value: no key)
+        v = getattr(value, f.name, None)
         if v is not None:
             out[f.name] = plain(v)
     return out

@@ -38,43 +38,10 @@ import numpy as np
 
 from ..material import DEFAULT_BETA_STAR, DEFAULT_KAPPA
 from ..material import pouliquen as _pouliquen_np  # (3.7), the NumPy closures' own
+from .constants import Constant, ConstantsByName  # declared for every component
 from .params import Params
 
 DEFAULT_COULOMB_MU = math.tan(math.radians(20.0))
-
-
-@dataclass(frozen=True)
-class Constant:
-    """A number a friction law declares, once: the scene key ``<section>.<name>`` that sets
-    it, its default, the doc text of the scenes reference and its checks (inclusive bounds
-    ``lo``/``hi``, or ``positive``/``nonneg``), which the scene applies with the one-line
-    messages of every other key. ``section`` "effects" keeps the value with the effects;
-    "material" names a field of `tiseg.model.material.Material` of the same name."""
-
-    name: str
-    default: float
-    doc: str
-    section: str = "effects"
-    positive: bool = False
-    nonneg: bool = False
-    lo: float | None = None
-    hi: float | None = None
-
-
-class ConstantsByName:
-    """Attribute access to the laws' constants held in a ``constants`` field of (name, value)
-    pairs: ``fric.coulomb_mu``."""
-
-    constants: tuple[tuple[str, float], ...]
-
-    def __getattr__(self, name: str) -> float:
-        # only reached for names that are not fields (never while unpickling, where
-        # ``constants`` is not set yet and asking for it must not recurse)
-        if not name.startswith("_") and name != "constants":
-            for key, value in self.constants:
-                if key == name:
-                    return value
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
 @dataclass(frozen=True)

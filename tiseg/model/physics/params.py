@@ -4,7 +4,7 @@ The slots below are those every scene has. A component with numbers of its own (
 function of `tiseg.model.physics.segregation`, the viscosity of `tiseg.model.physics.viscosity`, a
 friction law of `tiseg.model.physics.friction`)
 stores them after `Params.COUNT`, at indices it is given when the operator is built
-(`tiseg.model.physics.pointwise.slot_bases`), so a switched-off component has no slots at all.
+(`tiseg.model.physics.param_layout.ParamLayout`), so a switched-off component has no slots at all.
 """
 
 

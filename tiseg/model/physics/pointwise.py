@@ -9,53 +9,27 @@ they can change without recompiling.
 import taichi as ti
 
 from .friction import FRICTION_LAWS
+from .param_layout import ParamLayout
 from .params import Params
 from .segregation import TRANSPORTS
 from .viscosity import VISCOSITY
 
-__all__ = ["Physics", "Params", "param_count", "slot_bases"]
+__all__ = ["Physics", "Params", "slot_bases"]
 
 
 def slot_bases(cfg) -> dict[str, int]:
-    """Where each component's numbers start in the parameter field: after the common slots
-    (`Params.COUNT`) come the transport function's (only with segregation), the
-    viscosity's (only with it), then the friction law's; ``"end"`` is the field's length. A
-    component that is off has no slots."""
-    bases = {}
-    b = Params.COUNT
-    if cfg.layout.segregation:
-        bases["transport"] = b
-        b += len(TRANSPORTS[cfg.transport].slots)
-    if cfg.viscous:
-        bases["viscosity"] = b
-        b += len(VISCOSITY.slots)
-    bases["friction"] = b
-    bases["end"] = b + len(FRICTION_LAWS[cfg.friction].slots)
-    return bases
-
-
-def param_count(cfg) -> int:
-    """Slots of the parameter field: the common ones and the components'."""
-    return slot_bases(cfg)["end"]
-
-
-def param_values(cfg) -> list[float]:
-    """The components' numbers, in the order of `slot_bases` (from Params.COUNT on)."""
-    vals = []
-    if cfg.layout.segregation:
-        vals += TRANSPORTS[cfg.transport].values(cfg.alpha)
-    if cfg.viscous:
-        vals += VISCOSITY.values(cfg.nu)
-    if cfg.fric is not None:
-        vals += FRICTION_LAWS[cfg.friction].values(cfg.fric)
-    return vals
+    """Where each component's numbers start in the parameter field (`ParamLayout`: the
+    transport's, the viscosity's, the friction law's, each source term's ...), and ``"end"``,
+    the field's length. A component that is off has no slots."""
+    lay = ParamLayout.of(cfg)
+    return {**dict(lay.bases), "end": lay.end}
 
 
 @ti.data_oriented
 class Physics:
     def __init__(self, cfg, par):
-        """cfg: the OperatorConfig; par: the operator's parameter field, of
-        `param_count` slots (the components' from Params.COUNT on, `slot_bases`)."""
+        """cfg: the OperatorConfig; par: the operator's parameter field, laid out by
+        `ParamLayout` (the components' slots from Params.COUNT on)."""
         lay = cfg.layout
         self.par = par
         self.nc = lay.nc

@@ -6,7 +6,7 @@ The large-particle flux is h u (phi - G(phi)) (6.3); G comes from the shear prof
 holds everything the solver needs of it:
 
 * ``slots`` and ``values``: its run-time numbers, stored in the operator's parameter field at
-  the index the operator gives it (`tiseg.model.physics.pointwise.slot_bases`);
+  the index the operator gives it (`tiseg.model.physics.param_layout.ParamLayout`);
 * ``taichi``: its Taichi functions ``G(phi)`` and ``dG(phi)``, built for one operator (so a
   function that is not chosen, or no segregation at all, leaves no code in the kernels);
 * ``G_np`` / ``dG_np``: the NumPy twins, written apart from the Taichi functions (and

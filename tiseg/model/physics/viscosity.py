@@ -8,7 +8,7 @@ nu h^{3/2} D, D = (grad u + grad u^T) / 2 (6.6), whose divergence enters the mom
 The component holds what the solver needs of it:
 
 * ``slots`` / ``values``: its one run-time number, nu, stored in the operator's parameter field
-  at the index the operator gives it (`tiseg.model.physics.pointwise.slot_bases`);
+  at the index the operator gives it (`tiseg.model.physics.param_layout.ParamLayout`);
 * ``taichi``: its Taichi functions, the face coefficient ``face_K(h_a, h_b)``, the normal and
   shear stresses a face carries and the cell's Gershgorin bound ``cell_stiffness``; they take
   values, never fields (the operator reads the stencil);

@@ -23,6 +23,7 @@ from ...errors import InputError
 from ...model.physics.friction import FRICTION_LAWS as _LAWS
 from ...model.physics.friction import FrictionParams  # the laws own it; imported from here before
 from ...model.physics.segregation import TRANSPORTS as _TRANSPORTS
+from ...model.physics.sources import MAX_STENCIL, SOURCES, components
 from ..timestepping import STEPPERS as _STEPPERS
 from .boundaries import BOUNDARIES as _BOUNDARIES
 from .fluxes import FLUXES as _FLUXES
@@ -41,6 +42,7 @@ REGISTRIES = {
     "numerics.phi_flux": _PHI_FLUXES,  # the h phi component of that flux (.fluxes)
     "boundary": _BOUNDARIES,  # boundary.*: the conditions (.boundaries)
     "numerics.stepper": _STEPPERS,  # tiseg.solver.timestepping
+    "effects.sources": SOURCES,  # terms beyond (6.4), tiseg.model.physics.sources
 }
 # the names of before, each now the keys of its registry as they stand (`registered`)
 CHOICE_NAMES = {
@@ -94,6 +96,9 @@ SPLIT_CFL = 0.6
 INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 GHOST = 2
+SIDES = ("x_lo", "x_hi", "y_lo", "y_hi")  # the boundary.* keys, in the order of bc
+# the scene keys of the grid
+_GRID = ("domain.Lx", "domain.Ly", "domain.resolution", "domain.nx", "domain.ny")
 NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
 
 
@@ -203,11 +208,13 @@ class Layout:
         return (slice(self.gx, self.gx + self.nx), slice(self.gy, self.gy + self.ny))
 
 
-def compiled(what: str) -> dict:
-    """Field metadata: the kernels are compiled for this field's value, and ``what`` names
-    the scene keys that set it in the message of a refused change
-    (``Simulation.set_parameters``, `COMPILED`)."""
-    return {"compiled": what}
+def from_keys(*keys: str, what: str | None = None) -> dict:
+    """Field metadata: the scene keys a field of `OperatorConfig` is made from. Whether the
+    kernels are compiled for the field is the schema's word on those keys (``compiled =
+    "operator"``, `tiseg.setup.schema.compiled_keys`): `compiled_fields` reads it. ``what``
+    names the change in the message of a refused one (``Simulation.set_parameters``); the keys
+    themselves by default."""
+    return {"keys": keys, "what": what or ", ".join(keys)}
 
 
 @dataclass(frozen=True)
@@ -216,46 +223,50 @@ class OperatorConfig:
     scene declares them once (`tiseg.setup.sections.NumericsConfig`), and a test that
     builds a config by hand states the ones it means."""
 
-    layout: Layout = field(metadata=compiled("the grid or the segregation switch"))
-    dx: float = field(metadata=compiled("the grid"))
-    dy: float = field(metadata=compiled("the grid"))
-    Ly: float = field(metadata=compiled("the domain"))
+    layout: Layout = field(
+        metadata=from_keys(*_GRID, "effects.segregation", what="the grid or the segregation switch")
+    )
+    dx: float = field(metadata=from_keys(*_GRID, what="the grid"))
+    dy: float = field(metadata=from_keys(*_GRID, what="the grid"))
+    Ly: float = field(metadata=from_keys("domain.Ly", what="the domain"))
     # physics switches
-    viscous: bool = field(default=False, metadata=compiled("effects.viscosity"))
+    viscous: bool = field(default=False, metadata=from_keys("effects.viscosity"))
     # friction depends on the local phi
-    feedback: bool = field(default=False, metadata=compiled("effects.mobility_feedback"))
-    friction: str = field(default="pouliquen-mixture", metadata=compiled("effects.friction"))
+    feedback: bool = field(default=False, metadata=from_keys("effects.mobility_feedback"))
+    friction: str = field(default="pouliquen-mixture", metadata=from_keys("effects.friction"))
     # physics numbers
     g: float = 9.81
     zeta: float = math.radians(27.0)
     # G(phi): "linear" (2.17) or "bagnold" (2.18)
-    transport: str = field(default="linear", metadata=compiled("material.transport"))
+    transport: str = field(default="linear", metadata=from_keys("material.transport"))
     alpha: float = 1.0 / 7.0  # G(phi) = (1 - alpha) phi (1 - phi), (2.17)
     nu: float = 0.0
     phi_ref: float = 0.8  # concentration used by the friction when feedback is off
     fric: FrictionParams | None = None
     # numerics: the scene's numerics.* keys of the same names
-    reconstruction: str = field(kw_only=True, metadata=compiled("numerics.reconstruction"))
+    reconstruction: str = field(kw_only=True, metadata=from_keys("numerics.reconstruction"))
     theta: float = field(kw_only=True)
-    flux: str = field(kw_only=True, metadata=compiled("numerics.flux"))
-    phi_flux: str = field(kw_only=True, metadata=compiled("numerics.phi_flux"))
+    flux: str = field(kw_only=True, metadata=from_keys("numerics.flux"))
+    phi_flux: str = field(kw_only=True, metadata=from_keys("numerics.phi_flux"))
     weno_eps: float = 1e-6
     h_ref: float = 2e-3  # scales making the WENO smoothness indicators dimensionless
     u_ref: float = 0.2
     h_min: float = field(kw_only=True)
     h_eps: float = field(kw_only=True)
     u_eps: float = field(kw_only=True)
-    friction_scheme: str = field(kw_only=True, metadata=compiled("numerics.friction_scheme"))
+    friction_scheme: str = field(kw_only=True, metadata=from_keys("numerics.friction_scheme"))
     # the stability pass also finds the largest per-cell rate of step_rule "local"
     local_step_rate: bool = field(
-        default=False, metadata=compiled('numerics.step_rule (to or from "local")')
+        default=False,
+        metadata=from_keys("numerics.step_rule", what='numerics.step_rule (to or from "local")'),
     )
     # the dimensionally split scheme (numerics.stepper "hancock", tiseg.solver.numerics.split):
     # friction only as the projection; a viscosity is its own sub-step
     split: bool = False
     # boundaries: x_lo, x_hi, y_lo, y_hi
     bc: tuple = field(
-        default=("outflow", "outflow", "periodic", "periodic"), metadata=compiled("the boundaries")
+        default=("outflow", "outflow", "periodic", "periodic"),
+        metadata=from_keys(*(f"boundary.{s}" for s in SIDES), what="the boundaries"),
     )
     # inflow (6.8)-(6.9)
     inflow_h: float = 0.0
@@ -270,7 +281,16 @@ class OperatorConfig:
     inflow_forcing_frequency: float = 0.0  # [Hz] (inflow.forcing_frequency)
     inflow_forcing_amplitude: float = 0.0  # relative (inflow.forcing_amplitude)
     # the inlet's interior rows [lo, hi) (inflow.width, inflow.y0); None = every row
-    inflow_rows: tuple | None = field(default=None, metadata=compiled("inflow.width and inflow.y0"))
+    inflow_rows: tuple | None = field(
+        default=None,
+        metadata=from_keys("inflow.width", "inflow.y0", what="inflow.width and inflow.y0"),
+    )
+    # source terms beyond (6.4) and the auxiliary fields they read (tiseg.model.physics.sources),
+    # composed into the kernels; their constants, and those of the fields, by name: run-time
+    # numbers in the parameter field (tiseg.model.physics.param_layout), so a new term needs
+    # no field here
+    sources: tuple[str, ...] = field(default=(), metadata=from_keys("effects.sources"))
+    constants: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
         """Checked also when the config is built by hand, not from a scene: the registries as
@@ -283,8 +303,20 @@ class OperatorConfig:
             ("numerics.flux", self.flux),
             ("numerics.phi_flux", self.phi_flux),
             *(("boundary", b) for b in self.bc),
+            *(("effects.sources", name) for name in self.sources),
         ):
             check_choice(key, value, REGISTRIES[key])
+        for name in self.sources:
+            if SOURCES[name].stencil > MAX_STENCIL:
+                raise InputError(
+                    f"effects.sources: the term {name!r} reads {SOURCES[name].stencil} cells "
+                    f"along each direction; the operator gives a term at most {MAX_STENCIL}"
+                )
+        given = dict(self.constants)
+        for comp in components(self.sources):
+            missing = [c.name for c in comp.constants if c.name not in given]
+            if missing:
+                raise InputError(f"{comp.name!r} needs the constants {missing}: give them")
         check_choice("numerics.friction_scheme", self.friction_scheme, FRICTION_SCHEMES)
         regularised = self.friction != "none" and not self.friction_projected
         if self.split and regularised:
@@ -331,15 +363,30 @@ class OperatorConfig:
         return ramp * force * self.inflow_h, self.inflow_u, self.inflow_phi
 
 
-# OperatorConfig fields the kernels are compiled for -> what the scene calls them
-COMPILED = {f.name: f.metadata["compiled"] for f in fields(OperatorConfig) if f.metadata}
+# OperatorConfig fields made from scene keys -> (those keys, the change in words)
+FIELD_KEYS = {
+    f.name: (f.metadata["keys"], f.metadata["what"]) for f in fields(OperatorConfig) if f.metadata
+}
+
+
+def compiled_fields(compiled_keys) -> dict[str, str]:
+    """{field: the change in words} of the OperatorConfig fields the kernels are compiled for:
+    those made from a scene key in ``compiled_keys`` (the schema's operator-compiled keys,
+    `tiseg.setup.schema.compiled_keys`)."""
+    keys = set(compiled_keys)
+    return {name: what for name, (made_of, what) in FIELD_KEYS.items() if keys & set(made_of)}
 
 
 def config_from_scene(scene) -> OperatorConfig:
     """The operator's view of a `tiseg.setup.scene.Scene`."""
     m = scene.material
     lay = Layout(scene.domain.nx, scene.domain.ny, bool(scene.segregation))
-    fric = FrictionParams.of(m, **dict(scene.effects.constants))
+    # the effects' constants: the friction laws' go to FrictionParams, the source terms' and
+    # their fields' to `constants`
+    given = dict(scene.effects.constants)
+    sources = tuple(scene.effects.sources)
+    own = {c.name for comp in components(sources) for c in comp.constants}
+    fric = FrictionParams.of(m, **{k: v for k, v in given.items() if k not in own})
     u_ref = scene.flow.u0 or math.sqrt(m.g * scene.flow.h0 * max(math.cos(m.zeta), 1e-3))
     kw = {}
     inflow = scene.inflow
@@ -387,5 +434,7 @@ def config_from_scene(scene) -> OperatorConfig:
         local_step_rate=num.step_rule == "local" and not lay.is_1d,
         split=is_split(num.stepper),
         bc=scene.boundary.as_tuple(),
+        sources=sources,
+        constants=tuple((k, v) for k, v in given.items() if k in own),
         **kw,
     )

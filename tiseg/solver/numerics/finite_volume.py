@@ -336,8 +336,9 @@ class FiniteVolume:
 
     @ti.func
     def cell_rate(self, i, j):
-        """L at cell (i, j) from the face fluxes and the source: (6.1)-(6.6) in flux form;
-        zero outside the active x range."""
+        """L at cell (i, j) from the face fluxes and the source: (6.1)-(6.6) in flux form,
+        plus the scene's source terms (`source_terms.SourceTerms`); zero outside the active x
+        range."""
         idx = self.state.par[Params.INV_DX]
         idy = self.state.par[Params.INV_DY]
         a, b = self.state.act[0], self.state.act[1]
@@ -347,6 +348,8 @@ class FiniteVolume:
             if ti.static(not self.state.is_1d):
                 r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
             r += self.state.phys.source(self.state.w[i, j])
+            if ti.static(self.state.terms.on):  # the scene's terms beyond (6.4)
+                r += self.state.terms.rate(i, j)
         return r
 
     @ti.func

@@ -26,7 +26,7 @@ class StabilityNumbers:
     ax: float  # max |u| + c (or segregation speed) in x [m/s]
     ay: float
     rho_visc: float  # Gershgorin bound of the viscous Jacobian [1/s]
-    rho_fric: float  # friction stiffness [1/s]
+    rho_fric: float  # friction stiffness, with that of stiff source terms [1/s]
     max_speed: float  # max |u| [m/s]
     rho_stiff: float  # Gershgorin bound of viscous + friction together: max over cells of the
     # sum, <= rho_visc + rho_fric (they peak in different cells) [1/s]
@@ -153,6 +153,8 @@ class StepReductions:
                                 m1 = ti.max(m1, self.state.phys.speed(w, 1))
                         m4 = ti.max(m4, self.state.phys.speed_mag(w))
                         fr = self.state.phys.friction_rate(w)
+                        if ti.static(self.state.terms.stiff_on):  # stiff source terms
+                            fr += self.state.terms.stiffness(i, j)
                         m3 = ti.max(m3, fr)
                         rho = 0.0 * fr
                         if ti.static(self.state.visc):

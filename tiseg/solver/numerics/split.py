@@ -29,8 +29,12 @@ the state a whole step along one direction from a single flux evaluation. Along 
    so the factor of the cell the mass leaves is the one all three need);
 5. q := q - lambda (F_{m+1/2} - F_{m-1/2}) + dt S, the source (gravity along the slope,
    g sin(zeta) h; the friction is projected, below) in the x sweep only, by the trapezoidal
-   rule between the h before and after the fluxes; then the stage limiter (phi in [0, 1], no
-   momentum in films thinner than h_min).
+   rule between the h before and after the fluxes, and the scene's source terms beyond (6.4)
+   (`source_terms.SourceTerms`) over the whole step at their rate in the sweep's initial
+   state, which the predictor also takes for its half step (forward Euler in the update: a
+   term whose rate has a stiffness bound r limits the step to dt <= cfl / r,
+   `tiseg.run.simulation`); then the stage limiter (phi in [0, 1], no momentum in films
+   thinner than h_min).
 
 The sweeps alternate their order from step to step (x then y, then y then x), which makes the
 splitting error of two steps second order (Strang 1968) at two sweeps a step; each sweep is
@@ -207,7 +211,14 @@ class SplitSweeps:
             keep = 0  # 1: the edges stay unevolved
             if ti.static(d == 0):
                 sgn, keep = self._ghost_source(i)
-                shift -= (0.5 * dt * sgn) * ph.source(w0)
+                src = ph.source(w0)
+                if ti.static(self.state.terms.on):
+                    # the scene's terms, from the sweep's initial state: half a step here,
+                    # the whole step in the update (kept for it)
+                    rate = self.state.terms.rate(i, j)
+                    self.state.srate[i, j] = rate
+                    src += rate
+                shift -= (0.5 * dt * sgn) * src
             pW = qW - shift
             pE = qE - shift
             if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
@@ -444,6 +455,8 @@ class SplitSweeps:
                 # by the trapezoidal rule between the cell's h before and after the fluxes
                 h1 = q0[0] + upd[0]
                 upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(h1))
+                if ti.static(self.state.terms.on):  # the scene's terms (from the predictor)
+                    upd += dt * self.state.srate[i, j]
                 if ti.static(fr):
                     hg = 0.5 * (q0[0] + h1)
                     if ti.static(not last):

@@ -27,13 +27,16 @@ import taichi as ti
 
 from ... import backend
 from ...errors import TisegError
-from ...model.physics.pointwise import Params, Physics, param_count, param_values
+from ...model.physics.param_layout import ParamLayout
+from ...model.physics.pointwise import Params, Physics
+from ...model.physics.sources import chosen_aux
 from ..field_tree import FieldTree
 from .boundaries import BOUNDARIES
 from .config import OperatorConfig
 from .ranges import ActiveRange, row_pieces
 from .reconstruction import RECONSTRUCTIONS
 from .reductions import NSTAB
+from .source_terms import SourceTerms
 
 NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 
@@ -82,7 +85,13 @@ class OperatorState:
             self.ew = ft.vector(nc, self.fp, (NX, NY))
             self.ee = ft.vector(nc, self.fp, (NX, NY))
             self.drain = ft.field(self.fp, (NX, NY))
-        self.par = ft.field(self.fp, param_count(cfg))
+        self.par = ft.field(self.fp, ParamLayout.of(cfg).end)
+        # the auxiliary fields the scene's source terms read (a vector per cell), and the
+        # split x sweep's source rates of the step (predicted once, applied in the update):
+        # only with terms (tiseg.model.physics.sources)
+        n_aux = len(chosen_aux(cfg.sources))
+        self.aux = ft.vector(n_aux, self.fp, (NX, NY)) if n_aux else None
+        self.srate = ft.vector(nc, self.fp, (NX, NY)) if self.split and cfg.sources else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
         self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
         # Active range [a, b) of x indices whose cells may change, the wet scan's range and
@@ -114,6 +123,7 @@ class OperatorState:
         # rate has no slot)
         self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
         self.phys = Physics(cfg, self.par)
+        self.terms = SourceTerms(self)  # the source terms beyond (6.4), if any
         # With the projected friction: which cells were at rest at the start of the step,
         # the state in slot 0 (RestRules.rest_face). Recomputed at the first preparation
         # after slot 0 is written, so every stage of a step sees the same rest faces.
@@ -157,17 +167,7 @@ class OperatorState:
     # ------------------------------------------------------------------ run-time numbers
     def set_params(self, cfg: OperatorConfig) -> None:
         """Copy run-time numbers into the parameter field (no recompilation)."""
-        P = Params
-        p = np.zeros(param_count(cfg))
-        p[P.G_COS], p[P.G_SIN] = cfg.g_cos, cfg.g_sin
-        p[P.H_MIN], p[P.H_EPS4], p[P.U_EPS] = cfg.h_min, cfg.h_eps**4, cfg.u_eps
-        p[P.THETA], p[P.WENO_EPS] = cfg.theta, cfg.weno_eps
-        p[P.PHI_REF], p[P.DX], p[P.DY] = cfg.phi_ref, cfg.dx, cfg.dy
-        comp = param_values(cfg)  # the components' numbers, from COUNT on
-        p[P.COUNT : P.COUNT + len(comp)] = comp
-        p[P.IN_U] = cfg.inflow_u
-        p[P.INV_DX], p[P.INV_DY] = 1.0 / cfg.dx, 1.0 / cfg.dy
-        p[P.INV_H_REF], p[P.INV_U_REF] = 1.0 / cfg.h_ref, 1.0 / cfg.u_ref
+        p = ParamLayout.of(cfg).vector(cfg)  # the common slots, then the components'
         self.cfg = cfg
         self.prepared = self.interior = None
         self.rest_stale = True
@@ -176,6 +176,7 @@ class OperatorState:
         self.set_active(self.gx, self.gx + self.nx)
         self.forget_rest()
         self.par.from_numpy(p.astype(self.np_fp))
+        self.terms.fill_aux(cfg)
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no
             # 64-bit transcendental functions in the kernels (SPIR-V has none), and the same

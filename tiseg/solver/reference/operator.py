@@ -46,6 +46,7 @@ from ..numerics.fluxes import FLUXES, PHI_FLUXES
 from ..numerics.reconstruction import RECONSTRUCTIONS, limit_edges_np
 from ...model.physics.friction import FRICTION_LAWS
 from ...model.physics.segregation import TRANSPORTS
+from ...model.physics.sources import SOURCES, NumpyContext, aux_arrays
 from ...model.physics.viscosity import VISCOSITY
 
 SQRT2 = math.sqrt(2.0)
@@ -71,6 +72,8 @@ class ReferenceOperator:
         self.rec = RECONSTRUCTIONS[cfg.reconstruction]
         self.num_flux = FLUXES[cfg.flux]
         self.phi_flux = PHI_FLUXES[cfg.phi_flux]
+        # the scene's source terms beyond (6.4) and the fields they read (their twins)
+        self.aux = aux_arrays(cfg)
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
@@ -320,6 +323,16 @@ class ReferenceOperator:
         Py[lay.HU, :, :-1] = 0.5 * Ky * ((u[:, 1:] - u[:, :-1]) / dy + dvdx[:, :-1])
         return Px, Py
 
+    def terms(self, w: np.ndarray) -> np.ndarray:
+        """The rates of the scene's source terms beyond (6.4) (their NumPy twins,
+        tiseg.model.physics.sources), from primitives with ghost cells filled; zero without
+        terms."""
+        out = np.zeros_like(w)
+        ctx = NumpyContext(w, self.aux, dict(self.cfg.constants), self.cfg)
+        for name in self.cfg.sources:
+            out = out + SOURCES[name].rate_np(ctx)
+        return out
+
     def source(self, w: np.ndarray) -> np.ndarray:
         """g h S of (6.4) (films thinner than h_min included, Physics.source)."""
         c, lay = self.cfg, self.lay
@@ -428,6 +441,8 @@ class ReferenceOperator:
             iym = slice(iy.start - 1, iy.stop - 1)
             div = div - (Fy[:, ix, iy] - Fy[:, ix, iym]) / c.dy
         out[:, ix, iy] = div + self.source(w)[:, ix, iy]
+        if c.sources:
+            out[:, ix, iy] += self.terms(w)[:, ix, iy]
         return out
 
     def rest_view(self, start: np.ndarray, t: float) -> np.ndarray:

@@ -85,7 +85,11 @@ def hancock_sweep(
         keep[:gx] = inflow_on
         if hi == "wall":
             sgn[gx + nx :] = -1.0
-        shift = shift - 0.5 * dt * sgn[None] * ref.source(w)
+        src = ref.source(w)
+        terms = ref.terms(w) if c.sources else None  # the scene's terms, at the sweep's start
+        if terms is not None:
+            src = src + terms
+        shift = shift - 0.5 * dt * sgn[None] * src
     pW, pE = qW - shift, qE - shift
     bad = ((pW[0] < 0.0) | (pE[0] < 0.0))[None] & fallback  # the predictor would empty an edge
     bad = bad | keep[None]
@@ -161,6 +165,8 @@ def hancock_sweep(
         h1 = q[0] + upd[0]
         upd[lay.HU] += 0.5 * dt * (q[0] * c.g_sin + h1 * c.g_sin)
         hbar = 0.5 * (q[0] + h1)
+        if terms is not None:
+            upd = upd + dt * terms
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
