@@ -104,7 +104,13 @@ def bump_crest(bump, x0: float, x1: float) -> tuple[float, float]:
 
 
 def outflow_head(q: float, h_out: float, b_out: float = 0.0, g=G, zeta=0.0) -> float:
-    """H = h_out + b_out + q^2 / (2 g' h_out^2) [m]: the head a subcritical outflow fixes."""
+    """H = h_out + b_out + q^2 / (2 g' h_out^2) [m]: the head a subcritical outflow fixes
+    (ValueError if h_out is below the critical depth: a supercritical outflow fixes nothing)."""
+    if not h_out > critical_depth(q, g, zeta):
+        raise ValueError(
+            f"the outflow depth {h_out!r} m is not subcritical (h_c = "
+            f"{critical_depth(q, g, zeta):.6g} m): it cannot control the flow"
+        )
     return h_out + b_out + q * q / (2 * g * math.cos(zeta) * h_out * h_out)
 
 
