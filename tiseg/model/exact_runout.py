@@ -143,6 +143,9 @@ def slide(bed: BedLine, mu: float, s0=0.0, u0=0.0, t_max=1000.0, g=G, curvature=
         # the piece being crossed: its curvature is constant
         k = float(bed.curvature(s + direction * 1e-9 * max(1.0, abs(s)))) if curvature else 0.0
 
+        if g * math.cos(float(bed.inclination(s))) + k * u * u < 0:
+            raise ValueError(f"the block leaves the bed at s = {s:.6g} m (convex bend too fast)")
+
         def rhs(_t, y, k=k, direction=direction):
             z = float(bed.inclination(y[0]))
             return [y[1], g * math.sin(z) - direction * mu * (g * math.cos(z) + k * y[1] ** 2)]
