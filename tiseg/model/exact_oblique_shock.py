@@ -1,8 +1,9 @@
 """The oblique jump (shock) at a wedge in a shallow supercritical stream: the shallow-water
 analogue of the oblique shock of gas dynamics, which granular avalanches obey (Gray & Cui 2007,
 J. Fluid Mech. 579, 113; Hakonardottir & Hogg 2005, Phys. Fluids 17, 077101; the hydraulic
-theory is Ippen 1951, in Rouse (ed.), Engineering Hydraulics, and Chow 1959, Open-Channel
-Hydraulics, ch. 16).
+theory is Ippen 1951, Trans. ASCE 116, 268, and Chow 1959, Open-Channel Hydraulics, McGraw-Hill;
+the gas-dynamics analogy, with gamma = 2, Gilmore, Plesset & Crossley 1950, J. Appl. Phys. 21,
+243).
 
 A uniform stream of depth h_1 and speed V_1, Froude number F = V_1 / sqrt(g' h_1) with
 g' = g cos(zeta) on a plane inclined at zeta (where the along-slope gravity is balanced by the
@@ -23,7 +24,9 @@ conditions; Gray & Cui 2007 triggered both). For theta > theta_max the jump deta
 tip (a bow jump). theta_max increases with F and tends to pi/2 as F -> infinity, where (2)
 gives beta - theta ~ 1 / (sqrt(2) F cos(beta)): unlike gas dynamics (gamma = 1.4: at most
 45.6 degrees) a fast enough granular stream keeps the jump attached at almost any wedge.
-The detachment Froude number F_d(theta) inverts theta_max(F).
+The detachment Froude number F_d(theta) inverts theta_max(F). For small theta the weak jump
+is Ippen's small wave: beta - asin(1/F) ~ 3 F^2 theta / (4 (F^2 - 1)) (the weak oblique shock
+with gamma = 2) and h_2 / h_1 - 1 ~ F^2 theta / sqrt(F^2 - 1).
 
 Downstream: V_2 = V_1 cos(beta) / cos(beta - theta), F_2 = F cos(beta) / (cos(beta - theta)
 sqrt(R)).
