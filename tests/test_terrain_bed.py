@@ -17,7 +17,8 @@ import pytest
 from tiseg.data import TERRAIN_DIR
 from tiseg.errors import InputError
 from tiseg.setup.table import toml_float  # TOML's reading of a literal
-from tiseg.setup.rasters import Raster, read_raster, resample, write_asc
+from tiseg.output.ascii_grid import write_asc
+from tiseg.setup.rasters import Raster, read_raster, resample
 from tiseg.setup import terrain
 from tiseg.setup.terrain import (
     SHAPE_KINDS,
@@ -285,13 +286,22 @@ def test_asc_round_trip_keeps_every_bit_and_the_nodata(tmp_path):
     rng = np.random.default_rng(3)
     v = rng.normal(size=(7, 4)) * 1e-3
     v[2, 3] = v[0, 0] = np.nan
-    write_asc(tmp_path / "r.asc", v, 12.5, -3.25, 0.04, nodata=-1)
+    # values (ny, nx) for the writer, [x, y] in the Raster
+    write_asc(tmp_path / "r.asc", v.T, corner=(12.5, -3.25), dx=0.04, nodata=-1)
     r = read_raster(tmp_path / "r.asc")
     assert (r.x0, r.y0, r.dx, r.dy) == (12.5, -3.25, 0.04, 0.04)
     np.testing.assert_array_equal(r.values, v)  # NaN where v is NaN
     np.testing.assert_array_equal(r.nodata, np.isnan(v))
     assert "NODATA_value  -1" in (tmp_path / "r.asc").read_text()
-    one_line_error("equals nodata", write_asc, tmp_path / "s.asc", -np.ones((2, 2)), 0, 0, 1, -1)
+    one_line_error(
+        "equals NODATA_value -1",
+        write_asc,
+        tmp_path / "s.asc",
+        -np.ones((2, 2)),
+        corner=(0, 0),
+        dx=1,
+        nodata=-1,
+    )
 
 
 def test_asc_rows_run_north_to_south(tmp_path):
@@ -315,10 +325,8 @@ def test_asc_rows_run_north_to_south(tmp_path):
 
 
 def test_asc_reads_the_peak_grids_tiseg_writes(tmp_path):
-    from tiseg.output.ascii_grid import write_asc as write_peak
-
     m = np.arange(6.0).reshape(2, 3)  # (ny, nx), non-square cells: GDAL's dx and dy lines
-    write_peak(tmp_path / "h_max.asc", m, [0.01, 0.03, 0.05], [0.015, 0.045])
+    write_asc(tmp_path / "h_max.asc", m, [0.01, 0.03, 0.05], [0.015, 0.045])
     r = read_raster(tmp_path / "h_max.asc")
     assert (r.dx, r.dy) == pytest.approx((0.02, 0.03)) and (r.x0, r.y0) == (0.0, 0.0)
     np.testing.assert_array_equal(r.values, m.T)
@@ -529,8 +537,9 @@ def example_dem() -> np.ndarray:
 def test_the_example_dem_is_shipped_small_and_as_documented(tmp_path):
     path = TERRAIN_DIR / "channel-hollow.asc"
     assert path.stat().st_size < 50_000
-    write_asc(tmp_path / "again.asc", example_dem(), 0.0, 0.0, 0.005, fmt="%.10g")
-    assert (tmp_path / "again.asc").read_bytes() == path.read_bytes()
+    again = tmp_path / "again.asc"  # the one writer, values (ny, nx), 10 digits, -9999 as is
+    write_asc(again, example_dem().T, corner=(0.0, 0.0), dx=0.005, nodata=-9999, fmt="%.10g")
+    assert again.read_bytes() == path.read_bytes()
     r = read_raster(path)
     assert r.shape == (100, 60) and r.x0 + 100 * r.dx == pytest.approx(0.5)
     b, solid = resample(r, centres(200, 0.5), centres(120, 0.3))

@@ -7,11 +7,11 @@ plane and the values are bed heights b normal to it (as in `tiseg.setup.terrain`
 map-view DEM (heights along the vertical, x east) is for later. Missing values are nodata,
 which the solver is to treat as solid (DESIGN.md, "Terrain").
 
-Formats: ESRI ASCII grids (``.asc``, read and written here with no dependency; GDAL's ``dx``
-and ``dy`` header lines for non-square cells are read too, as `tiseg.output.ascii_grid`
-writes them), NetCDF (``.nc``: a variable ``b`` on coordinate variables ``x`` and ``y``) and
-GeoTIFF (``.tif``, through rasterio, the optional extra ``tiseg[terrain]``). Every malformed
-file is a one-line `tiseg.errors.InputError` naming the file.
+Formats: ESRI ASCII grids (``.asc``, with no dependency: `tiseg.output.ascii_grid` reads and
+writes them, GDAL's ``dx`` and ``dy`` header lines for non-square cells included), NetCDF
+(``.nc``: a variable ``b`` on coordinate variables ``x`` and ``y``) and GeoTIFF (``.tif``,
+through rasterio, the optional extra ``tiseg[terrain]``). Every malformed file is a one-line
+`tiseg.errors.InputError` naming the file.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..output.atomic import replacing
+from ..output import ascii_grid
 
 METRES = ("m", "metre", "metres", "meter", "meters")
 # a fraction of a cell below which coordinates count as equal (round-off of x0 + i dx) and a
@@ -78,129 +78,11 @@ class Raster:
 
 
 # ---- ESRI ASCII -----------------------------------------------------------------------------------
-_ASC_KEYS = (
-    "ncols nrows xllcorner xllcenter yllcorner yllcenter cellsize dx dy nodata_value".split()
-)
-
-
-def _asc_header(lines: list[str], where: str) -> tuple[dict, int]:
-    """The header (lower-case keys) and the index of the first data line. A header line is a
-    keyword and one number; the data start at the first line that begins with a number."""
-    head: dict = {}
-    i = 0
-    for i, line in enumerate(lines):
-        parts = line.split()
-        if not parts:
-            continue
-        if not parts[0][0].isalpha() or parts[0].lower() in ("nan", "inf", "-inf"):
-            break
-        key = parts[0].lower()
-        if key not in _ASC_KEYS:
-            raise InputError(f"{where}: line {i + 1}: unknown header keyword {parts[0]!r}")
-        if len(parts) != 2:
-            raise InputError(f"{where}: line {i + 1}: expected '{parts[0]} <number>'")
-        if key in head:
-            raise InputError(f"{where}: line {i + 1}: {parts[0]} given twice")
-        try:
-            head[key] = int(parts[1]) if key in ("ncols", "nrows") else float(parts[1])
-        except ValueError:
-            kind = "an integer" if key in ("ncols", "nrows") else "a number"
-            msg = f"{where}: line {i + 1}: {parts[0]} {parts[1]!r} is not {kind}"
-            raise InputError(msg) from None
-    else:
-        i = len(lines)
-    for need in ("ncols", "nrows"):
-        if need not in head or head[need] < 1:
-            raise InputError(f"{where}: header needs {need} >= 1")
-    for axis in ("x", "y"):
-        if (f"{axis}llcorner" in head) == (f"{axis}llcenter" in head):
-            raise InputError(f"{where}: header needs one of {axis}llcorner, {axis}llcenter")
-    if "cellsize" in head:
-        if "dx" in head or "dy" in head:
-            raise InputError(f"{where}: header gives cellsize and dx/dy; give one")
-        head["dx"] = head["dy"] = head["cellsize"]
-    elif not ("dx" in head and "dy" in head):
-        raise InputError(f"{where}: header needs cellsize (or dx and dy)")
-    if not (head["dx"] > 0 and head["dy"] > 0 and math.isfinite(head["dx"] * head["dy"])):
-        raise InputError(f"{where}: cell size {head['dx']:g} x {head['dy']:g}: must be > 0")
-    return head, i
-
-
 def read_asc(path) -> Raster:
-    """An ESRI ASCII grid. Its rows run north to south: the first data row is the one at the
-    largest y, so row r, column c is ``values[c, nrows - 1 - r]``. ``xllcenter`` places the
-    centre of the lower-left cell, ``xllcorner`` its corner; NODATA_value (and NaN) is
-    nodata."""
-    path = Path(path)
-    where = str(path)
-    try:
-        lines = path.read_text(encoding="ascii").splitlines()
-    except UnicodeDecodeError:
-        raise InputError(f"{where}: not an ESRI ASCII grid (not plain ASCII text)") from None
-    except OSError as e:
-        raise InputError(f"{where}: cannot read it ({e.strerror or e})") from None
-    head, first = _asc_header(lines, where)
-    nx, ny, dx, dy = head["ncols"], head["nrows"], head["dx"], head["dy"]
-    tokens = " ".join(lines[first:]).split()
-    if len(tokens) != nx * ny:
-        raise InputError(
-            f"{where}: {len(tokens)} values, expected nrows x ncols = {ny} x {nx} = {nx * ny}"
-        )
-    try:
-        flat = np.array(tokens, dtype=float)
-    except ValueError:
-        k = next(k for k, t in enumerate(tokens) if not _is_number(t))
-        raise InputError(
-            f"{where}: value {tokens[k]!r} (data row {k // nx + 1}, column {k % nx + 1}) "
-            "is not a number"
-        ) from None
-    a = flat.reshape(ny, nx)[::-1].T  # rows north first -> [x, y] with y increasing
-    nodata = np.isnan(a)
-    if "nodata_value" in head:
-        nodata |= a == head["nodata_value"]
-    if np.any(np.isinf(a[~nodata])):
-        raise InputError(f"{where}: an infinite value")
-    x0 = head["xllcorner"] if "xllcorner" in head else head["xllcenter"] - dx / 2
-    y0 = head["yllcorner"] if "yllcorner" in head else head["yllcenter"] - dy / 2
-    return Raster(a, x0, y0, dx, dy, nodata)
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
-
-
-def write_asc(path, values, x0, y0, cellsize, nodata=-9999, fmt: str = "%.17g") -> Path:
-    """Write ``values`` (nx, ny), indexed [x, y], as an ESRI ASCII grid whose lower-left cell
-    has its lower-left corner at (x0, y0), square cells of ``cellsize`` [m]; NaN is written as
-    ``nodata``. The default ``fmt`` keeps every float64 bit; the file is replaced atomically."""
-    a = np.array(values, dtype=float)
-    if a.ndim != 2 or min(a.shape) < 1:
-        raise InputError(f"{path}: values of shape {a.shape}: expected a 2D array (nx, ny)")
-    if not (cellsize > 0 and math.isfinite(cellsize)):
-        raise InputError(f"{path}: cellsize={cellsize!r}: must be > 0")
-    if np.any(np.isinf(a)):
-        raise InputError(f"{path}: an infinite value")
-    if np.any(a == nodata):
-        raise InputError(f"{path}: a value equals nodata {nodata:g}; it would read back missing")
-    nx, ny = a.shape
-    head = [
-        f"ncols         {nx}",
-        f"nrows         {ny}",
-        f"xllcorner     {x0!r}",
-        f"yllcorner     {y0!r}",
-        f"cellsize      {cellsize!r}",
-        f"NODATA_value  {nodata!r}",
-    ]
-    rows = np.where(np.isnan(a), nodata, a)[:, ::-1].T  # north (largest y) first
-    body = "\n".join(" ".join(fmt % v for v in row) for row in rows)
-    path = Path(path)
-    with replacing(path) as tmp:
-        tmp.write_text("\n".join(head) + "\n" + body + "\n", encoding="ascii")
-    return path
+    """An ESRI ASCII grid, read by `tiseg.output.ascii_grid.read_asc` (its rows run north to
+    south; ``xllcenter`` or ``xllcorner``; NODATA_value and NaN are nodata)."""
+    head, values = ascii_grid.read_asc(path)  # (ny, nx), the first row at the smallest y
+    return Raster(values.T, head["xllcorner"], head["yllcorner"], head["dx"], head["dy"])
 
 
 # ---- NetCDF --------------------------------------------------------------------------------------
@@ -388,5 +270,4 @@ __all__ = [
     "read_netcdf",
     "read_raster",
     "resample",
-    "write_asc",
 ]
