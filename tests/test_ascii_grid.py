@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from tiseg.apps.cli import main
+from tiseg.errors import InputError
 from tiseg.output.ascii_grid import NODATA, read_asc, write_asc
 from tiseg.output.netcdf import FieldsWriter
 
@@ -47,6 +48,26 @@ def test_square_cells_use_cellsize_and_a_value_equal_to_nodata_is_refused(tmp_pa
     with pytest.raises(ValueError, match="NODATA"):
         write_asc(tmp_path / "bad.asc", np.full((2, 3), NODATA), [0.5, 1.5, 2.5], [0, 1])
     assert not (tmp_path / "bad.asc").exists()
+
+
+def test_a_grid_from_another_tool_reads_with_its_corner_and_a_bad_one_is_one_line(tmp_path):
+    # written by hand: keywords in capitals, the lower-left cell's centre, values wrapped
+    (tmp_path / "g.asc").write_text(
+        "NCOLS 3\nNROWS 2\nXLLCENTER 1.25\nYLLCENTER -0.25\nCELLSIZE 0.5\n"
+        "NODATA_VALUE -1\n1 2\n3 4 -1\n6\n"
+    )
+    head, a = read_asc(tmp_path / "g.asc")
+    assert (head["xllcorner"], head["yllcorner"], head["dx"], head["dy"]) == (1.0, -0.5, 0.5, 0.5)
+    np.testing.assert_array_equal(a, [[4, np.nan, 6], [1, 2, 3]])  # first row: smallest y
+    # written back from its corner, it reads the same
+    write_asc(tmp_path / "h.asc", a, corner=(1.0, -0.5), dx=0.5)
+    head2, b = read_asc(tmp_path / "h.asc")
+    np.testing.assert_array_equal(b, a)
+    assert (head2["xllcorner"], head2["yllcorner"], head2["cellsize"]) == (1.0, -0.5, 0.5)
+    (tmp_path / "bad.asc").write_text("ncols 2\nnrows 1\nxllcorner 0\nyllcorner 0\n1 2\n")
+    with pytest.raises(InputError, match="bad.asc: header needs cellsize") as info:
+        read_asc(tmp_path / "bad.asc")
+    assert "\n" not in str(info.value)
 
 
 def _fields(path, peaks: bool):

@@ -1,8 +1,9 @@
 """Files shipped inside the package, read through importlib.resources so that an installed
 wheel finds them as well as a source checkout: the built-in scenes (``scenes/*.toml``, see
 `tiseg.setup.scene.list_builtin_scenes`) sweeps (``sweeps/*.toml``, see
-`tiseg.apps.sweep.load_sweep`) and verification problems (``problems/*.toml``, see
-`tiseg.post.problems.load_problem`).
+`tiseg.apps.sweep.load_sweep`), verification problems (``problems/*.toml``, see
+`tiseg.post.problems.load_problem`) and example bed rasters (``terrain/*.asc``, see
+`tiseg.setup.rasters.read_raster`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from ..errors import InputError
 SCENE_DIR = Path(str(resources.files(__name__) / "scenes"))
 SWEEP_DIR = Path(str(resources.files(__name__) / "sweeps"))
 PROBLEM_DIR = Path(str(resources.files(__name__) / "problems"))
+TERRAIN_DIR = Path(str(resources.files(__name__) / "terrain"))
 
 
 def builtin_names(folder: Path) -> list[str]:
