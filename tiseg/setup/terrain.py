@@ -143,14 +143,11 @@ class Gaussian(Shape):
 
 
 @dataclass(frozen=True)
-class Cone(Shape):
-    """A cone (height > 0) or conical pit (height < 0) with a linear profile:
-    b += height * max(0, 1 - r / radius), r the distance from (x, y). Volume
-    pi radius^2 height / 3; slope |height| / radius everywhere inside."""
+class Disc(Shape):
+    """Base of the round kinds: ``radius`` about (x, y), the cells whose centre lies strictly
+    inside the circle."""
 
-    kind: ClassVar[str] = "cone"
     radius: float
-    height: float
 
     def rules(self):
         return [("radius", self.radius > 0, "must be > 0")]
@@ -160,6 +157,16 @@ class Cone(Shape):
 
     def footprint(self, X, Y):
         return (X - self.x) ** 2 + (Y - self.y) ** 2 < self.radius**2
+
+
+@dataclass(frozen=True)
+class Cone(Disc):
+    """A cone (height > 0) or conical pit (height < 0) with a linear profile:
+    b += height * max(0, 1 - r / radius), r the distance from (x, y). Volume
+    pi radius^2 height / 3; slope |height| / radius everywhere inside."""
+
+    kind: ClassVar[str] = "cone"
+    height: float
 
     def bed(self, X, Y):
         r = np.hypot(X - self.x, Y - self.y)
@@ -167,22 +174,12 @@ class Cone(Shape):
 
 
 @dataclass(frozen=True)
-class Cylinder(Shape):
+class Cylinder(Disc):
     """A solid upright cylinder (a post): the cells whose centre lies strictly inside the
     circle of ``radius`` about (x, y)."""
 
     kind: ClassVar[str] = "cylinder"
     solid: ClassVar[bool] = True
-    radius: float
-
-    def rules(self):
-        return [("radius", self.radius > 0, "must be > 0")]
-
-    def overlaps(self, box):
-        return _disc_overlaps(self.x, self.y, self.radius, box)
-
-    def footprint(self, X, Y):
-        return (X - self.x) ** 2 + (Y - self.y) ** 2 < self.radius**2
 
 
 @dataclass(frozen=True)
