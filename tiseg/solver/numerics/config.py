@@ -290,6 +290,9 @@ class OperatorConfig:
     # numbers in the parameter field (tiseg.model.physics.param_layout), so a new term needs
     # no field here
     sources: tuple[str, ...] = field(default=(), metadata=from_keys("effects.sources"))
+    # a bed b(x, y) under the flow, balanced by the hydrostatic reconstruction
+    # (tiseg.solver.numerics.bed); its heights are given to the operator (set_bed)
+    bed: bool = False
     constants: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):

@@ -19,6 +19,7 @@ import taichi as ti
 
 from ...errors import TisegError
 from ...model.physics.params import Params
+from .bed import BedFaces
 from .fluxes import FLUXES, PHI_FLUXES
 from .reconstruction import RECONSTRUCTIONS
 from .state import NBUDGET
@@ -46,6 +47,9 @@ class FiniteVolume:
         self._num_flux = self.num_flux.taichi(ti, st.phys)
         self._phi_mod = self.phi_flux.taichi(ti, st.phys, st.lay) if st.seg else None
         self._phi_modifies = self._phi_mod is not None  # (Taichi scope has no `is not`)
+        # a bed: the hydrostatic reconstruction's functions (tiseg.solver.numerics.bed)
+        self.has_bed = st.bed is not None
+        self.bed = BedFaces(st, None if st.rec_first else self._rec_slope) if self.has_bed else None
 
     # ------------------------------------------------------------------ host side
 
@@ -249,7 +253,9 @@ class FiniteVolume:
         w0 = self.state.w[i, j]
         w1 = self.state.w[i + 1, j]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        if self.face_wet(w0, w1, hmin, i, j, i + 1, j):
+        if ti.static(self.has_bed):
+            F = self._bed_face(i, j, i + 1, j, w0, w1, hmin, 0)
+        elif self.face_wet(w0, w1, hmin, i, j, i + 1, j):
             wl = w0
             wr = w1
             if ti.static(not self.state.rec_first):
@@ -260,6 +266,66 @@ class FiniteVolume:
         if ti.static(self.state.visc):  # the viscous stress (tiseg.model.physics.viscosity)
             F = self.x_viscous(F, i, j, w0, w1)
         return F
+
+    @ti.func
+    def _edge_states(self, i0, j0, i1, j1, w0, w1, d: ti.template()):
+        """The reconstructed edge states facing each other across the face (i0, j0) |
+        (i1, j1) along d: the high edge of the first cell, the low edge of the second."""
+        wl = w0
+        wr = w1
+        if ti.static(not self.state.rec_first):
+            if ti.static(d == 0):
+                wl = w0 + 0.5 * self.state.sx[i0, j0]
+                wr = w1 - 0.5 * self.state.sx[i1, j1]
+            else:
+                wl = w0 + 0.5 * self.state.sy[i0, j0]
+                wr = w1 - 0.5 * self.state.sy[i1, j1]
+        return wl, wr
+
+    @ti.func
+    def _bed_face(self, i0, j0, i1, j1, w0, w1, hmin, d: ti.template()):
+        """The convective flux of a face over a bed (tiseg.solver.numerics.bed): the numerical
+        flux of the edge states with h*, and each side's pressure correction into pcx / pcy
+        (the whole pressure of each edge where the face carries no convective flux)."""
+        wl, wr = self._edge_states(i0, j0, i1, j1, w0, w1, d)
+        bl = self.bed.edge_hi(i0, j0, d, wl[0])
+        br = self.bed.edge_lo(i1, j1, d, wr[0])
+        F = ti.Vector.zero(self.state.fp, self.state.nc)
+        p = self.bed.dry(wl[0], wr[0])
+        if self.face_wet(w0, w1, hmin, i0, j0, i1, j1):
+            wls, wrs, p = self.bed.star(wl, bl, wr, br)
+            F = self.face_flux(wls, wrs, d)
+            F = self.rules.rest_face(F, wls, wrs, d, i0, j0, i1, j1)
+        if ti.static(d == 0):
+            self.state.pcx[i0, j0] = p
+        else:
+            self.state.pcy[i0, j0] = p
+        return F
+
+    @ti.func
+    def bed_rate(self, i, j, d: ti.template()):
+        """The normal momentum rate of cell (i, j) from the bed along d: the faces' pressure
+        corrections and the centred source (tiseg.solver.numerics.bed), per unit area."""
+        h0 = self.state.w[i, j][0]
+        h_lo = h0
+        h_hi = h0
+        if ti.static(not self.state.rec_first):
+            s = h0 * 0.0
+            if ti.static(d == 0):
+                s = self.state.sx[i, j][0]
+            else:
+                s = self.state.sy[i, j][0]
+            h_lo = h0 - 0.5 * s
+            h_hi = h0 + 0.5 * s
+        b_lo, b_hi = self.bed.edges(i, j, d, h_lo, h_hi)
+        r = self.bed.centred(h_lo, h_hi, b_lo, b_hi)
+        inv = self.state.par[Params.INV_DX]
+        if ti.static(d == 0):
+            r -= self.state.pcx[i, j][0] - self.state.pcx[i - 1, j][1]
+        else:
+            r -= self.state.pcy[i, j][0] - self.state.pcy[i, j - 1][1]
+            inv = self.state.par[Params.INV_DY]
+        return r * inv
 
     @ti.func
     def x_viscous(self, F, i, j, w0, w1):
@@ -287,7 +353,9 @@ class FiniteVolume:
         w0 = self.state.w[i, j]
         w1 = self.state.w[i, j + 1]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        if self.face_wet(w0, w1, hmin, i, j, i, j + 1):
+        if ti.static(self.has_bed):
+            F = self._bed_face(i, j, i, j + 1, w0, w1, hmin, 1)
+        elif self.face_wet(w0, w1, hmin, i, j, i, j + 1):
             wl = w0
             wr = w1
             if ti.static(not self.state.rec_first):
@@ -350,6 +418,10 @@ class FiniteVolume:
             r += self.state.phys.source(self.state.w[i, j])
             if ti.static(self.state.terms.on):  # the scene's terms beyond (6.4)
                 r += self.state.terms.rate(i, j)
+            if ti.static(self.has_bed):  # the bed's pressure (tiseg.solver.numerics.bed)
+                r[1] += self.bed_rate(i, j, 0)
+                if ti.static(not self.state.is_1d):
+                    r[self.state.HV] += self.bed_rate(i, j, 1)
         return r
 
     @ti.func

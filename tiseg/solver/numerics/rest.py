@@ -435,3 +435,18 @@ class RestRules:
         a, b, wa, wb, on = (int(v) for v in ranges)
         self.state.set_active(a, b, (wa, wb))
         self.state.mask_inflow = None if on < 0 else bool(on)
+
+    @ti.func
+    def both_at_rest(self, i, j, i1, j1):
+        """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
+        r = ti.cast(self.state.rest[i, j], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
+        return (r & REST) != 0
+
+    @ti.func
+    def still(self, w):
+        """The primitive state w with its velocities zero."""
+        out = w
+        out[1] = 0.0
+        if ti.static(not self.state.is_1d):
+            out[self.state.HV] = 0.0
+        return out

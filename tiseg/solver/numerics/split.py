@@ -92,7 +92,6 @@ import taichi as ti
 
 from ...model.physics.pointwise import Params
 from .boundaries import inlet_rows
-from .rest import REST
 
 
 @ti.data_oriented
@@ -219,6 +218,10 @@ class SplitSweeps:
                     self.state.srate[i, j] = rate
                     src += rate
                 shift -= (0.5 * dt * sgn) * src
+            if ti.static(self.fv.has_bed):  # the bed's pull (tiseg.solver.numerics.bed)
+                shift[1 if d == 0 else self.state.HV] -= self.fv.bed.predicted(
+                    i, j, d, wW[0], wE[0], dt
+                )
             pW = qW - shift
             pE = qE - shift
             if pW[0] < 0.0 or pE[0] < 0.0 or keep == 1:  # the predictor would empty an edge
@@ -281,18 +284,21 @@ class SplitSweeps:
         for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.state.fp, self.state.nc)
-            if self.fv.face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1):
-                wl = self.state.ee[i, j]
-                wr = self.state.ew[i1, j1]
+            wl = self.state.ee[i, j]
+            wr = self.state.ew[i1, j1]
+            wet = self.fv.face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1)
+            if ti.static(self.fv.has_bed):  # h* and the pressure corrections
+                wl, wr = self.fv.bed.sweep_face(i, j, i1, j1, d, wl, wr, wet)
+            if wet:
                 if ti.static(self.state.phys.fr_projected):
-                    if self._both_at_rest(i, j, i1, j1):
+                    if self.rules.both_at_rest(i, j, i1, j1):
                         # two cells at rest at the step's start meet with no velocity: the
                         # momentum a sweep gave them is not yet frictioned, and the flux's
                         # dissipation would trade it between them (the friction's hold must
                         # see the driving of the step's initial state, as the unsplit
                         # scheme's first stage does)
-                        wl = self._still(wl)
-                        wr = self._still(wr)
+                        wl = self.rules.still(wl)
+                        wr = self.rules.still(wr)
                 F = self.fv.face_flux(wl, wr, d)
                 # the projected friction's face rules, from the step's rest mask
                 F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
@@ -300,21 +306,6 @@ class SplitSweeps:
                 self.state.fx[i, j] = F
             else:
                 self.state.fy[i, j] = F
-
-    @ti.func
-    def _both_at_rest(self, i, j, i1, j1):
-        """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
-        r = ti.cast(self.state.rest[i, j], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
-        return (r & REST) != 0
-
-    @ti.func
-    def _still(self, w):
-        """The primitive state w with its velocities zero."""
-        out = w
-        out[1] = 0.0
-        if ti.static(not self.state.is_1d):
-            out[self.state.HV] = 0.0
-        return out
 
     @ti.func
     def _across(self, d: ti.template()):
@@ -449,6 +440,10 @@ class SplitSweeps:
                 Fm, Fp = self.rules.film_faces(Fm, Fp, i, j, im, jm, ip, jp)
             q0 = self.state.q[0, i, j]
             upd = -lam * (Fp - Fm)
+            if ti.static(self.fv.has_bed):  # the bed's pressure (tiseg.solver.numerics.bed)
+                upd[1 if d == 0 else self.state.HV] += self.fv.bed.sweep_rate(
+                    i, j, im, jm, d, lam, dt
+                )
             hg = 0.0 * dt  # the mean thickness gravity acted on over the step
             if ti.static(d == 0):
                 # gravity along the slope, h g sin(zeta) (the only source without friction),

@@ -31,6 +31,7 @@ from ...model.physics.param_layout import ParamLayout
 from ...model.physics.pointwise import Params, Physics
 from ...model.physics.sources import chosen_aux
 from ..field_tree import FieldTree
+from .bed import bed_with_ghosts
 from .boundaries import BOUNDARIES
 from .config import OperatorConfig
 from .ranges import ActiveRange, row_pieces
@@ -92,6 +93,13 @@ class OperatorState:
         n_aux = len(chosen_aux(cfg.sources))
         self.aux = ft.vector(n_aux, self.fp, (NX, NY)) if n_aux else None
         self.srate = ft.vector(nc, self.fp, (NX, NY)) if self.split and cfg.sources else None
+        # a bed (tiseg.solver.numerics.bed): its heights on every cell, and the two pressure
+        # corrections of each x and y face (the low side's, the high side's); in the split
+        # sweeps also the bed at each cell's predicted edges (low, high)
+        self.bed = ft.field(self.fp, (NX, NY)) if cfg.bed else None
+        self.pcx = ft.vector(2, self.fp, (NX, NY)) if cfg.bed else None
+        self.pcy = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and not self.is_1d else None
+        self.eb = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and self.split else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
         self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
         # Active range [a, b) of x indices whose cells may change, the wet scan's range and
@@ -186,6 +194,15 @@ class OperatorState:
             prof[self.gy : self.gy + self.ny] = cfg.inflow_phi_profile(y)
             self.inflow_prof.from_numpy(prof.astype(self.np_fp))
         self.inflow_key = None
+
+    def set_bed(self, b) -> None:
+        """The bed heights (nx, ny) [m] normal to the reference plane; ghost cells from the
+        boundaries (`bed.bed_with_ghosts`)."""
+        if self.bed is None:
+            raise TisegError("set_bed: the operator was built without a bed (OperatorConfig.bed)")
+        self.bed.from_numpy(bed_with_ghosts(b, self.lay, self.bc).astype(self.np_fp))
+        self.prepared = self.interior = None
+        self.rest_stale = True
 
     def set_time(self, t: float) -> None:
         """Inflow thickness of (6.8) at the stage time t (ramp) and whether it still flows."""

@@ -47,6 +47,8 @@ from ..numerics.reconstruction import RECONSTRUCTIONS, limit_edges_np
 from ...model.physics.friction import FRICTION_LAWS
 from ...model.physics.segregation import TRANSPORTS
 from ...model.physics.sources import SOURCES, NumpyContext, aux_arrays
+from ..numerics.bed import bed_with_ghosts
+from .bed import bed_rate, eta_slopes, star_states
 from ...model.physics.viscosity import VISCOSITY
 
 SQRT2 = math.sqrt(2.0)
@@ -55,10 +57,21 @@ SQRT2 = math.sqrt(2.0)
 class ReferenceOperator:
     """dq/dt for a full array with ghost cells (ghosts are overwritten)."""
 
-    def __init__(self, cfg: OperatorConfig, y_centres: np.ndarray | None = None):
+    def __init__(
+        self,
+        cfg: OperatorConfig,
+        y_centres: np.ndarray | None = None,
+        bed: np.ndarray | None = None,
+    ):
+        """``bed``: the bed heights (nx, ny) [m] of a config with a bed (flat where None)."""
         self.cfg = cfg
         self.lay = cfg.layout
         lay = self.lay
+        self.bed = None
+        if cfg.bed:  # with its ghost cells, as the operator's (OperatorState.set_bed)
+            flat = np.zeros((lay.nx, lay.ny))
+            self.bed = bed_with_ghosts(flat if bed is None else bed, lay, cfg.bc)
+        self._pc = {}  # the bed's face corrections of the last face_fluxes, per axis
         if y_centres is None:
             y_centres = (np.arange(lay.ny) + 0.5) * cfg.dy
         self.y = np.asarray(y_centres, dtype=float)
@@ -205,10 +218,24 @@ class ReferenceOperator:
 
         wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
         wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
+        if self.bed is not None:  # the hydrostatic reconstruction (tiseg.solver.reference.bed)
+            es = eta_slopes(self, w, self.bed, axis)
+            eta = w[0] + self.bed
+            bl = (eta + 0.5 * es - (w[0] + 0.5 * s[0]))[sl(0, n - 1)[1:]]
+            br = (eta - 0.5 * es - (w[0] - 0.5 * s[0]))[sl(1, n)[1:]]
+            hl, hr = wl[0], wr[0]
+            wl, wr, pl, pr = star_states(self, wl, bl, wr, br)
         H = self.numerical_flux(wl, wr, direction)
         if self.projected:  # the near-rest face rules (RestRules.rest_face)
             self.rest_faces(H, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
-        H = np.where(self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])[None], 0.0, H)
+        dry = self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])
+        H = np.where(dry[None], 0.0, H)
+        if self.bed is not None:  # a face without convective flux: each side's pressure
+            half_g = 0.5 * self.cfg.g_cos
+            p = np.zeros((2,) + w.shape[1:])
+            p[(0,) + sl(0, n - 1)[1:]] = np.where(dry, half_g * hl * hl, pl)
+            p[(1,) + sl(0, n - 1)[1:]] = np.where(dry, half_g * hr * hr, pr)
+            self._pc[axis] = (p, s, es)
         out = np.zeros_like(w)
         out[sl(0, n - 1)] = H
         return out
@@ -441,6 +468,12 @@ class ReferenceOperator:
             iym = slice(iy.start - 1, iy.stop - 1)
             div = div - (Fy[:, ix, iy] - Fy[:, ix, iym]) / c.dy
         out[:, ix, iy] = div + self.source(w)[:, ix, iy]
+        if self.bed is not None:  # the bed's pressure along each direction
+            for axis in (1,) if lay.is_1d else (1, 2):
+                p, s, es = self._pc[axis]
+                comp = lay.HU if axis == 1 else lay.HV
+                r = bed_rate(self, w, s, es, self.bed, p[0], p[1], axis)
+                out[comp, ix, iy] += r[ix, iy]
         if c.sources:
             out[:, ix, iy] += self.terms(w)[:, ix, iy]
         return out

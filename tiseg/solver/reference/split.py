@@ -10,6 +10,7 @@ import numpy as np
 
 from ..numerics.boundaries import inlet_rows
 from ..timestepping.rkc import rkc_coefficients
+from .bed import eta_slopes, star_states
 from .operator import SQRT2, ReferenceOperator
 
 
@@ -90,6 +91,15 @@ def hancock_sweep(
         if terms is not None:
             src = src + terms
         shift = shift - 0.5 * dt * sgn[None] * src
+    mom = lay.HU if d == 0 else lay.HV
+    if ref.bed is not None:  # the bed at the edges and its pull over the half step
+        es = eta_slopes(ref, w, ref.bed, axis)
+        eta = w[0] + ref.bed
+        bW, bE = eta - 0.5 * es - wW[0], eta + 0.5 * es - wE[0]
+        inv = 1.0 / (c.dx if d == 0 else c.dy)
+        pull = 0.5 * dt * inv * (0.5 * c.g_cos * (wW[0] + wE[0]) * (bW - bE))
+        shift = shift.copy()
+        shift[mom] = shift[mom] - pull
     pW, pE = qW - shift, qE - shift
     bad = ((pW[0] < 0.0) | (pE[0] < 0.0))[None] & fallback  # the predictor would empty an edge
     bad = bad | keep[None]
@@ -115,6 +125,10 @@ def hancock_sweep(
             moving[lay.HV] = True
         zero = both & moving[:, None, None]
         wl, wr = np.where(zero, 0.0, wl), np.where(zero, 0.0, wr)
+    if ref.bed is not None:  # h* at the faces, and each side's pressure correction
+        face_lo, face_hi = sl(0, n - 1)[1:], sl(1, n)[1:]
+        hl_e, hr_e = wl[0].copy(), wr[0].copy()
+        wl, wr, pl, pr = star_states(ref, wl, bE[face_lo], wr, bW[face_hi])
     H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d)
     if ref.projected:  # the face rules of the step's rest mask
         Hf = H[sl(0, n - 1)]
@@ -124,6 +138,11 @@ def hancock_sweep(
     dry = np.zeros(h.shape, dtype=bool)
     dry[sl(0, n - 1)[1:]] = ref.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])
     H = np.where(dry[None], 0.0, H)
+    if ref.bed is not None:  # a face without convective flux: each side's whole pressure
+        half_g = 0.5 * c.g_cos
+        pc = np.zeros((2,) + q.shape[1:])
+        pc[(0,) + face_lo] = np.where(dry[face_lo], half_g * hl_e**2, pl)
+        pc[(1,) + face_lo] = np.where(dry[face_lo], half_g * hr_e**2, pr)
     # the draining factor of the cells updated (interior along d), 1 elsewhere
     g = lay.gx if d == 0 else lay.gy
     m = lay.nx if d == 0 else lay.ny
@@ -161,6 +180,11 @@ def hancock_sweep(
             Hsm[cells], Hs[cells], start, cells[1:], sl(0, n - 2)[1:], sl(2, n)[1:]
         )
     upd = -lam * (Hs - Hsm)
+    if ref.bed is not None:  # the corrections of the cell's faces and its centred source
+        pc_lo = np.zeros_like(pc[1])
+        pc_lo[sl(1, n)[1:]] = pc[1][sl(0, n - 1)[1:]]
+        cen = 0.5 * c.g_cos * (eW[0] + eE[0]) * (bW - bE)
+        upd[mom] = upd[mom] + dt * inv * cen - lam * (pc[0] - pc_lo)
     if d == 0:  # g sin(zeta) h by the trapezoidal rule (the source without friction)
         h1 = q[0] + upd[0]
         upd[lay.HU] += 0.5 * dt * (q[0] * c.g_sin + h1 * c.g_sin)
