@@ -126,7 +126,7 @@ def _bed_cached(terrain: TerrainConfig, grid: tuple, stamp: tuple):
     xc, yc = dom.cell_centres()
     b, solid = bed_on_grid(terrain.shapes, xc, yc)
     if terrain.bed is not None:
-        where = f"terrain.bed={show(terrain.bed)}"
+        where = f"terrain.bed={terrain.bed!r}"  # the whole path: show() would cut it
         try:
             rb, rsolid = resample(
                 read_raster(terrain.bed), xc, yc, (terrain.origin_x, terrain.origin_y)
@@ -158,12 +158,13 @@ def initial_thickness(initial: InitialConfig, domain: DomainConfig) -> np.ndarra
 def _thickness_cached(path: str, origin: tuple, grid: tuple, stamp: tuple) -> np.ndarray:
     Lx, Ly, nx, ny = grid
     xc, yc = DomainConfig(Lx=Lx, Ly=Ly, nx=nx, ny=ny).cell_centres()
-    where = f"initial.path={show(path)}"
+    where = f"initial.path={path!r}"
     try:
         h, missing = resample(read_raster(path), xc, yc, origin)
     except InputError as exc:
         hint = "; move it with initial.origin_x, initial.origin_y" if "cover" in str(exc) else ""
-        raise InputError(f"{where}: {exc}{hint}") from None
+        text = str(exc).replace("the terrain raster", "the raster")
+        raise InputError(f"{where}: {text}{hint}") from None
     if np.any(h < 0):
         i, j = np.unravel_index(np.argmin(h), h.shape)
         raise InputError(
@@ -187,7 +188,7 @@ def check_initial(
         initial = dataclasses.replace(initial, path=path)
         if not np.any(initial_thickness(initial, domain) > 0):
             raise InputError(
-                f"initial.path={show(initial.path)}: the thickness is 0 on every cell "
+                f"initial.path={initial.path!r}: the thickness is 0 on every cell "
                 "(nothing to start from); check the raster and its origin"
             )
     elif initial.kind == "lake":
