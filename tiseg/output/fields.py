@@ -16,6 +16,9 @@ Three kinds:
 * ``"peak"``: a 2D variable (y, x) without a time axis, the peak fields of `tiseg.run.peaks`;
 * ``"shown"``: shown by the pictures, computed from the stored fields when drawn, never stored
   (the speed |u|).
+* ``"static"``: a 2D variable (y, x) written once when the file is made, computed from the
+  scene (``compute(scene)``, None where the run has none): the terrain's bed ``b`` and its
+  ``solid`` mask, only in runs with a ``[terrain]``, so a flat run's file has no such variable.
 
 `OUTPUT_FIELDS` is the registry, read when asked: a field registered by user code after import
 is written by the next run that has the fields it needs.
@@ -28,7 +31,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-KINDS = ("snapshot", "peak", "shown")
+KINDS = ("snapshot", "peak", "shown", "static")
 
 
 @dataclass(frozen=True)
@@ -38,7 +41,9 @@ class FieldSpec:
     ``attrs``: its CF attributes (``long_name``, ``units``, ``comment``, ``cell_methods``).
     ``needs``: the primitive fields it is computed from (a run without one of them lacks it:
     ``v`` needs 2D, ``phi`` segregation). ``compute``: ``(primitive fields) -> (ny, nx) array``
-    for a computed snapshot field (None: a primitive or peak field, given by the state).
+    for a computed snapshot field (None: a primitive or peak field, given by the state); for a
+    static field ``(scene) -> (ny, nx) array or None`` (None: the run has no such field).
+    ``dtype``: a static field's NetCDF type ("f8", "i1"; None: the file's).
     ``missing_where_dry``: stored as missing where h < h_min (there is no material to have a
     value). ``label``, ``factor``, ``unit``, ``short``: how pictures show it (axis label, value
     x factor in unit, the ASCII caption); ``colours``: ``"phi"`` (the experiment's
@@ -55,6 +60,7 @@ class FieldSpec:
     unit: str = ""
     short: str = ""
     colours: str = "viridis"
+    dtype: str | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -104,6 +110,25 @@ def peak_variables(segregation: bool) -> tuple[str, ...]:
     return tuple(n for n, s in specs("peak").items() if s.present(have))
 
 
+def static_fields(scene) -> dict[str, np.ndarray]:
+    """{name: (ny, nx) array} of the registered static fields that ``scene`` has (read now)."""
+    out = {}
+    for n, s in specs("static").items():
+        a = s.compute(scene)
+        if a is not None:
+            out[n] = a
+    return out
+
+
+def _bed(scene):
+    # the scene's arrays are (nx, ny) on the cell centres; the file's (y, x)
+    return scene.bed_arrays()[0].T if scene.has_terrain else None
+
+
+def _solid(scene):
+    return scene.bed_arrays()[1].T.astype("i1") if scene.has_terrain else None
+
+
 def _speed(f):
     return np.hypot(f["u"], f["v"]) if "v" in f else np.abs(f["u"])
 
@@ -149,6 +174,37 @@ for _spec in (
         label="speed |u|",
         unit="m/s",
         short="|u| [m/s]",
+    ),
+    # the terrain (tiseg.setup.bed): static, in runs with a [terrain] only
+    FieldSpec(
+        "b",
+        {
+            "long_name": "bed height normal to the reference plane",
+            "units": "m",
+            "comment": "x runs down the inclined reference plane, y across it; the free "
+            "surface is at b + h; 0 in solid cells",
+        },
+        kind="static",
+        compute=_bed,
+        label="bed b",
+        factor=1e3,
+        unit="mm",
+        short="b [mm]",
+        dtype="f8",
+    ),
+    FieldSpec(
+        "solid",
+        {
+            "long_name": "solid cells of the terrain (walls: no material)",
+            "units": "1",
+            "flag_values": np.array([0, 1], dtype="i1"),
+            "flag_meanings": "open solid",
+        },
+        kind="static",
+        compute=_solid,
+        label="solid",
+        short="solid",
+        dtype="i1",
     ),
     # the peak fields (tiseg.run.peaks)
     FieldSpec(

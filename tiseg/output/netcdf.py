@@ -30,6 +30,11 @@ variables; ``h_max`` and ``speed_max`` are maxima over [0, t] (their ``cell_meth
 maximum", CF section 7.3, names the standard name time, which both checkers accept; the scalar
 coordinate's own name, also valid CF, is refused by cfchecks).
 
+Static fields (kind "static" of `tiseg.output.fields`): 2D variables (y, x) written once when
+the file is made, by `FieldsWriter.write_fixed`: the terrain's bed ``b`` (f8, m) and ``solid``
+(i1 flags, 0 open, 1 solid), only in runs with a ``[terrain]`` (a flat run's file has neither).
+They hold at every time and have no time coordinate.
+
 `FieldsWriter.append` continues such a file when a killed run is resumed from a checkpoint
 (`tiseg.run.checkpoint`): it keeps the snapshots the checkpoint knows of and drops any written
 after it (and a record left half-written by the kill) by copying the kept records into a new
@@ -144,6 +149,7 @@ class FieldsWriter:
         self.shape = (y.size, x.size)
         self._last_t = -math.inf
         self.count = 0
+        self.fixed: tuple[str, ...] = ()
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
         if not atomic:
@@ -280,6 +286,7 @@ class FieldsWriter:
             with netCDF4.Dataset(path, "r") as ds:
                 fields = tuple(v for v in ds.variables if v in specs("snapshot"))
                 static = tuple(v for v in ds.variables if v in specs("peak"))
+                fixed = tuple(v for v in ds.variables if v in specs("static"))
                 times = np.ma.filled(ds.variables["time"][:].astype("f8"), np.nan)
                 n = ds.dimensions["time"].size
                 grid = (ds.dimensions["y"].size, ds.dimensions["x"].size)
@@ -310,7 +317,7 @@ class FieldsWriter:
         digits = int(quant[0]) if quant else None
         try:
             if n != keep:
-                _truncate_copy(path, keep, fields, dtype, h_min, digits, static)
+                _truncate_copy(path, keep, fields, dtype, h_min, digits, static, fixed)
             else:  # every kept record must be readable: a damaged block is found now
                 _read_records(path, keep, fields)
         except (OSError, RuntimeError) as exc:
@@ -319,6 +326,7 @@ class FieldsWriter:
         self.path = path
         self.fields = fields
         self.static = static
+        self.fixed = fixed
         self.dtype = _DTYPES.get(dtype, "f8")
         self.h_min = h_min
         self.significant_digits = digits
@@ -396,6 +404,30 @@ class FieldsWriter:
             self._ds.variables["peak_time"].assignValue(float(t))
         self._ds.sync()
 
+    def write_fixed(self, **arrays) -> None:
+        """Write the static fields (kind "static", each (ny, nx)) once: variables (y, x)
+        without a time coordinate, in each spec's own type (``FieldSpec.dtype``) and never
+        quantised (the bed enters b + h exactly)."""
+        if self._ds is None:
+            raise ValueError(f"{self.path}: writer is closed")
+        known = specs("static")
+        for name, a in arrays.items():
+            if name not in known:
+                raise ValueError(f"write_fixed(): {name!r} is not one of {tuple(known)}")
+            if name in self.fixed:
+                raise ValueError(f"write_fixed(): {name!r} is written already")
+            a = np.asarray(a)
+            if a.shape != self.shape and not (self.shape[0] == 1 and a.shape == self.shape[1:]):
+                raise ValueError(
+                    f"write_fixed(): {name} has shape {a.shape}, expected {self.shape}"
+                )
+            dtype = known[name].dtype or self.dtype
+            var = self._ds.createVariable(name, dtype, ("y", "x"), zlib=True, complevel=4)
+            var.setncatts(known[name].attrs)
+            var[:, :] = a.reshape(self.shape).astype(dtype)
+            self.fixed += (name,)
+        self._ds.sync()
+
     def close(self) -> None:
         if self._ds is not None:
             self._ds.close()
@@ -426,9 +458,10 @@ def _truncate_copy(
     h_min: float | None = None,
     digits: int | None = None,
     static=(),
+    fixed=(),
 ) -> None:
     """Replace ``path`` by a copy holding only its first ``keep`` records and its 2D variables
-    without a time axis (atomic replace)."""
+    without a time axis (peak and static fields; atomic replace)."""
     with replacing(path) as tmp, netCDF4.Dataset(path, "r") as src:
         attrs = {k: src.getncattr(k) for k in src.ncattrs()}
         x = src.variables["x"][:]
@@ -449,6 +482,7 @@ def _truncate_copy(
                 w._ds.setncattr(k, v)
             for name in static + (("peak_time",) if static else ()):
                 w._ds.variables[name][...] = src.variables[name][...]
+            w.write_fixed(**{n: src.variables[n][...] for n in fixed})
             for i in range(keep):
                 w.write(
                     float(src.variables["time"][i]),

@@ -53,7 +53,7 @@ from ..output.diagnostics import (
     write_units,
 )
 from ..output.manifest import MANIFEST_NAME, Manifest, record
-from ..output.fields import peak_variables, snapshot_fields, with_computed
+from ..output.fields import peak_variables, snapshot_fields, static_fields, with_computed
 from ..output.netcdf import FieldsFileError, FieldsWriter
 from ..log import logger
 
@@ -423,7 +423,7 @@ class RunFolder:
     def _new_fields_writer(self, path: Path) -> FieldsWriter:
         sim = self.sim
         x, y = sim.scene.domain.cell_centres()
-        return FieldsWriter(
+        w = FieldsWriter(
             path,
             x,
             y,
@@ -438,6 +438,12 @@ class RunFolder:
             significant_digits=sim.scene.output.significant_digits,
             static=peak_variables(sim.layout.segregation) if sim.peaks is not None else (),
         )
+        try:  # the terrain's b and solid, once (a flat run has none: its file is as before)
+            w.write_fixed(**static_fields(sim.scene))
+        except BaseException:
+            w.close()
+            raise
+        return w
 
     def _salvage_fields(self, exc: Exception) -> FieldsWriter:
         """Resume with a fields.nc that cannot be continued: keep it under another name and

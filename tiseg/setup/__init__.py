@@ -8,7 +8,9 @@
   choices (read live from the registries), doc text and whether kernels are compiled for it;
 * `validators`: the cross-key rules, run after the generic read;
 * `reading` and `writing`: a scene from TOML text, dicts and overrides, and back;
-* `reference`: the scenes reference page of the documentation.
+* `reference`: the scenes reference page of the documentation;
+* `terrain`, `rasters`, `terrain_section`, `bed`: the bed from shapes and rasters, the
+  ``[terrain]`` keys, and the section read, written and put on the cells.
 
 `tiseg.setup.scene` keeps the public names (``load_scene``, ``Scene``, ``scene_to_dict``, ...).
 """

@@ -9,7 +9,11 @@
 * a straight channel between levees, at rest (the sharp-contact verification case);
 * a uniform static layer at rest, the erodible bed of erosion-deposition waves (Edwards &
   Gray 2015);
-* a parabolic cap sliding downslope (Savage & Hutter 1991).
+* a parabolic cap sliding downslope (Savage & Hutter 1991);
+* a lake at rest over the bed of ``[terrain]``, h = max(level - b, 0) (b normal to the plane);
+* a thickness read from a raster file, at rest.
+
+Solid cells of the terrain (`Scene.bed_arrays`) hold no material whatever the kind.
 
 Each kind is an `InitialKind` in the registry `INITIAL_KINDS` (read when asked): its name, the
 ``initial.*`` keys it reads beyond the built-ins' own (declared on the scene's fields, `kinds`),
@@ -198,8 +202,29 @@ def _channel(scene, X, Y):
 
 
 def _layer(scene, X, Y):
+    # uniform normal to the plane whatever b: the layer follows the bed (its surface is b +
+    # layer_h); walls hold none
     h, u, v, phi = _zeros(X)
-    h[:] = scene.initial.layer_h
+    _, solid = scene.bed_arrays()
+    h[:] = np.where(solid, 0.0, scene.initial.layer_h)
+    phi[:] = _phi_or_phi0(scene)
+    return h, u, v, phi
+
+
+def _lake(scene, X, Y):
+    # at rest with a flat free surface eta = h + b = level: the state the well-balanced
+    # schemes must keep exactly (DESIGN.md, "Terrain")
+    h, u, v, phi = _zeros(X)
+    b, solid = scene.bed_arrays()
+    h[:] = np.where(solid, 0.0, np.maximum(scene.initial.level - b, 0.0))
+    phi[:] = _phi_or_phi0(scene)
+    return h, u, v, phi
+
+
+def _file(scene, X, Y):
+    h, u, v, phi = _zeros(X)
+    _, solid = scene.bed_arrays()
+    h[:] = np.where(solid, 0.0, scene.initial_thickness())
     phi[:] = _phi_or_phi0(scene)
     return h, u, v, phi
 
@@ -226,6 +251,8 @@ for _name, _build in (
     ("channel", _channel),
     ("layer", _layer),
     ("cap", _cap),
+    ("lake", _lake),
+    ("file", _file),
 ):
     register_initial(InitialKind(_name, _build))
 
@@ -246,6 +273,9 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
     x, y = scene.domain.cell_centres()
     X, Y = np.meshgrid(x, y, indexing="ij")  # (nx, ny)
     h, u, v, phi = kind.build(scene, X, Y)
+    if scene.has_terrain:  # solid cells (walls) hold no material, whatever the kind
+        _, solid = scene.bed_arrays()
+        h = np.where(solid, 0.0, h)
     phi = np.clip(phi, 0.0, 1.0)
     q[lay.H][ix, iy] = h
     q[lay.HU][ix, iy] = h * u

@@ -18,6 +18,7 @@ from ..errors import InputError
 from ..model.material import Material
 from ..model.physics.friction import FRICTION_LAWS as LAWS
 from ..output.paths import check_name, safe_name
+from .bed import bed_arrays, check_initial, initial_thickness, read_terrain
 from .overrides import apply_overrides
 from .schema import read_section
 from .sections import (
@@ -29,6 +30,7 @@ from .sections import (
     InitialConfig,
     NumericsConfig,
     OutputConfig,
+    TerrainConfig,
     TimeConfig,
     section_keys,
     top_level_keys,
@@ -65,6 +67,7 @@ class Scene:
     numerics: NumericsConfig
     time: TimeConfig
     output: OutputConfig
+    terrain: TerrainConfig = TerrainConfig()  # no section: the flat plane
     source: str | None = field(default=None, compare=False)  # file it was read from
 
     # ---- resolved switches ------------------------------------------------------------------
@@ -113,6 +116,23 @@ class Scene:
     @property
     def periodic_y(self) -> bool:
         return self.boundary.y_lo == "periodic"
+
+    @property
+    def has_terrain(self) -> bool:
+        """A bed or solid cells from ``[terrain]`` (any shape or a raster); else the flat
+        plane of the paper."""
+        return self.terrain.has_terrain
+
+    def bed_arrays(self):
+        """(b, solid) on the cell centres, (nx, ny) each: b float64, the bed height normal to
+        the reference plane [m] (0 in solid cells), solid bool (walls, nodata). Cached and
+        read-only (`tiseg.setup.bed.bed_arrays`); zeros and no solid cell without terrain."""
+        return bed_arrays(self.terrain, self.domain)
+
+    def initial_thickness(self):
+        """The thickness raster of ``initial.kind = "file"`` on the cell centres (nx, ny) [m]
+        (`tiseg.setup.bed.initial_thickness`)."""
+        return initial_thickness(self.initial, self.domain)
 
     @property
     def fields(self) -> tuple[str, ...]:
@@ -241,6 +261,8 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     boundary = read_boundary(table("boundary"), domain)
     inflow = read_inflow(table("inflow"), top.has("inflow"), boundary, domain, flow)
     initial = read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects, material)
+    terrain = read_terrain(table("terrain"), domain, source)
+    initial = check_initial(initial, terrain, domain, source)
     numerics = read_numerics(table("numerics"), flow, domain.ny == 1, effects)
     output = read_output(table("output"), time.t_end, domain)
     _check_forcing_phase(inflow, time.t_end)
@@ -257,6 +279,7 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
         numerics=numerics,
         time=time,
         output=output,
+        terrain=terrain,
         source=source,
     )
 

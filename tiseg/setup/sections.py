@@ -29,6 +29,7 @@ from ..model.physics.sources import SOURCES, declared_constants
 from .schema import constant_field, key, key_fields, key_names, key_of
 from .initial import BUILTIN_KINDS, INITIAL_KINDS
 from .table import MISSING
+from .terrain_section import TerrainConfig
 
 OUTPUT_PRECISIONS = ("f8", "f4")
 PRECISIONS = ("f64", "f32")
@@ -430,6 +431,13 @@ class InitialConfig:
     * cap: a parabolic cap h = h (1 - ((x - x0) / half_width)^2) sliding downslope at ``u``,
       uniform across the slope, concentration ``phi``: the start of the similarity solution
       of Savage & Hutter (1991) (`tiseg.model.exact_friction.ParabolicCap`).
+    * lake: material at rest whose free surface lies at ``level`` above the reference plane:
+      h = max(level - b, 0) over the bed b of ``[terrain]`` (normal to the plane), concentration
+      ``phi``.
+    * file: the thickness read from the raster ``path`` (its coordinates shifted by
+      ``origin_x``, ``origin_y``), at rest, concentration ``phi``.
+
+    Solid cells of ``[terrain]`` hold no material whatever the kind (h = 0 there).
 
     The fields are in the order each kind lists its keys; ``kinds`` says which kinds use a key.
     """
@@ -512,9 +520,26 @@ class InitialConfig:
     layer_h: float | None = _ini(
         "layer: thickness of the static layer [m]", ("layer",), positive=True
     )
+    level: float | None = _ini(
+        "lake: height of the free surface above the reference plane, normal to it; h = "
+        "max(level - b, 0) at rest [m]",
+        ("lake",),
+    )
+    path: str | None = _ini(
+        "file: raster of the initial thickness normal to the plane [m] (.asc, .nc with a "
+        "variable b, GeoTIFF), resampled onto the cells, nodata = 0; a relative path is "
+        "taken from the scene file's folder",
+        ("file",),
+    )
+    origin_x: float | None = _ini(
+        "file: the raster's x coordinates are shifted by this on the domain [m]", ("file",), 0.0
+    )
+    origin_y: float | None = _ini(
+        "file: the raster's y coordinates are shifted by this on the domain [m]", ("file",), 0.0
+    )
     phi: float | None = _ini(
-        "dam-break, release, layer, cap: concentration (default flow.phi0)",
-        ("dam-break", "release", "layer", "cap"),
+        "dam-break, release, layer, cap, lake, file: concentration (default flow.phi0)",
+        ("dam-break", "release", "layer", "cap", "lake", "file"),
         _phi0,
         lo=0.0,
         hi=1.0,
@@ -731,6 +756,7 @@ SECTIONS = {
     "boundary": BoundaryConfig,
     "inflow": InflowConfig,
     "initial": InitialConfig,
+    "terrain": TerrainConfig,
     "numerics": NumericsConfig,
     "time": TimeConfig,
     "output": OutputConfig,

@@ -9,6 +9,7 @@ writes the keys of its kind only. ``load_scene`` of the TOML gives an equal scen
 
 from __future__ import annotations
 
+from .bed import terrain_to_dict
 from .schema import plain, write_section
 from .sections import (
     BoundaryConfig,
@@ -79,6 +80,9 @@ def scene_to_dict(scene, derived: bool = False) -> dict:
     d["initial"] = {
         k: getattr(ini, k) for k in initial_keys()[ini.kind] if getattr(ini, k) is not None
     }
+    terrain = terrain_to_dict(scene.terrain)
+    if terrain is not None:  # a flat plane writes no section (scenes of before stay the same)
+        d["terrain"] = terrain
     d["numerics"] = write_section(NumericsConfig, scene.numerics)
     d["time"] = write_section(TimeConfig, scene.time)
     d["output"] = write_section(OutputConfig, scene.output)

@@ -39,6 +39,7 @@ import taichi as ti
 from ... import backend
 from ...solver import field_tree
 from . import colours as C
+from .relief import bed_of, with_relief
 from .lengths import format_length, nice_length  # noqa: F401  (also used from here)
 from .raster import (  # noqa: F401  (image_size and the constants are also used from here)
     DEFAULT_RELIEF,
@@ -373,7 +374,9 @@ def render_fields(
     ----------
     fields
         "h" and, as needed, "phi", "u", "v" (a dict as from ``Simulation.fields()`` or one
-        time of ``read_fields``).
+        time of ``read_fields``); with "b" (and "solid"), the terrain's bed (ny, nx) [m],
+        its relief is shaded under the colours and its walls drawn
+        (`tiseg.post.render.relief`).
     h_min
         Thinner cells are drawn as the empty chute [m].
     field
@@ -413,6 +416,9 @@ def render_fields(
     img = painter.image(w, hh)
     painter.paint(img, 0, 0, w, hh)
     out = _image_to_numpy(img)
+    b, solid = bed_of(fields, ny, nx)
+    if b is not None:  # a run with terrain: its relief under the colours (flat: untouched)
+        out = with_relief(out, b, solid, dx, dy, strength)
     if colourbar is None:
         colourbar = field != "phi"
     if colourbar:

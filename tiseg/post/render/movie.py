@@ -368,6 +368,9 @@ def _pick_frames(n: int, max_frames: int | None) -> list[int]:
 def _snapshot(ds, k: int) -> dict:
     out = {name: ds[name].isel(time=k).values for name in ("h", "phi", "u", "v") if name in ds}
     out["x"], out["y"] = ds["x"].values, ds["y"].values
+    for name in ("b", "solid"):  # the terrain's static fields, in runs that have one
+        if name in ds and ds[name].dims == ("y", "x"):
+            out[name] = ds[name].values
     return out
 
 

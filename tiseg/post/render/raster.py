@@ -16,6 +16,7 @@ import numpy as np
 
 from ...errors import InputError
 from . import colours as C
+from .relief import bed_of, with_relief
 
 DEFAULT_SHADE = 0.35  # S: at most +-35 % brightness from relief
 DEFAULT_RELIEF = 10.0  # R: vertical exaggeration of the slopes of h
@@ -143,7 +144,13 @@ def render_fields_numpy(
     width, height = image_size(nx, ny, scale, aspect)
     cols = np.minimum(((np.arange(width) + 0.5) * nx / width).astype(np.int64), nx - 1)
     rows = np.minimum(((np.arange(height) + 0.5) * ny / height).astype(np.int64), ny - 1)
-    return C.to_uint8(c[rows[::-1]][:, cols].astype(np.float32))
+    out = C.to_uint8(c[rows[::-1]][:, cols].astype(np.float32))
+    b, solid = bed_of(fields, ny, nx)
+    if b is not None:  # a run with terrain: its relief under the colours (flat: untouched)
+        dx = _spacing(fields.get("x"), dx, PAPER_DX)
+        dy = _spacing(fields.get("y"), dy, dx)
+        out = with_relief(out, b, solid, dx, dy, strength)
+    return out
 
 
 def _slope(h: np.ndarray, axis: int, spacing: float) -> np.ndarray:
