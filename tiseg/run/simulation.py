@@ -121,6 +121,9 @@ class Simulation:
         if self.backend.arch == "cpu":  # before Taichi tries the allocation
             check_memory(self.layout, nstep + 2, self.backend.precision)
         self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
+        if self.cfg.bed:  # the bed under the flow and its walls (tiseg.solver.numerics.bed)
+            b, solid = scene.bed_arrays()
+            self.op.set_bed(b, solid if self.cfg.solid else None)
         self.arrays = StateArrays(self.op.state, self.op.reduce, scene.dx, scene.dy)
         self.dispatch = CallbackDispatch(self)
         self.failures = FailureChecks(self)

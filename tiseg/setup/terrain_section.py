@@ -65,21 +65,24 @@ class TerrainConfig:
     """
 
     shapes: tuple[Shape, ...] = field(
-        default=(), metadata=key(_shapes_doc(), table=ShapeKeys, many=True)
+        default=(), metadata=key(_shapes_doc(), table=ShapeKeys, many=True, compiled="operator")
     )
     bed: str | None = field(
         default=None,
         metadata=key(
             "raster of b normal to the plane [m]: .asc, .nc (variable b on x, y) or GeoTIFF "
             "(extra tiseg[terrain]); nodata = solid; bilinear onto the cell centres; a "
-            "relative path is taken from the scene file's folder"
+            "relative path is taken from the scene file's folder",
+            compiled="operator",
         ),
     )
     origin_x: float = field(
-        default=0.0, metadata=key("the raster's x coordinates are shifted by this [m]")
+        default=0.0,
+        metadata=key("the raster's x coordinates are shifted by this [m]", compiled="operator"),
     )
     origin_y: float = field(
-        default=0.0, metadata=key("the raster's y coordinates are shifted by this [m]")
+        default=0.0,
+        metadata=key("the raster's y coordinates are shifted by this [m]", compiled="operator"),
     )
 
     @property

@@ -79,6 +79,7 @@ class BedFaces:
         self.state = state
         self._rec_slope = rec_slope
         self.first = rec_slope is None
+        self.has_solid = state.solid is not None  # (Taichi scope has no `is not`)
 
     @ti.func
     def eta_slope(self, i, j, d: ti.template()):
@@ -95,6 +96,11 @@ class BedFaces:
             dc = dm
             dm[0] = e0 - (self.state.w[im, jm][0] + self.state.bed[im, jm])
             dp[0] = (self.state.w[ip, jp][0] + self.state.bed[ip, jp]) - e0
+            if ti.static(self.has_solid):  # a wall is level with the cell it faces
+                if self.state.solid[im, jm] != 0:
+                    dm[0] = 0.0
+                if self.state.solid[ip, jp] != 0:
+                    dp[0] = 0.0
             dc[0] = 0.5 * (dm[0] + dp[0])
             hmin3 = ti.min(
                 ti.min(self.state.w[im, jm][0], self.state.w[i, j][0]), self.state.w[ip, jp][0]
@@ -177,14 +183,23 @@ class BedFaces:
         return (0.5 * dt * self._inv(d)) * self.centred(h_lo, h_hi, b_lo, b_hi)
 
     @ti.func
-    def sweep_face(self, i, j, i1, j1, d: ti.template(), wl, wr, wet):
+    def sweep_face(self, i, j, i1, j1, d: ti.template(), wl, wr, wet, kind):
         """The predicted edges wl | wr of the face (i, j) | (i1, j1) along d with h* (where
-        the face is ``wet``), and its two pressure corrections into pcx / pcy."""
+        the face is ``wet``), and its two pressure corrections into pcx / pcy; a wall
+        (``kind``, tiseg.solver.numerics.walls) sees the fluid side's bed on both sides."""
         wls = wl
         wrs = wr
+        bl = self.state.eb[i, j][1]
+        br = self.state.eb[i1, j1][0]
+        if kind == 1:  # the high cell is solid
+            br = bl
+        elif kind != 0:
+            bl = br
         p = self.dry(wl[0], wr[0])
+        if kind == 3:  # two solid cells
+            p = p * 0.0
         if wet:
-            wls, wrs, p = self.star(wl, self.state.eb[i, j][1], wr, self.state.eb[i1, j1][0])
+            wls, wrs, p = self.star(wl, bl, wr, br)
         if ti.static(d == 0):
             self.state.pcx[i, j] = p
         else:

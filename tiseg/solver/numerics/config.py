@@ -97,7 +97,8 @@ INFLOW, OUTFLOW, PERIODIC, WALL = range(4)
 BC_CODES = {"inflow": INFLOW, "outflow": OUTFLOW, "periodic": PERIODIC, "wall": WALL}
 GHOST = 2
 SIDES = ("x_lo", "x_hi", "y_lo", "y_hi")  # the boundary.* keys, in the order of bc
-# the scene keys of the grid
+# the scene keys of the grid, of the terrain
+_TERRAIN = ("terrain.shapes", "terrain.bed", "terrain.origin_x", "terrain.origin_y")
 _GRID = ("domain.Lx", "domain.Ly", "domain.resolution", "domain.nx", "domain.ny")
 NOISE_MIN_WAVELENGTH = 0.02  # [m] shortest cross-slope wavelength of the inflow noise
 
@@ -291,8 +292,12 @@ class OperatorConfig:
     # no field here
     sources: tuple[str, ...] = field(default=(), metadata=from_keys("effects.sources"))
     # a bed b(x, y) under the flow, balanced by the hydrostatic reconstruction
-    # (tiseg.solver.numerics.bed); its heights are given to the operator (set_bed)
-    bed: bool = False
+    # (tiseg.solver.numerics.bed): on when truthy (the scene's terrain, compared by
+    # set_parameters; True in a config built by hand); its heights are given to the operator
+    # (set_bed)
+    bed: object = field(default=None, metadata=from_keys(*_TERRAIN, what="the terrain"))
+    # solid cells (obstacles, raster nodata) whose faces are walls (tiseg.solver.numerics.walls)
+    solid: bool = field(default=False, metadata=from_keys(*_TERRAIN, what="the terrain"))
     constants: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
@@ -439,5 +444,7 @@ def config_from_scene(scene) -> OperatorConfig:
         bc=scene.boundary.as_tuple(),
         sources=sources,
         constants=tuple((k, v) for k, v in given.items() if k in own),
+        bed=scene.terrain if scene.has_terrain else None,
+        solid=bool(scene.has_terrain and scene.bed_arrays()[1].any()),
         **kw,
     )

@@ -23,6 +23,7 @@ from .bed import BedFaces
 from .fluxes import FLUXES, PHI_FLUXES
 from .reconstruction import RECONSTRUCTIONS
 from .state import NBUDGET
+from .walls import FLUID, SOLID, WALL_HI, SolidWalls
 
 
 @ti.data_oriented
@@ -50,6 +51,10 @@ class FiniteVolume:
         # a bed: the hydrostatic reconstruction's functions (tiseg.solver.numerics.bed)
         self.has_bed = st.bed is not None
         self.bed = BedFaces(st, None if st.rec_first else self._rec_slope) if self.has_bed else None
+        # solid cells: their faces are walls (tiseg.solver.numerics.walls)
+        self.has_solid = st.solid is not None
+        self.walls = SolidWalls(st) if self.has_solid else None
+        self.terrain = self.has_bed or self.has_solid
 
     # ------------------------------------------------------------------ host side
 
@@ -253,8 +258,8 @@ class FiniteVolume:
         w0 = self.state.w[i, j]
         w1 = self.state.w[i + 1, j]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        if ti.static(self.has_bed):
-            F = self._bed_face(i, j, i + 1, j, w0, w1, hmin, 0)
+        if ti.static(self.terrain):
+            F = self._terrain_face(i, j, i + 1, j, w0, w1, hmin, 0)
         elif self.face_wet(w0, w1, hmin, i, j, i + 1, j):
             wl = w0
             wr = w1
@@ -283,24 +288,54 @@ class FiniteVolume:
         return wl, wr
 
     @ti.func
-    def _bed_face(self, i0, j0, i1, j1, w0, w1, hmin, d: ti.template()):
-        """The convective flux of a face over a bed (tiseg.solver.numerics.bed): the numerical
-        flux of the edge states with h*, and each side's pressure correction into pcx / pcy
-        (the whole pressure of each edge where the face carries no convective flux)."""
+    def _terrain_face(self, i0, j0, i1, j1, w0, w1, hmin, d: ti.template()):
+        """The convective flux of a face over a bed or next to solid cells: a wall's fluid side
+        and its mirror (tiseg.solver.numerics.walls); over a bed the numerical flux of the
+        edge states with h* and each side's pressure correction into pcx / pcy (the whole
+        pressure of each edge where the face carries no convective flux, none at a wall:
+        tiseg.solver.numerics.bed)."""
         wl, wr = self._edge_states(i0, j0, i1, j1, w0, w1, d)
-        bl = self.bed.edge_hi(i0, j0, d, wl[0])
-        br = self.bed.edge_lo(i1, j1, d, wr[0])
+        kind = FLUID
+        if ti.static(self.has_solid):
+            kind = self.walls.kind(i0, j0, i1, j1)
+            wl, wr = self.walls.faced(kind, wl, wr, d)
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        p = self.bed.dry(wl[0], wr[0])
-        if self.face_wet(w0, w1, hmin, i0, j0, i1, j1):
-            wls, wrs, p = self.bed.star(wl, bl, wr, br)
-            F = self.face_flux(wls, wrs, d)
-            F = self.rules.rest_face(F, wls, wrs, d, i0, j0, i1, j1)
-        if ti.static(d == 0):
-            self.state.pcx[i0, j0] = p
-        else:
-            self.state.pcy[i0, j0] = p
+        wet = self.face_wet(w0, w1, hmin, i0, j0, i1, j1) and kind != SOLID
+        if ti.static(self.has_bed):
+            bl = self.bed.edge_hi(i0, j0, d, wl[0])
+            br = self.bed.edge_lo(i1, j1, d, wr[0])
+            if kind == WALL_HI:
+                br = bl
+            elif kind != FLUID:
+                bl = br
+            p = self.bed.dry(wl[0], wr[0])
+            if kind == SOLID:
+                p = p * 0.0
+            if wet:
+                wl, wr, p = self.bed.star(wl, bl, wr, br)
+            if ti.static(d == 0):
+                self.state.pcx[i0, j0] = p
+            else:
+                self.state.pcy[i0, j0] = p
+        if wet:
+            F = self.face_flux(wl, wr, d)
+            if kind == FLUID:  # (at a wall, the mirror's flux: nothing crosses)
+                F = self.rules.rest_face(F, wl, wr, d, i0, j0, i1, j1)
         return F
+
+    @ti.func
+    def sweep_terrain(self, i0, j0, i1, j1, d: ti.template(), wl, wr, wet):
+        """A split sweep's face over a bed or next to solid cells, between the predicted
+        edges wl | wr: (wl, wr, wet, fluid) as the face takes them (a wall's fluid side and
+        its mirror, h* over a bed with the pressure corrections stored; `_terrain_face`)."""
+        kind = FLUID
+        if ti.static(self.has_solid):
+            kind = self.walls.kind(i0, j0, i1, j1)
+            wl, wr = self.walls.faced(kind, wl, wr, d)
+            wet = wet and kind != SOLID
+        if ti.static(self.has_bed):
+            wl, wr = self.bed.sweep_face(i0, j0, i1, j1, d, wl, wr, wet, kind)
+        return wl, wr, wet, kind == FLUID
 
     @ti.func
     def bed_rate(self, i, j, d: ti.template()):
@@ -353,8 +388,8 @@ class FiniteVolume:
         w0 = self.state.w[i, j]
         w1 = self.state.w[i, j + 1]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        if ti.static(self.has_bed):
-            F = self._bed_face(i, j, i, j + 1, w0, w1, hmin, 1)
+        if ti.static(self.terrain):
+            F = self._terrain_face(i, j, i, j + 1, w0, w1, hmin, 1)
         elif self.face_wet(w0, w1, hmin, i, j, i, j + 1):
             wl = w0
             wr = w1
@@ -422,6 +457,9 @@ class FiniteVolume:
                 r[1] += self.bed_rate(i, j, 0)
                 if ti.static(not self.state.is_1d):
                     r[self.state.HV] += self.bed_rate(i, j, 1)
+            if ti.static(self.has_solid):  # a solid cell never changes
+                if self.walls.is_solid(i, j):
+                    r = ti.Vector.zero(self.state.fp, self.state.nc)
         return r
 
     @ti.func

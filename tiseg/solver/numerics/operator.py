@@ -84,9 +84,10 @@ class TaichiOperator:
         """Copy run-time numbers into the parameter field (no recompilation)."""
         self.state.set_params(cfg)
 
-    def set_bed(self, b: np.ndarray) -> None:
-        """The bed heights (nx, ny) [m] of an operator built with a bed (OperatorState.set_bed)."""
-        self.state.set_bed(b)
+    def set_bed(self, b: np.ndarray | None = None, solid: np.ndarray | None = None) -> None:
+        """The bed heights (nx, ny) [m] and the solid cells (nx, ny) of an operator built for
+        them (OperatorState.set_bed)."""
+        self.state.set_bed(b, solid)
 
     def check_alive(self) -> None:
         """Raise if Taichi was re-initialised since the fields were made."""

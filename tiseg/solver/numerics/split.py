@@ -287,8 +287,9 @@ class SplitSweeps:
             wl = self.state.ee[i, j]
             wr = self.state.ew[i1, j1]
             wet = self.fv.face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1)
-            if ti.static(self.fv.has_bed):  # h* and the pressure corrections
-                wl, wr = self.fv.bed.sweep_face(i, j, i1, j1, d, wl, wr, wet)
+            fluid = True  # (not a wall: tiseg.solver.numerics.walls; h* over a bed)
+            if ti.static(self.fv.terrain):
+                wl, wr, wet, fluid = self.fv.sweep_terrain(i, j, i1, j1, d, wl, wr, wet)
             if wet:
                 if ti.static(self.state.phys.fr_projected):
                     if self.rules.both_at_rest(i, j, i1, j1):
@@ -301,7 +302,10 @@ class SplitSweeps:
                         wr = self.rules.still(wr)
                 F = self.fv.face_flux(wl, wr, d)
                 # the projected friction's face rules, from the step's rest mask
-                F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
+                if ti.static(not self.fv.terrain):
+                    F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
+                elif fluid:
+                    F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
             if ti.static(d == 0):
                 self.state.fx[i, j] = F
             else:
@@ -474,6 +478,9 @@ class SplitSweeps:
                 if ti.static(last):
                     # the friction acts on the thickness the gravity acted on
                     acc = self.rules.project(acc, dt, i, j, hold, spd0, hg)
+            if ti.static(self.fv.has_solid):  # a solid cell never changes
+                if self.fv.walls.is_solid(i, j):
+                    acc = q0
             self.state.w[i, j] = self.fv.fast_primitive(acc)
             self.state.q[0, i, j] = acc
         # the budget: what entered through the domain's faces along d (as boundary_rates;

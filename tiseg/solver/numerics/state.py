@@ -100,6 +100,8 @@ class OperatorState:
         self.pcx = ft.vector(2, self.fp, (NX, NY)) if cfg.bed else None
         self.pcy = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and not self.is_1d else None
         self.eb = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and self.split else None
+        # solid cells, whose faces are walls (tiseg.solver.numerics.walls): 1 where solid
+        self.solid = ft.field(ti.i8, (NX, NY)) if cfg.solid else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
         self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
         # Active range [a, b) of x indices whose cells may change, the wet scan's range and
@@ -195,12 +197,18 @@ class OperatorState:
             self.inflow_prof.from_numpy(prof.astype(self.np_fp))
         self.inflow_key = None
 
-    def set_bed(self, b) -> None:
-        """The bed heights (nx, ny) [m] normal to the reference plane; ghost cells from the
+    def set_bed(self, b=None, solid=None) -> None:
+        """The bed heights (nx, ny) [m] normal to the reference plane and the solid cells
+        (nx, ny) bool, each where the operator was built for it; ghost cells from the
         boundaries (`bed.bed_with_ghosts`)."""
-        if self.bed is None:
-            raise TisegError("set_bed: the operator was built without a bed (OperatorConfig.bed)")
-        self.bed.from_numpy(bed_with_ghosts(b, self.lay, self.bc).astype(self.np_fp))
+        for name, given, field in (("a bed", b, self.bed), ("solid cells", solid, self.solid)):
+            if given is not None and field is None:
+                raise TisegError(f"set_bed: the operator was built without {name}")
+        if b is not None:
+            self.bed.from_numpy(bed_with_ghosts(b, self.lay, self.bc).astype(self.np_fp))
+        if solid is not None:
+            mask = bed_with_ghosts(np.asarray(solid, dtype=float), self.lay, self.bc) > 0.5
+            self.solid.from_numpy(mask.astype(np.int8))
         self.prepared = self.interior = None
         self.rest_stale = True
 

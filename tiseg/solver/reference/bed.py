@@ -25,10 +25,11 @@ def _shifted(a: np.ndarray, axis: int, k: int) -> np.ndarray:
     return out
 
 
-def eta_slopes(ref, w: np.ndarray, bed: np.ndarray, axis: int) -> np.ndarray:
+def eta_slopes(ref, w: np.ndarray, bed: np.ndarray, axis: int, solid=None) -> np.ndarray:
     """The undivided slope of eta = h + b along ``axis`` (1: x, 2: y) on the cells with both
     neighbours, zero on the outermost layers: the reconstruction's slope where the three
-    cells are wet, minmod where one is dry; zero at first order."""
+    cells are wet, minmod where one is dry; zero at first order. A solid neighbour is level
+    with the cell (``solid``: the (NX, NY) mask, or None)."""
     eta = w[0] + bed
     out = np.zeros_like(eta)
     if not ref.rec.slopes:
@@ -38,6 +39,9 @@ def eta_slopes(ref, w: np.ndarray, bed: np.ndarray, axis: int) -> np.ndarray:
     h = w[0]
     hmin3 = np.minimum(np.minimum(_shifted(h, ax, -1), h), _shifted(h, ax, 1))
     dm, dp = eta - em, ep - eta
+    if solid is not None:
+        dm = np.where(_shifted(solid, ax, -1), 0.0, dm)
+        dp = np.where(_shifted(solid, ax, 1), 0.0, dp)
     vec = np.zeros((ref.lay.nc,) + eta.shape)
     vdm, vdp, vdc = vec.copy(), vec.copy(), vec.copy()
     vdm[0], vdp[0], vdc[0] = dm, dp, 0.5 * (dm + dp)

@@ -49,6 +49,7 @@ from ...model.physics.segregation import TRANSPORTS
 from ...model.physics.sources import SOURCES, NumpyContext, aux_arrays
 from ..numerics.bed import bed_with_ghosts
 from .bed import bed_rate, eta_slopes, star_states
+from .walls import FLUID, SOLID, WALL_HI, WALL_LO, face_kinds, faced
 from ...model.physics.viscosity import VISCOSITY
 
 SQRT2 = math.sqrt(2.0)
@@ -62,8 +63,10 @@ class ReferenceOperator:
         cfg: OperatorConfig,
         y_centres: np.ndarray | None = None,
         bed: np.ndarray | None = None,
+        solid: np.ndarray | None = None,
     ):
-        """``bed``: the bed heights (nx, ny) [m] of a config with a bed (flat where None)."""
+        """``bed``: the bed heights (nx, ny) [m] of a config with a bed (flat where None);
+        ``solid``: the solid cells (nx, ny) of a config with them (none where None)."""
         self.cfg = cfg
         self.lay = cfg.layout
         lay = self.lay
@@ -72,6 +75,11 @@ class ReferenceOperator:
             flat = np.zeros((lay.nx, lay.ny))
             self.bed = bed_with_ghosts(flat if bed is None else bed, lay, cfg.bc)
         self._pc = {}  # the bed's face corrections of the last face_fluxes, per axis
+        self.solid = None
+        if cfg.solid:  # solid cells, ghost cells as the operator's
+            flat = np.zeros((lay.nx, lay.ny))
+            mask = flat if solid is None else np.asarray(solid, dtype=float)
+            self.solid = bed_with_ghosts(mask, lay, cfg.bc) > 0.5
         if y_centres is None:
             y_centres = (np.arange(lay.ny) + 0.5) * cfg.dy
         self.y = np.asarray(y_centres, dtype=float)
@@ -218,23 +226,32 @@ class ReferenceOperator:
 
         wl = (w + 0.5 * s)[sl(0, n - 1)]  # east/north edge of cell m
         wr = (w - 0.5 * s)[sl(1, n)]  # west/south edge of cell m+1
+        kinds = np.zeros(wl.shape[1:], dtype=int)
+        if self.solid is not None:  # walls: the fluid side and its mirror
+            kinds = face_kinds(self.solid, axis)
+            wl, wr = faced(self.lay, kinds, wl, wr, direction)
         if self.bed is not None:  # the hydrostatic reconstruction (tiseg.solver.reference.bed)
-            es = eta_slopes(self, w, self.bed, axis)
+            es = eta_slopes(self, w, self.bed, axis, self.solid)
             eta = w[0] + self.bed
             bl = (eta + 0.5 * es - (w[0] + 0.5 * s[0]))[sl(0, n - 1)[1:]]
             br = (eta - 0.5 * es - (w[0] - 0.5 * s[0]))[sl(1, n)[1:]]
+            br = np.where(kinds == WALL_HI, bl, br)
+            bl = np.where((kinds == WALL_LO) | (kinds == SOLID), br, bl)
             hl, hr = wl[0], wr[0]
             wl, wr, pl, pr = star_states(self, wl, bl, wr, br)
         H = self.numerical_flux(wl, wr, direction)
-        if self.projected:  # the near-rest face rules (RestRules.rest_face)
-            self.rest_faces(H, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
-        dry = self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])
+        if self.projected:  # the near-rest face rules (RestRules.rest_face), not at walls
+            Hr = H.copy()
+            self.rest_faces(Hr, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
+            H = np.where((kinds == FLUID)[None], Hr, H)
+        dry = self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:]) | (kinds == SOLID)
         H = np.where(dry[None], 0.0, H)
         if self.bed is not None:  # a face without convective flux: each side's pressure
             half_g = 0.5 * self.cfg.g_cos
             p = np.zeros((2,) + w.shape[1:])
-            p[(0,) + sl(0, n - 1)[1:]] = np.where(dry, half_g * hl * hl, pl)
-            p[(1,) + sl(0, n - 1)[1:]] = np.where(dry, half_g * hr * hr, pr)
+            none = kinds == SOLID
+            p[(0,) + sl(0, n - 1)[1:]] = np.where(none, 0.0, np.where(dry, half_g * hl * hl, pl))
+            p[(1,) + sl(0, n - 1)[1:]] = np.where(none, 0.0, np.where(dry, half_g * hr * hr, pr))
             self._pc[axis] = (p, s, es)
         out = np.zeros_like(w)
         out[sl(0, n - 1)] = H
@@ -474,6 +491,8 @@ class ReferenceOperator:
                 comp = lay.HU if axis == 1 else lay.HV
                 r = bed_rate(self, w, s, es, self.bed, p[0], p[1], axis)
                 out[comp, ix, iy] += r[ix, iy]
+        if self.solid is not None:  # a solid cell never changes
+            out[:, self.solid] = 0.0
         if c.sources:
             out[:, ix, iy] += self.terms(w)[:, ix, iy]
         return out

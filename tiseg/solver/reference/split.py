@@ -11,6 +11,7 @@ import numpy as np
 from ..numerics.boundaries import inlet_rows
 from ..timestepping.rkc import rkc_coefficients
 from .bed import eta_slopes, star_states
+from .walls import FLUID, SOLID, WALL_HI, WALL_LO, face_kinds, faced
 from .operator import SQRT2, ReferenceOperator
 
 
@@ -93,7 +94,7 @@ def hancock_sweep(
         shift = shift - 0.5 * dt * sgn[None] * src
     mom = lay.HU if d == 0 else lay.HV
     if ref.bed is not None:  # the bed at the edges and its pull over the half step
-        es = eta_slopes(ref, w, ref.bed, axis)
+        es = eta_slopes(ref, w, ref.bed, axis, ref.solid)
         eta = w[0] + ref.bed
         bW, bE = eta - 0.5 * es - wW[0], eta + 0.5 * es - wE[0]
         inv = 1.0 / (c.dx if d == 0 else c.dy)
@@ -125,24 +126,32 @@ def hancock_sweep(
             moving[lay.HV] = True
         zero = both & moving[:, None, None]
         wl, wr = np.where(zero, 0.0, wl), np.where(zero, 0.0, wr)
+    face_lo, face_hi = sl(0, n - 1)[1:], sl(1, n)[1:]
+    kinds = np.zeros(wl.shape[1:], dtype=int)
+    if ref.solid is not None:  # walls: the fluid side and its mirror
+        kinds = face_kinds(ref.solid, axis)
+        wl, wr = faced(lay, kinds, wl, wr, d)
     if ref.bed is not None:  # h* at the faces, and each side's pressure correction
-        face_lo, face_hi = sl(0, n - 1)[1:], sl(1, n)[1:]
         hl_e, hr_e = wl[0].copy(), wr[0].copy()
-        wl, wr, pl, pr = star_states(ref, wl, bE[face_lo], wr, bW[face_hi])
+        bl, br = bE[face_lo], bW[face_hi]
+        br = np.where(kinds == WALL_HI, bl, br)
+        bl = np.where((kinds == WALL_LO) | (kinds == SOLID), br, bl)
+        wl, wr, pl, pr = star_states(ref, wl, bl, wr, br)
     H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d)
-    if ref.projected:  # the face rules of the step's rest mask
-        Hf = H[sl(0, n - 1)]
-        ref.rest_faces(Hf, wl, wr, start, d, sl(0, n - 1)[1:], sl(1, n)[1:])
-        H[sl(0, n - 1)] = Hf
+    if ref.projected:  # the face rules of the step's rest mask (not at walls)
+        Hf = H[sl(0, n - 1)].copy()
+        ref.rest_faces(Hf, wl, wr, start, d, face_lo, face_hi)
+        H[sl(0, n - 1)] = np.where((kinds == FLUID)[None], Hf, H[sl(0, n - 1)])
     h = w[0]
     dry = np.zeros(h.shape, dtype=bool)
-    dry[sl(0, n - 1)[1:]] = ref.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:])
+    dry[face_lo] = ref.dry_faces(w, start, face_lo, face_hi) | (kinds == SOLID)
     H = np.where(dry[None], 0.0, H)
     if ref.bed is not None:  # a face without convective flux: each side's whole pressure
         half_g = 0.5 * c.g_cos
         pc = np.zeros((2,) + q.shape[1:])
-        pc[(0,) + face_lo] = np.where(dry[face_lo], half_g * hl_e**2, pl)
-        pc[(1,) + face_lo] = np.where(dry[face_lo], half_g * hr_e**2, pr)
+        none = kinds == SOLID
+        pc[(0,) + face_lo] = np.where(none, 0.0, np.where(dry[face_lo], half_g * hl_e**2, pl))
+        pc[(1,) + face_lo] = np.where(none, 0.0, np.where(dry[face_lo], half_g * hr_e**2, pr))
     # the draining factor of the cells updated (interior along d), 1 elsewhere
     g = lay.gx if d == 0 else lay.gy
     m = lay.nx if d == 0 else lay.ny
@@ -191,6 +200,8 @@ def hancock_sweep(
         hbar = 0.5 * (q[0] + h1)
         if terms is not None:
             upd = upd + dt * terms
+    if ref.solid is not None:  # a solid cell never changes
+        upd = np.where(ref.solid[None], 0.0, upd)
     q[:, ix, iy] = q[:, ix, iy] + upd[:, ix, iy]
     if limit:
         ref.postprocess(q)
