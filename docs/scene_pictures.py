@@ -27,6 +27,7 @@ RUNS: dict[str, tuple[list[str], str]] = {
     "finite-release-deposit": (["domain.resolution=100", "time.t_end=30"], "map"),
     "monodisperse-front": (["domain.resolution=150"], "map"),
     "levees": (["domain.resolution=100"], "map"),
+    "obstacle": (["domain.resolution=100"], "map"),
     "channel": (["domain.resolution=250"], "channel"),
     "dam-break": ([], "profile"),
     "uniform-flow": ([], "mode"),

@@ -31,7 +31,21 @@ def check_growth_rate(tmp_path, capsys):
     assert abs(rate - theory) < 0.03 * theory
 
 
-CHECKS = {"quickstart": check_quickstart, "growth_rate": check_growth_rate}
+def check_relief(tmp_path, capsys):
+    """The channel of the shipped relief carries more of a release than the same band of a
+    flat chute (measured: 63 % against 50 % at 100 cells/m)."""
+    mod = _load("relief")
+    share, _ = mod.main(["--resolution", "100", "--out", str(tmp_path / "relief")])
+    flat, _ = mod.main(["--resolution", "100", "--flat", "--out", str(tmp_path / "flat")])
+    assert share > flat + 0.07
+    assert "of the peak flow" in capsys.readouterr().out
+
+
+CHECKS = {
+    "quickstart": check_quickstart,
+    "growth_rate": check_growth_rate,
+    "relief": check_relief,
+}
 
 
 @pytest.mark.parametrize("name", sorted(p.stem for p in EXAMPLES.glob("*.py")))
