@@ -182,3 +182,27 @@ def test_steady_flow_over_a_bump_converges_at_second_order(ti_cpu, ridge, case, 
     e100, e200 = _bump_error(100, case), _bump_error(200, case)
     assert e200 < bound
     assert math.log2(e100 / e200) > 1.8
+
+
+def test_the_travel_angle_is_that_of_the_line_from_top_to_tip():
+    """On a plane inclined at zeta the Fahrboeschung is zeta; on a bed tilted by b = -s x it
+    is zeta + atan(s) (the bed adds its own slope); from an inflow (nothing wet at the start)
+    the line starts at the inlet."""
+    from tiseg.post.analysis.deposit import travel_angle
+
+    x = (np.arange(50) + 0.5) * 0.01
+    y = (np.arange(8) + 0.5) * 0.01
+    X, _ = np.meshgrid(x, y)
+    start = np.where(X < 0.05, 0.004, 0.0)
+    deposit = np.where((X > 0.2) & (X < 0.31), 0.002, 0.0)
+    zeta = math.radians(27.0)
+    angle, drop, reach = travel_angle(start, deposit, x, y, None, zeta, 1e-4)
+    assert angle == pytest.approx(27.0, abs=1e-12)
+    assert drop == pytest.approx((0.305 - 0.005) * math.sin(zeta), rel=1e-12)
+    s = 0.1
+    angle, _, _ = travel_angle(start, deposit, x, y, -s * X, zeta, 1e-4)
+    assert angle == pytest.approx(27.0 + math.degrees(math.atan(s)), abs=1e-9)
+    angle, _, reach = travel_angle(np.zeros_like(X), deposit, x, y, None, zeta, 1e-4)
+    assert angle == pytest.approx(27.0, abs=1e-12)
+    assert reach == pytest.approx(0.305 * math.cos(zeta), rel=1e-12)
+    assert travel_angle(start, np.zeros_like(X), x, y, None, zeta, 1e-4) is None

@@ -31,6 +31,10 @@ times. Definitions, with "wet" meaning h >= h_min as in (6.10):
   at the last output time [m]; ``channel_thickness`` / ``levee_thickness`` the mean h of its
   fine-rich (phi > phi_threshold) and coarse-rich cells, the locked-in channels and levees of
   figures 3(b) and 4(b); ``area`` [m^2] and ``volume`` [m^3] of the deposit.
+* ``travel_angle_deg``: the Fahrboeschung (Heim 1932), the angle below the horizontal of the
+  line from the release's top to the deposit's tip, with ``drop`` [m] and ``reach`` [m] its
+  vertical and horizontal spans (`travel_angle`). The run-out x is measured along the bed
+  line (the reference plane), as every x of the run.
 """
 
 from __future__ import annotations
@@ -65,6 +69,9 @@ DEPOSIT_KEYS = (
     "levee_thickness",
     "area",
     "volume",
+    "travel_angle_deg",
+    "drop",
+    "reach",
 )
 
 
@@ -132,6 +139,38 @@ def thickness_change(frames) -> float:
     for a, b in zip(frames[:-1], frames[1:]):
         out = max(out, float(np.abs(np.asarray(b, float) - np.asarray(a, float)).max()))
     return out
+
+
+def travel_angle(h_start, h_deposit, x, y, b, zeta: float, h_min: float):
+    """(angle [degrees], drop [m], reach [m]) of the line from the release's top to the
+    deposit's tip, or None where either is empty.
+
+    A point (x, y) of the bed, b normal to the plane inclined at zeta, lies at the horizontal
+    distance X = x cos(zeta) + b sin(zeta) downslope and the height Z = -x sin(zeta) +
+    b cos(zeta). The top is the highest wet cell of ``h_start`` (the first snapshot; where it
+    is empty, as under an inflow, the inlet's row x = 0 on its highest bed); the tip the
+    furthest downslope wet cell of ``h_deposit`` (the lowest where several share that x). On a
+    plane the angle is zeta; on a bed tilted by b = -s x it is zeta + atan(s). Arrays (ny, nx),
+    x and y the cell centres."""
+    X2, _ = np.meshgrid(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    bed = np.zeros_like(X2) if b is None else np.asarray(b, dtype=float)
+    c, s = math.cos(zeta), math.sin(zeta)
+    Z = -X2 * s + bed * c
+    H = X2 * c + bed * s
+    dep = np.asarray(h_deposit, dtype=float) >= h_min
+    if not dep.any():
+        return None
+    start = np.asarray(h_start, dtype=float) >= h_min
+    if start.any():
+        top = np.unravel_index(np.argmax(np.where(start, Z, -np.inf)), Z.shape)
+        z_top, x_top = Z[top], H[top]
+    else:  # an inflow: the inlet's edge x = 0
+        j = int(np.argmax(bed[:, 0]))
+        z_top, x_top = bed[j, 0] * c, bed[j, 0] * s
+    far = np.where(dep, X2, -np.inf).max()
+    tip = np.unravel_index(np.argmin(np.where(dep & (X2 == far), Z, np.inf)), Z.shape)
+    drop, reach = float(z_top - Z[tip]), float(H[tip] - x_top)
+    return math.degrees(math.atan2(drop, reach)), drop, reach
 
 
 def deposit_index(

@@ -102,6 +102,7 @@ from .deposit import (
     max_speed,
     momentum,
     thickness_change,
+    travel_angle,
 )
 from .spectrum import spectral_wavelength
 
@@ -445,6 +446,19 @@ def analyse_run(
             u_last=np.asarray(ds["u"].isel(time=last).values),
             v_last=np.asarray(ds["v"].isel(time=last).values) if "v" in ds.variables else None,
         )
+        if deposit["basis"] is not None and scene is not None:
+            bed = np.asarray(ds["b"].values) if "b" in ds.variables else None
+            found = travel_angle(
+                np.asarray(h_all.isel(time=0).values),
+                np.asarray(h_all.isel(time=last).values),
+                x,
+                y,
+                bed,
+                scene.material.zeta,
+                h_min,
+            )
+            if found is not None:
+                deposit["travel_angle_deg"], deposit["drop"], deposit["reach"] = found
         if k is not None:
             deposit["thickness_change"] = thickness_change(
                 [h_all.isel(time=i).values for i in range(k, times.size)]
