@@ -16,7 +16,7 @@ import numpy as np
 
 from ...errors import InputError
 from . import colours as C
-from .relief import bed_of, with_relief
+from .relief import bed_of, slope, with_relief
 
 DEFAULT_SHADE = 0.35  # S: at most +-35 % brightness from relief
 DEFAULT_RELIEF = 10.0  # R: vertical exaggeration of the slopes of h
@@ -135,7 +135,7 @@ def render_fields_numpy(
         dx = _spacing(fields.get("x"), dx, PAPER_DX)
         dy = _spacing(fields.get("y"), dy, dx)
         # 1 - S tanh(R grad(h) . l), central differences, one-sided at the edges
-        d = -math.sqrt(0.5) * _slope(h, 1, dx) + math.sqrt(0.5) * _slope(h, 0, dy)
+        d = -math.sqrt(0.5) * slope(h, 1, dx) + math.sqrt(0.5) * slope(h, 0, dy)
         tanh = np.tanh((relief * d).astype(np.float32)).astype(np.float64)  # f32, as the kernel
         f = (1.0 - strength * tanh)[..., None]
         c = np.where(f < 1.0, c * f, c + (1.0 - c) * np.minimum(f - 1.0, 1.0))
@@ -151,15 +151,3 @@ def render_fields_numpy(
         dy = _spacing(fields.get("y"), dy, dx)
         out = with_relief(out, b, solid, dx, dy, strength)
     return out
-
-
-def _slope(h: np.ndarray, axis: int, spacing: float) -> np.ndarray:
-    """dh along ``axis``: central differences inside, one-sided at the two ends, 0 on one cell."""
-    n = h.shape[axis]
-    if n < 2:
-        return np.zeros_like(h)
-    hi = np.minimum(np.arange(n) + 1, n - 1)
-    lo = np.maximum(np.arange(n) - 1, 0)
-    return (np.take(h, hi, axis=axis) - np.take(h, lo, axis=axis)) / (
-        np.expand_dims(hi - lo, 1 - axis) * spacing
-    )

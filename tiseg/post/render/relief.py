@@ -27,7 +27,7 @@ BED_RELIEF = 25.0  # R_b: a bed slope of 0.04 gives tanh(1)
 SOLID_RGB = (96 / 255, 96 / 255, 104 / 255)  # walls: a dark grey, no flow colour
 
 
-def _slope(a: np.ndarray, axis: int, spacing: float) -> np.ndarray:
+def slope(a: np.ndarray, axis: int, spacing: float) -> np.ndarray:
     """d a along ``axis`` of a (ny, nx) map: central differences, one-sided at the ends."""
     n = a.shape[axis]
     if n < 2:
@@ -43,7 +43,7 @@ def hillshade(b, dx: float, dy: float, strength: float, relief: float = BED_RELI
     """The factor f (ny, nx) of the module docstring for the bed ``b`` (ny, nx) [m] on cells
     of dx x dy [m]; 1 exactly where b is flat."""
     b = np.nan_to_num(np.asarray(b, dtype=np.float64))
-    d = -math.sqrt(0.5) * _slope(b, 1, dx) + math.sqrt(0.5) * _slope(b, 0, dy)
+    d = -math.sqrt(0.5) * slope(b, 1, dx) + math.sqrt(0.5) * slope(b, 0, dy)
     return 1.0 - strength * np.tanh(relief * d)
 
 

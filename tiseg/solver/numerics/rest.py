@@ -183,13 +183,14 @@ class RestRules:
         r = ti.cast(self.state.rest[i, j], ti.i32)
         if (r & REST) != 0 and (r & WET) == 0:
             if (ti.cast(self.state.rest[im, jm], ti.i32) & REST) != 0:
-                Fm = self._no_momentum(Fm)
+                Fm = self.still(Fm)
             if (ti.cast(self.state.rest[ip, jp], ti.i32) & REST) != 0:
-                Fp = self._no_momentum(Fp)
+                Fp = self.still(Fp)
         return Fm, Fp
 
     @ti.func
-    def _no_momentum(self, F):
+    def still(self, F):
+        """F (a flux, or a primitive state) with its momentum (or velocity) components zero."""
         out = F
         out[1] = 0.0
         if ti.static(not self.state.is_1d):
@@ -441,12 +442,3 @@ class RestRules:
         """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
         r = ti.cast(self.state.rest[i, j], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
         return (r & REST) != 0
-
-    @ti.func
-    def still(self, w):
-        """The primitive state w with its velocities zero."""
-        out = w
-        out[1] = 0.0
-        if ti.static(not self.state.is_1d):
-            out[self.state.HV] = 0.0
-        return out
