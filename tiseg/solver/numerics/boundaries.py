@@ -21,6 +21,7 @@ given the index m across the direction. Each condition holds:
 Taichi.
 """
 
+from ...errors import InputError
 from ...model.physics.params import Params
 
 
@@ -127,7 +128,8 @@ class Inflow:
     slots = ("IN_H", "IN_U", "IN_ON")
 
     def taichi(self, ti, op, d: int, side: int):
-        assert d == 0 and side == 0, "an inflow is a low-x condition"
+        if not (d == 0 and side == 0):
+            raise InputError("an inflow is a condition of boundary.x_lo only")
         wall = BOUNDARIES["wall"].taichi(ti, op, d, side)
         q, par, fp, lay = op.q, op.par, op.fp, op.lay
         g, gy, ny, nc, seg, P = lay.gx, lay.gy, lay.ny, lay.nc, lay.segregation, lay.HPHI

@@ -17,6 +17,8 @@ state (`state.OperatorState`, whose slots, budgets and caches it writes), the ev
 
 import taichi as ti
 
+from ...errors import TisegError
+
 from .state import NBUDGET
 
 MAX_TERMS = 6
@@ -61,7 +63,8 @@ class SlotAlgebra:
         stage is a convex combination of states and one Euler step of that length."""
         self.fv.no_operator()
         rate = [k for k, (_, s) in enumerate(terms) if s < 0]
-        assert len(rate) == 1, terms
+        if len(rate) != 1:
+            raise TisegError(f"combine_rate: exactly one term must be the rate, got {terms!r}")
         tau = terms[rate[0]][0] if tau is None else tau
         self.fv.prepare(src, t)
         n, cs, ss = self._terms(terms)
@@ -88,7 +91,8 @@ class SlotAlgebra:
     @staticmethod
     def _terms(terms):
         n = len(terms)
-        assert 1 <= n <= MAX_TERMS
+        if not 1 <= n <= MAX_TERMS:
+            raise TisegError(f"a combination takes 1 to {MAX_TERMS} terms, got {n}")
         cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
         ss = [max(int(s), 0) for _, s in terms] + [0] * (MAX_TERMS - n)
         return n, cs, ss

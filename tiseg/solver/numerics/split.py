@@ -90,6 +90,8 @@ and, with viscosity, `tiseg.solver.reference.split.hancock_pair`.
 
 import taichi as ti
 
+from ...errors import TisegError
+
 from ...model.physics.pointwise import Params
 from .boundaries import inlet_rows
 
@@ -540,9 +542,8 @@ class SplitSweeps:
         mask and the speeds of the state V starts from, as a first sweep)."""
         fr = self.state.phys.fr_projected
         one = src == 0
-        assert one == (prev2 < 0) and (dst != 0 or not one), (src, prev2, dst)
+        _check_stage(src, prev2, dst, bool(fr and first))
         if fr and first:
-            assert one
             self.fv.prepare(0, t)  # the rest mask of the step's initial state (if not taken)
         self.state.set_time(t)
         fresh = self.state.fresh(src, t)
@@ -693,3 +694,12 @@ class SplitSweeps:
             else:
                 self.state.q[dst, i, j] = acc
             self.state.w[i, j] = self.fv.fast_primitive(acc)
+
+
+def _check_stage(src: int, prev2: int, dst: int, opens: bool) -> None:
+    """The slots of a viscous stage as `SplitSweeps.viscous_stage` takes them: the first
+    stage (src 0) alone has no second-last slot and never writes over Y0; a stage that opens
+    a half step is a first one."""
+    one = src == 0
+    if one != (prev2 < 0) or (dst == 0 and one) or (opens and not one):
+        raise TisegError(f"viscous_stage: slots src={src}, prev2={prev2}, dst={dst} do not fit")
