@@ -1,5 +1,5 @@
-"""What the wheel must hold: the tiseg package with its built-in scenes, sweeps and problems,
-and no other top-level package (the source checkout's ``viewer`` alias stays out)."""
+"""What the wheel must hold: the tiseg package with its built-in scenes, sweeps, problems and
+example relief, and no other top-level package (the source checkout's ``viewer`` alias stays out)."""
 
 import sys
 import zipfile
@@ -14,6 +14,8 @@ for need in (
     "tiseg/data/scenes/channel.toml",
     "tiseg/data/sweeps/grid-study.toml",
     "tiseg/data/problems/ritter.toml",
+    "tiseg/data/scenes/obstacle.toml",
+    "tiseg/data/terrain/channel-hollow.asc",  # the relief of examples/relief.py
     "tiseg/apps/viewer/app.py",
 ):
     if need not in names:
