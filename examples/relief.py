@@ -23,6 +23,7 @@ from tiseg.data import TERRAIN_DIR
 from tiseg.setup.reading import scene_from_dict
 
 CHANNEL = (0.12, 0.18)  # [m] the channel's band across the slope
+GALLERY = ["--resolution", "200", "--out", "{out}"]  # the docs gallery run
 
 
 def scene(resolution: float, t_end: float, flat: bool = False):
