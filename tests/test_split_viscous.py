@@ -1,7 +1,7 @@
 """The split MUSCL-Hancock step with viscosity (numerics.stepper = "hancock"): two half steps
 of sweeps (x, y and y, x, over dt/2 each) around the viscous term of (6.2) as the sub-step V
 over the whole dt, integrated by RKC stages (tiseg.solver.timestepping.split,
-SplitSweeps.viscous_stage).
+ViscousSubstep.viscous_stage).
 
 What must hold: the kernels equal their NumPy twin (tiseg.solver.reference.split.hancock_pair);
 V changes only the momenta (h and h phi keep their bits); the step is second order in time on

@@ -191,7 +191,7 @@ class Inflow:
 
 def inlet_rows(lay, rows) -> tuple[int, int]:
     """The array rows [lo, hi) of an inlet's ghost cells whose velocities the viscous
-    sub-step takes from the interior (SplitSweeps._inlet_velocities): the inlet's interior
+    sub-step takes from the interior (ViscousSubstep._inlet_velocities): the inlet's interior
     rows ``rows`` (all when None), with the ghost rows beyond the side it reaches."""
     lo, hi = (0, lay.ny) if rows is None else rows
     return (0 if lo == 0 else lay.gy + lo, lay.NY if hi == lay.ny else lay.gy + hi)

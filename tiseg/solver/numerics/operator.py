@@ -14,6 +14,7 @@ mixins over one ``self``), in the shape of Trixi.jl's and Basilisk's solvers:
 * `slots.SlotAlgebra` (state, fv, rules): combinations of slots, fused stages, the stage
   limiter, budgets;
 * `split.SplitSweeps` (state, ghosts, fv, rules): the sweeps of the split scheme;
+* `viscous_substep.ViscousSubstep` (state, ghosts, fv): its viscous sub-step;
 * `reductions.StepReductions` (state): the stability pass and the totals.
 
 Time steppers (`tiseg.solver.timestepping`) see only `rhs`, `combine` / `stage` (with the
@@ -33,6 +34,7 @@ from .reductions import NSTAB, StabilityNumbers, StepReductions  # noqa: F401 (p
 from .rest import HELD, REST, WET, X_NEG, X_POS, Y_NEG, Y_POS, RestRules  # noqa: F401
 from .slots import MAX_TERMS, SlotAlgebra  # noqa: F401 (public names)
 from .split import SplitSweeps
+from .viscous_substep import ViscousSubstep
 from .state import NBUDGET, OperatorState  # noqa: F401 (public names)
 
 # the state's names that other code reads from the operator (read-only: the objects do not
@@ -56,6 +58,7 @@ class TaichiOperator:
         self.fv = FiniteVolume(st, self.ghosts, self.rules)
         self.slots = SlotAlgebra(st, self.fv, self.rules)
         self.sweeps = SplitSweeps(st, self.ghosts, self.fv, self.rules)
+        self.viscous = ViscousSubstep(st, self.ghosts, self.fv)
         self.reduce = StepReductions(st)
         st.finalize()  # the fields exist from here on
         self.ghosts.compose()
@@ -144,8 +147,8 @@ class TaichiOperator:
         self.sweeps.sweep(d, t, dt, first, last)
 
     def viscous_stage(self, src, prev2, dst, coeffs, t: float, first: bool = False) -> None:
-        """One stage of a split step's viscous sub-step (SplitSweeps.viscous_stage)."""
-        self.sweeps.viscous_stage(src, prev2, dst, coeffs, t, first)
+        """One stage of a split step's viscous sub-step (ViscousSubstep.viscous_stage)."""
+        self.viscous.viscous_stage(src, prev2, dst, coeffs, t, first)
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         """Wave speeds and stiffness bounds of ``slot`` at time t (StepReductions.stability)."""

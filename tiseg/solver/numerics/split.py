@@ -64,7 +64,7 @@ ghost cells hold its state at mid-step (t + dt/2), the time of the edges they fa
 
 The viscous stress of (6.2) is a third operator V: with viscosity a step of dt is the
 symmetric pair of half steps x(dt/2) y(dt/2) | V(dt) | y(dt/2) x(dt/2) (x | V | x in 1D),
-Strang's splitting, so the splitting error is second order. V (`viscous_stage`) moves only
+Strang's splitting, so the splitting error is second order. V (`viscous_substep.ViscousSubstep`) moves only
 the momenta: the divergence of the unsplit operator's
 viscous face stresses (FiniteVolume.x_viscous, y_viscous: harmonic face coefficients,
 cross derivatives over four cells), integrated by s RKC stages (the stepper,
@@ -90,28 +90,25 @@ and, with viscosity, `tiseg.solver.reference.split.hancock_pair`.
 
 import taichi as ti
 
-from ...errors import TisegError
 
 from ...model.physics.pointwise import Params
-from .boundaries import inlet_rows
 
 
 @ti.data_oriented
 class SplitSweeps:
-    """The sweeps of the split scheme and its viscous sub-step."""
+    """The sweeps of the split scheme (its viscous sub-step: `viscous_substep.ViscousSubstep`)."""
 
     def __init__(self, state, ghosts, fv, rules):
         """``state``: the operator's fields, slots and ranges (`state.OperatorState`: ``w``,
         ``q``, ``fx``/``fy``, the edge fields ``ew``/``ee`` and the draining factors ``drain``,
         which only a split scene allocates); ``ghosts``: its ghost cells
         (`ghosts.GhostCells`); ``fv``: the evaluation of L whose slopes, numerical fluxes,
-        viscous stresses and limiter the sweeps use (`finite_volume.FiniteVolume`);
+        and limiter the sweeps use (`finite_volume.FiniteVolume`);
         ``rules``: the projected friction's face rules and projection (`rest.RestRules`)."""
         self.state = state
         self.ghosts = ghosts
         self.fv = fv
         self.rules = rules
-        self.inlet_rows = (0, 0)  # (set by viscous_stage before its kernel compiles)
 
     def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
         """One sweep along d (0 = x, 1 = y) of slot 0 over dt from time t: ghost cells (an
@@ -515,191 +512,3 @@ class SplitSweeps:
             width = self.state.par[Params.DY] if ti.static(d == 0) else self.state.par[Params.DX]
             self.state.bud[0, 2 * d] += dt * mass * width
             self.state.bud[0, 2 * d + 1] += dt * small * width
-
-    # -------------------------------------------------------------- the viscous sub-step
-    def viscous_stage(
-        self,
-        src: int,
-        prev2: int,
-        dst: int,
-        coeffs: tuple[float, float, float, float],
-        t: float,
-        first: bool = False,
-    ) -> None:
-        """One stage of the viscous sub-step V of a split step (the RKC stages of
-        tiseg.solver.timestepping.split.Hancock), in one launch, on the cells a sweep updates:
-
-            slot dst := Y0 + mu (Y_src - Y0) + nu (Y_prev2 - Y0) + ct V(Y_src) + cg F0
-
-        with Y0 = slot 0 (the state V started from), F0 = slot 1 and ``coeffs`` = (mu, nu, ct,
-        cg). ``src`` = 0 (with ``prev2`` < 0) is the first stage, which also stores V(Y0) in
-        slot 1; ``dst`` = 0 is the last, which writes the result over Y0 (stage limiter; the
-        friction is projected by the sweep that closes the half, not here). V is the
-        divergence of the viscous stress of (6.2) (FiniteVolume.x_viscous, y_viscous):
-        only the momenta change, and a cell whose rates are zero at every stage keeps its bits
-        (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
-        ghost cells); ``first``: the stage opens the second half of the split step (the rest
-        mask and the speeds of the state V starts from, as a first sweep)."""
-        fr = self.state.phys.fr_projected
-        one = src == 0
-        _check_stage(src, prev2, dst, bool(fr and first))
-        if fr and first:
-            self.fv.prepare(0, t)  # the rest mask of the step's initial state (if not taken)
-        self.state.set_time(t)
-        fresh = self.state.fresh(src, t)
-        first = bool(fr and first)
-        mu, nu, ct, cg = (float(c) for c in coeffs)
-        # the inlet's rows of w (_inlet_velocities; inflow.width and inflow.y0 are compiled
-        # in), the ghost rows where it reaches the domain's side: the cross derivatives at
-        # the inlet's faces read them
-        self.inlet_rows = inlet_rows(self.state.cfg.layout, self.state.cfg.inflow_rows)
-        self._viscous(
-            src,
-            max(prev2, 0),
-            dst,
-            mu,
-            nu,
-            ct,
-            cg,
-            fresh,
-            one,
-            dst == 0,
-            first,
-            self.state.serial_loops(),
-        )
-        self.state.written(dst, primitives=True)
-
-    @ti.kernel
-    def _viscous(
-        self,
-        src: ti.i32,
-        prev2: ti.i32,
-        dst: ti.i32,
-        mu: float,
-        nu: float,
-        ct: float,
-        cg: float,
-        fresh: ti.template(),
-        one: ti.template(),
-        final: ti.template(),
-        first: ti.template(),
-        serial: ti.template(),
-    ):
-        """A stage of V (viscous_stage): ghosts and primitives of slot src as far as
-        ``fresh`` says they are stale, the viscous face stresses, the stage's combination."""
-        if ti.static(fresh < 2):
-            self.ghosts.fill(src)
-            if ti.static(fresh == 1):
-                self.fv.edge_primitives(src, serial)
-            else:
-                self.fv.primitives(src, serial)
-        if ti.static(self.state.bcs[0].prescribed):
-            self._inlet_velocities()
-        self._viscous_faces(serial)
-        self._viscous_update(src, prev2, dst, mu, nu, ct, cg, one, final, first, serial)
-
-    @ti.func
-    def _inlet_velocities(self):
-        """While an inflow runs, its ghost cells' velocities in w are those of the interior
-        cells next to them: no viscous stress through the inlet, as a uniform inflow has none
-        in the unsplit scheme. The prescribed state is one that the friction balances, and
-        the inlet cells V sees are not that state within a step (the sweeps' gravity
-        impulse and the projection of the half step act on them): a prescribed ghost
-        velocity would drag them toward it at every V (with V after the sweeps, before the
-        friction, it left the fingers chute at 250 cells/m 0.35 % thin all the way down)."""
-        gx = ti.static(self.state.gx)
-        lo, hi = ti.static(self.inlet_rows)
-        if self.state.par[Params.IN_ON] > 0.5:
-            ti.loop_config(serialize=self.state.strip_serial)  # the inlet's ghost columns
-            for k, m in ti.ndrange(gx, (lo, hi)):
-                g = self.state.w[gx - 1 - k, m]
-                g[1] = self.state.w[gx, m][1]
-                if ti.static(not self.state.is_1d):
-                    g[self.state.HV] = self.state.w[gx, m][self.state.HV]
-                self.state.w[gx - 1 - k, m] = g
-
-    @ti.func
-    def _viscous_faces(self, serial: ti.template()):
-        """The viscous stresses alone through the faces a sweep's update reads: x faces
-        (i, i + 1) for i in [a - 1, b) on the interior rows, y faces (j, j + 1) for j in
-        [gy - 1, gy + ny) on the columns [a, b), in fx and fy."""
-        gy, ny = ti.static(self.state.gy, self.state.ny)
-        a, b = self.state.act[0], self.state.act[1]
-        if ti.static(self.state.is_1d):
-            ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
-                zero = ti.Vector.zero(self.state.fp, self.state.nc)
-                self.state.fx[i, j] = self.fv.x_viscous(
-                    zero, i, j, self.state.w[i, j], self.state.w[i + 1, j]
-                )
-        else:
-            ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
-                zero = ti.Vector.zero(self.state.fp, self.state.nc)
-                w0 = self.state.w[i, j]
-                if j >= gy:
-                    self.state.fx[i, j] = self.fv.x_viscous(zero, i, j, w0, self.state.w[i + 1, j])
-                if i >= a:
-                    self.state.fy[i, j] = self.fv.y_viscous(zero, i, j, w0, self.state.w[i, j + 1])
-
-    @ti.func
-    def _viscous_update(
-        self,
-        src,
-        prev2,
-        dst,
-        mu,
-        nu,
-        ct,
-        cg,
-        one: ti.template(),
-        final: ti.template(),
-        first: ti.template(),
-        serial: ti.template(),
-    ):
-        """The stage's combination on the interior rows of the x range [a - 3, b + 3) that
-        the next stage's primitives read (the rate is zero outside the active range [a, b),
-        so there every stage equals Y0), with the primitives of the result into w; the last
-        stage writes slot 0 on [a, b) only."""
-        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
-        a, b = self.state.act[0], self.state.act[1]
-        idx = self.state.par[Params.INV_DX]
-        idy = self.state.par[Params.INV_DY]
-        ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
-            y0 = self.state.q[0, i, j]
-            r = ti.Vector.zero(self.state.fp, self.state.nc)
-            inside = a <= i < b
-            if inside:
-                r = -(self.state.fx[i, j] - self.state.fx[i - 1, j]) * idx
-                if ti.static(not self.state.is_1d):
-                    r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
-            acc = y0
-            if ti.static(one):
-                self.state.q[1, i, j] = r  # F0
-                acc = y0 + ct * r
-                if ti.static(first):
-                    self.state.spd0[i, j] = self.state.phys.speed_mag(
-                        self.state.w[i, j]
-                    )  # (the step's start)
-            else:
-                inc = mu * (self.state.q[src, i, j] - y0) + nu * (self.state.q[prev2, i, j] - y0)
-                acc = y0 + (inc + ct * r + cg * self.state.q[1, i, j])
-            if ti.static(final):
-                if inside:
-                    acc = self.fv.limit(acc)
-                    self.state.q[0, i, j] = acc
-                else:
-                    acc = y0
-            else:
-                self.state.q[dst, i, j] = acc
-            self.state.w[i, j] = self.fv.fast_primitive(acc)
-
-
-def _check_stage(src: int, prev2: int, dst: int, opens: bool) -> None:
-    """The slots of a viscous stage as `SplitSweeps.viscous_stage` takes them: the first
-    stage (src 0) alone has no second-last slot and never writes over Y0; a stage that opens
-    a half step is a first one."""
-    one = src == 0
-    if one != (prev2 < 0) or (dst == 0 and one) or (opens and not one):
-        raise TisegError(f"viscous_stage: slots src={src}, prev2={prev2}, dst={dst} do not fit")

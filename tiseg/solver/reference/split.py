@@ -251,7 +251,7 @@ def viscous_rate(ref: ReferenceOperator, q: np.ndarray, t: float) -> np.ndarray:
     ref.fill_ghosts(q, t)
     w = split_primitives(ref, q)
     if c.bc[0] == "inflow" and not t > c.inflow_stop:
-        # no viscous stress through a running inlet (SplitSweeps._inlet_velocities)
+        # no viscous stress through a running inlet (ViscousSubstep._inlet_velocities)
         ys = slice(*inlet_rows(lay, c.inflow_rows))
         for comp in (lay.HU,) if lay.is_1d else (lay.HU, lay.HV):
             w[comp, : lay.gx, ys] = w[comp, lay.gx, ys][None]
@@ -274,7 +274,7 @@ def viscous_substep(
     dt: float,
     stages: int,
 ) -> None:
-    """The viscous sub-step V of a split step (SplitSweeps.viscous_stage), in place: ``stages``
+    """The viscous sub-step V of a split step (ViscousSubstep.viscous_stage), in place: ``stages``
     RKC stages (rkc_coefficients) over dt from t, the recurrence written for the increments
     Y_j - Y0, on the interior cells; then the stage limiter. V closes no step, so it projects
     no friction (`hancock_pair`)."""

@@ -23,7 +23,7 @@ class Hancock(Stepper):
     Strang's splitting, second order. Each half projects the friction over its dt/2 at its
     end, as a step without viscosity does, and each sweep's Courant number is that of dt/2,
     so `plan` makes dt twice the convective limit. V is integrated by the RKC stages of
-    tiseg.solver.timestepping.rkc (in increment form, SplitSweeps.viscous_stage) with as many
+    tiseg.solver.timestepping.rkc (in increment form, ViscousSubstep.viscous_stage) with as many
     stages as the viscous spectral radius asks for over dt: s = stages_for(dt rho_visc), at
     least 2. Two half steps with a V of dt/2 each (x y V | V y x) cost two stability passes
     and 2 s(dt/2) viscous stages where this costs one pass and s(dt) ~ sqrt(2) s(dt/2) stages
