@@ -27,16 +27,16 @@ def slot_bases(cfg) -> dict[str, int]:
 
 @ti.data_oriented
 class Physics:
-    def __init__(self, cfg, par):
+    def __init__(self, cfg, par, params):
         """cfg: the OperatorConfig; par: the operator's parameter field, laid out by
-        `ParamLayout` (the components' slots from Params.COUNT on)."""
+        ``params`` (its `ParamLayout`: the components' slots from Params.COUNT on)."""
         lay = cfg.layout
         self.par = par
         self.nc = lay.nc
         self.is_1d = lay.is_1d
         self.seg = lay.segregation
         self.H, self.HU, self.HV, self.HPHI = lay.H, lay.HU, lay.HV, lay.HPHI
-        bases = slot_bases(cfg)
+        bases = dict(params.bases)
         # the transport function G(phi) as a component (only with segregation)
         if self.seg:
             self._G, self._dG = TRANSPORTS[cfg.transport].taichi(ti, par, bases["transport"])

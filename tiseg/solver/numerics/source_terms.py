@@ -11,7 +11,6 @@ field is allocated (the state's ``aux`` and ``srate`` are None).
 import numpy as np
 import taichi as ti
 
-from ...model.physics.param_layout import ParamLayout
 from ...model.physics.sources import SOURCES, TaichiContext, aux_arrays, chosen_aux
 
 
@@ -25,12 +24,11 @@ class SourceTerms:
         self.on = bool(self.names)
         self.aux_names = chosen_aux(self.names)
         index = {name: k for k, name in enumerate(self.aux_names)}
-        lay = ParamLayout.of(cfg)
         self._rates, self._stiff = [], []
         for name in self.names:
             ctx = TaichiContext(
                 par=state.par,
-                base=lay.base(f"source:{name}"),
+                base=state.params.base(f"source:{name}"),
                 w=state.w,
                 aux=state.aux,
                 aux_index=index,

@@ -86,7 +86,9 @@ class OperatorState:
             self.ew = ft.vector(nc, self.fp, (NX, NY))
             self.ee = ft.vector(nc, self.fp, (NX, NY))
             self.drain = ft.field(self.fp, (NX, NY))
-        self.par = ft.field(self.fp, ParamLayout.of(cfg).end)
+        # where each component's numbers sit in par, built once from the components
+        self.params = ParamLayout.of(cfg)
+        self.par = ft.field(self.fp, self.params.end)
         # the auxiliary fields the scene's source terms read (a vector per cell), and the
         # split x sweep's source rates of the step (predicted once, applied in the update):
         # only with terms (tiseg.model.physics.sources)
@@ -132,7 +134,7 @@ class OperatorState:
         # integral the scheme uses. (row nslots: the boundary rates of a fused stage, whose
         # rate has no slot)
         self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
-        self.phys = Physics(cfg, self.par)
+        self.phys = Physics(cfg, self.par, self.params)
         self.terms = SourceTerms(self)  # the source terms beyond (6.4), if any
         # With the projected friction: which cells were at rest at the start of the step,
         # the state in slot 0 (RestRules.rest_face). Recomputed at the first preparation
