@@ -80,9 +80,31 @@ class BedFaces:
         self._rec_slope = rec_slope
         self.first = rec_slope is None
         self.has_solid = state.solid is not None  # (Taichi scope has no `is not`)
+        self.stored = state.es is not None  # the slopes of eta kept by the slopes pass
 
     @ti.func
     def eta_slope(self, i, j, d: ti.template()):
+        """The slope of eta at cell (i, j) along d: kept by the unsplit scheme's slopes pass
+        (`keep_slopes`), computed here in the split sweeps (each cell's once, in the
+        predictor)."""
+        s = ti.cast(0.0, self.state.fp)
+        if ti.static(self.stored):
+            s = self.state.es[i, j][d]
+        else:
+            s = self.eta_slope_of(i, j, d)
+        return s
+
+    @ti.func
+    def keep_slopes(self, i, j, x: ti.template(), y: ti.template()):
+        """Keep the slopes of eta at cell (i, j): along x where ``x``, along y where ``y``
+        (the cells whose slopes of w the unsplit slopes pass takes)."""
+        if ti.static(x):
+            self.state.es[i, j][0] = self.eta_slope_of(i, j, 0)
+        if ti.static(y):
+            self.state.es[i, j][1] = self.eta_slope_of(i, j, 1)
+
+    @ti.func
+    def eta_slope_of(self, i, j, d: ti.template()):
         """The limited undivided slope of eta = h + b at cell (i, j) along d (0 at first
         order), by the scene's reconstruction."""
         s = ti.cast(0.0, self.state.fp)

@@ -207,11 +207,15 @@ class FiniteVolume:
                     self.state.sx[i, j] = self.slope(
                         self.state.w[i - 1, j], w0, self.state.w[i + 1, j]
                     )
+                    if ti.static(self.has_bed):  # and of eta (tiseg.solver.numerics.bed)
+                        self.bed.keep_slopes(i, j, True, False)
                 if ti.static(not self.state.is_1d):
                     if a <= i < b:
                         self.state.sy[i, j] = self.slope(
                             self.state.w[i, j - 1], w0, self.state.w[i, j + 1]
                         )
+                        if ti.static(self.has_bed):
+                            self.bed.keep_slopes(i, j, False, True)
 
     @ti.func
     def face_flux(self, wl, wr, d: ti.template()):

@@ -102,6 +102,10 @@ class OperatorState:
         self.pcx = ft.vector(2, self.fp, (NX, NY)) if cfg.bed else None
         self.pcy = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and not self.is_1d else None
         self.eb = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and self.split else None
+        # the unsplit scheme's slopes of eta = h + b along x and y, taken with the slopes of w
+        # and read by both faces and the centred source of a cell (none at first order)
+        stored = cfg.bed and not self.split and not self.rec_first
+        self.es = ft.vector(2, self.fp, (NX, NY)) if stored else None
         # solid cells, whose faces are walls (tiseg.solver.numerics.walls): 1 where solid
         self.solid = ft.field(ti.i8, (NX, NY)) if cfg.solid else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
