@@ -211,12 +211,14 @@ def test_a_raster_short_of_the_domain_names_the_key_and_the_side(tmp_path):
 def test_the_reference_page_and_the_json_schema_show_the_section():
     page = markdown()
     assert "## `[terrain]`" in page
-    for k in ("shapes", "bed", "origin_x", "origin_y"):
+    for k in ("shapes", "bed", "runout", "origin_x", "origin_y"):
         assert f"| `{k}` |" in page
     for k in ("level", "path"):
         assert f"| `{k}` |" in page
     schema = scene_schema()["properties"]["terrain"]
-    assert list(schema["properties"]) == ["shapes", "bed", "origin_x", "origin_y"]
+    assert list(schema["properties"]) == ["shapes", "bed", "runout", "origin_x", "origin_y"]
+    runout = schema["properties"]["runout"]
+    assert set(runout["properties"]) == {"x", "length", "zeta_deg"}
     item = schema["properties"]["shapes"]["items"]
     assert item["properties"]["kind"]["enum"][:4] == ["gaussian", "cone", "cylinder", "wedge"]
     assert {"radius", "height", "half_angle_deg", "length"} <= set(item["properties"])

@@ -39,67 +39,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .bed_line import BedLine
+
+__all__ = ["BedLine", "Slide", "slide"]
+
 G = 9.81
-
-
-def _half_sinc(k: float, d):
-    """sin(k d / 2) / k, -> d / 2 as k -> 0."""
-    return np.sin(0.5 * k * d) / k if k != 0 else 0.5 * np.asarray(d, dtype=float)
-
-
-@dataclass(frozen=True)
-class BedLine:
-    """A straight at zeta1 [rad], a constant-curvature bend over x_b <= s <= x_b + L [m] and a
-    straight at zeta2 [rad]; |zeta| < pi/2 everywhere (zeta > 0 descends along +s)."""
-
-    zeta1: float
-    zeta2: float
-    x_b: float
-    L: float = 0.0
-
-    def __post_init__(self):
-        if not (abs(self.zeta1) < 0.5 * math.pi and abs(self.zeta2) < 0.5 * math.pi):
-            raise ValueError("the inclinations must lie in (-pi/2, pi/2)")
-        if self.L < 0:
-            raise ValueError(f"the bend's length must be >= 0, got L = {self.L!r}")
-
-    @property
-    def kappa(self) -> float:
-        """(zeta1 - zeta2) / L [1/m] in the bend (0 for a kink, L = 0)."""
-        return (self.zeta1 - self.zeta2) / self.L if self.L > 0 else 0.0
-
-    def inclination(self, s):
-        """zeta(s) [rad]."""
-        s = np.asarray(s, dtype=float)
-        d = np.clip(s - self.x_b, 0.0, self.L)
-        z = np.where(s < self.x_b, self.zeta1, self.zeta1 - self.kappa * d)
-        return np.where(s > self.x_b + self.L, self.zeta2, z)
-
-    def curvature(self, s):
-        """kappa(s) = -d zeta / ds [1/m]: kappa inside the bend, 0 on the straights."""
-        s = np.asarray(s, dtype=float)
-        return np.where((s > self.x_b) & (s < self.x_b + self.L), self.kappa, 0.0)
-
-    def coordinates(self, s):
-        """(X(s), Z(s)) [m]: horizontal distance and height (Z up) from the point s = 0."""
-        s = np.asarray(s, dtype=float)
-        k, z1 = self.kappa, self.zeta1
-        xb, xe = self.x_b, self.x_b + self.L
-        d = np.clip(s - xb, 0.0, self.L)
-        mid = z1 - 0.5 * k * d  # (zeta1 + zeta(s)) / 2 in the bend
-        sh = _half_sinc(k, d)
-        xbend, zbend = 2 * np.cos(mid) * sh, -2 * np.sin(mid) * sh
-        up = np.minimum(s, xb)  # the part on the first straight
-        down = np.maximum(s - xe, 0.0)  # on the second
-        X = up * math.cos(z1) + xbend + down * math.cos(self.zeta2)
-        Z = -up * math.sin(z1) + zbend - down * math.sin(self.zeta2)
-        return X, Z
-
-    def travel_angle(self, s0: float, s1: float) -> float:
-        """The travel angle alpha [rad] between the arc lengths s0 < s1: tan(alpha) = drop /
-        horizontal distance = (Z(s0) - Z(s1)) / (X(s1) - X(s0)) (Heim's Fahrboschung)."""
-        (x0, z0), (x1, z1) = self.coordinates(s0), self.coordinates(s1)
-        return math.atan2(float(z0 - z1), float(x1 - x0))
 
 
 @dataclass(frozen=True)

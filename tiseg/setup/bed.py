@@ -4,7 +4,8 @@ Conventions (DESIGN.md, "Terrain"): b(x, y) is the bed height *normal to the ref
 [m], x down the plane and y across it, sampled at the cell centres; arrays are indexed
 [i, j] = (x, y), shape (nx, ny). A cell is solid (a wall: no material and b = 0) where a solid
 shape covers its centre or where the raster's bilinear stencil reaches nodata. A map-view DEM
-(heights along the vertical) is not handled.
+(heights along the vertical) is such a bed on a horizontal plane (material.zeta_deg = 0). A
+run-out's bend (``[terrain.runout]``) bends the reference surface itself: `check_bend`.
 
 * `read_terrain`: the section, read and checked: the shapes through
   `tiseg.setup.terrain.shapes_from_tables`, the raster path made absolute (a relative path is
@@ -30,8 +31,9 @@ import numpy as np
 
 from ..errors import InputError
 from .rasters import read_raster, resample
-from .schema import field_named, read_key
+from .schema import field_named, key_names, read_key, read_section
 from .sections import DomainConfig, InitialConfig, TerrainConfig
+from .terrain_section import RunoutConfig
 from .table import Table, show
 from .terrain import bed_on_grid, shapes_from_tables
 
@@ -66,10 +68,18 @@ def _stamp(path: str | None, key: str, given: str | None = None) -> tuple:
 
 
 # ---- the section --------------------------------------------------------------------------------
-def read_terrain(t: Table, domain: DomainConfig, source: str | None) -> TerrainConfig:
+def read_terrain(
+    t: Table, domain: DomainConfig, source: str | None, zeta: float = 0.0, h_scale: float = 0.0
+) -> TerrainConfig:
     """The ``[terrain]`` section; its bed is built once here, so that a shape outside the
     domain, a raster that falls short of it or a missing file is refused when the scene is
-    read."""
+    read. ``zeta`` [rad]: the inclination above a run-out's bend; ``h_scale`` [m]: the
+    scene's thickness scale, which the bend's curvature must keep small (`check_bend`)."""
+    runout = None
+    if t.has("runout"):
+        sub = t.table("runout", key_names(RunoutConfig))
+        runout = RunoutConfig(**read_section(RunoutConfig, sub))
+        check_bend(runout, zeta, domain.Lx, h_scale)
     shapes = tuple(shapes_from_tables(t.get("shapes", []), prefix=t.full("shapes")))
     bed = read_key(t, field_named(TerrainConfig, "bed"))
     origin = {n: read_key(t, field_named(TerrainConfig, n)) for n in ("origin_x", "origin_y")}
@@ -83,18 +93,48 @@ def read_terrain(t: Table, domain: DomainConfig, source: str | None) -> TerrainC
     else:
         given, bed = bed, absolute_path(bed, base_folder(source), "terrain.bed")
         _stamp(bed, "terrain.bed", given)
-    terrain = TerrainConfig(shapes=shapes, bed=bed, **origin)
+    terrain = TerrainConfig(shapes=shapes, bed=bed, runout=runout, **origin)
     if terrain.has_terrain:
         bed_arrays(terrain, domain)  # the checks
     return terrain
 
 
+# the largest h kappa a run-out's bend takes: the model drops terms of higher order in the
+# thickness over the radius of curvature (Gray, Wieland & Hutter 1999)
+MAX_H_KAPPA = 0.1
+
+
+def check_bend(runout: RunoutConfig, zeta: float, Lx: float, h: float) -> None:
+    """A bend that stays short of vertical, starts inside the domain, and whose curvature is
+    small against the thickness h [m]: h |kappa| <= MAX_H_KAPPA (one-line InputErrors)."""
+    if not abs(runout.zeta_deg) < 90.0:
+        raise InputError(
+            f"terrain.runout.zeta_deg={runout.zeta_deg!r}: the bed would turn to or past "
+            "vertical; give an inclination in (-90, 90) degrees"
+        )
+    if not runout.x < Lx:
+        raise InputError(
+            f"terrain.runout.x={runout.x!r}: the bend begins at or beyond the domain's end "
+            f"(Lx = {Lx!r} m): nothing would bend"
+        )
+    kappa = abs(runout.curvature(zeta))
+    if h * kappa > MAX_H_KAPPA:
+        raise InputError(
+            f"terrain.runout.length={runout.length!r}: the bend's curvature {kappa:.4g} 1/m "
+            f"times the thickness {h:.4g} m is {h * kappa:.3g} > {MAX_H_KAPPA} (the model "
+            "needs thin layers on gentle bends); make the bend longer"
+        )
+
+
 def terrain_to_dict(terrain: TerrainConfig) -> dict | None:
     """The section as TOML writes it: each shape a table with its kind first; the raster with
-    its origin. None for a flat plane (no section is written)."""
-    if not terrain.has_terrain:
-        return None
+    its origin; the run-out's bend. None for a flat plane (no section is written)."""
     out: dict = {}
+    if terrain.runout is not None:
+        r = terrain.runout
+        out["runout"] = {"x": r.x, "length": r.length, "zeta_deg": r.zeta_deg}
+    if not terrain.has_terrain:
+        return out or None
     if terrain.bed is not None:
         out.update(bed=terrain.bed, origin_x=terrain.origin_x, origin_y=terrain.origin_y)
     if terrain.shapes:
@@ -206,6 +246,7 @@ __all__ = [
     "absolute_path",
     "base_folder",
     "bed_arrays",
+    "check_bend",
     "check_initial",
     "initial_thickness",
     "read_terrain",

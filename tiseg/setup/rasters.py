@@ -3,8 +3,9 @@
 A `Raster` holds cell-centred values on a regular grid, in metres, indexed [i, j] = (x, y):
 ``values[i, j]`` is the value at (x0 + (i + 1/2) dx, y0 + (j + 1/2) dy), where (x0, y0) is
 the lower-left corner of the lower-left cell. x is the downslope coordinate of the reference
-plane and the values are bed heights b normal to it (as in `tiseg.setup.terrain`); reading a
-map-view DEM (heights along the vertical, x east) is for later. Missing values are nodata,
+plane and the values are bed heights b normal to it (as in `tiseg.setup.terrain`); with
+material.zeta_deg = 0 the plane is horizontal and a map-view DEM's elevations are such heights
+(x then runs along the raster's columns, not necessarily east). Missing values are nodata,
 which the solver is to treat as solid (DESIGN.md, "Terrain").
 
 Formats: ESRI ASCII grids (``.asc``, with no dependency: `tiseg.output.ascii_grid` reads and

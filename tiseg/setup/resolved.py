@@ -123,6 +123,12 @@ class Scene:
         plane of the paper."""
         return self.terrain.has_terrain
 
+    def bed_line(self):
+        """The run-out's bed line (`tiseg.model.bed_line.BedLine`, x its arc length) from
+        material.zeta_deg through ``[terrain.runout]``; None on a plane."""
+        r = self.terrain.runout
+        return None if r is None else r.line(self.material.zeta)
+
     def bed_arrays(self):
         """(b, solid) on the cell centres, (nx, ny) each: b float64, the bed height normal to
         the reference plane [m] (0 in solid cells), solid bool (walls, nodata). Cached and
@@ -261,7 +267,8 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     boundary = read_boundary(table("boundary"), domain)
     inflow = read_inflow(table("inflow"), top.has("inflow"), boundary, domain, flow)
     initial = read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects, material)
-    terrain = read_terrain(table("terrain"), domain, source)
+    h_scale = max(flow.h0, inflow.h if inflow is not None else 0.0)
+    terrain = read_terrain(table("terrain"), domain, source, material.zeta, h_scale)
     initial = check_initial(initial, terrain, domain, source)
     numerics = read_numerics(table("numerics"), flow, domain.ny == 1, effects)
     output = read_output(table("output"), time.t_end, domain)

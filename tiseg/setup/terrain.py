@@ -2,8 +2,8 @@
 
 Conventions (DESIGN.md, "Terrain"): x runs down the reference plane (0..Lx), y across it
 (0..Ly), and b is the bed height *normal to that plane* [m], sampled at the cell centres
-x_i = (i + 1/2) dx, y_j = (j + 1/2) dy. A DEM in map view (heights along the vertical) is a
-later step and not handled here. Arrays are indexed [i, j] = (x, y), shape (nx, ny).
+x_i = (i + 1/2) dx, y_j = (j + 1/2) dy. With material.zeta_deg = 0 the plane is horizontal
+and b an elevation, a map-view DEM's convention (docs/guide.md, "Terrain"). Arrays are indexed [i, j] = (x, y), shape (nx, ny).
 
 Two sorts of shape:
 

@@ -6,6 +6,7 @@ module is long."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
 from .schema import key
@@ -42,6 +43,36 @@ class ShapeKeys:
     )
 
 
+@dataclass(frozen=True)
+class RunoutConfig:
+    """The keys of ``[terrain.runout]``: the reference surface bends at constant curvature
+    from ``material.zeta_deg`` to ``zeta_deg`` between the arc lengths ``x`` and ``x +
+    length`` (Savage & Hutter 1991; Gray, Wieland & Hutter 1999): x is the arc length along
+    the bed line, the flow feels g sin zeta(x) along it and g cos zeta(x) + kappa u^2 normal
+    to it (tiseg.model.bed_line, tiseg.solver.numerics.gravity)."""
+
+    x: float = field(metadata=key("arc length where the bend begins, in [0, Lx) [m]", nonneg=True))
+    length: float = field(metadata=key("arc length of the bend [m]", positive=True))
+    zeta_deg: float = field(
+        metadata=key(
+            "inclination past the bend, in (-90, 90); 0 is a horizontal run-out pad",
+            lo=-90.0,
+            hi=90.0,
+            units="degree",
+        )
+    )
+
+    def line(self, zeta1: float):
+        """The `tiseg.model.bed_line.BedLine` from the inclination zeta1 [rad] above it."""
+        from ..model.bed_line import BedLine
+
+        return BedLine(zeta1, math.radians(self.zeta_deg), self.x, self.length)
+
+    def curvature(self, zeta1: float) -> float:
+        """kappa = (zeta1 - zeta2) / length [1/m], zeta1 [rad]."""
+        return (zeta1 - math.radians(self.zeta_deg)) / self.length
+
+
 def _shapes_doc() -> str:
     kinds = "; ".join(
         f"``{name}`` ({', '.join(f.name for f in dataclasses.fields(cls))})"
@@ -60,8 +91,9 @@ class TerrainConfig:
     b(x, y) [m] is the bed height normal to the inclined reference plane (x down it, y across
     it), the sum of the bed shapes and the raster ``bed``; a cell is solid (a wall: no material,
     no bed) where a solid shape covers its centre or the raster has nodata. A map-view DEM
-    (heights along the vertical) is not handled: convert it to heights normal to the plane
-    first. No section: a flat plane. ``Scene.bed_arrays()`` gives (b, solid) on the cells.
+    (heights along the vertical) is such a bed on a horizontal plane (material.zeta_deg = 0);
+    on an inclined one, convert it to heights normal to the plane first. ``runout`` bends the
+    reference surface itself. No section: a flat plane. ``Scene.bed_arrays()`` gives (b, solid) on the cells.
     """
 
     shapes: tuple[Shape, ...] = field(
@@ -73,6 +105,16 @@ class TerrainConfig:
             "raster of b normal to the plane [m]: .asc, .nc (variable b on x, y) or GeoTIFF "
             "(extra tiseg[terrain]); nodata = solid; bilinear onto the cell centres; a "
             "relative path is taken from the scene file's folder",
+            compiled="operator",
+        ),
+    )
+    runout: RunoutConfig | None = field(
+        default=None,
+        metadata=key(
+            "[terrain.runout]: the reference surface bends from material.zeta_deg to "
+            "zeta_deg between the arc lengths x and x + length (a chute levelling out into a "
+            "run-out pad); x is then the arc length along the bed",
+            table=RunoutConfig,
             compiled="operator",
         ),
     )

@@ -61,6 +61,37 @@ class Physics:
         # paper's cut-off (section 6.2), see `acts`
         self.films = bool(cfg.split)
         self.fr_source = not self.fr_none and not self.fr_projected
+        # a reference surface that bends (terrain.runout): gravity per column, and the
+        # normal load g cos zeta + kappa u^2 (tiseg.solver.numerics.gravity)
+        self.bend = cfg.bend is not None
+
+    @ti.func
+    def g0(self):
+        """The plane's gravity (g sin zeta, g cos zeta, kappa = 0): the vector g the functions
+        below take, which on a bend is the column's (tiseg.solver.numerics.gravity)."""
+        gc = self.par[Params.G_COS]
+        return ti.Vector([self.par[Params.G_SIN], gc, 0.0 * gc])
+
+    @ti.func
+    def g_normal(self, u, g):
+        """The normal load per unit mass at the downslope velocity u: g cos zeta, plus on a
+        bend the centripetal kappa u^2, clipped at zero (a convex bend taken fast unloads the
+        bed: no pressure, no friction)."""
+        r = g[1]
+        if ti.static(self.bend):
+            r = ti.max(g[1] + g[2] * u * u, 0.0)
+        return r
+
+    @ti.func
+    def mu_g(self, h, spd, phi, gn):
+        """mu_b under the normal load gn: a law's Froude number |u| / sqrt(g cos zeta h) is
+        taken with the plane's g cos zeta (par), so on a bend the speed it sees is scaled to
+        give |u| / sqrt(gn h) (gn floored: where it is 0 the friction is too)."""
+        s = spd
+        if ti.static(self.bend):
+            gc = self.par[Params.G_COS]
+            s = spd * ti.sqrt(gc / ti.max(gn, 1e-6 * gc))
+        return self.mu_b(h, s, phi)
 
     @ti.func
     def vel(self, w, d: ti.template()):
@@ -87,10 +118,13 @@ class Physics:
         return q
 
     @ti.func
-    def flux(self, w, d: ti.template()):
+    def flux(self, w, d: ti.template(), g):
         """Physical flux of (6.1)-(6.3) along d: mass, momentum with slope-normal pressure
-        (1/2) g cos(zeta) h^2, and the large-particle transport h u (phi - G(phi))."""
+        (1/2) g cos(zeta) h^2 (on a bend (1/2) (g cos zeta + kappa u^2) h^2, `g_normal`), and
+        the large-particle transport h u (phi - G(phi)). g: (g sin zeta, g cos zeta, kappa) of
+        the face (`g0` on a plane)."""
         h = w[0]
+        half_gn = 0.5 * self.g_normal(w[1], g)
         vn = self.vel(w, d)
         f = ti.Vector.zero(float, self.nc)
         f[0] = h * vn
@@ -98,30 +132,41 @@ class Physics:
         if ti.static(not self.is_1d):
             f[self.HV] = h * w[self.HV] * vn
         if ti.static(d == 0):
-            f[1] += 0.5 * self.par[Params.G_COS] * h * h
+            f[1] += half_gn * h * h
         else:
-            f[self.HV] += 0.5 * self.par[Params.G_COS] * h * h
+            f[self.HV] += half_gn * h * h
         if ti.static(self.seg):
             phi = w[self.HPHI]
             f[self.HPHI] = h * vn * (phi - self.G(phi))
         return f
 
     @ti.func
-    def speed(self, w, d: ti.template()):
-        """Local characteristic speed: max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|) (5.25)-(5.26)."""
+    def speed(self, w, d: ti.template(), g):
+        """Local characteristic speed: max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|)
+        (5.25)-(5.26); on a bend sqrt(gn h) + |kappa| h |u| in place of sqrt(g h cos zeta),
+        a bound of the waves of the pressure (1/2) (g cos zeta + kappa u^2) h^2."""
         vn = self.vel(w, d)
-        a = ti.abs(vn) + ti.sqrt(self.par[Params.G_COS] * w[0])
+        a = ti.abs(vn) + self.wave(w, g)
         if ti.static(self.seg):
             a = ti.max(a, ti.abs(vn * (1.0 - self.dG(w[self.HPHI]))))
         return a
 
     @ti.func
-    def speed_range(self, w, d: ti.template()):
+    def wave(self, w, g):
+        """The gravity wave's speed relative to the flow: sqrt(g cos zeta h), on a bend
+        sqrt(gn h) + |kappa| h |u| (`speed`)."""
+        c = ti.sqrt(g[1] * w[0])
+        if ti.static(self.bend):
+            c = ti.sqrt(self.g_normal(w[1], g) * w[0]) + ti.abs(g[2] * w[0] * w[1])
+        return c
+
+    @ti.func
+    def speed_range(self, w, d: ti.template(), g):
         """Smallest and largest characteristic speed along d, (u - c, u + c) widened to take in
         the segregation speed u (1 - G'(phi)) (5.26): the one-sided local speeds of the
         central-upwind flux."""
         vn = self.vel(w, d)
-        c = ti.sqrt(self.par[Params.G_COS] * w[0])
+        c = self.wave(w, g)
         lo = vn - c
         hi = vn + c
         if ti.static(self.seg):
@@ -190,10 +235,11 @@ class Physics:
         return ti.max(h, self.par[Params.H_MIN])
 
     @ti.func
-    def source(self, w):
+    def source(self, w, g):
         """g h S of (6.4): gravity along the slope and basal friction opposing the motion, with
         u/|u| regularised as u / max(|u|, u_eps). With the projected friction scheme the
-        friction is left to project_friction.
+        friction is left to project_friction. g: the cell's (g sin zeta, g cos zeta, kappa);
+        the friction is that of the normal load `g_normal`.
 
         In the split sweeps it acts in films thinner than h_min as well (`acts`): a film is
         flow, whose momentum the stage limiter keeps. Cutting the film's source and momentum
@@ -203,21 +249,22 @@ class Physics:
         h = w[0]
         s = ti.Vector.zero(float, self.nc)
         if self.acts(h):
-            s[1] = h * self.par[Params.G_SIN]
+            s[1] = h * g[0]
             if ti.static(self.fr_source):
                 spd = self.speed_mag(w)
                 phi = self.par[Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
-                mu = self.mu_b(self.film_h(h), spd, phi)
+                gn = self.g_normal(w[1], g)
+                mu = self.mu_g(self.film_h(h), spd, phi, gn)
                 inv = 1.0 / ti.max(spd, self.par[Params.U_EPS])
-                s[1] = h * (self.par[Params.G_SIN] - self.par[Params.G_COS] * mu * w[1] * inv)
+                s[1] = h * (g[0] - gn * mu * w[1] * inv)
                 if ti.static(not self.is_1d):
-                    s[self.HV] = -h * self.par[Params.G_COS] * mu * w[self.HV] * inv
+                    s[self.HV] = -h * gn * mu * w[self.HV] * inv
         return s
 
     @ti.func
-    def friction_rate(self, w):
+    def friction_rate(self, w, g):
         """Stiffness of the friction term, g cos(zeta) mu_b / max(|u|, u_eps) [1/s]; zero when
         the friction is projected (it is then no part of the explicit stages)."""
         r = 0.0 * w[0]
@@ -228,9 +275,10 @@ class Physics:
                 phi = self.par[Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
+                gn = self.g_normal(w[1], g)
                 r = (
-                    self.par[Params.G_COS]
-                    * self.mu_b(self.film_h(h), spd, phi)
+                    gn
+                    * self.mu_g(self.film_h(h), spd, phi, gn)
                     / ti.max(spd, self.par[Params.U_EPS])
                 )
         return r
@@ -243,7 +291,7 @@ class Physics:
         return phi
 
     @ti.func
-    def project_friction(self, q, tau, spd0, hb):
+    def project_friction(self, q, tau, spd0, hb, g):
         """Basal friction over the time tau as a projection of the conserved state q (friction
         scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
         et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h. Where
@@ -271,13 +319,14 @@ class Physics:
 
         In the split sweeps films thinner than h_min are projected too (they move: see
         `source`), with the coefficient of a layer h_min thick, as the source takes it
-        (`film_h`)."""
+        (`film_h`). g: the cell's gravity; on a bend the normal load is taken at q's velocity."""
         r = q
         h = q[0]
         if self.acts(h) and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
             phi = self._phi_of(q, h)
-            imp = tau * self.par[Params.G_COS] * self.mu_b(self.film_h(h), spd0, phi) * hb
+            gn = self.g_normal_q(q, h, g)
+            imp = tau * gn * self.mu_g(self.film_h(h), spd0, phi, gn) * hb
             f = 0.0 * h
             if m > imp:
                 f = 1.0 - imp / m
@@ -287,7 +336,15 @@ class Physics:
         return r
 
     @ti.func
-    def holds(self, q, tau):
+    def g_normal_q(self, q, h, g):
+        """`g_normal` at the velocity of the conserved state q (h > 0)."""
+        u = 0.0 * h
+        if ti.static(self.bend):
+            u = q[1] / h
+        return self.g_normal(u, g)
+
+    @ti.func
+    def holds(self, q, tau, g):
         """1 where the static friction holds a cell that was at rest at the step's start (a
         law with hysteresis), else 0. Called on the step's first stage, which is one Euler
         step of length tau from the step's initial state Y0 for every stepper, so the
@@ -303,6 +360,6 @@ class Physics:
         if self.acts(h) and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
             mu = self.mu_start(self.film_h(h), self._phi_of(q, h))
-            if m <= tau * self.par[Params.G_COS] * mu * h:
+            if m <= tau * self.g_normal_q(q, h, g) * mu * h:
                 r = 1
         return r

@@ -141,22 +141,31 @@ def thickness_change(frames) -> float:
     return out
 
 
-def travel_angle(h_start, h_deposit, x, y, b, zeta: float, h_min: float):
+def travel_angle(h_start, h_deposit, x, y, b, zeta: float, h_min: float, line=None):
     """(angle [degrees], drop [m], reach [m]) of the line from the release's top to the
     deposit's tip, or None where either is empty.
 
     A point (x, y) of the bed, b normal to the plane inclined at zeta, lies at the horizontal
     distance X = x cos(zeta) + b sin(zeta) downslope and the height Z = -x sin(zeta) +
-    b cos(zeta). The top is the highest wet cell of ``h_start`` (the first snapshot; where it
+    b cos(zeta). On a run-out's bend (``line``, a `tiseg.model.bed_line.BedLine`; x the arc
+    length) the reference point is the bed line's (X(x), Z(x)) and zeta its local
+    inclination zeta(x). The top is the highest wet cell of ``h_start`` (the first snapshot; where it
     is empty, as under an inflow, the inlet's row x = 0 on its highest bed); the tip the
     furthest downslope wet cell of ``h_deposit`` (the lowest where several share that x). On a
     plane the angle is zeta; on a bed tilted by b = -s x it is zeta + atan(s). Arrays (ny, nx),
     x and y the cell centres."""
     X2, _ = np.meshgrid(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
     bed = np.zeros_like(X2) if b is None else np.asarray(b, dtype=float)
-    c, s = math.cos(zeta), math.sin(zeta)
-    Z = -X2 * s + bed * c
-    H = X2 * c + bed * s
+    if line is None:
+        c, s = math.cos(zeta), math.sin(zeta)
+        Z = -X2 * s + bed * c
+        H = X2 * c + bed * s
+    else:
+        z = line.inclination(X2)
+        X0, Z0 = line.coordinates(X2)
+        Z = Z0 + bed * np.cos(z)
+        H = X0 + bed * np.sin(z)
+        c, s = math.cos(zeta), math.sin(zeta)  # the inlet x = 0 lies above the bend
     dep = np.asarray(h_deposit, dtype=float) >= h_min
     if not dep.any():
         return None

@@ -456,6 +456,7 @@ def analyse_run(
                 bed,
                 scene.material.zeta,
                 h_min,
+                line=scene.bed_line(),
             )
             if found is not None:
                 deposit["travel_angle_deg"], deposit["drop"], deposit["reach"] = found

@@ -157,31 +157,33 @@ class BedFaces:
         return self.state.w[i, j][0] + self.state.bed[i, j] + 0.5 * self.eta_slope(i, j, d) - h
 
     @ti.func
-    def star(self, wl, bl, wr, br):
+    def star(self, wl, bl, wr, br, g):
         """(wl*, wr*, [p_l, p_r]): the edge states with h* (step 2) and each side's pressure
-        correction (1/2) g cos(zeta) (h^2 - h*^2) (step 3)."""
+        correction (1/2) g cos(zeta) (h^2 - h*^2) (step 3); g: the face's gravity
+        (tiseg.solver.numerics.gravity: on a bend its g cos zeta, without the kappa u^2 of the
+        flux, which vanishes at rest)."""
         bs = ti.max(bl, br)
         wls = wl
         wrs = wr
         wls[0] = ti.max(0.0, wl[0] + bl - bs)
         wrs[0] = ti.max(0.0, wr[0] + br - bs)
-        half_g = 0.5 * self.state.par[Params.G_COS]
+        half_g = 0.5 * g[1]
         p = ti.Vector(
             [half_g * (wl[0] * wl[0] - wls[0] * wls[0]), half_g * (wr[0] * wr[0] - wrs[0] * wrs[0])]
         )
         return wls, wrs, p
 
     @ti.func
-    def dry(self, hl, hr):
+    def dry(self, hl, hr, g):
         """The corrections of a face without convective flux: each side's whole pressure."""
-        half_g = 0.5 * self.state.par[Params.G_COS]
+        half_g = 0.5 * g[1]
         return ti.Vector([half_g * hl * hl, half_g * hr * hr])
 
     @ti.func
-    def centred(self, h_lo, h_hi, b_lo, b_hi):
+    def centred(self, h_lo, h_hi, b_lo, b_hi, g):
         """The centred source of a cell along a direction, times the spacing (step 4):
-        (1/2) g cos(zeta) (h_lo + h_hi)(b_lo - b_hi)."""
-        return 0.5 * self.state.par[Params.G_COS] * (h_lo + h_hi) * (b_lo - b_hi)
+        (1/2) g cos(zeta) (h_lo + h_hi)(b_lo - b_hi), g the cell's gravity."""
+        return 0.5 * g[1] * (h_lo + h_hi) * (b_lo - b_hi)
 
     # ---------------------------------------------------------------- the split sweeps
     @ti.func
@@ -202,10 +204,11 @@ class BedFaces:
         b_lo = e0 - 0.5 * s - h_lo
         b_hi = e0 + 0.5 * s - h_hi
         self.state.eb[i, j] = ti.Vector([b_lo, b_hi])
-        return (0.5 * dt * self._inv(d)) * self.centred(h_lo, h_hi, b_lo, b_hi)
+        g = self.state.grav.cell(i)
+        return (0.5 * dt * self._inv(d)) * self.centred(h_lo, h_hi, b_lo, b_hi, g)
 
     @ti.func
-    def sweep_face(self, i, j, i1, j1, d: ti.template(), wl, wr, wet, kind):
+    def sweep_face(self, i, j, i1, j1, d: ti.template(), wl, wr, wet, kind, g):
         """The predicted edges wl | wr of the face (i, j) | (i1, j1) along d with h* (where
         the face is ``wet``), and its two pressure corrections into pcx / pcy; a wall
         (``kind``, tiseg.solver.numerics.walls) sees the fluid side's bed on both sides."""
@@ -217,11 +220,11 @@ class BedFaces:
             br = bl
         elif kind != 0:
             bl = br
-        p = self.dry(wl[0], wr[0])
+        p = self.dry(wl[0], wr[0], g)
         if kind == 3:  # two solid cells
             p = p * 0.0
         if wet:
-            wls, wrs, p = self.star(wl, bl, wr, br)
+            wls, wrs, p = self.star(wl, bl, wr, br, g)
         if ti.static(d == 0):
             self.state.pcx[i, j] = p
         else:
@@ -242,5 +245,6 @@ class BedFaces:
             pc_hi = self.state.pcy[i, j]
             pc_lo = self.state.pcy[im, jm]
         eb = self.state.eb[i, j]
-        c = self.centred(self.state.ew[i, j][0], self.state.ee[i, j][0], eb[0], eb[1])
+        g = self.state.grav.cell(i)
+        c = self.centred(self.state.ew[i, j][0], self.state.ee[i, j][0], eb[0], eb[1], g)
         return (dt * self._inv(d)) * c - lam * (pc_hi[0] - pc_lo[1])

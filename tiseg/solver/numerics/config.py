@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from ...errors import InputError
+from ...model.bed_line import BedLine
 from ...model.physics.friction import FRICTION_LAWS as _LAWS
 from ...model.physics.friction import FrictionParams  # the laws own it; imported from here before
 from ...model.physics.segregation import TRANSPORTS as _TRANSPORTS
@@ -298,6 +299,10 @@ class OperatorConfig:
     bed: object = field(default=None, metadata=from_keys(*_TERRAIN, what="the terrain"))
     # solid cells (obstacles, raster nodata) whose faces are walls (tiseg.solver.numerics.walls)
     solid: bool = field(default=False, metadata=from_keys(*_TERRAIN, what="the terrain"))
+    # a reference surface that bends (terrain.runout): (zeta2 [rad], x_b [m], L [m]) of the
+    # bend from zeta to zeta2 (tiseg.model.bed_line, tiseg.solver.numerics.gravity); None: the
+    # plane of the paper, whose gravity is two run-time numbers
+    bend: tuple | None = field(default=None, metadata=from_keys("terrain.runout"))
     constants: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
@@ -345,6 +350,13 @@ class OperatorConfig:
     @property
     def g_sin(self) -> float:
         return self.g * math.sin(self.zeta)
+
+    def bed_line(self):
+        """The bend's `tiseg.model.bed_line.BedLine` (None on a plane)."""
+        if self.bend is None:
+            return None
+        zeta2, x_b, length = self.bend
+        return BedLine(self.zeta, zeta2, x_b, length)
 
     @property
     def segregation(self) -> bool:
@@ -446,5 +458,13 @@ def config_from_scene(scene) -> OperatorConfig:
         constants=tuple((k, v) for k, v in given.items() if k in own),
         bed=scene.terrain if scene.has_terrain else None,
         solid=bool(scene.has_terrain and scene.bed_arrays()[1].any()),
+        bend=_bend(scene.terrain.runout),
         **kw,
     )
+
+
+def _bend(runout) -> tuple | None:
+    """OperatorConfig.bend of a scene's ``[terrain.runout]`` (None without one)."""
+    if runout is None:
+        return None
+    return (math.radians(runout.zeta_deg), runout.x, runout.length)

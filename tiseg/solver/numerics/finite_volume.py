@@ -218,11 +218,12 @@ class FiniteVolume:
                             self.bed.keep_slopes(i, j, False, True)
 
     @ti.func
-    def face_flux(self, wl, wr, d: ti.template()):
+    def face_flux(self, wl, wr, d: ti.template(), g):
         """Numerical flux between edge states wl | wr along d: the chosen numerical flux
         (numerics.flux), then, with segregation, the h phi modifier (numerics.phi_flux); both
-        components of tiseg.solver.numerics.fluxes."""
-        F = self._num_flux(wl, wr, d)
+        components of tiseg.solver.numerics.fluxes. g: the face's gravity
+        (tiseg.solver.numerics.gravity)."""
+        F = self._num_flux(wl, wr, d, g)
         if ti.static(self._phi_modifies):
             F = self._phi_mod(F, wl, wr)
         return F
@@ -270,7 +271,7 @@ class FiniteVolume:
             if ti.static(not self.state.rec_first):
                 wl = w0 + 0.5 * self.state.sx[i, j]
                 wr = w1 - 0.5 * self.state.sx[i + 1, j]
-            F = self.face_flux(wl, wr, 0)
+            F = self.face_flux(wl, wr, 0, self.state.grav.xface(i))
             F = self.rules.rest_face(F, wl, wr, 0, i, j, i + 1, j)
         if ti.static(self.state.visc):  # the viscous stress (tiseg.model.physics.viscosity)
             F = self.x_viscous(F, i, j, w0, w1)
@@ -305,6 +306,7 @@ class FiniteVolume:
             wl, wr = self.walls.faced(kind, wl, wr, d)
         F = ti.Vector.zero(self.state.fp, self.state.nc)
         wet = self.face_wet(w0, w1, hmin, i0, j0, i1, j1) and kind != SOLID
+        g = self.state.grav.face(i0, d)
         if ti.static(self.has_bed):
             bl = self.bed.edge_hi(i0, j0, d, wl[0])
             br = self.bed.edge_lo(i1, j1, d, wr[0])
@@ -312,17 +314,17 @@ class FiniteVolume:
                 br = bl
             elif kind != FLUID:
                 bl = br
-            p = self.bed.dry(wl[0], wr[0])
+            p = self.bed.dry(wl[0], wr[0], g)
             if kind == SOLID:
                 p = p * 0.0
             if wet:
-                wl, wr, p = self.bed.star(wl, bl, wr, br)
+                wl, wr, p = self.bed.star(wl, bl, wr, br, g)
             if ti.static(d == 0):
                 self.state.pcx[i0, j0] = p
             else:
                 self.state.pcy[i0, j0] = p
         if wet:
-            F = self.face_flux(wl, wr, d)
+            F = self.face_flux(wl, wr, d, g)
             if kind == FLUID:  # (at a wall, the mirror's flux: nothing crosses)
                 F = self.rules.rest_face(F, wl, wr, d, i0, j0, i1, j1)
         return F
@@ -338,7 +340,8 @@ class FiniteVolume:
             wl, wr = self.walls.faced(kind, wl, wr, d)
             wet = wet and kind != SOLID
         if ti.static(self.has_bed):
-            wl, wr = self.bed.sweep_face(i0, j0, i1, j1, d, wl, wr, wet, kind)
+            g = self.state.grav.face(i0, d)
+            wl, wr = self.bed.sweep_face(i0, j0, i1, j1, d, wl, wr, wet, kind, g)
         return wl, wr, wet, kind == FLUID
 
     @ti.func
@@ -357,7 +360,7 @@ class FiniteVolume:
             h_lo = h0 - 0.5 * s
             h_hi = h0 + 0.5 * s
         b_lo, b_hi = self.bed.edges(i, j, d, h_lo, h_hi)
-        r = self.bed.centred(h_lo, h_hi, b_lo, b_hi)
+        r = self.bed.centred(h_lo, h_hi, b_lo, b_hi, self.state.grav.cell(i))
         inv = self.state.par[Params.INV_DX]
         if ti.static(d == 0):
             r -= self.state.pcx[i, j][0] - self.state.pcx[i - 1, j][1]
@@ -400,7 +403,7 @@ class FiniteVolume:
             if ti.static(not self.state.rec_first):
                 wl = w0 + 0.5 * self.state.sy[i, j]
                 wr = w1 - 0.5 * self.state.sy[i, j + 1]
-            F = self.face_flux(wl, wr, 1)
+            F = self.face_flux(wl, wr, 1, self.state.grav.cell(i))
             F = self.rules.rest_face(F, wl, wr, 1, i, j, i, j + 1)
         if ti.static(self.state.visc):
             F = self.y_viscous(F, i, j, w0, w1)
@@ -454,7 +457,7 @@ class FiniteVolume:
             r = -(self.state.fx[i, j] - self.state.fx[i - 1, j]) * idx
             if ti.static(not self.state.is_1d):
                 r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
-            r += self.state.phys.source(self.state.w[i, j])
+            r += self.state.phys.source(self.state.w[i, j], self.state.grav.cell(i))
             if ti.static(self.state.terms.on):  # the scene's terms beyond (6.4)
                 r += self.state.terms.rate(i, j)
             if ti.static(self.has_bed):  # the bed's pressure (tiseg.solver.numerics.bed)

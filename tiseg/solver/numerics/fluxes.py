@@ -5,11 +5,12 @@ A numerical flux H(w_l, w_r) turns the two edge states of a face (primitives w =
 phi]), reconstructed by `reconstruction`) into the flux through it. It holds, in the shape
 of the physics laws (`tiseg.model.physics.friction`):
 
-* ``taichi(ti, phys)``: its Taichi function ``flux(wl, wr, d)`` for one operator, built on the
-  pointwise physics `tiseg.model.physics.pointwise.Physics` (physical flux, conserved state,
-  wave speeds along d); the operator composes it with ``ti.static`` at construction, so a flux
-  that is not chosen leaves no code in the kernels;
-* ``flux_np(ref, wl, wr, d)``: its NumPy twin on arrays of edge states, built on the reference
+* ``taichi(ti, phys)``: its Taichi function ``flux(wl, wr, d, g)`` for one operator, built on
+  the pointwise physics `tiseg.model.physics.pointwise.Physics` (physical flux, conserved
+  state, wave speeds along d; g the face's gravity, `tiseg.solver.numerics.gravity`); the
+  operator composes it with ``ti.static`` at construction, so a flux that is not chosen
+  leaves no code in the kernels;
+* ``flux_np(ref, wl, wr, d, g)``: its NumPy twin on arrays of edge states, built on the reference
   operator's pointwise physics (`tiseg.solver.reference.operator.ReferenceOperator`), written
   apart from the Taichi function with the same operations in the same order;
 * ``slots``: the run-time numbers it reads (none: the wave speeds come from the physics).
@@ -32,21 +33,21 @@ class KurganovTadmor:
 
     def taichi(self, ti, phys):
         @ti.func
-        def flux(wl, wr, d: ti.template()):
-            fl = phys.flux(wl, d)
-            fr = phys.flux(wr, d)
+        def flux(wl, wr, d: ti.template(), g):
+            fl = phys.flux(wl, d, g)
+            fr = phys.flux(wr, d, g)
             dq = phys.conserved(wr) - phys.conserved(wl)
             F = 0.5 * (fl + fr)
-            a = ti.max(phys.speed(wl, d), phys.speed(wr, d))
+            a = ti.max(phys.speed(wl, d, g), phys.speed(wr, d, g))
             F -= 0.5 * a * dq
             return F
 
         return flux
 
-    def flux_np(self, ref, wl, wr, d: int):
+    def flux_np(self, ref, wl, wr, d: int, g=None):
         ql, qr = ref.conserved(wl), ref.conserved(wr)
-        fl, fr = ref.flux(wl, d), ref.flux(wr, d)
-        a = np.maximum(ref.speed(wl, d), ref.speed(wr, d))
+        fl, fr = ref.flux(wl, d, g), ref.flux(wr, d, g)
+        a = np.maximum(ref.speed(wl, d, g), ref.speed(wr, d, g))
         return 0.5 * (fl + fr) - 0.5 * a * (qr - ql)
 
 
@@ -62,13 +63,13 @@ class CentralUpwind:
 
     def taichi(self, ti, phys):
         @ti.func
-        def flux(wl, wr, d: ti.template()):
-            fl = phys.flux(wl, d)
-            fr = phys.flux(wr, d)
+        def flux(wl, wr, d: ti.template(), g):
+            fl = phys.flux(wl, d, g)
+            fr = phys.flux(wr, d, g)
             dq = phys.conserved(wr) - phys.conserved(wl)
             F = 0.5 * (fl + fr)
-            sl = phys.speed_range(wl, d)
-            sr = phys.speed_range(wr, d)
+            sl = phys.speed_range(wl, d, g)
+            sr = phys.speed_range(wr, d, g)
             ap = ti.max(ti.max(sl[1], sr[1]), 0.0)
             am = ti.min(ti.min(sl[0], sr[0]), 0.0)
             den = ap - am
@@ -79,11 +80,11 @@ class CentralUpwind:
 
         return flux
 
-    def flux_np(self, ref, wl, wr, d: int):
+    def flux_np(self, ref, wl, wr, d: int, g=None):
         ql, qr = ref.conserved(wl), ref.conserved(wr)
-        fl, fr = ref.flux(wl, d), ref.flux(wr, d)
-        lo_l, hi_l = ref.speed_range(wl, d)
-        lo_r, hi_r = ref.speed_range(wr, d)
+        fl, fr = ref.flux(wl, d, g), ref.flux(wr, d, g)
+        lo_l, hi_l = ref.speed_range(wl, d, g)
+        lo_r, hi_r = ref.speed_range(wr, d, g)
         ap = np.maximum(np.maximum(hi_l, hi_r), 0.0)
         am = np.minimum(np.minimum(lo_l, lo_r), 0.0)
         den = ap - am
@@ -107,18 +108,18 @@ class Rusanov:
 
     def taichi(self, ti, phys):
         @ti.func
-        def flux(wl, wr, d: ti.template()):
-            a = ti.max(phys.speed(wl, d), phys.speed(wr, d))
-            F = 0.5 * (phys.flux(wl, d) + phys.flux(wr, d))
+        def flux(wl, wr, d: ti.template(), g):
+            a = ti.max(phys.speed(wl, d, g), phys.speed(wr, d, g))
+            F = 0.5 * (phys.flux(wl, d, g) + phys.flux(wr, d, g))
             F -= 0.5 * a * (phys.conserved(wr) - phys.conserved(wl))
             return F
 
         return flux
 
-    def flux_np(self, ref, wl, wr, d: int):
-        a = np.maximum(ref.speed(wl, d), ref.speed(wr, d))
+    def flux_np(self, ref, wl, wr, d: int, g=None):
+        a = np.maximum(ref.speed(wl, d, g), ref.speed(wr, d, g))
         dq = ref.conserved(wr) - ref.conserved(wl)
-        return 0.5 * (ref.flux(wl, d) + ref.flux(wr, d)) - 0.5 * a * dq
+        return 0.5 * (ref.flux(wl, d, g) + ref.flux(wr, d, g)) - 0.5 * a * dq
 
 
 class CentralPhi:

@@ -115,8 +115,9 @@ class StepReductions:
             ti.loop_config(serialize=serial)
             for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.state.NY)):
                 w = self.state.w[i, j]
+                g = self.state.grav.cell(i)
                 self.state.spd[i, j] = ti.Vector(
-                    [self.state.phys.speed(w, 0), self.state.phys.speed(w, 1)]
+                    [self.state.phys.speed(w, 0, g), self.state.phys.speed(w, 1, g)]
                 )
         P = ti.static(self.state.row_pieces)
         ti.loop_config(serialize=serial)
@@ -134,6 +135,7 @@ class StepReductions:
                 if i < hi:
                     for j in range(j0, j1):
                         w = self.state.w[i, j]
+                        g = self.state.grav.cell(i)
                         if ti.static(self.state.local_rate):
                             sp = self.state.spd[i, j]
                             m0 = ti.max(m0, sp[0])
@@ -148,11 +150,11 @@ class StepReductions:
                             )
                             m6 = ti.max(m6, axm * idx + aym * idy)
                         else:
-                            m0 = ti.max(m0, self.state.phys.speed(w, 0))
+                            m0 = ti.max(m0, self.state.phys.speed(w, 0, g))
                             if ti.static(not self.state.is_1d):
-                                m1 = ti.max(m1, self.state.phys.speed(w, 1))
+                                m1 = ti.max(m1, self.state.phys.speed(w, 1, g))
                         m4 = ti.max(m4, self.state.phys.speed_mag(w))
-                        fr = self.state.phys.friction_rate(w)
+                        fr = self.state.phys.friction_rate(w, g)
                         if ti.static(self.state.terms.stiff_on):  # stiff source terms
                             fr += self.state.terms.stiffness(i, j)
                         m3 = ti.max(m3, fr)

@@ -228,13 +228,14 @@ class RestRules:
         projected. Deciding per stage instead made the starts depend on the step length and
         on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
         out = acc
+        g = self.state.grav.cell(i)
         if ti.static(self.state.phys.law.hysteresis):
             flag = ti.cast(self.state.rest[i, j], ti.i32)
             if ti.static(first):
                 # nested, not `and`: Taichi's `and` evaluates both sides, and holds() (the start
                 # coefficient mu_S) on every moving cell cost ~5 % of a fingers step
                 if (flag & REST) != 0:
-                    if self.state.phys.holds(acc, tau) == 1:
+                    if self.state.phys.holds(acc, tau, g) == 1:
                         flag |= HELD
                         self.state.rest[i, j] = ti.cast(flag, ti.i8)
             if (flag & HELD) != 0:
@@ -242,9 +243,9 @@ class RestRules:
                 if ti.static(not self.state.is_1d):
                     out[self.state.HV] = 0.0
             else:
-                out = self.state.phys.project_friction(acc, tau, spd0, hb)
+                out = self.state.phys.project_friction(acc, tau, spd0, hb, g)
         else:
-            out = self.state.phys.project_friction(acc, tau, spd0, hb)
+            out = self.state.phys.project_friction(acc, tau, spd0, hb, g)
         return out
 
     @staticmethod

@@ -205,11 +205,12 @@ class SplitSweeps:
             wE = w0 + 0.5 * s
             qW = ph.conserved(wW)
             qE = ph.conserved(wE)
-            shift = (0.5 * lam) * (ph.flux(wE, d) - ph.flux(wW, d))
+            g = self.state.grav.cell(i)  # (its edges' gravity: the cell's)
+            shift = (0.5 * lam) * (ph.flux(wE, d, g) - ph.flux(wW, d, g))
             keep = 0  # 1: the edges stay unevolved
             if ti.static(d == 0):
                 sgn, keep = self._ghost_source(i)
-                src = ph.source(w0)
+                src = ph.source(w0, g)
                 if ti.static(self.state.terms.on):
                     # the scene's terms, from the sweep's initial state: half a step here,
                     # the whole step in the update (kept for it)
@@ -230,8 +231,8 @@ class SplitSweeps:
                 # the friction of the half step with the gravity it balances: the projection
                 # of each edge over dt/2 at the cell's speed (Physics.project_friction)
                 spd = ph.speed_mag(w0)
-                pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0])
-                pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0])
+                pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0], g)
+                pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0], g)
             self.state.ew[i, j] = self.fv.fast_primitive(pW)
             self.state.ee[i, j] = self.fv.fast_primitive(pE)
 
@@ -299,7 +300,7 @@ class SplitSweeps:
                         # scheme's first stage does)
                         wl = self.rules.still(wl)
                         wr = self.rules.still(wr)
-                F = self.fv.face_flux(wl, wr, d)
+                F = self.fv.face_flux(wl, wr, d, self.state.grav.face(i, d))
                 # the projected friction's face rules, from the step's rest mask
                 if ti.static(not self.fv.terrain):
                     F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
@@ -398,9 +399,10 @@ class SplitSweeps:
         self.state.drain[i0, j0] = self.state.drain[i1, j1]
 
     @ti.func
-    def _gravity(self, h):
-        """g sin(zeta) h (Physics.source without friction; films included)."""
-        return h * self.state.par[Params.G_SIN]
+    def _gravity(self, h, g):
+        """g sin(zeta) h (Physics.source without friction; films included), g the cell's
+        gravity (tiseg.solver.numerics.gravity)."""
+        return h * g[0]
 
     @ti.func
     def _scaled(self, F, th_lo, th_hi):
@@ -452,7 +454,8 @@ class SplitSweeps:
                 # gravity along the slope, h g sin(zeta) (the only source without friction),
                 # by the trapezoidal rule between the cell's h before and after the fluxes
                 h1 = q0[0] + upd[0]
-                upd[1] += (0.5 * dt) * (self._gravity(q0[0]) + self._gravity(h1))
+                g = self.state.grav.cell(i)
+                upd[1] += (0.5 * dt) * (self._gravity(q0[0], g) + self._gravity(h1, g))
                 if ti.static(self.state.terms.on):  # the scene's terms (from the predictor)
                     upd += dt * self.state.srate[i, j]
                 if ti.static(fr):

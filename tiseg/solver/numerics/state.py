@@ -32,6 +32,7 @@ from ...model.physics.pointwise import Params, Physics
 from ...model.physics.sources import chosen_aux
 from ..field_tree import FieldTree
 from .bed import bed_with_ghosts
+from .gravity import Gravity
 from .boundaries import BOUNDARIES
 from .config import OperatorConfig
 from .ranges import ActiveRange, row_pieces
@@ -139,6 +140,9 @@ class OperatorState:
         # rate has no slot)
         self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
         self.phys = Physics(cfg, self.par, self.params)
+        # gravity per x column on a run-out's bend (tiseg.solver.numerics.gravity); on a
+        # plane no field, the two numbers of par
+        self.grav = Gravity(self, ft)
         self.terms = SourceTerms(self)  # the source terms beyond (6.4), if any
         # With the projected friction: which cells were at rest at the start of the step,
         # the state in slot 0 (RestRules.rest_face). Recomputed at the first preparation
@@ -192,6 +196,7 @@ class OperatorState:
         self.set_active(self.gx, self.gx + self.nx)
         self.forget_rest()
         self.par.from_numpy(p.astype(self.np_fp))
+        self.grav.fill(cfg)
         self.terms.fill_aux(cfg)
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no

@@ -54,14 +54,15 @@ def eta_slopes(ref, w: np.ndarray, bed: np.ndarray, axis: int, solid=None) -> np
     return out
 
 
-def star_states(ref, wl, bl, wr, br):
+def star_states(ref, wl, bl, wr, br, g=None):
     """(wl*, wr*, p_l, p_r): the edge states with h* = max(0, h + b - max(b_l, b_r)) and each
-    side's pressure correction (1/2) g cos(zeta) (h^2 - h*^2)."""
+    side's pressure correction (1/2) g cos(zeta) (h^2 - h*^2); ``g``: the faces' gravity on a
+    bend (ReferenceOperator.face_gravity)."""
     bs = np.maximum(bl, br)
     wls, wrs = wl.copy(), wr.copy()
     wls[0] = np.maximum(0.0, wl[0] + bl - bs)
     wrs[0] = np.maximum(0.0, wr[0] + br - bs)
-    half_g = 0.5 * ref.cfg.g_cos
+    half_g = 0.5 * ref.gravity_part(g, 1)
     return wls, wrs, half_g * (wl[0] ** 2 - wls[0] ** 2), half_g * (wr[0] ** 2 - wrs[0] ** 2)
 
 
@@ -75,7 +76,7 @@ def bed_rate(ref, w, s, eta_s, bed, p_lo_face, p_hi_face, axis) -> np.ndarray:
     h_lo, h_hi = h0 - 0.5 * s[0], h0 + 0.5 * s[0]
     eta = h0 + bed
     b_lo, b_hi = eta - 0.5 * eta_s - h_lo, eta + 0.5 * eta_s - h_hi
-    centred = 0.5 * ref.cfg.g_cos * (h_lo + h_hi) * (b_lo - b_hi)
+    centred = 0.5 * ref.gravity_part(ref.gcell, 1) * (h_lo + h_hi) * (b_lo - b_hi)
     faces = p_lo_face - _shifted(p_hi_face, ax, -1)
     spacing = ref.cfg.dx if axis == 1 else ref.cfg.dy
     return (centred - faces) / spacing

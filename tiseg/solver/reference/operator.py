@@ -48,6 +48,7 @@ from ...model.physics.friction import FRICTION_LAWS
 from ...model.physics.segregation import TRANSPORTS
 from ...model.physics.sources import SOURCES, NumpyContext, aux_arrays
 from ..numerics.bed import bed_with_ghosts
+from ...model.bed_line import gravity_columns
 from .bed import bed_rate, eta_slopes, star_states
 from .walls import FLUID, SOLID, WALL_HI, WALL_LO, face_kinds, faced
 from ...model.physics.viscosity import VISCOSITY
@@ -95,6 +96,13 @@ class ReferenceOperator:
         self.phi_flux = PHI_FLUXES[cfg.phi_flux]
         # the scene's source terms beyond (6.4) and the fields they read (their twins)
         self.aux = aux_arrays(cfg)
+        # a run-out's bend: (g sin zeta, g cos zeta, kappa) per column (3, NX, 1) and per x
+        # face (3, NX - 1, 1) (tiseg.solver.numerics.gravity); None on a plane
+        self.gcell = self.gface = None
+        if cfg.bend is not None:
+            cells, faces = gravity_columns(cfg.bed_line(), cfg.g, cfg.dx, lay.gx, lay.NX)
+            self.gcell = cells.T[:, :, None]
+            self.gface = faces.T[:, :-1, None]
 
     # ------------------------------------------------------------------ boundaries
     def fill_ghosts(self, q: np.ndarray, t: float) -> None:
@@ -150,9 +158,30 @@ class ReferenceOperator:
         """The largest coefficient at rest (mu_S(h) of a law with hysteresis)."""
         return self.law.mu_start_np(self.cfg, h, self._weight(phi))
 
-    def flux(self, w: np.ndarray, direction: int) -> np.ndarray:
-        """Physical flux f (x) or g (y) of the primitive state w, as conserved components."""
-        lay, c = self.lay, self.cfg
+    def g_normal(self, u, g):
+        """Physics.g_normal: g cos zeta, on a bend (g is (g sin, g cos, kappa) arrays) plus
+        kappa u^2, clipped at 0."""
+        if g is None:
+            return self.cfg.g_cos
+        return np.maximum(g[1] + g[2] * u * u, 0.0)
+
+    def mu_g(self, h, speed, phi, gn):
+        """Physics.mu_g: mu_b at the Froude number |u| / sqrt(gn h) on a bend."""
+        if self.gcell is not None:
+            gc = self.cfg.g_cos
+            speed = speed * np.sqrt(gc / np.maximum(gn, 1e-6 * gc))
+        return self.mu_b(h, speed, phi)
+
+    def wave(self, w, g):
+        """Physics.wave: sqrt(g cos zeta h), on a bend sqrt(gn h) + |kappa h u|."""
+        if g is None:
+            return np.sqrt(self.cfg.g_cos * w[0])
+        return np.sqrt(self.g_normal(w[1], g) * w[0]) + np.abs(g[2] * w[0] * w[1])
+
+    def flux(self, w: np.ndarray, direction: int, g=None) -> np.ndarray:
+        """Physical flux f (x) or g (y) of the primitive state w, as conserved components;
+        ``g``: the faces' gravity on a bend (None: the plane's)."""
+        lay = self.lay
         h, u = w[0], w[1]
         vel = u if direction == 0 else w[lay.HV]
         f = np.empty_like(w)
@@ -160,25 +189,25 @@ class ReferenceOperator:
         f[lay.HU] = h * u * vel
         if not lay.is_1d:
             f[lay.HV] = h * w[lay.HV] * vel
-        f[lay.HU if direction == 0 else lay.HV] += 0.5 * c.g_cos * h * h
+        f[lay.HU if direction == 0 else lay.HV] += 0.5 * self.g_normal(u, g) * h * h
         if lay.segregation:
             phi = w[lay.HPHI]
             f[lay.HPHI] = h * vel * (phi - self.G(phi))
         return f
 
-    def speed(self, w: np.ndarray, direction: int) -> np.ndarray:
-        lay, c = self.lay, self.cfg
+    def speed(self, w: np.ndarray, direction: int, g=None) -> np.ndarray:
+        lay = self.lay
         vel = w[1] if direction == 0 else w[lay.HV]
-        a = np.abs(vel) + np.sqrt(c.g_cos * w[0])
+        a = np.abs(vel) + self.wave(w, g)
         if lay.segregation:
             a = np.maximum(a, np.abs(vel * (1.0 - self.dG(w[lay.HPHI]))))
         return a
 
-    def speed_range(self, w: np.ndarray, direction: int):
+    def speed_range(self, w: np.ndarray, direction: int, g=None):
         """(smallest, largest) characteristic speed: u -+ c widened by u (1 - G'(phi))."""
-        lay, c = self.lay, self.cfg
+        lay = self.lay
         vel = w[1] if direction == 0 else w[lay.HV]
-        cc = np.sqrt(c.g_cos * w[0])
+        cc = self.wave(w, g)
         lo, hi = vel - cc, vel + cc
         if lay.segregation:
             s = vel * (1.0 - self.dG(w[lay.HPHI]))
@@ -238,8 +267,8 @@ class ReferenceOperator:
             br = np.where(kinds == WALL_HI, bl, br)
             bl = np.where((kinds == WALL_LO) | (kinds == SOLID), br, bl)
             hl, hr = wl[0], wr[0]
-            wl, wr, pl, pr = star_states(self, wl, bl, wr, br)
-        H = self.numerical_flux(wl, wr, direction)
+            wl, wr, pl, pr = star_states(self, wl, bl, wr, br, self.face_gravity(axis))
+        H = self.numerical_flux(wl, wr, direction, self.face_gravity(axis))
         if self.projected:  # the near-rest face rules (RestRules.rest_face), not at walls
             Hr = H.copy()
             self.rest_faces(Hr, wl, wr, start, direction, sl(0, n - 1)[1:], sl(1, n)[1:])
@@ -247,7 +276,7 @@ class ReferenceOperator:
         dry = self.dry_faces(w, start, sl(0, n - 1)[1:], sl(1, n)[1:]) | (kinds == SOLID)
         H = np.where(dry[None], 0.0, H)
         if self.bed is not None:  # a face without convective flux: each side's pressure
-            half_g = 0.5 * self.cfg.g_cos
+            half_g = 0.5 * self.gravity_part(self.face_gravity(axis), 1)
             p = np.zeros((2,) + w.shape[1:])
             none = kinds == SOLID
             p[(0,) + sl(0, n - 1)[1:]] = np.where(none, 0.0, np.where(dry, half_g * hl * hl, pl))
@@ -332,10 +361,25 @@ class ReferenceOperator:
             )
         H[lay.H] = np.where(both, 0.0, np.where(up_r | up_l, floor, H[lay.H]))
 
-    def numerical_flux(self, wl: np.ndarray, wr: np.ndarray, direction: int) -> np.ndarray:
+    def face_gravity(self, axis: int):
+        """The gravity of the faces along ``axis`` (1: x faces, 2: y faces, at the columns'
+        centres) on a bend, None on a plane."""
+        if self.gcell is None:
+            return None
+        return self.gface if axis == 1 else self.gcell
+
+    def gravity_part(self, g, k: int):
+        """Component k of a gravity vector g (0: g sin zeta, 1: g cos zeta), the plane's
+        number where g is None."""
+        if g is None:
+            return self.cfg.g_sin if k == 0 else self.cfg.g_cos
+        return g[k]
+
+    def numerical_flux(self, wl: np.ndarray, wr: np.ndarray, direction: int, g=None) -> np.ndarray:
         """The face flux of step 4 between edge states wl | wr (primitives) along direction:
-        the numerical flux's twin, then (with segregation) the phi modifier's."""
-        H = self.num_flux.flux_np(self, wl, wr, direction)
+        the numerical flux's twin, then (with segregation) the phi modifier's; ``g``: the
+        faces' gravity on a bend."""
+        H = self.num_flux.flux_np(self, wl, wr, direction, g)
         if self.lay.segregation:
             H = self.phi_flux.modify_np(self, H, wl, wr)
         return H
@@ -384,15 +428,17 @@ class ReferenceOperator:
         v = np.zeros_like(u) if lay.is_1d else w[lay.HV]
         speed = np.sqrt(u * u + v * v)
         phi = w[lay.HPHI] if lay.segregation else c.phi_ref
-        mu = self.mu_b(np.maximum(h, c.h_min), speed, phi)  # (Physics.film_h)
+        g = self.gcell
+        gn = self.g_normal(u, g)
+        mu = self.mu_g(np.maximum(h, c.h_min), speed, phi, gn)  # (Physics.film_h)
         inv = 1.0 / np.maximum(speed, c.u_eps)
         wet = self.acts(h)
         S = np.zeros_like(w)
         if self.projected:  # the friction is project_friction's
             mu = np.zeros_like(mu)
-        S[lay.HU] = np.where(wet, h * (c.g_sin - c.g_cos * mu * u * inv), 0.0)
+        S[lay.HU] = np.where(wet, h * (self.gravity_part(g, 0) - gn * mu * u * inv), 0.0)
         if not lay.is_1d:
-            S[lay.HV] = np.where(wet, -h * c.g_cos * mu * v * inv, 0.0)
+            S[lay.HV] = np.where(wet, -h * gn * mu * v * inv, 0.0)
         return S
 
     def project_friction(self, q: np.ndarray, tau: float, q0: np.ndarray, held=None) -> None:
@@ -401,13 +447,14 @@ class ReferenceOperator:
         at the speed of q0, the state the stage started from. ``held``: the cells the static
         friction of a law with hysteresis holds for the step (`holds`), which stay at
         rest."""
-        c, lay = self.cfg, self.lay
+        lay = self.lay
         if not self.projected or tau <= 0:
             return
         wet, hs, hmu, phi = self._friction_cells(q)
         m = self._magnitude(q)
         spd0 = self._magnitude(self.primitives(q0))
-        imp = tau * c.g_cos * self.mu_b(hmu, spd0, phi) * hs
+        gn = self.g_normal_q(q, hs)
+        imp = tau * gn * self.mu_g(hmu, spd0, phi, gn) * hs
         f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
         f = np.where(wet, f, 1.0)
         if held is not None:
@@ -433,15 +480,28 @@ class ReferenceOperator:
         phi = np.clip(q[lay.HPHI] / hs, 0.0, 1.0) if lay.segregation else c.phi_ref
         return wet, hs, np.maximum(hs, c.h_min), phi
 
-    def holds(self, q: np.ndarray, tau: float, at_rest) -> np.ndarray:
+    def g_normal_q(self, q, hs, g=None):
+        """Physics.g_normal_q: the normal load at the velocity of the conserved q (hs: its
+        thickness, 1 where dry); ``g``: the cells' gravity where q is not the whole grid
+        (`inner_gravity`), else the columns'."""
+        if self.gcell is None:
+            return self.cfg.g_cos
+        return self.g_normal(q[self.lay.HU] / hs, self.gcell if g is None else g)
+
+    def inner_gravity(self):
+        """The bend's gravity of the interior columns (None on a plane), for states that hold
+        the interior cells only."""
+        return None if self.gcell is None else self.gcell[:, self.lay.interior()[0]]
+
+    def holds(self, q: np.ndarray, tau: float, at_rest, g=None) -> np.ndarray:
         """Physics.holds: of the cells ``at_rest`` at the step's start, those whose first-stage
         state q (one Euler step of tau) has |h u| <= tau g cos(zeta) mu_S(h) h: the static
         friction holds them for the step (a law with hysteresis; no cell otherwise)."""
-        c, lay = self.cfg, self.lay
+        lay = self.lay
         if not (self.projected and self.law.hysteresis) or tau <= 0:
             return np.zeros_like(q[lay.H], dtype=bool)
         wet, hs, hmu, phi = self._friction_cells(q)
-        static = tau * c.g_cos * self.mu_start(hmu, phi) * hs
+        static = tau * self.g_normal_q(q, hs, g) * self.mu_start(hmu, phi) * hs
         return at_rest & wet & (self._magnitude(q) <= static)
 
     def at_rest(self, q: np.ndarray) -> np.ndarray:

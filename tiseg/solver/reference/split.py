@@ -74,7 +74,8 @@ def hancock_sweep(
     s = ref.slopes(w, axis)
     wW, wE = w - 0.5 * s, w + 0.5 * s
     qW, qE = ref.conserved(wW), ref.conserved(wE)
-    shift = 0.5 * lam * (ref.flux(wE, d) - ref.flux(wW, d))
+    gcell = ref.gcell  # (a bend's gravity per column; None on a plane)
+    shift = 0.5 * lam * (ref.flux(wE, d, gcell) - ref.flux(wW, d, gcell))
     keep = np.zeros(q.shape[1:], dtype=bool)  # edges left unevolved: an inflow's ghost cells
     if d == 0:
         # a wall's ghost cells mirror the source as they mirror the state
@@ -98,7 +99,8 @@ def hancock_sweep(
         eta = w[0] + ref.bed
         bW, bE = eta - 0.5 * es - wW[0], eta + 0.5 * es - wE[0]
         inv = 1.0 / (c.dx if d == 0 else c.dy)
-        pull = 0.5 * dt * inv * (0.5 * c.g_cos * (wW[0] + wE[0]) * (bW - bE))
+        gc = ref.gravity_part(gcell, 1)
+        pull = 0.5 * dt * inv * (0.5 * gc * (wW[0] + wE[0]) * (bW - bE))
         shift = shift.copy()
         shift[mom] = shift[mom] - pull
     pW, pE = qW - shift, qE - shift
@@ -136,8 +138,8 @@ def hancock_sweep(
         bl, br = bE[face_lo], bW[face_hi]
         br = np.where(kinds == WALL_HI, bl, br)
         bl = np.where((kinds == WALL_LO) | (kinds == SOLID), br, bl)
-        wl, wr, pl, pr = star_states(ref, wl, bl, wr, br)
-    H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d)
+        wl, wr, pl, pr = star_states(ref, wl, bl, wr, br, ref.face_gravity(axis))
+    H[sl(0, n - 1)] = ref.numerical_flux(wl, wr, d, ref.face_gravity(axis))
     if ref.projected:  # the face rules of the step's rest mask (not at walls)
         Hf = H[sl(0, n - 1)].copy()
         ref.rest_faces(Hf, wl, wr, start, d, face_lo, face_hi)
@@ -147,7 +149,7 @@ def hancock_sweep(
     dry[face_lo] = ref.dry_faces(w, start, face_lo, face_hi) | (kinds == SOLID)
     H = np.where(dry[None], 0.0, H)
     if ref.bed is not None:  # a face without convective flux: each side's whole pressure
-        half_g = 0.5 * c.g_cos
+        half_g = 0.5 * ref.gravity_part(ref.face_gravity(axis), 1)
         pc = np.zeros((2,) + q.shape[1:])
         none = kinds == SOLID
         pc[(0,) + face_lo] = np.where(none, 0.0, np.where(dry[face_lo], half_g * hl_e**2, pl))
@@ -192,11 +194,12 @@ def hancock_sweep(
     if ref.bed is not None:  # the corrections of the cell's faces and its centred source
         pc_lo = np.zeros_like(pc[1])
         pc_lo[sl(1, n)[1:]] = pc[1][sl(0, n - 1)[1:]]
-        cen = 0.5 * c.g_cos * (eW[0] + eE[0]) * (bW - bE)
+        cen = 0.5 * ref.gravity_part(gcell, 1) * (eW[0] + eE[0]) * (bW - bE)
         upd[mom] = upd[mom] + dt * inv * cen - lam * (pc[0] - pc_lo)
     if d == 0:  # g sin(zeta) h by the trapezoidal rule (the source without friction)
         h1 = q[0] + upd[0]
-        upd[lay.HU] += 0.5 * dt * (q[0] * c.g_sin + h1 * c.g_sin)
+        gs = ref.gravity_part(gcell, 0)
+        upd[lay.HU] += 0.5 * dt * (q[0] * gs + h1 * gs)
         hbar = 0.5 * (q[0] + h1)
         if terms is not None:
             upd = upd + dt * terms
@@ -238,8 +241,9 @@ def project_step(
     if not lay.is_1d:
         still = still & (start[lay.HV] == 0)
     inner_q = q[:, ix, iy]
-    held = ref.holds(inner_q, dt, still[ix, iy])
-    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held, hbar)
+    g = ref.inner_gravity()
+    held = ref.holds(inner_q, dt, still[ix, iy], g)
+    project(ref, inner_q, dt, ref._magnitude(start)[ix, iy], held, hbar, g)
     q[:, ix, iy] = inner_q
 
 
@@ -292,18 +296,22 @@ def viscous_substep(
     ref.postprocess(q)
 
 
-def project(ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None, hbar=None) -> None:
+def project(
+    ref: ReferenceOperator, q: np.ndarray, tau: float, spd0, held=None, hbar=None, g=None
+) -> None:
     """Physics.project_friction over tau, in place on conserved states q, with the friction
     coefficient at the speeds spd0 (ReferenceOperator.project_friction, which takes them
     from a state); ``held``: cells a law with hysteresis holds at rest; ``hbar``: the
-    thickness the impulse acts on (q's own h if None)."""
-    c, lay = ref.cfg, ref.lay
+    thickness the impulse acts on (q's own h if None); ``g``: the bend's gravity of q's cells
+    where q holds the interior only (ReferenceOperator.inner_gravity)."""
+    lay = ref.lay
     if tau <= 0:
         return
     wet, hs, hmu, phi = ref._friction_cells(q)
     m = ref._magnitude(q)
     hb = hs if hbar is None else hbar
-    imp = tau * c.g_cos * ref.mu_b(hmu, spd0, phi) * hb
+    gn = ref.g_normal_q(q, hs, g)
+    imp = tau * gn * ref.mu_g(hmu, spd0, phi, gn) * hb
     f = np.where(m > imp, 1.0 - imp / np.where(m > 0, m, 1.0), 0.0)
     f = np.where(wet, f, 1.0)
     if held is not None:
