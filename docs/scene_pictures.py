@@ -28,6 +28,7 @@ RUNS: dict[str, tuple[list[str], str]] = {
     "monodisperse-front": (["domain.resolution=150"], "map"),
     "levees": (["domain.resolution=100"], "map"),
     "obstacle": (["domain.resolution=100"], "map"),
+    "runout": (["domain.resolution=100"], "map"),
     "channel": (["domain.resolution=250"], "channel"),
     "dam-break": ([], "profile"),
     "uniform-flow": ([], "mode"),

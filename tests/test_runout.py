@@ -227,3 +227,57 @@ def test_the_bend_is_written_and_read_back():
     again = scene_from_dict(scene_to_dict(sc), name="ok")
     assert again.terrain == sc.terrain
     assert not sc.has_terrain  # no bed field: the bend is the reference surface's
+
+
+def _bed_line_points(line, s):
+    """(X, Z) of the bed line at arc lengths s by quadrature of (cos zeta, -sin zeta): a
+    computation apart from BedLine.coordinates' closed form."""
+    fine = np.linspace(0.0, float(np.max(s)), 200001)
+    z = line.inclination(fine)
+    ds = np.diff(fine)
+    X = np.concatenate([[0.0], np.cumsum(0.5 * (np.cos(z[1:]) + np.cos(z[:-1])) * ds)])
+    Z = np.concatenate([[0.0], np.cumsum(-0.5 * (np.sin(z[1:]) + np.sin(z[:-1])) * ds)])
+    return np.interp(s, fine, X), np.interp(s, fine, Z)
+
+
+def test_the_travel_angle_follows_the_bed_line():
+    """A release at the top of a 30 degree chute bending to level ground over 0.4 m and a
+    deposit whose tip lies on the pad: the angle of the line between them, on the bed line's
+    Cartesian coordinates (by quadrature), not on the plane's."""
+    from tiseg.post.analysis.deposit import travel_angle
+
+    line = er.BedLine(math.radians(30.0), 0.0, 0.5, 0.4)
+    x = (np.arange(120) + 0.5) * 0.01
+    y = np.array([0.005, 0.015])
+    start = np.zeros((2, 120))
+    start[:, 10:20] = 0.003  # the release: its top at x = 0.105 m
+    dep = np.zeros((2, 120))
+    dep[:, 95:101] = 0.002  # the deposit: its tip at x = 1.005 m, on the pad
+    angle, drop, reach = travel_angle(start, dep, x, y, None, math.radians(30.0), 1e-4, line)
+    (X0, X1), (Z0, Z1) = _bed_line_points(line, np.array([0.105, 1.005]))
+    assert drop == pytest.approx(Z0 - Z1, abs=1e-8)
+    assert reach == pytest.approx(X1 - X0, abs=1e-8)
+    assert angle == pytest.approx(math.degrees(math.atan2(Z0 - Z1, X1 - X0)), abs=1e-6)
+    plane = travel_angle(start, dep, x, y, None, math.radians(30.0), 1e-4)
+    assert plane[0] == pytest.approx(30.0) and angle < 25.0  # the pad flattens the line
+
+
+def test_the_runout_scene_leaves_a_deposit_in_the_bend(ti_cpu, tmp_path):
+    """The built-in scene on a coarse grid: the fingering flow settles with its deposit in
+    the bend (past 0.9 m, short of the pad's end), the whole released volume in it but the
+    film left on the chute, and a travel angle below the chute's 27 degrees and above the
+    extended law's least friction angle (tan 20.9 degrees for the small grains)."""
+    from tests.solver_helpers import exit_code
+    from tiseg.post.analysis.fingers import analyse_run
+
+    out = tmp_path / "runout"
+    args = ["run", "runout", "--out", str(out), "--no-progress"]
+    for k in ("domain.resolution=50", "domain.Ly=0.2", "time.t_end=20", "output.interval=2"):
+        args += ["--set", k]
+    assert exit_code(args) == 0
+    d = analyse_run(out, settle_fraction=1e-2)["deposit"]
+    assert d["settled"] and d["basis"] == "settled"
+    assert 0.9 < d["run_out"] < 1.2
+    released = 0.2 * 0.002 * 0.208 * 3.0  # Ly h0 u0 t_stop, the inflow's volume (about)
+    assert 0.7 * released < d["volume"] < 1.05 * released
+    assert 21.0 < d["travel_angle_deg"] < 27.0
