@@ -398,3 +398,57 @@ def test_the_builtin_gate_probability_sweep_on_dask(tmp_path):
     assert res.count("reused") == 6
     with xr.open_dataset(out / "probability.nc") as ds:
         xr.testing.assert_identical(ds.drop_attrs(), first.drop_attrs())
+
+
+def _docs_script(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, ROOT / "docs" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_the_docs_sweep_over_terrain_draws_its_pictures(members_here, tmp_path):
+    """docs/probability.md "Over terrain", tiny: the page's scene and sweep files (as
+    docs/relief_pictures.py writes them) at 50 cells/m to 0.2 s with two friction values, run
+    here; probability.nc holds the members' bed and walls, and the script draws the page's two
+    pictures from the sweep folder, over the relief (and without it where the beds differ)."""
+    import tomllib
+
+    import xarray as xr
+
+    from tiseg.apps.sweep.probability import probability_dataset
+    from tiseg.post.render.probability import plot_probability
+
+    pics = _docs_script("relief_pictures")
+    assert set(pics.page_files()) == {"bump-hollow.toml", pics.SWEEP}
+    path = pics.write_files(tmp_path)
+    data = tomllib.loads(path.read_text())
+    data["set"] = {"domain.resolution": 50, "time.t_end": 0.2, "output.interval": 0.2}
+    data["grid"] = {"effects.coulomb_mu": [0.46, 0.5]}
+    sw = sweep_from_dict(data, source=str(path), base_dir=tmp_path)
+    out = tmp_path / "sweep"
+    assert run_sweep(sw, out, echo=None).count("done") == 2
+    b, solid = sw.runs[0].scene.bed_arrays()
+    assert solid.any() and np.abs(b).max() > 0.002
+    with xr.open_dataset(out / "probability.nc") as ds:
+        np.testing.assert_array_equal(ds["b"].values, b.T)
+        np.testing.assert_array_equal(ds["solid"].values, solid.T)
+        assert ds["b"].attrs["units"] == "m" and ds["solid"].dtype == np.int8
+        with_relief = plot_probability(ds, rows="probability")
+        flat = plot_probability(ds.drop_vars(["b", "solid"]), rows="probability")
+    img = [ax.get_images()[0].get_array() for ax in with_relief.axes if ax.get_images()]
+    assert len(img) == 3 and img[0].shape == (*b.T.shape, 3)  # RGB, the relief blended in
+    assert all(ax.get_images()[0].get_array().ndim == 2 for ax in flat.axes if ax.get_images())
+    paths = pics.draw(out, tmp_path / "images", member=sw.runs[1].name)
+    assert [p.name for p in paths] == list(pics.PICTURES)
+    assert all(p.read_bytes()[:4] == b"\x89PNG" and p.stat().st_size < pics.LIMIT for p in paths)
+    with pytest.raises(InputError, match="choose some of probability, speed"):
+        plot_probability(out, rows=["p"])
+
+    # members on different beds: no bed in the file, a line saying so
+    records = {r.name: {"status": "reused"} for r in sw.runs}
+    with netCDF4.Dataset(out / sw.runs[1].name / "fields.nc", "a") as ds:
+        ds["b"][0, 0] = 1e-3
+    assert "b" not in probability_dataset(sw, records, out)

@@ -447,3 +447,56 @@ def test_render_run_reads_the_bed_from_fields_nc(ti_cpu, tmp_path):
         snap = _snapshot(ds, 0)
         np.testing.assert_array_equal(snap["b"], sc.bed_arrays()[0].T)
         assert snap["solid"].astype(bool).sum() == sc.bed_arrays()[1].sum()
+
+
+def test_peak_and_probability_maps_are_drawn_over_the_relief(ti_cpu, tmp_path, capsys):
+    """The maps of the peak fields and of a sweep's probabilities (tiseg.post.render.maps):
+    a map's colours are shaded where the bed slopes, unchanged where it is flat, the walls in
+    their colour; `tiseg render RUN --peaks` draws them from fields.nc."""
+    import matplotlib.colors as mcolors
+
+    from tiseg.apps.cli import main
+    from tiseg.output.netcdf import read_fields
+    from tiseg.post.render import colours as C
+    from tiseg.post.render.maps import bed_of_dataset, relief_picture
+    from tiseg.post.render.peak_maps import plot_peak_fields
+    from tiseg.post.render.relief import SOLID_RGB
+    from tiseg.run.simulation import Simulation
+
+    sc = scene(
+        {"shapes": SHAPES},
+        {"kind": "lake", "level": 0.0015},
+        output={"interval": 0.005, "peak_fields": True},
+    )
+    b, solid = sc.bed_arrays()
+    values = np.full(b.T.shape, 0.5)
+    values[:2] = np.nan  # cells without a value: the grey, shaded too
+    cmap = C.matplotlib_cmap("h").with_extremes(bad=C.EMPTY_MAP_RGB)
+    norm = mcolors.Normalize(0.0, 1.0)
+    plain = relief_picture(values, cmap, norm, (np.zeros_like(b.T), None), sc.dx, sc.dy, 0.35)
+    shaded = relief_picture(values, cmap, norm, (b.T, solid.T), sc.dx, sc.dy, 0.35)
+    assert plain.shape == shaded.shape == (sc.domain.ny, sc.domain.nx, 3)
+    diff = np.any(shaded != plain, axis=2)[::-1].T  # per cell, (nx, ny)
+    slope = np.hypot(*np.gradient(b))
+    assert diff[(slope > 1e-5) & ~solid].mean() > 0.5 and not diff[(slope < 1e-9) & ~solid].any()
+    assert (shaded[::-1].transpose(1, 0, 2)[solid] == C.to_uint8(SOLID_RGB)).all()
+    # without shading only the walls differ
+    walls_only = relief_picture(values, cmap, norm, (b.T, solid.T), sc.dx, sc.dy, 0.0)
+    assert np.array_equal(np.any(walls_only != plain, axis=2)[::-1].T, solid)
+
+    Simulation.from_scene(sc).run(out_dir=tmp_path / "run", progress=False)
+    assert main(["render", str(tmp_path / "run"), "--peaks"]) == 0
+    assert f"wrote {tmp_path / 'run' / 'peaks.png'}" in capsys.readouterr().out
+    assert (tmp_path / "run" / "peaks.png").read_bytes()[:4] == b"\x89PNG"
+    assert not list((tmp_path / "run").glob("*.mp4"))  # --peaks alone writes no movie
+    with read_fields(tmp_path / "run" / "fields.nc") as ds:
+        bed = bed_of_dataset(ds)
+        np.testing.assert_array_equal(bed[0], b.T)
+        np.testing.assert_array_equal(bed[1], solid.T)
+        fig = plot_peak_fields(ds, fields=["h_max", "arrival_time"])
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles == ["h_max", "arrival_time"]
+    labels = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel() not in ("", "y [m]")]
+    assert labels == ["peak thickness h_max [mm]", "arrival time [s]"]  # the colour bars
+    with pytest.raises(InputError, match="this run's peak fields are h_max, speed_max"):
+        plot_peak_fields(tmp_path / "run", fields=["h"])

@@ -68,6 +68,115 @@ def test_no_vulkan_one_line_exit_2(monkeypatch, capsys):
     assert err.count("\n") == 1 and "Vulkan" in err and "--movie" in err
 
 
+# a release upstream of a gaussian bump and a post (solid cells), on the empty chute at t = 0
+RELIEF_SCENE = {
+    "domain": {"Lx": 0.3, "Ly": 0.15, "resolution": 200},
+    "boundary": {"x_lo": "wall", "x_hi": "outflow", "y_lo": "wall", "y_hi": "wall"},
+    "initial": {"kind": "release", "x0": 0.02, "x1": 0.08, "y0": 0.04, "y1": 0.11, "h": 0.003},
+    "time": {"t_end": 0.05},
+    "output": {"times": []},
+}
+BUMP = {"kind": "gaussian", "x": 0.18, "y": 0.075, "radius": 0.02, "height": 0.004}
+POST = {"kind": "cylinder", "x": 0.25, "y": 0.035, "radius": 0.012}
+
+
+def relief_scene(shapes):
+    from tiseg.setup.reading import scene_from_dict
+
+    terrain = {"terrain": {"shapes": shapes}} if shapes else {}
+    return scene_from_dict({**RELIEF_SCENE, **terrain}, name="bump")
+
+
+def test_frames_shade_the_relief_under_the_colours(ti_cpu):
+    """The viewer's map (the frame kernel of FrameRenderer, painted straight from the state;
+    no window needed) over a gaussian bump: changed where the bump's slope faces towards or
+    away from the light, unchanged where the bed is flat, the post's cells in the walls'
+    colour; the same picture as the off-screen renderer draws from fields.nc. A flat scene's
+    renderer holds no bed at all."""
+    from tiseg.post.render import FrameRenderer, render_fields
+    from tiseg.post.render import colours as C
+    from tiseg.post.render.relief import SOLID_RGB
+    from tiseg.run.simulation import Simulation
+
+    maps = {}
+    for name, shapes in (("flat", []), ("bump", [BUMP, POST])):
+        sim = Simulation(relief_scene(shapes))
+        r = FrameRenderer(sim, field="phi", scale=2)
+        assert r.painter.has_bed == bool(shapes) and hasattr(r.painter, "bed") == bool(shapes)
+        maps[name] = r.to_numpy(colourbar=False)
+        r.shade = 0.0  # the viewer's "relief shading" box off: the walls stay
+        maps[name, "plain"] = r.to_numpy(colourbar=False)
+        r.shade = 0.35
+        if shapes:
+            b, solid = sim.scene.bed_arrays()  # (nx, ny)
+            ref = render_fields(
+                {**sim.fields(), "b": b.T, "solid": solid.T},
+                sim.scene.numerics.h_min,
+                scale=2,
+                dx=sim.scene.dx,
+                dy=sim.scene.dy,
+            )
+            assert np.abs(r.to_numpy(colourbar=False).astype(int) - ref.astype(int)).max() <= 1
+    a, c = maps["flat"], maps["bump"]
+    assert a.shape == c.shape
+    per_cell = lambda img: img[::-1].transpose(1, 0, 2)[::2, ::2]  # noqa: E731  (nx, ny, 3)
+    diff = np.any(per_cell(c) != per_cell(a), axis=2)
+    # the bed's slope towards the light (the upper left of the picture), per cell
+    sc = relief_scene([BUMP])
+    gx, gy = np.gradient(sc.bed_arrays()[0], sc.dx, sc.dy)
+    towards_light = (-gx + gy) / math.sqrt(2.0)
+    x, y = sc.domain.cell_centres()
+
+    def distance(shape):  # of each cell's centre from a shape's, (nx, ny)
+        return np.hypot(*np.meshgrid(x - shape["x"], y - shape["y"], indexing="ij"))
+
+    steep = np.abs(towards_light) > 0.02
+    assert steep.sum() > 20 and diff[steep].all()
+    flat = (distance(BUMP) > 5 * BUMP["radius"]) & (distance(POST) > 2 * POST["radius"])
+    assert flat.sum() > 0.3 * flat.size and not diff[flat].any()
+    walls = relief_scene([POST]).bed_arrays()[1]
+    assert walls.sum() >= 9
+    assert (per_cell(c)[walls] == C.to_uint8(SOLID_RGB)).all()
+    assert not (per_cell(a)[walls] == C.to_uint8(SOLID_RGB)).all(axis=-1).any()
+    # without shading only the walls differ from the flat picture
+    plain = [per_cell(maps[name, "plain"]) for name in ("flat", "bump")]
+    assert np.array_equal(np.any(plain[0] != plain[1], axis=2), walls)
+
+
+@needs_vulkan
+def test_the_window_shows_the_relief(ti_cpu, tmp_path):
+    """The live window draws the map of the test above: relief and walls as the off-screen
+    renderer draws them, and the "relief shading" setting turns the hill-shading off."""
+    from tiseg.post.render import render_fields
+    from tiseg.apps.viewer.app import Viewer
+
+    v = Viewer(relief_scene([BUMP, POST]), show_window=False, save_dir=tmp_path)
+    try:
+        v.paused = True
+        sim = v.sim
+        b, solid = sim.scene.bed_arrays()
+        shown = {}
+        for shade in (0.35, 0.0):
+            v.renderer.shade = shade
+            v.run_frames(1)
+            got = v.capture_map().astype(int)
+            ref = render_fields(
+                {**sim.fields(), "b": b.T, "solid": solid.T},
+                sim.scene.numerics.h_min,
+                shade=shade,
+                scale=v.renderer.scale,
+                dx=sim.scene.dx,
+                dy=sim.scene.dy,
+            )
+            assert got.shape == ref.shape
+            # GGUI quantises floats itself: allow a few levels
+            assert (np.abs(got - ref).max(axis=2) <= 3).mean() > 0.99, shade
+            shown[shade] = got
+        assert np.abs(shown[0.35] - shown[0.0]).max() > 20  # the bump's slopes
+    finally:
+        v.close()
+
+
 @needs_vulkan
 def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
     import imageio.v2 as iio2

@@ -217,6 +217,9 @@ for _spec in (
         },
         kind="peak",
         needs=("h",),
+        label="peak thickness h_max",
+        factor=1e3,
+        unit="mm",
     ),
     FieldSpec(
         "speed_max",
@@ -229,6 +232,8 @@ for _spec in (
         },
         kind="peak",
         needs=("u",),
+        label="peak speed",
+        unit="m/s",
     ),
     FieldSpec(
         "arrival_time",
@@ -239,6 +244,8 @@ for _spec in (
         },
         kind="peak",
         needs=("h",),
+        label="arrival time",
+        unit="s",
     ),
     FieldSpec(
         "deposit_h",
@@ -250,6 +257,9 @@ for _spec in (
         },
         kind="peak",
         needs=("h",),
+        label="deposit thickness",
+        factor=1e3,
+        unit="mm",
     ),
     FieldSpec(
         "deposit_phi",
@@ -260,6 +270,8 @@ for _spec in (
         },
         kind="peak",
         needs=("phi",),
+        label="deposit φ",
+        colours="phi",
     ),
 ):
     register_field(_spec)

@@ -65,6 +65,13 @@ def register(sub) -> None:
         "deposit_h, deposit_phi) as ESRI ASCII grids RUN_DIR/NAME.asc, in metres, for GIS",
     )
     p.add_argument(
+        "--peaks",
+        action="store_true",
+        help="draw the peak fields and the deposit (h_max, speed_max, arrival_time, "
+        "deposit_h, deposit_phi) as maps, over the shaded relief of a run with terrain, into "
+        "RUN_DIR/peaks.png",
+    )
+    p.add_argument(
         "--gauges",
         action="store_true",
         help="draw the run's gauges (gauges.csv of [[output.gauges]]) over time into "
@@ -114,7 +121,7 @@ def run(args) -> int:
         vrange = (args.vmin, args.vmax)
     movie = args.movie
     chosen = (args.movie, args.gif, args.frames, args.panels)
-    if all(c is None for c in chosen) and not (args.raster or args.gauges):
+    if all(c is None for c in chosen) and not (args.raster or args.gauges or args.peaks):
         movie = str(Path(args.run_dir) / f"{field}.mp4")  # a sensible default
     for target in (movie, args.gif, args.frames, args.panels):  # before anything is written
         if target is not None:
@@ -153,6 +160,15 @@ def run(args) -> int:
             from ...post.render.gauge_plot import plot_gauges
 
             summary["outputs"] = list(summary["outputs"]) + [str(plot_gauges(args.run_dir))]
+        if args.peaks:
+            from ...post.render.movie import _fields_path
+            from ...post.render.peak_maps import plot_peak_fields
+
+            target = _fields_path(args.run_dir).parent / "peaks.png"
+            plot_peak_fields(
+                args.run_dir, target, shade=not args.no_shade, scale_bar=not args.no_annotate
+            )
+            summary["outputs"] = list(summary["outputs"]) + [str(target)]
         if args.raster:
             from ...post.render.peak_grids import export_peak_grids
 
@@ -186,6 +202,7 @@ def _render_probability(args, source: Path) -> int:
             ("--max-frames", args.max_frames),
             ("--raster", args.raster or None),
             ("--gauges", args.gauges or None),
+            ("--peaks", args.peaks or None),
             ("--vmin", args.vmin),
             ("--vmax", args.vmax),
         )
@@ -199,7 +216,7 @@ def _render_probability(args, source: Path) -> int:
     target = Path(args.panels) if args.panels else source.parent / "probability.png"
     refuse_link(target)
     with reading(source):  # a damaged data block: one line, not a traceback
-        plot_probability(source, target, scale_bar=not args.no_annotate)
+        plot_probability(source, target, scale_bar=not args.no_annotate, shade=not args.no_shade)
     if args.json:
         print_json({"probability": str(source), "outputs": [str(target)]})
     else:

@@ -26,7 +26,10 @@ Over these N members, per cell:
   members where the flow came, it came after about 0.2 s.
 
 Quantiles are numpy's default, linear interpolation between the order statistics (Hyndman and
-Fan's definition 7). The members counted are listed in ``run(member)``.
+Fan's definition 7). The members counted are listed in ``run(member)``. Members that ran on
+terrain lend the file their bed ``b(y, x)`` and ``solid(y, x)`` (the static fields of their
+fields.nc), so that the maps are drawn over the relief (`tiseg.post.render.probability`); only
+when every member has the same bed, else (a sweep over the terrain) none, with a log line.
 
 The members must share one grid, which `check_probability` checks before any run (a sweep over
 ``domain.resolution`` cannot be stacked per cell), and keep their peak fields
@@ -51,11 +54,14 @@ import numpy as np
 
 from ..._version import __version__
 from ...output.atomic import replacing
+from ...output.fields import OUTPUT_FIELDS
 
 PROBABILITY_KEYS = ("h_thresholds", "speed_thresholds")
 QUANTILES = (0.05, 0.5, 0.95)
 # the peak fields of a member's fields.nc that the maps are drawn from (tiseg.run.peaks)
 MEMBER_FIELDS = ("h_max", "speed_max", "arrival_time")
+# the terrain's static fields of a member's fields.nc, carried over when the members share them
+BED_FIELDS = ("b", "solid")
 # the keys that decide a member's grid: members differing in any cannot be stacked per cell
 GRID_KEYS = ("Lx", "Ly", "nx", "ny")
 
@@ -149,10 +155,11 @@ def check_probability(runs, fail: Callable[[str], None]) -> None:
 # =================================================================================================
 def read_members(sweep, records: Mapping[str, dict], out: Path):
     """The peak fields of the finished members: (names, {field: array (N, ny, nx)}, (x, x
-    attributes), (y, y attributes), names left out), or None when no member has them or their
-    grids differ (a line is logged). Each run of the sweep is read at most once, and a member
-    counts only when all of its fields were read: one whose file lacks a field or cannot be
-    read is left out whole (a logged line names it)."""
+    attributes), (y, y attributes), names left out, bed), or None when no member has them or
+    their grids differ (a line is logged). Each run of the sweep is read at most once, and a
+    member counts only when all of its fields were read: one whose file lacks a field or
+    cannot be read is left out whole (a logged line names it). ``bed``: {"b": (ny, nx),
+    "solid": (ny, nx)} of the members' terrain when all of them have the same, else None."""
     import netCDF4
 
     from ...output.netcdf import COORD_ATTRS
@@ -160,6 +167,7 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
     names: list[str] = []
     left_out: list[str] = []  # finished members whose peak fields could not all be read
     stacks: dict[str, list] = {k: [] for k in MEMBER_FIELDS}
+    beds: list[dict] = []  # each member's static terrain fields ({} on a flat plane)
     grid = None
     for run in sweep.runs:
         rec = records.get(run.name)
@@ -205,6 +213,11 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
                     v = ds[k]
                     v.set_auto_mask(True)
                     fields[k] = np.ma.filled(np.ma.asarray(v[:], dtype=float), np.nan)
+                bed = {
+                    k: np.asarray(ds[k][:])
+                    for k in BED_FIELDS
+                    if k in ds.variables and ds[k].dimensions == ("y", "x")
+                }
         except (OSError, RuntimeError, KeyError, IndexError, ValueError) as exc:
             log.warning(
                 "probability.nc: member %s is left out: cannot read the peak fields of %s: %s",
@@ -216,11 +229,33 @@ def read_members(sweep, records: Mapping[str, dict], out: Path):
             continue
         for k in MEMBER_FIELDS:
             stacks[k].append(fields[k])
+        beds.append(bed)
         names.append(run.name)
     if not names:
         log.warning("no probability.nc: no finished member has peak fields")
         return None
-    return names, {k: np.stack(v) for k, v in stacks.items()}, grid[0], grid[1], left_out
+    stacked = {k: np.stack(v) for k, v in stacks.items()}
+    return names, stacked, grid[0], grid[1], left_out, _common_bed(beds, names)
+
+
+def _common_bed(beds: list[dict], names: list[str]) -> dict | None:
+    """The members' terrain fields when every member has the same (None on a flat plane);
+    None with a log line when they differ (a sweep over the terrain has no one relief)."""
+
+    def same(a: dict, b: dict) -> bool:
+        return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+    first = beds[0]
+    other = next((n for n, bed in zip(names[1:], beds[1:]) if not same(bed, first)), None)
+    if other is not None:
+        log.warning(
+            "probability.nc holds no bed: the terrains of members %s and %s differ, so the "
+            "maps are drawn without relief",
+            names[0],
+            other,
+        )
+        return None
+    return first if "b" in first else None
 
 
 def probability_maps(h_max, speed_max, arrival_time, probability: Probability) -> dict:
@@ -311,7 +346,7 @@ def probability_dataset(sweep, records: Mapping[str, dict], out: Path):
     got = read_members(sweep, records, out)
     if got is None:
         return None
-    names, fields, (x, xa), (y, ya), left_out = got
+    names, fields, (x, xa), (y, ya), left_out, bed = got
     maps = probability_maps(fields["h_max"], fields["speed_max"], fields["arrival_time"], prob)
     coords = {
         "x": ("x", x, xa),
@@ -335,6 +370,9 @@ def probability_dataset(sweep, records: Mapping[str, dict], out: Path):
             {"long_name": "threshold of the peak speed speed_max", "units": "m s-1"},
         )
     data = {k: (DIMS.get(k, ("y", "x")), v, ATTRS[k]) for k, v in maps.items()}
+    for k, v in (bed or {}).items():  # the members' terrain: the maps are drawn over it
+        spec = OUTPUT_FIELDS[k]
+        data[k] = (("y", "x"), v.astype(spec.dtype or "f8"), dict(spec.attrs))
     data["run"] = (
         "member",
         np.array(names, dtype=object),

@@ -2,7 +2,9 @@
 
 The picture is painted by the same frame kernel as every off-screen frame
 (`tiseg.post.render.FrameRenderer`, straight from the Taichi state) into the window's image
-field, which GGUI shows with ``canvas.set_image``. Below the picture, three control panels:
+field, which GGUI shows with ``canvas.set_image``; a scene with terrain has its bed
+hill-shaded under the colours and its solid cells drawn as walls there, as in every picture
+(`tiseg.post.render.relief`). Below the picture, three control panels:
 
 * Run: pause/resume (space), single step (s), reset (r), screenshot (PNG), start/stop recording
   (mp4); simulated time, steps per second, real-time factor and frames per second.

@@ -25,6 +25,12 @@ gives tanh(1)). Flat flow keeps f = 1 exactly, so shading changes brightness onl
 the saturating tanh keeps the steep front (dh/dx ~ 1) from turning black. f < 1 darkens (c f),
 f > 1 brightens towards white (c + (1 - c)(f - 1)). The empty chute is never shaded.
 
+A scene with terrain has its bed shaded the same way under the colours, flow and empty chute
+alike, and its solid cells drawn as walls (`tiseg.post.render.relief`): `render_fields` blends
+the relief into its finished picture, `FrameRenderer` uploads the relief's factors once into
+the kernel (`_Painter.set_bed`), which applies them per cell. A flat scene allocates nothing
+for it and compiles the kernel of before.
+
 Captions are burned in with `annotate` (time stamp and scale bar) and `add_colourbar`,
 using glyphs rasterised once by matplotlib's FreeType wrapper (no figure, sub-millisecond).
 """
@@ -39,7 +45,7 @@ import taichi as ti
 from ... import backend
 from ...solver import field_tree
 from . import colours as C
-from .relief import bed_of, with_relief
+from .relief import SOLID_RGB, bed_cells, bed_of, with_relief
 from .lengths import format_length, nice_length  # noqa: F401  (also used from here)
 from .raster import (  # noqa: F401  (image_size and the constants are also used from here)
     DEFAULT_RELIEF,
@@ -145,11 +151,14 @@ class _Painter:
     """Colour kernels over one source of nx x ny cells.
 
     Run-time numbers (field, range, h_min, shading, cell size) live in ``par``; the colour table
-    in ``lut``. Each distinct image field passed to `paint` compiles once (template)."""
+    in ``lut``. Each distinct image field passed to `paint` compiles once (template).
+    ``has_bed``: the source has terrain, whose relief factor and walls per cell `set_bed`
+    uploads into ``bed`` (allocated only then; without it the kernel has no bed code)."""
 
-    def __init__(self, source):
+    def __init__(self, source, has_bed: bool = False):
         self.src = source
         self.nx, self.ny = source.nx, source.ny
+        self.has_bed = bool(has_bed)
         # parameters in the simulation's float type, so h >= h_min decides exactly as the solver
         self.par = ti.field(float, shape=P_COUNT)
         field_tree.track(self)
@@ -157,6 +166,8 @@ class _Painter:
         self.lut = ti.Vector.field(3, ti.f32, shape=C.LUT_SIZE)
         self.lut.from_numpy(np.asarray(C.viridis_table(C.LUT_SIZE), dtype=np.float32))
         self.red = ti.field(ti.f32, shape=2)
+        if self.has_bed:  # (f, wall) per cell: relief factor, 1 for a solid cell
+            self.bed = ti.Vector.field(2, ti.f32, shape=(self.nx, self.ny))
         self._images: dict[tuple[int, int], object] = {}
         self.generation = backend.state().generation
         self._par = None
@@ -191,6 +202,12 @@ class _Painter:
         if self._par is None or not np.array_equal(p, self._par):  # upload only changes
             self.par.from_numpy(p)
             self._par = p
+
+    def set_bed(self, f: np.ndarray, wall: np.ndarray) -> None:
+        """Upload the relief factor ``f`` and the walls ``wall`` of each cell, (ny, nx) as
+        `tiseg.post.render.relief.bed_cells` gives them."""
+        a = np.stack([np.asarray(f, np.float32), np.asarray(wall, np.float32)], axis=-1)
+        self.bed.from_numpy(np.ascontiguousarray(a.transpose(1, 0, 2)))
 
     # --------------------------------------------------------------------- device functions
     @ti.func
@@ -233,6 +250,16 @@ class _Painter:
         return 1.0 - self.par[P_SHADE] * ti.tanh(ti.cast(self.par[P_RELIEF] * d, ti.f32))
 
     @ti.func
+    def _lit(self, c, f):
+        """The colour c under the shading factor f: c f below 1, towards white above."""
+        out = c
+        if f < 1.0:
+            out = c * f
+        else:
+            out = c + (1.0 - c) * ti.min(f - 1.0, 1.0)
+        return out
+
+    @ti.func
     def colour(self, i, j):
         """RGB (f32) of cell (i, j) under the current parameters."""
         s = self.src.sample(i, j)
@@ -255,11 +282,12 @@ class _Painter:
                 t = (self._value(s, mode) - lo) / ti.max(hi - lo, 1e-30)
                 c = ti.cast(self._lut(t), float)
             if self.par[P_SHADE] > 0.0:
-                f = self._shade_factor(i, j)
-                if f < 1.0:
-                    c = c * f
-                else:
-                    c = c + (1.0 - c) * ti.min(f - 1.0, 1.0)
+                c = self._lit(c, self._shade_factor(i, j))
+        if ti.static(self.has_bed):  # the terrain under the colours, its walls over them
+            g = self.bed[i, j]
+            c = self._lit(c, ti.cast(g[0], float))
+            if g[1] > 0.5:
+                c = ti.Vector([SOLID_RGB[0], SOLID_RGB[1], SOLID_RGB[2]], float)
         return c
 
     # --------------------------------------------------------------------- kernels
@@ -438,6 +466,8 @@ class FrameRenderer:
     None starts from a range suited to the scene's reference flow and widens it whenever the data
     leave it (colours stay comparable across a movie); "auto" fits every frame to its data; a
     tuple fixes it. ``phi_const``: the concentration drawn when the scene has no segregation.
+    A scene with terrain has its relief shaded under the colours and its solid cells drawn as
+    walls, as `render_fields` draws them from fields.nc (`tiseg.post.render.relief`).
     """
 
     def __init__(
@@ -453,7 +483,13 @@ class FrameRenderer:
         self.sim = sim
         sc = sim.scene
         self.source = _StateSource(sim.op)
-        self.painter = _Painter(self.source)
+        # the terrain's bed and walls (ny, nx), static: uploaded when the shading changes
+        self._bed = None
+        if sc.has_terrain:
+            b, solid = sc.bed_arrays()
+            self._bed = (b.T, solid.T)
+        self._bed_shade = None  # the strength the uploaded relief factors were made with
+        self.painter = _Painter(self.source, has_bed=self._bed is not None)
         self.nx, self.ny = self.painter.nx, self.painter.ny
         self.h_min = float(sc.numerics.h_min)
         self.dx, self.dy = float(sc.dx), float(sc.dy)
@@ -503,6 +539,9 @@ class FrameRenderer:
             dy=self.dy,
             phi_const=float(self.sim.scene.flow.phi0),
         )
+        if self._bed is not None and self.shade != self._bed_shade:
+            self.painter.set_bed(*bed_cells(*self._bed, self.dx, self.dy, self.shade))
+            self._bed_shade = self.shade
 
     def _update_range(self) -> None:
         """Refit (auto) or widen (default) the colour range to the current data."""

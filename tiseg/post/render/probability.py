@@ -3,8 +3,10 @@ figure: a panel per threshold of P(h_max > threshold) and of P(speed_max > thres
 probability that the flow arrives, and the mean and quantiles of h_max and of the arrival time.
 
 A 2D sweep gives maps (axes in metres, a scale bar, one colour bar with its units per row, cells
-without a value in the empty-chute grey of the renderer's maps); a 1D sweep (ny = 1) gives
-curves against x, the quantiles as a band around the median.
+without a value in the empty-chute grey of the renderer's maps; `tiseg.post.render.maps`), over
+the members' shaded relief and walls where they ran on terrain (probability.nc then holds their
+bed ``b`` and ``solid``); a 1D sweep (ny = 1) gives curves against x, the quantiles as a band
+around the median.
 """
 
 from __future__ import annotations
@@ -16,13 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError, TisegError
-from . import colours as C
-from .lengths import format_length, nice_length
+from .lengths import format_length
+from .maps import bed_of_dataset, maps_figure
 from .movie import _remove_file, refuse_link
 
 # a variable that only probability.nc holds: how `probability_source` recognises the file
 MARKER_VARIABLE = "p_arrival"
 H_FACTOR, H_UNIT = 1e3, "mm"  # h_max in mm, as the renderer's thickness maps (colours.FIELD_LABELS)
+# the figure's rows, by name: what `plot_probability`'s ``rows`` chooses from
+ROWS = ("probability", "speed", "h_max", "arrival_time")
 
 
 def probability_source(path) -> Path | None:
@@ -57,7 +61,15 @@ def _rows(ds) -> list[dict]:
             v = ds["p_h_max_above"].sel(h_threshold=t).values
             probs.append((f"P(h_max > {format_length(float(t))})", v))
     probs.append(("P(flow arrives)", ds["p_arrival"].values))
-    rows.append({"panels": probs, "range": (0.0, 1.0), "label": "probability [1]", "kind": "p"})
+    rows.append(
+        {
+            "panels": probs,
+            "range": (0.0, 1.0),
+            "label": "probability [1]",
+            "kind": "p",
+            "name": "probability",
+        }
+    )
     if "p_speed_max_above" in ds:
         speeds = [
             (
@@ -67,7 +79,13 @@ def _rows(ds) -> list[dict]:
             for t in ds["speed_threshold"].values
         ]
         rows.append(
-            {"panels": speeds, "range": (0.0, 1.0), "label": "probability [1]", "kind": "p"}
+            {
+                "panels": speeds,
+                "range": (0.0, 1.0),
+                "label": "probability [1]",
+                "kind": "p",
+                "name": "speed",
+            }
         )
     for name, label, factor, unit in (
         ("h_max", "h_max", H_FACTOR, H_UNIT),
@@ -94,6 +112,7 @@ def _rows(ds) -> list[dict]:
                 "range": (lo, hi),
                 "label": f"{label} [{unit}]",
                 "kind": name,
+                "name": name,
                 "quantiles": [float(q) for q in ds["quantile_level"].values],
             }
         )
@@ -107,12 +126,24 @@ def plot_probability(
     scale_bar: bool = True,
     columns: int | None = None,
     dpi: float = 150,
+    rows=None,
+    shade=True,
 ):
     """Draw ``source`` (a probability.nc path, a sweep folder holding one, or an open
     `xarray.Dataset`) and save it to ``path`` (PNG, PDF, SVG, ... by suffix) if given.
     ``columns``: at most this many maps side by side (a row of more continues below, with
     its colour bar), so that a narrow figure, as on a page of the documentation, keeps
-    maps and labels large enough to read. Returns the matplotlib Figure."""
+    maps and labels large enough to read. ``rows``: which rows to draw, some of `ROWS`
+    ("probability": P(h_max > threshold) and P(flow arrives); "speed": P(speed_max >
+    threshold); "h_max" and "arrival_time": their mean and quantiles); default all the file
+    has. ``shade``: True, False or the strength of the hill-shading of the members' bed under
+    the maps, where they ran on terrain (the walls are drawn either way). Returns the
+    matplotlib Figure."""
+    if rows is not None:
+        rows = [rows] if isinstance(rows, str) else list(rows)
+        unknown = [r for r in rows if r not in ROWS]
+        if unknown or not rows:
+            raise InputError(f"rows={rows!r}: choose some of {', '.join(ROWS)}")
     import xarray as xr
 
     opened = False
@@ -130,10 +161,23 @@ def plot_probability(
     try:
         if MARKER_VARIABLE not in ds:
             raise InputError("this dataset holds no probability maps (no p_arrival)")
+        chosen = [r for r in _rows(ds) if rows is None or r["name"] in rows]
+        if not chosen:
+            raise InputError(f"rows={rows!r}: this dataset holds none of them")
         if ds.sizes["y"] == 1:
-            fig = _curves(ds, width)
+            fig = _curves(ds, chosen, width)
         else:
-            fig = _maps(ds, width, scale_bar, columns)
+            fig = maps_figure(
+                chosen,
+                ds["x"].values,
+                ds["y"].values,
+                width=width,
+                scale_bar=scale_bar,
+                columns=columns,
+                bed=bed_of_dataset(ds),
+                shade=shade,
+            )
+            _title(fig, ds)
         if path is not None:
             path = Path(path)
             refuse_link(path)
@@ -157,86 +201,10 @@ def _title(fig, ds) -> None:
     fig.suptitle(f"{name}: {n} members", fontsize=11)
 
 
-def _wrapped(rows: list[dict], columns: int | None) -> list[dict]:
-    """The rows with at most ``columns`` panels each: a longer row goes on below, its pieces
-    sharing its colour range."""
-    if not columns or columns < 1:
-        return rows
-    out = []
-    for row in rows:
-        panels = row["panels"]
-        for i in range(0, len(panels), columns):
-            out.append({**row, "panels": panels[i : i + columns]})
-    return out
-
-
-def _maps(ds, width, scale_bar: bool, columns: int | None = None):
-    from matplotlib.colors import Normalize
-    from matplotlib.figure import Figure
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
-
-    rows = _wrapped(_rows(ds), columns)
-    x, y = ds["x"].values, ds["y"].values
-    dx = float(x[1] - x[0]) if x.size > 1 else 1.0
-    dy = float(y[1] - y[0]) if y.size > 1 else dx
-    Lx, Ly = float(x[-1] + 0.5 * dx), float(y[-1] + 0.5 * dy)
-    ncols = max(len(r["panels"]) for r in rows)
-    width = width or min(4.0 * ncols, 16.0)
-    panel_w = width / ncols
-    panel_h = max(panel_w * 0.85 * Ly / Lx, 0.8) + 0.55
-    fig = Figure(figsize=(width, len(rows) * panel_h + 0.5), layout="constrained")
-    axes = fig.subplots(len(rows), ncols, squeeze=False)
-    bar = nice_length(0.2 * Lx)
-    for r, row in enumerate(rows):
-        cmap = C.matplotlib_cmap("h").with_extremes(bad=C.EMPTY_MAP_RGB)
-        norm = Normalize(*row["range"])
-        im = None
-        for c in range(ncols):
-            ax = axes[r, c]
-            if c >= len(row["panels"]):
-                ax.set_visible(False)
-                continue
-            title, values = row["panels"][c]
-            im = ax.imshow(
-                np.ma.masked_invalid(values),
-                origin="lower",
-                extent=(0.0, Lx, 0.0, Ly),
-                interpolation="nearest",
-                cmap=cmap,
-                norm=norm,
-            )
-            ax.set_title(title, fontsize=9)
-            ax.set_xlabel("x [m]", fontsize=8)
-            if c == 0:
-                ax.set_ylabel("y [m]", fontsize=8)
-            ax.tick_params(labelsize=7)
-            if scale_bar and 0 < bar <= Lx:
-                sizebar = AnchoredSizeBar(
-                    ax.transData,
-                    bar,
-                    format_length(bar),
-                    "lower right",
-                    pad=0.2,
-                    borderpad=0.3,
-                    color="black",
-                    frameon=True,
-                    size_vertical=0.015 * Ly,
-                    fontproperties={"size": 7},
-                )
-                sizebar.patch.set_alpha(0.7)
-                ax.add_artist(sizebar)
-        cb = fig.colorbar(im, ax=list(axes[r, :]), shrink=0.9, pad=0.01)
-        cb.set_label(row["label"], fontsize=8)
-        cb.ax.tick_params(labelsize=7)
-    _title(fig, ds)
-    return fig
-
-
-def _curves(ds, width):
+def _curves(ds, rows, width):
     """1D members: each row one axes, the probabilities as curves, the quantiles as a band."""
     from matplotlib.figure import Figure
 
-    rows = _rows(ds)
     x = ds["x"].values
     width = width or 7.0
     fig = Figure(figsize=(width, 2.0 * len(rows) + 0.5), layout="constrained")

@@ -10,9 +10,16 @@ the picture as the thickness shading of `tiseg.post.render.frame` is::
 f < 1 darkens (c f), f > 1 brightens towards white (c + (1 - c)(f - 1)); S is the pictures'
 shading strength, R_b = BED_RELIEF a vertical exaggeration larger than the thickness's, as a
 bed is gentle (the shallow equations assume |grad b| small). Solid cells (walls) are drawn in
-SOLID_RGB. The blend is applied to the finished 8-bit map (before its colour bar), so both
-painters, the Taichi kernel and its NumPy twin, share it; a run without ``b`` never comes
-here, and its pictures are those of before, byte for byte.
+SOLID_RGB. `bed_cells` gives both per cell, and two kinds of picture use them:
+
+* pictures of NumPy fields (`tiseg.post.render.render_fields`, its NumPy twin, the panels, the
+  probability and peak maps) blend them into the finished 8-bit map (`with_relief`, before its
+  colour bar), so the Taichi kernel and its NumPy twin share one blend;
+* frames straight from a simulation (`tiseg.post.render.FrameRenderer`: the live viewer, its
+  screenshots and recordings, ``tiseg run --movie``) upload them once into the frame kernel,
+  which blends them per cell as it paints (the same formula, to within one 8-bit level).
+
+A run without ``b`` never comes here, and its pictures are those of before, byte for byte.
 """
 
 from __future__ import annotations
@@ -55,19 +62,34 @@ def pixel_cells(nx: int, ny: int, width: int, height: int) -> tuple[np.ndarray, 
     return rows[::-1], cols
 
 
+def bed_cells(b, solid, dx: float, dy: float, strength: float):
+    """Per cell of the bed ``b`` (ny, nx) [m]: (f, wall), the hillshade factor f (float32
+    (ny, nx), exactly 1 everywhere when ``strength`` is 0) and the walls (bool (ny, nx): the
+    ``solid`` cells, bool-like or None)."""
+    b = np.asarray(b, dtype=np.float64)
+    if strength > 0.0:
+        f = hillshade(b, dx, dy, strength).astype(np.float32)
+    else:
+        f = np.ones(b.shape, dtype=np.float32)
+    if solid is None:
+        wall = np.zeros(b.shape, dtype=bool)
+    else:
+        wall = np.nan_to_num(np.asarray(solid, dtype=np.float64)).reshape(b.shape) > 0.5
+    return f, wall
+
+
 def with_relief(img: np.ndarray, b, solid, dx: float, dy: float, strength: float) -> np.ndarray:
     """The map ``img`` (uint8 (H, W, 3), row 0 at the top, no colour bar) with the bed's
     hillshade blended in and the ``solid`` cells (bool-like (ny, nx), or None) drawn as walls;
     ``b`` is (ny, nx) [m]."""
-    b = np.asarray(b, dtype=np.float64)
-    ny, nx = b.shape
+    f, wall = bed_cells(b, solid, dx, dy, strength)
+    ny, nx = f.shape
     rows, cols = pixel_cells(nx, ny, img.shape[1], img.shape[0])
     c = img.astype(np.float32) / 255.0
     if strength > 0.0:
-        f = hillshade(b, dx, dy, strength).astype(np.float32)[rows][:, cols][..., None]
+        f = f[rows][:, cols][..., None]
         c = np.where(f < 1.0, c * f, c + (1.0 - c) * np.minimum(f - 1.0, 1.0))
-    if solid is not None:
-        wall = np.nan_to_num(np.asarray(solid, dtype=np.float64)).reshape(ny, nx) > 0.5
+    if wall.any():
         c = np.where(wall[rows][:, cols][..., None], np.asarray(SOLID_RGB, np.float32), c)
     return C.to_uint8(c)
 
