@@ -142,7 +142,7 @@ def test_numerical_flux_equals_its_twin(ti_cpu, name, phi_flux, d):
 
     @ti.func
     def fn(a, b, dd: ti.template()):
-        F = flux(a, b, dd)
+        F = flux(a, b, dd, op.phys.g0())
         if ti.static(modifies):
             F = mod(F, a, b)
         return F
