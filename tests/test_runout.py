@@ -322,3 +322,17 @@ def test_the_runout_scene_leaves_a_deposit_in_the_bend(ti_cpu, tmp_path):
     released = 0.2 * 0.002 * 0.208 * 3.0  # Ly h0 u0 t_stop, the inflow's volume (about)
     assert 0.7 * released < d["volume"] < 1.05 * released
     assert 21.0 < d["travel_angle_deg"] < 27.0
+
+
+def test_a_release_too_thick_for_the_bend_is_refused():
+    """The bend's h kappa is checked on the initial state as well: a 5 cm block on a bend of
+    radius 0.3 m (h kappa = 0.17) is a one-line error when the simulation is built."""
+    from tiseg.run.simulation import Simulation
+
+    data = _with_runout(length=0.3 * math.radians(30.0))
+    data["boundary"] = {"x_lo": "wall", "x_hi": "outflow"}
+    data["initial"] = {"kind": "release", "x0": 0.1, "x1": 0.3, "h": 0.05}
+    sc = scene_from_dict(data, name="thick")
+    with pytest.raises(InputError) as e:
+        Simulation(sc)
+    assert "make the bend longer" in str(e.value) and "\n" not in str(e.value)

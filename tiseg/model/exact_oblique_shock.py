@@ -48,6 +48,19 @@ def jump_depth_ratio(fn: float) -> float:
     return 0.5 * (math.sqrt(1.0 + 8.0 * fn * fn) - 1.0)
 
 
+def stagnation_depth_ratio(F: float) -> float:
+    """h_s / h_1 at the stagnation point of a blunt obstacle behind a detached (bow) jump in a
+    stream of Froude number F > 1: on the symmetry line the jump is normal (h_2 = R h_1,
+    u_2 = u_1 / R by (1)), and behind it the steady flow slows smoothly to rest along that
+    streamline, so Bernoulli's h + u^2 / (2 g') carries h_2 + u_2^2 / (2 g') to the obstacle:
+    h_s / h_1 = R + F^2 / (2 R^2). Where the along-slope gravity is balanced by a Coulomb
+    friction, the two still cancel on the symmetry line (the flow there is along +x), so the
+    same holds."""
+    _check_froude(F)
+    r = jump_depth_ratio(F)
+    return r + F * F / (2.0 * r * r)
+
+
 def mach_angle(F: float) -> float:
     """asin(1 / F) [rad]: the angle of an infinitesimal standing wave (F > 1)."""
     _check_froude(F)

@@ -276,6 +276,10 @@ def initial_state(scene, lay: Layout) -> np.ndarray:
     if scene.has_terrain:  # solid cells (walls) hold no material, whatever the kind
         _, solid = scene.bed_arrays()
         h = np.where(solid, 0.0, h)
+    if scene.terrain.runout is not None and h.size:  # the bend's h kappa, on this thickness
+        from .bed import check_bend  # (bed imports the sections, which import this module)
+
+        check_bend(scene.terrain.runout, scene.material.zeta, scene.domain.Lx, float(h.max()))
     phi = np.clip(phi, 0.0, 1.0)
     q[lay.H][ix, iy] = h
     q[lay.HU][ix, iy] = h * u

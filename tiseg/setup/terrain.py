@@ -16,7 +16,7 @@ Two sorts of shape:
 Each kind is a frozen dataclass whose fields are its TOML keys (all numbers), checked on
 construction; `SHAPE_KINDS` maps ``kind`` to the class, so user code can add a kind
 (`register_shape`). `shapes_from_tables` reads the ``[[terrain.shapes]]`` tables and
-`bed_on_grid` builds (b, solid). Nothing here is wired into scenes or the solver yet.
+`bed_on_grid` builds (b, solid), which `tiseg.setup.bed` gives the scene and the solver.
 """
 
 from __future__ import annotations
