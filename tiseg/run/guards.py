@@ -107,9 +107,12 @@ class StateGuard:
         self.good_meta: dict | None = None  # t, steps, ... of the copy in self.good
         self.set_params()
 
-    def set_params(self) -> None:
-        """Take the operator's h_min again (after Simulation.set_parameters)."""
+    def set_params(self, h_ref: float | None = None) -> None:
+        """Take the operator's h_min again (after Simulation.set_parameters), and the
+        thickness scale ``h_ref`` [m] of the round-off tolerance on h where given."""
         op = self.op
+        if h_ref is not None:
+            self.h_tol = 16.0 * float(np.finfo(op.np_fp).eps) * h_ref
         self.par.from_numpy(np.array([self.h_tol, self.phi_tol, op.cfg.h_min], dtype=op.np_fp))
 
     # ------------------------------------------------------------------ kernels

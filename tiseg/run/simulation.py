@@ -179,6 +179,7 @@ class Simulation:
         """Back to the initial state of the scene (with the parameters as set) at t = 0."""
         q0 = initial_state(self.scene, self.layout)
         self.op.set(0, q0)
+        self._io_counts = (0, 0)  # (snapshots, diagnostics rows) written
         self.op.reset_budget()
         self.t = 0.0
         self._last_stages = 8
@@ -227,7 +228,7 @@ class Simulation:
         self.scene = scene
         self.cfg = cfg
         self.op.set_params(cfg)
-        self.guard.set_params()  # h_min of the phi rule
+        self.guard.set_params(h_ref=scene.flow.h0)  # h_min of the phi rule, the h tolerance
 
     # ------------------------------------------------------------------ callbacks
     def add_callback(

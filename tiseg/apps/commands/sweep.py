@@ -61,6 +61,17 @@ def register(sub) -> None:
         help="replace (or add) a grid axis, e.g. --grid 'domain.resolution=[250,375]' (repeatable)",
     )
     add_dask_options(p, runs="runs")
+    p.add_argument(
+        "--batch",
+        type=int,
+        default=None,
+        metavar="N",
+        help="run up to N members that share their compiled kernels (grid, effects, "
+        "numerics) in one task, one after another on one simulation: Taichi's start-up and "
+        "the kernels' compilation are paid once per task, and each member's results are "
+        "bitwise those of a run alone; 1 runs each member in its own task (default: enough "
+        "tasks for two per worker, at most 16 members each)",
+    )
     add_overwrite(
         p,
         "write into an --out folder that holds another sweep, replacing its table and "
@@ -135,7 +146,11 @@ def run(args) -> int:
     kept = "its finished runs are kept: run the same command again to go on"
     with sigterm_stops(f"sweep {sweep.name!r}", kept), results_written(out, kept):
         result = run_sweep(
-            sweep, out, progress_interval=args.progress_interval, **dask_options(args)
+            sweep,
+            out,
+            progress_interval=args.progress_interval,
+            batch=args.batch,
+            **dask_options(args),
         )
     if args.json:
         from .common import print_json

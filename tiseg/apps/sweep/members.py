@@ -99,7 +99,35 @@ def check_member_folder(run_dir, scene: Scene, overwrite: bool, hint: str) -> No
     )
 
 
-def execute_run(spec: dict) -> dict:
+def compiled_fingerprint(scene: Scene) -> str:
+    """sha256 of what a scene's kernels are compiled for: the values of the schema's compiled
+    keys (grid, effects, boundaries, numerics, terrain, ...; `tiseg.setup.schema
+    .compiled_keys`) and the precision. Members with the same one can run on one
+    simulation, its parameters set anew for each (`execute_batch`)."""
+    from ...setup.schema import compiled_keys
+    from ...setup.sections import SECTIONS
+
+    data = scene.to_dict()
+    picked = {}
+    for full in (*compiled_keys(SECTIONS), "numerics.precision", "domain.nx", "domain.ny"):
+        section, key = full.split(".")
+        picked[full] = (data.get(section) or {}).get(key)
+    return hashlib.sha256(json.dumps(picked, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def execute_batch(specs: list[dict]) -> list[dict]:
+    """Run sweep members one after another in this process (a Dask task of `tiseg sweep
+    --batch`), each as `execute_run` would, on one simulation while their compiled
+    fingerprints agree: the Taichi start-up and the compilation of the kernels are paid once,
+    and each member after the first only sets its run-time parameters and its initial state
+    (`Simulation.set_parameters`, `Simulation.reset`). Each member's fields, diagnostics and
+    folder are bitwise those of the member run alone (tests/test_sweep_batch.py); one that
+    fails is reported and the others go on. Returns the records, in the order of ``specs``."""
+    cache: dict = {}
+    return [execute_run(spec, cache) for spec in specs]
+
+
+def execute_run(spec: dict, cache: dict | None = None) -> dict:
     """Run one sweep member into ``spec["dir"]`` unless a valid completion marker is there.
 
     ``spec``: ``name``, ``dir``, ``scene_toml`` (the resolved scene), ``fingerprint`` (for the
@@ -107,7 +135,8 @@ def execute_run(spec: dict) -> dict:
     Returns the completion record (also stored as ``done.json``) with ``status`` "done", or the
     stored one with ``status`` "reused", or ``status`` "busy" when another process holds the
     member's folder (its lock is held from the check of the marker to the writing of a new
-    one). Runs in a Dask worker or in the calling process.
+    one). Runs in a Dask worker or in the calling process. ``cache``: the simulation of the
+    previous member of a batch (`execute_batch`), reused when it was compiled for this one.
     """
 
     run_dir = Path(spec["dir"])
@@ -123,10 +152,14 @@ def execute_run(spec: dict) -> dict:
     except InputError:  # another worker (or an orphaned task) runs it now
         return {"name": spec["name"], "status": "busy", "holder": lock.holder()}
     try:
-        return _execute_locked(spec, run_dir, scene)
+        return _execute_locked(spec, run_dir, scene, cache)
     except TisegError as exc:  # a user mistake or a run that failed its guard: no retry, one line
+        if cache is not None:
+            cache.clear()  # the next member starts on a fresh simulation
         return {"name": spec["name"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
     except Exception as exc:
+        if cache is not None:
+            cache.clear()
         # anything else (a full disk, a bug) fails the member the same way: raised, Dask would
         # run it again to the same end and print its traceback blocks between the progress
         # lines; the traceback is kept in the record (sweep.json) for a bug report
@@ -143,7 +176,7 @@ def execute_run(spec: dict) -> dict:
         lock.release()
 
 
-def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
+def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None) -> dict:
     """`execute_run` once the member's folder is locked."""
     from ...run.simulation import Simulation
 
@@ -159,16 +192,33 @@ def _execute_locked(spec: dict, run_dir: Path, scene) -> dict:
     check_fresh_folder(run_dir, bool(spec.get("overwrite")), replace_run=True)
     (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene
     t0 = _time.perf_counter()
-    # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
     threads = spec.get("threads", 0)
     if threads is None:
         threads = _worker_threads()
-    try:
-        backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
-    except (RuntimeError, OSError):  # a transient failure (resources briefly short): once more
-        _time.sleep(1.0)
-        backend.init(spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True)
-    sim = Simulation(scene)
+    key = (spec.get("arch", "cpu"), int(threads), compiled_fingerprint(scene))
+    sim = None
+    if cache is not None and cache.get("key") == key:
+        # the batch's simulation, compiled for this member: its run-time numbers and initial
+        # state anew (the state, the time, the budget, the peaks and the statistics)
+        sim = cache["sim"]
+        sim.set_parameters(scene=scene)
+        sim.reset()
+    else:
+        # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
+        if cache is not None:
+            cache.clear()
+        try:
+            backend.init(
+                spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True
+            )
+        except (RuntimeError, OSError):  # a transient failure (resources briefly short): once more
+            _time.sleep(1.0)
+            backend.init(
+                spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True
+            )
+        sim = Simulation(scene)
+        if cache is not None:
+            cache.update(key=key, sim=sim)
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
     stats = sim.run(
         out_dir=run_dir, progress=False, on_output=report, overwrite=True

@@ -18,6 +18,8 @@ from ...log import stderr_line
 from ...post.analysis.fingers import count_text
 from .members import (
     check_member_folder,
+    compiled_fingerprint,
+    execute_batch,
     execute_run,
     read_marker,
     refresh_metrics,
@@ -170,6 +172,7 @@ def run_sweep(
     progress_interval: float = 30.0,
     overwrite: bool = False,
     report: Callable[[str], None] | None = None,
+    batch: int | None = None,
 ) -> SweepResult:
     """Run every unfinished member of ``sweep`` on Dask and write ``OUT/sweep.csv``.
 
@@ -182,7 +185,11 @@ def run_sweep(
     of one running run. ``overwrite``: write into an ``out`` that holds
     another sweep, and replace files that tiseg did not write in member folders (by default
     both are refused, see `check_sweep_folder`). ``report``: where the closing line of results
-    goes (default ``echo``; the command line: stdout, which ``-q`` keeps).
+    goes (default ``echo``; the command line: stdout, which ``-q`` keeps). ``batch``: members
+    that share their compiled kernels (`compiled_fingerprint`) run up to this many to a Dask
+    task, one after another on one simulation (`execute_batch`: start-up and compilation paid
+    once); 1 runs each alone; None (default) chooses enough tasks to keep every worker busy
+    (`batch_size`).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
     calling script: call this from under ``if __name__ == "__main__":`` in a script.
@@ -190,6 +197,8 @@ def run_sweep(
     out = Path(out)
     say = echo or (lambda _s: None)
     check_dask_options(workers, scheduler, threads_per_task)
+    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
+        raise InputError(f"--batch {batch!r}: give a whole number of members >= 1")
     if not overwrite:
         check_sweep_folder(sweep, out)
     create_output_folder(out)
@@ -234,6 +243,7 @@ def run_sweep(
             say,
             progress_interval,
             overwrite=overwrite,
+            batch=batch,
         )
     result = SweepResult(
         out, table, [records.get(r.name, {"name": r.name, "status": "missing"}) for r in sweep.runs]
@@ -303,13 +313,17 @@ def _run_on_dask(
     say,
     progress_interval,
     overwrite=False,
+    batch=None,
 ) -> None:
     client, cluster, threads, where = open_dask(
         scheduler, workers, threads_per_task, len(pending), say
     )
+    size = batch or batch_size(len(pending), _worker_count(client))
+    tasks = batches(pending, size)
     per = "the worker's" if threads is None else (threads or "all")
+    grouped = f" in {len(tasks)} tasks of up to {size} runs on shared kernels" if size > 1 else ""
     say(
-        f"running {len(pending)} runs on the {where}, {per} Taichi thread"
+        f"running {len(pending)} runs{grouped} on the {where}, {per} Taichi thread"
         f"{'' if threads == 1 else 's'} per run"
     )
 
@@ -323,38 +337,38 @@ def _run_on_dask(
             client.subscribe_topic(PROGRESS_TOPIC, on_progress)
         except Exception:  # older distributed: no events, only completion lines
             pass
-        for run in sorted(pending, key=lambda r: -r.cost):  # longest first: better packing
-            spec = member_spec(run, out, arch, threads, overwrite)
+        for task in tasks:  # longest first: better packing
+            specs = [member_spec(run, out, arch, threads, overwrite) for run in task]
             # retries=1: a transient failure outside execute_run (a worker lost) is tried once
             # more; execute_run returns a run's own error as a failed record (no retry, no
-            # Dask traceback) and retries a failed ti.init itself
+            # Dask traceback) and retries a failed ti.init itself. A batch's members that
+            # finished before such a failure are reused by the retry (their done.json).
             fut = client.submit(
-                execute_run,
-                spec,
-                key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
+                execute_batch if len(task) > 1 else execute_run,
+                specs if len(task) > 1 else specs[0],
+                key=f"tiseg-{task[0].name}-{os.urandom(4).hex()}",
                 pure=False,
-                priority=int(run.cost // 1e6),
+                priority=int(sum(r.cost for r in task) // 1e6),
                 retries=1,
             )
-            futures[fut] = run
+            futures[fut] = task
         done = 0
         for fut in as_completed(list(futures), loop=client.loop):
-            run = futures[fut]
-            done += 1
+            task = futures[fut]
             try:
-                rec = fut.result()
+                recs = fut.result()
+                recs = recs if isinstance(recs, list) else [recs]
             except Exception as exc:  # a failed run is reported, the others go on
                 first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
-                rec = {
-                    "name": run.name,
-                    "status": "failed",
-                    "error": f"{type(exc).__name__}: {first.strip()}",
-                }
-            if rec.get("status") == "failed":
-                say(f"[{done}/{len(futures)}] {run.name}: FAILED ({rec['error']})")
-            else:
-                say(f"[{done}/{len(futures)}] {run.name}: {_summary(rec)}")
-            records[run.name] = rec
+                error = f"{type(exc).__name__}: {first.strip()}"
+                recs = [{"name": run.name, "status": "failed", "error": error} for run in task]
+            for run, rec in zip(task, recs):
+                done += 1
+                if rec.get("status") == "failed":
+                    say(f"[{done}/{len(pending)}] {run.name}: FAILED ({rec['error']})")
+                else:
+                    say(f"[{done}/{len(pending)}] {run.name}: {_summary(rec)}")
+                records[run.name] = rec
             _write_outputs(sweep, out, records)  # a partial table survives an interruption
     except BaseException:
         for fut in futures:
@@ -504,6 +518,38 @@ def _wait_for_a_worker(client, scheduler: str, say) -> None:
             f"{WORKER_TIMEOUT:g} s): start some with `dask worker {scheduler}`, or leave "
             "--scheduler out to run on this machine"
         ) from None
+
+
+# the most members of one batch task by default: a lost worker loses at most this many runs
+# progress (each finished member keeps its done.json), and the shared start-up of a batch
+# this large is already a small part of its wall time
+MAX_AUTO_BATCH = 16
+
+
+def batch_size(n_runs: int, workers: int) -> int:
+    """The default members per task: enough tasks to keep each of ``workers`` busy (about
+    two per worker, so that a long member does not leave the others idle at the end), at
+    most `MAX_AUTO_BATCH`."""
+    per = math.ceil(n_runs / max(2 * workers, 1))
+    return max(1, min(per, MAX_AUTO_BATCH))
+
+
+def batches(runs: list, size: int) -> list[list]:
+    """The runs as tasks of up to ``size`` members sharing a compiled fingerprint, the
+    longest (by cost) first, each task's members longest first."""
+    groups: dict[str, list] = {}
+    for run in sorted(runs, key=lambda r: -r.cost):
+        groups.setdefault(compiled_fingerprint(run.scene), []).append(run)
+    tasks = [g[i : i + size] for g in groups.values() for i in range(0, len(g), size)]
+    return sorted(tasks, key=lambda t: -sum(r.cost for r in t))
+
+
+def _worker_count(client) -> int:
+    """The Dask workers the client sees now (1 if it cannot tell)."""
+    try:
+        return max(1, len(client.scheduler_info().get("workers", {})))
+    except Exception:
+        return 1
 
 
 def member_spec(run: SweepRun, out, arch: str, threads, overwrite: bool = False) -> dict:

@@ -1,0 +1,115 @@
+"""Sweep members in batches (`tiseg sweep --batch`, `tiseg.apps.sweep.members.execute_batch`):
+members that share their compiled kernels run one after another on one simulation, and each
+member's fields, diagnostics and metrics are bitwise those of the member run alone."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.solver_helpers import exit_code
+from tiseg.apps.sweep import load_sweep
+from tiseg.apps.sweep.members import compiled_fingerprint, execute_batch, execute_run
+from tiseg.apps.sweep.runner import batch_size, batches, member_spec
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = ROOT / "tiseg" / "data" / "sweeps" / "tiny.toml"
+# the diagnostics columns that measure the machine, not the run
+WALL_COLUMNS = {"wall_time_cumulative"}
+
+
+def _fields(path: Path) -> dict:
+    import netCDF4
+
+    with netCDF4.Dataset(path) as ds:
+        return {name: np.array(var[:]) for name, var in ds.variables.items()}
+
+
+def _diagnostics(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return [
+            {k: v for k, v in row.items() if k not in WALL_COLUMNS} for row in csv.DictReader(f)
+        ]
+
+
+def _same_run(a: Path, b: Path) -> None:
+    fa, fb = _fields(a / "fields.nc"), _fields(b / "fields.nc")
+    assert fa.keys() == fb.keys()
+    for name in fa:
+        assert np.array_equal(fa[name], fb[name], equal_nan=True), name
+    assert _diagnostics(a / "diagnostics.csv") == _diagnostics(b / "diagnostics.csv")
+    ma = json.loads((a / "fingers.json").read_text())
+    mb = json.loads((b / "fingers.json").read_text())
+    ma.pop("file"), mb.pop("file")
+    assert ma == mb
+
+
+def _specs(sweep, out: Path) -> list[dict]:
+    return [member_spec(run, out, "cpu", 1) for run in sweep.runs]
+
+
+def test_a_batch_gives_each_member_the_bits_of_its_run_alone(ti_cpu, tmp_path):
+    """Four members of the tiny sweep (two viscosities, two inflow seeds), run as one batch on
+    one simulation and each alone on a fresh Taichi runtime: the same fields (every variable
+    of fields.nc, peak fields included), diagnostics and finger metrics, bit for bit."""
+    from tiseg import backend
+
+    sweep = load_sweep(TINY, grid_overrides={"inflow.seed": [1, 2]})
+    assert len(sweep.runs) == 4
+    assert len({compiled_fingerprint(r.scene) for r in sweep.runs}) == 1
+    g0 = backend.state().generation
+    together = execute_batch(_specs(sweep, tmp_path / "batch"))
+    assert backend.state().generation == g0 + 1  # one Taichi start for the four
+    alone = [execute_run(spec) for spec in _specs(sweep, tmp_path / "alone")]
+    assert backend.state().generation == g0 + 5
+    assert [r["status"] for r in together] == ["done"] * 4
+    assert [r["status"] for r in alone] == ["done"] * 4
+    for run in sweep.runs:
+        _same_run(tmp_path / "batch" / run.name, tmp_path / "alone" / run.name)
+    # the members differ: the batch did not hand one member's state to the next
+    f0 = _fields(tmp_path / "batch" / sweep.runs[0].name / "fields.nc")
+    f1 = _fields(tmp_path / "batch" / sweep.runs[1].name / "fields.nc")
+    assert not np.array_equal(f0["h"], f1["h"])
+
+
+def test_a_batch_of_different_kernels_builds_a_simulation_for_each(ti_cpu, tmp_path):
+    """Two grids in one batch: the second member needs other kernels and gets its own
+    simulation; both equal their runs alone, and a batch is reused as a sweep's folders are."""
+    sweep = load_sweep(TINY, grid_overrides={"flow.nu": [0.01], "domain.resolution": [40, 50]})
+    a, b = (compiled_fingerprint(r.scene) for r in sweep.runs)
+    assert a != b
+    together = execute_batch(_specs(sweep, tmp_path / "batch"))
+    alone = [execute_run(spec) for spec in _specs(sweep, tmp_path / "alone")]
+    assert [r["status"] for r in together + alone] == ["done"] * 4
+    for run in sweep.runs:
+        _same_run(tmp_path / "batch" / run.name, tmp_path / "alone" / run.name)
+    again = execute_batch(_specs(sweep, tmp_path / "batch"))
+    assert [r["status"] for r in again] == ["reused"] * 2
+
+
+def test_tasks_group_members_that_share_kernels():
+    """The default batch keeps about two tasks per worker, at most 16 members; tasks never
+    mix compiled fingerprints."""
+    assert batch_size(16, 2) == 4
+    assert batch_size(3, 2) == 1
+    assert batch_size(1000, 1) == 16
+    sweep = load_sweep(
+        TINY, grid_overrides={"domain.resolution": [40, 50], "inflow.seed": [1, 2, 3]}
+    )
+    tasks = batches(sweep.runs, 2)
+    assert sorted(len(t) for t in tasks) == [2] * 6  # 2 grids x (2 nu x 3 seeds) / 2
+    for t in tasks:
+        assert len({compiled_fingerprint(r.scene) for r in t}) == 1
+    assert sorted(r.name for t in tasks for r in t) == sorted(r.name for r in sweep.runs)
+
+
+@pytest.mark.parametrize("value", ["0", "-2"])
+def test_a_batch_below_one_is_refused(tmp_path, capsys, value):
+    code = exit_code(["sweep", str(TINY), "--out", str(tmp_path / "s"), "--batch", value])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--batch" in err and ">= 1" in err
