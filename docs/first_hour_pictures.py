@@ -38,7 +38,7 @@ CALIBRATE = [
     "--set", "numerics.friction_scheme=projected", "--set", "domain.nx=200",
     "--set", "domain.Lx=0.3", "--set", "initial.x0=0.05", "--set", "initial.h_left=0.02",
     "--set", "time.t_end=1.0", "--set", "output.interval=0.05",
-    "--param", "effects.coulomb_mu=0.12:0.25", "--target", "deposit.run_out=0.22275+-0.0015",
+    "--param", "effects.coulomb_mu=0.12:0.25", "--target", "deposit.run_out=0.26325+-0.0015",
     "--budget", "10", "--out", "mu",
 ]  # fmt: skip
 

@@ -13,6 +13,7 @@ import pytest
 
 from tests.solver_helpers import exit_code
 from tiseg.apps.sweep import load_sweep
+from tiseg.apps.sweep import members
 from tiseg.apps.sweep.members import compiled_fingerprint, execute_batch, execute_run
 from tiseg.apps.sweep.runner import batch_size, batches, member_spec
 
@@ -61,6 +62,7 @@ def test_a_batch_gives_each_member_the_bits_of_its_run_alone(ti_cpu, tmp_path):
     sweep = load_sweep(TINY, grid_overrides={"inflow.seed": [1, 2]})
     assert len(sweep.runs) == 4
     assert len({compiled_fingerprint(r.scene) for r in sweep.runs}) == 1
+    members._LAST.clear()  # (a batch of an earlier test in this process is not this one's)
     g0 = backend.state().generation
     together = execute_batch(_specs(sweep, tmp_path / "batch"))
     assert backend.state().generation == g0 + 1  # one Taichi start for the four
@@ -113,3 +115,20 @@ def test_a_batch_below_one_is_refused(tmp_path, capsys, value):
     assert code == 2
     err = capsys.readouterr().err
     assert "--batch" in err and ">= 1" in err
+
+
+def test_a_new_taichi_runtime_is_never_reused_across(ti_cpu, tmp_path):
+    """The simulation kept for the next member is dropped when anything has started a new
+    Taichi runtime since (its fields are gone): the member then builds its own, and equals
+    its run alone."""
+    from tiseg import backend
+
+    sweep = load_sweep(TINY, grid_overrides={"flow.nu": [0.01]})
+    (run,) = sweep.runs
+    first = execute_batch([member_spec(run, tmp_path / "a", "cpu", 1)])
+    backend.init("cpu", "f64", 1, force=True)  # as another test or a user script may
+    g = backend.state().generation
+    again = execute_batch([member_spec(run, tmp_path / "b", "cpu", 1)])
+    assert backend.state().generation == g + 1  # a fresh runtime, not the freed simulation
+    assert first[0]["status"] == again[0]["status"] == "done"
+    _same_run(tmp_path / "a" / run.name, tmp_path / "b" / run.name)

@@ -187,7 +187,7 @@ class Evaluator:
                 spec = member_spec(
                     run, self.out, self.arch, self.threads_per_task or 1, self.overwrite
                 )
-                yield run.name, self.execute(spec)
+                yield run.name, self.execute({**spec, "reuse": True})
             return
         from distributed import as_completed
 
@@ -211,9 +211,11 @@ class Evaluator:
         try:
             for run in runs:
                 spec = member_spec(run, self.out, self.arch, self._threads, self.overwrite)
+                # every point of a calibration has the same kernels: a worker runs its next
+                # point on the simulation of its last (sweep.members.execute_run)
                 fut = self._client.submit(
                     execute_run,
-                    spec,
+                    {**spec, "reuse": True},
                     key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
                     pure=False,
                     retries=1,

@@ -115,6 +115,12 @@ def compiled_fingerprint(scene: Scene) -> str:
     return hashlib.sha256(json.dumps(picked, sort_keys=True, default=str).encode()).hexdigest()
 
 
+# The simulation of the last member this process ran with ``reuse`` (a Dask worker's, or the
+# calling process's): the next such member compiled for the same kernels runs on it
+# (`execute_run`); anything else frees it with a fresh Taichi runtime.
+_LAST: dict = {}
+
+
 def execute_batch(specs: list[dict]) -> list[dict]:
     """Run sweep members one after another in this process (a Dask task of `tiseg sweep
     --batch`), each as `execute_run` would, on one simulation while their compiled
@@ -122,9 +128,10 @@ def execute_batch(specs: list[dict]) -> list[dict]:
     and each member after the first only sets its run-time parameters and its initial state
     (`Simulation.set_parameters`, `Simulation.reset`). Each member's fields, diagnostics and
     folder are bitwise those of the member run alone (tests/test_sweep_batch.py); one that
-    fails is reported and the others go on. Returns the records, in the order of ``specs``."""
-    cache: dict = {}
-    return [execute_run(spec, cache) for spec in specs]
+    fails is reported and the others go on (the next on a fresh simulation). A later batch in
+    the same process starts on the last one's simulation where it can. Returns the records,
+    in the order of ``specs``."""
+    return [execute_run({**spec, "reuse": True}) for spec in specs]
 
 
 def execute_run(spec: dict, cache: dict | None = None) -> dict:
@@ -135,9 +142,12 @@ def execute_run(spec: dict, cache: dict | None = None) -> dict:
     Returns the completion record (also stored as ``done.json``) with ``status`` "done", or the
     stored one with ``status`` "reused", or ``status`` "busy" when another process holds the
     member's folder (its lock is held from the check of the marker to the writing of a new
-    one). Runs in a Dask worker or in the calling process. ``cache``: the simulation of the
-    previous member of a batch (`execute_batch`), reused when it was compiled for this one.
+    one). Runs in a Dask worker or in the calling process. With ``spec["reuse"]`` the
+    simulation of the process's previous such member is reused when it was compiled for this
+    one (`execute_batch`; a calibration's points); ``cache``: another holder of it.
     """
+    if cache is None and spec.get("reuse"):
+        cache = _LAST
 
     run_dir = Path(spec["dir"])
     scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
@@ -197,7 +207,8 @@ def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None)
         threads = _worker_threads()
     key = (spec.get("arch", "cpu"), int(threads), compiled_fingerprint(scene))
     sim = None
-    if cache is not None and cache.get("key") == key:
+    alive = cache is not None and cache.get("generation") == backend.generation()
+    if alive and cache.get("key") == key:
         # the batch's simulation, compiled for this member: its run-time numbers and initial
         # state anew (the state, the time, the budget, the peaks and the statistics)
         sim = cache["sim"]
@@ -218,7 +229,8 @@ def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None)
             )
         sim = Simulation(scene)
         if cache is not None:
-            cache.update(key=key, sim=sim)
+            # (a Taichi runtime started since, by anyone, has freed its fields)
+            cache.update(key=key, sim=sim, generation=backend.generation())
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
     stats = sim.run(
         out_dir=run_dir, progress=False, on_output=report, overwrite=True
