@@ -260,6 +260,14 @@ def test_bad_bends_are_one_line_errors(runout, words):
     assert words in str(e.value) and "\n" not in str(e.value)
 
 
+def test_a_periodic_bend_is_refused():
+    data = _with_runout()
+    data["boundary"] = {"x_lo": "periodic", "x_hi": "periodic"}
+    with pytest.raises(InputError) as e:
+        scene_from_dict(data, name="wrap")
+    assert "periodic" in str(e.value) and "\n" not in str(e.value)
+
+
 def test_the_bend_is_written_and_read_back():
     from tiseg.setup.writing import scene_to_dict
 

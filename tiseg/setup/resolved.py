@@ -269,6 +269,11 @@ def _build(data: dict, default_name: str, source: str | None) -> Scene:
     initial = read_initial(ini_t, kind, wavelengths, domain, boundary, flow, effects, material)
     h_scale = max(flow.h0, inflow.h if inflow is not None else 0.0)
     terrain = read_terrain(table("terrain"), domain, source, material.zeta, h_scale)
+    if terrain.runout is not None and boundary.x_lo == "periodic":
+        raise InputError(
+            "terrain.runout: the bend joins two inclinations, which a periodic x boundary "
+            "would wrap into each other; give boundary.x_lo and x_hi another kind"
+        )
     initial = check_initial(initial, terrain, domain, source)
     numerics = read_numerics(table("numerics"), flow, domain.ny == 1, effects)
     output = read_output(table("output"), time.t_end, domain)
