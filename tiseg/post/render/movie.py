@@ -200,6 +200,20 @@ def _remove_file(path: Path) -> None:
             path.unlink()
 
 
+def save_figure(fig, path, dpi: float) -> None:
+    """Save a Matplotlib figure at ``path`` (its folder made): never through a link; where the
+    write fails (a full disk, ...) the part written is removed and a one-line TisegError
+    says why."""
+    path = Path(path)
+    refuse_link(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=dpi)
+    except OSError as exc:
+        _remove_file(path)
+        raise TisegError(f"cannot write the figure {str(path)!r}: {exc.strerror or exc}") from None
+
+
 def _write_file(path: Path, data: bytes, what: str) -> None:
     """Write an encoded picture; when that fails (a full disk, ...), remove the part written
     and raise one line. (Encoded in memory first: imageio, when its own file write fails,

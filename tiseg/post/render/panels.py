@@ -8,15 +8,14 @@ titles and a colour bar built from the same colour table (`colours.matplotlib_cm
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError, TisegError
+from ...errors import InputError
 from . import colours as C
 from .movie import _fields_path
 from ...log import note
-from .movie import _remove_file, _snapshot, global_range, refuse_link, run_h_min
+from .movie import _snapshot, global_range, run_h_min, save_figure
 from .raster import render_fields_numpy
 
 
@@ -133,16 +132,7 @@ def plot_panels(
         if title:
             fig.suptitle(title)
         if path is not None:
-            path = Path(path)
-            refuse_link(path)
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                fig.savefig(path, dpi=150)
-            except OSError as exc:
-                _remove_file(path)
-                raise TisegError(
-                    f"cannot write the figure {str(path)!r}: {exc.strerror or exc}"
-                ) from None
+            save_figure(fig, path, 150)
         return fig
     finally:
         if opened:

@@ -10,15 +10,14 @@ and walls of a run with terrain. A 1D run (one row of cells) gives curves agains
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError, TisegError
+from ...errors import InputError
 from ...output.fields import OUTPUT_FIELDS, specs
 from . import colours as C
 from .maps import bed_of_dataset, maps_figure
-from .movie import _fields_path, _remove_file, refuse_link
+from .movie import _fields_path, save_figure
 
 
 def _label(name: str) -> str:
@@ -99,16 +98,7 @@ def plot_peak_fields(
                 title=title,
             )
         if path is not None:
-            path = Path(path)
-            refuse_link(path)
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                fig.savefig(path, dpi=dpi)
-            except OSError as exc:
-                _remove_file(path)
-                raise TisegError(
-                    f"cannot write the figure {str(path)!r}: {exc.strerror or exc}"
-                ) from None
+            save_figure(fig, path, dpi)
         return fig
     finally:
         if opened:

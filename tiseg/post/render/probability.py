@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError, TisegError
+from ...errors import InputError
 from .lengths import format_length
 from .maps import bed_of_dataset, maps_figure
-from .movie import _remove_file, refuse_link
+from .movie import save_figure
 
 # a variable that only probability.nc holds: how `probability_source` recognises the file
 MARKER_VARIABLE = "p_arrival"
@@ -179,16 +179,7 @@ def plot_probability(
             )
             _title(fig, ds)
         if path is not None:
-            path = Path(path)
-            refuse_link(path)
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                fig.savefig(path, dpi=dpi)
-            except OSError as exc:
-                _remove_file(path)
-                raise TisegError(
-                    f"cannot write the figure {str(path)!r}: {exc.strerror or exc}"
-                ) from None
+            save_figure(fig, path, dpi)
         return fig
     finally:
         if opened:
