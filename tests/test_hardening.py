@@ -390,6 +390,8 @@ def test_an_interrupted_sweep_cancels_the_runs_not_started(tmp_path, monkeypatch
         n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
     ) as cluster:
         with pytest.raises(KeyboardInterrupt):
-            S.run_sweep(sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=echo)
+            S.run_sweep(  # one run a task (the default would put two in one)
+                sw, tmp_path / "sw", scheduler=cluster.scheduler_address, echo=echo, batch=1
+            )
         time.sleep(3.0)  # long enough for a third run to have started
     assert len(list(started.iterdir())) <= 2

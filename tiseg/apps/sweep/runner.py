@@ -19,7 +19,6 @@ from ...post.analysis.fingers import count_text
 from .members import (
     check_member_folder,
     compiled_fingerprint,
-    execute_batch,
     execute_run,
     read_marker,
     refresh_metrics,
@@ -344,7 +343,7 @@ def _run_on_dask(
             # Dask traceback) and retries a failed ti.init itself. A batch's members that
             # finished before such a failure are reused by the retry (their done.json).
             fut = client.submit(
-                execute_batch if len(task) > 1 else execute_run,
+                _batch if len(task) > 1 else execute_run,
                 specs if len(task) > 1 else specs[0],
                 key=f"tiseg-{task[0].name}-{os.urandom(4).hex()}",
                 pure=False,
@@ -542,6 +541,12 @@ def batches(runs: list, size: int) -> list[list]:
         groups.setdefault(compiled_fingerprint(run.scene), []).append(run)
     tasks = [g[i : i + size] for g in groups.values() for i in range(0, len(g), size)]
     return sorted(tasks, key=lambda t: -sum(r.cost for r in t))
+
+
+def _batch(specs: list[dict]) -> list[dict]:
+    """A batch task: `execute_batch` through this module's `execute_run`, the function every
+    task of the runner calls (so that a replacement of it covers batches too)."""
+    return [execute_run({**spec, "reuse": True}) for spec in specs]
 
 
 def _worker_count(client) -> int:
