@@ -29,6 +29,29 @@ def rates_equal_reference(cfg, q):
     return op, ref, r_ti
 
 
+def stage_and_twin(op, ref, q, split: bool, t: float = 0.0, dt: float = 0.01):
+    """(Taichi, twin) results from q, which is in op's slot 0: a sweep of dt along x then y
+    (``split``), else one evaluation of L at time t."""
+    from tiseg.solver.reference.split import hancock_sweep
+
+    if split:
+        qr = q.copy()
+        for d in (0, 1):
+            op.sweep(d, t, dt)
+            hancock_sweep(ref, qr, t, dt, d)
+        return op.get(0), qr
+    op.rhs(0, 1, t)
+    return op.get(1), ref.rhs(q.copy(), t)
+
+
+def assert_equals_twin(a, r, lay, what=()) -> None:
+    """Every component of the interior cells of a within 1e-12 of its largest value in r."""
+    ix, iy = lay.interior()
+    err = np.abs(a - r)[:, ix, iy].max(axis=(1, 2))
+    scale = np.abs(r)[:, ix, iy].max(axis=(1, 2))
+    assert np.all(err <= 1e-12 * scale), (*what, err, scale)
+
+
 def projected_stage_equals_reference(op, ref, q, r_ti, dt, tau):
     """One limited Euler stage q + dt L(q) with the friction projected over tau, the first of a
     step (where a law with hysteresis decides which resting cells it holds), against the

@@ -13,10 +13,12 @@ import numpy as np
 import pytest
 
 from tests.solver_helpers import (
+    assert_equals_twin,
     make_config,
     projected_stage_equals_reference,
     random_state,
     rates_equal_reference,
+    stage_and_twin,
 )
 from tiseg.errors import InputError
 from tiseg.model import exact_runout as er
@@ -71,7 +73,6 @@ def test_a_bed_on_a_bend_equals_the_twin(ti_cpu, split):
     cell's own g cos zeta, unsplit rates and split sweeps against the twin."""
     from tiseg.solver.numerics.operator import TaichiOperator
     from tiseg.solver.reference import ReferenceOperator
-    from tiseg.solver.reference.split import hancock_sweep
 
     rng = np.random.default_rng(17)
     kw = dict(split=True, friction_scheme="projected", viscous=False) if split else {}
@@ -81,20 +82,8 @@ def test_a_bed_on_a_bend_equals_the_twin(ti_cpu, split):
     op = TaichiOperator(cfg, nslots=2)
     op.set_bed(b)
     op.set(0, q)
-    ref = ReferenceOperator(cfg, bed=b)
-    ix, iy = cfg.layout.interior()
-    if split:
-        qr = q.copy()
-        for d in (0, 1):
-            op.sweep(d, 0.0, 0.01)
-            hancock_sweep(ref, qr, 0.0, 0.01, d)
-        a, r = op.get(0), qr
-    else:
-        op.rhs(0, 1, 0.0)
-        a, r = op.get(1), ref.rhs(q.copy(), 0.0)
-    scale = np.abs(r)[:, ix, iy].max(axis=(1, 2))
-    err = np.abs(a - r)[:, ix, iy].max(axis=(1, 2))
-    assert np.all(err <= 1e-12 * scale), (err, scale)
+    a, r = stage_and_twin(op, ReferenceOperator(cfg, bed=b), q, split)
+    assert_equals_twin(a, r, cfg.layout)
 
 
 @pytest.mark.parametrize("ny, rec", [(1, "minmod"), (6, "weno")])
@@ -125,10 +114,7 @@ def test_the_sweeps_equal_the_twin_on_a_bend(ti_cpu, ny, rec):
         for d in dirs:
             op.sweep(d, 0.05, 0.01)
             hancock_sweep(ref, qr, 0.05, 0.01, d)
-        ix, iy = cfg.layout.interior()
-        diff = np.abs(op.get(0) - qr)[:, ix, iy].max(axis=(1, 2))
-        scale = np.abs(qr)[:, ix, iy].max(axis=(1, 2))
-        assert np.all(diff <= 1e-12 * scale), (dirs, diff, scale)
+        assert_equals_twin(op.get(0), qr, cfg.layout, dirs)
 
 
 Z1, Z2, XB, LB = 35.0, 0.0, 0.5, 0.5  # a 35 degree chute levelling out over 0.5 m

@@ -132,3 +132,20 @@ def test_a_new_taichi_runtime_is_never_reused_across(ti_cpu, tmp_path):
     assert backend.state().generation == g + 1  # a fresh runtime, not the freed simulation
     assert first[0]["status"] == again[0]["status"] == "done"
     _same_run(tmp_path / "a" / run.name, tmp_path / "b" / run.name)
+
+
+def test_a_sweep_on_dask_runs_its_batch_in_one_task(tmp_path):
+    """`run_sweep(batch=2)` on one worker: both members of the tiny sweep in one task,
+    each recorded as done, and each folder bitwise that of its run alone."""
+    from tiseg.apps.sweep import run_sweep
+
+    lines: list[str] = []
+    res = run_sweep(
+        load_sweep(TINY), tmp_path / "dask", workers=1, threads_per_task=1, batch=2,
+        echo=lines.append,
+    )  # fmt: skip
+    assert [r["status"] for r in res.records] == ["done", "done"]
+    assert any("in 1 tasks of up to 2 runs" in ln for ln in lines), lines
+    for run in load_sweep(TINY).runs:
+        assert execute_run(member_spec(run, tmp_path / "alone", "cpu", 1))["status"] == "done"
+        _same_run(tmp_path / "dask" / run.name, tmp_path / "alone" / run.name)

@@ -121,7 +121,7 @@ def compiled_fingerprint(scene: Scene) -> str:
 _LAST: dict = {}
 
 
-def execute_batch(specs: list[dict]) -> list[dict]:
+def execute_batch(specs: list[dict], run: Callable[[dict], dict] | None = None) -> list[dict]:
     """Run sweep members one after another in this process (a Dask task of `tiseg sweep
     --batch`), each as `execute_run` would, on one simulation while their compiled
     fingerprints agree: the Taichi start-up and the compilation of the kernels are paid once,
@@ -130,8 +130,9 @@ def execute_batch(specs: list[dict]) -> list[dict]:
     folder are bitwise those of the member run alone (tests/test_sweep_batch.py); one that
     fails is reported and the others go on (the next on a fresh simulation). A later batch in
     the same process starts on the last one's simulation where it can. Returns the records,
-    in the order of ``specs``."""
-    return [execute_run({**spec, "reuse": True}) for spec in specs]
+    in the order of ``specs``. ``run``: the function that runs one member (`execute_run`)."""
+    run = execute_run if run is None else run
+    return [run({**spec, "reuse": True}) for spec in specs]
 
 
 def execute_run(spec: dict, cache: dict | None = None) -> dict:

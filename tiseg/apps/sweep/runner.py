@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import math
@@ -19,6 +20,7 @@ from ...post.analysis.fingers import count_text
 from .members import (
     check_member_folder,
     compiled_fingerprint,
+    execute_batch,
     execute_run,
     read_marker,
     refresh_metrics,
@@ -342,8 +344,10 @@ def _run_on_dask(
             # more; execute_run returns a run's own error as a failed record (no retry, no
             # Dask traceback) and retries a failed ti.init itself. A batch's members that
             # finished before such a failure are reused by the retry (their done.json).
+            # (a batch runs its members through this module's execute_run, the function
+            # every task of the runner calls, so that a replacement of it covers them too)
             fut = client.submit(
-                _batch if len(task) > 1 else execute_run,
+                functools.partial(execute_batch, run=execute_run) if len(task) > 1 else execute_run,
                 specs if len(task) > 1 else specs[0],
                 key=f"tiseg-{task[0].name}-{os.urandom(4).hex()}",
                 pure=False,
@@ -541,12 +545,6 @@ def batches(runs: list, size: int) -> list[list]:
         groups.setdefault(compiled_fingerprint(run.scene), []).append(run)
     tasks = [g[i : i + size] for g in groups.values() for i in range(0, len(g), size)]
     return sorted(tasks, key=lambda t: -sum(r.cost for r in t))
-
-
-def _batch(specs: list[dict]) -> list[dict]:
-    """A batch task: `execute_batch` through this module's `execute_run`, the function every
-    task of the runner calls (so that a replacement of it covers batches too)."""
-    return [execute_run({**spec, "reuse": True}) for spec in specs]
 
 
 def _worker_count(client) -> int:

@@ -156,8 +156,8 @@ def travel_angle(h_start, h_deposit, x, y, b, zeta: float, h_min: float, line=No
     x and y the cell centres."""
     X2, _ = np.meshgrid(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
     bed = np.zeros_like(X2) if b is None else np.asarray(b, dtype=float)
+    c, s = math.cos(zeta), math.sin(zeta)  # (on a bend: of the inlet x = 0, above it)
     if line is None:
-        c, s = math.cos(zeta), math.sin(zeta)
         Z = -X2 * s + bed * c
         H = X2 * c + bed * s
     else:
@@ -165,7 +165,6 @@ def travel_angle(h_start, h_deposit, x, y, b, zeta: float, h_min: float, line=No
         X0, Z0 = line.coordinates(X2)
         Z = Z0 + bed * np.cos(z)
         H = X0 + bed * np.sin(z)
-        c, s = math.cos(zeta), math.sin(zeta)  # the inlet x = 0 lies above the bend
     dep = np.asarray(h_deposit, dtype=float) >= h_min
     if not dep.any():
         return None
