@@ -17,6 +17,7 @@ import pytest
 
 from tiseg.run import checkpoint
 from tiseg.apps.cli import main
+from tiseg.errors import InputError
 from tiseg.output import read_diagnostics
 from tiseg.setup.scene import load_scene
 from tiseg.run.schedules import IterationInterval
@@ -243,3 +244,55 @@ def test_wall_clock_checkpoints(tmp_path, reference):
         checkpoint.save = orig
     assert len(writes) >= sim.stats.steps
     assert_same_run(reference, out)
+
+
+def _count_saves(monkeypatch) -> list:
+    """The simulated times of the checkpoints written from here on."""
+    writes = []
+    orig = checkpoint.save
+
+    def counting(path, s, **kw):
+        writes.append(s.t)
+        return orig(path, s, **kw)
+
+    monkeypatch.setattr(checkpoint, "save", counting)
+    return writes
+
+
+def test_checkpoints_of_output_times_are_spaced_in_wall_time(tmp_path, monkeypatch, ti_cpu):
+    """Without a checkpoint interval, the output times' checkpoints are at least
+    ``checkpoint_spacing`` wall seconds apart: a run of a second writes none, and one that
+    stops before the scene's end (t_end = 0.3) one, of its last state, which a resume
+    continues from; with a spacing of 0 one at every output time, and the same files bit for
+    bit. The peak fields in fields.nc are those of the run's end."""
+    sets = [s for s in SETS if not s.startswith("output.checkpoint_interval")]
+    sc = load_scene("fingers", sets)
+    writes = _count_saves(monkeypatch)
+    whole = Simulation(sc)
+    whole.run(out_dir=tmp_path / "whole", progress=False)
+    assert writes == []  # a fast run to the end: nothing left to resume, no checkpoint
+    with netCDF4.Dataset(tmp_path / "whole" / "fields.nc") as nc:
+        np.testing.assert_array_equal(nc["h_max"][:].filled(np.nan), whole.peak_fields()["h_max"])
+        assert float(nc["peak_time"][:]) == whole.t == 1.0
+
+    part = Simulation(sc)
+    part.run(out_dir=tmp_path / "part", progress=False, t_end=0.3)
+    assert writes == [0.3]  # the state a later run continues from
+    later = Simulation.resume(tmp_path / "part")
+    assert later.t == 0.3 and later.stats.steps == part.stats.steps
+    np.testing.assert_array_equal(later.op.get(0), part.op.get(0))
+    later.run(out_dir=tmp_path / "part", progress=False)
+    with netCDF4.Dataset(tmp_path / "part" / "fields.nc") as nc:
+        np.testing.assert_allclose(nc["time"][:], np.arange(11) / 10, rtol=1e-12)
+
+    writes.clear()
+    Simulation(sc).run(out_dir=tmp_path / "every", progress=False, checkpoint_spacing=0.0)
+    # one after each step that crossed one of the ten output times (steps are not shortened
+    # to them, and may cross two; the last ends at t_end)
+    ends = read_diagnostics(tmp_path / "every" / "diagnostics.csv")["time"]
+    outputs = [round(0.1 * k, 12) for k in range(1, 11)]
+    crossed = [b for a, b in zip(ends[:-1], ends[1:]) if any(a < o <= b for o in outputs)]
+    assert writes == crossed and len(writes) >= 5 and writes[-1] == 1.0
+    assert_same_run(tmp_path / "whole", tmp_path / "every")
+    with pytest.raises(InputError, match="checkpoint_spacing"):
+        Simulation(sc).run(out_dir=tmp_path / "bad", progress=False, checkpoint_spacing=-1)

@@ -23,6 +23,7 @@ from tiseg.run.schedules import (
     IterationInterval,
     SpecifiedTimes,
     TimeInterval,
+    WallSpaced,
     WallTimeInterval,
 )
 from tiseg.run.simulation import Simulation
@@ -171,11 +172,18 @@ def test_schedules():
     wt = WallTimeInterval(1.0, clock=clock)  # starts at 0.0
     assert [wt.due(0, 1, n) for n in range(4)] == [False, True, False, True]
     assert AnyOf(IterationInterval(2), SpecifiedTimes([0.15])).due(0.1, 0.2, 1)
+    # the inner schedule's firings, at least 1 s of wall time apart (the clock is read only
+    # when the inner one is due: at 0.5, 1.2 and 1.3 here)
+    clock = iter([0.0, 0.5, 1.2, 1.3]).__next__
+    sp = WallSpaced(IterationInterval(2), 1.0, clock=clock)  # starts at 0.0
+    assert [sp.due(0, 1, n) for n in range(1, 7)] == [False, False, False, True, False, False]
     for bad in (
         lambda: TimeInterval(0),
         lambda: IterationInterval(0),
         lambda: IterationInterval(1.5),
         lambda: WallTimeInterval(-1),
+        lambda: WallSpaced(IterationInterval(1), -1),
+        lambda: WallSpaced(1.0, 1),
         lambda: SpecifiedTimes([float("nan")]),
     ):
         with pytest.raises(InputError):

@@ -44,13 +44,17 @@ When
 With an output folder, `tiseg.run.simulation.Simulation.run` writes a checkpoint
 (`tiseg.run.run_folder`, a callback of the run loop)
 
-* after every step that crossed an output time, right after the snapshots it made (so
-  ``fields.nc`` and the checkpoint agree);
+* after a step that crossed an output time, right after the snapshots it made, once
+  ``checkpoint_spacing`` seconds of wall time (default `DEFAULT_SPACING` = 10 s) have passed
+  since the last checkpoint: a checkpoint costs the same however short the run, so a slow run
+  spends a fixed small share of its time on them and a member of a few seconds none;
 * if ``output.checkpoint_interval`` is set, also after the first step that ends at or past each
   multiple of that many seconds of *simulated* time;
 * and after any step that ends more than ``checkpoint_wall`` seconds of *wall* time after the
   previous wall-clock checkpoint (default `DEFAULT_WALL_INTERVAL` = 300 s), so that a
-  slow run with sparse output times loses at most a few minutes of work.
+  slow run with sparse output times loses at most a few minutes of work;
+* and at the end of a run that stops before the scene's end time (`Simulation.run` with an
+  earlier ``t_end``), so that a later run continues from there.
 
 A checkpoint always holds a step state (the state at the end of a step), never a snapshot
 interpolated to an output time; checkpoints never shorten a step, so a run's results do not
@@ -91,6 +95,7 @@ CHECKPOINT_NAME = CHECKPOINT_FILE
 FORMAT = "tiseg-checkpoint"
 VERSION = 1
 DEFAULT_WALL_INTERVAL = 300.0  # [s] of wall time between checkpoints at most (see above)
+DEFAULT_SPACING = 10.0  # [s] of wall time at least between the checkpoints of output times
 
 
 class CheckpointError(TisegError):

@@ -14,10 +14,13 @@ resume checks, once it holds the lock, that the checkpoint it read is still the 
 removes the temporary files a killed writer left behind.
 
 Checkpoints hold the state at the end of a step, never an interpolated snapshot, so a resumed
-run continues with exactly the steps of an uninterrupted one. They are written after every
-step that crossed an output time (after its snapshots, so fields.nc and the checkpoint agree),
-after each multiple of ``output.checkpoint_interval`` seconds of simulated time, and after any
-step that ends ``checkpoint_wall`` seconds of wall time after the last checkpoint.
+run continues with exactly the steps of an uninterrupted one. They are written after a step
+that crossed an output time (after its snapshots) once ``checkpoint_spacing`` seconds of wall
+time have passed since the last one, after each multiple of ``output.checkpoint_interval``
+seconds of simulated time, after any step that ends ``checkpoint_wall`` seconds of wall time
+after the last checkpoint, and at the end of a run that stops before the scene's end. The peak
+fields in fields.nc are written with each checkpoint and at the end of the run: they are
+those of the checkpoint a resume starts from.
 """
 
 from __future__ import annotations
@@ -45,7 +48,14 @@ from .callbacks import Callback
 from ..errors import InputError, TisegError
 from .limits import disk_note
 from ..output.paths import HOLDER_NAME, LOCK_NAME, RunLock, refuse_symlinks
-from .schedules import AnyOf, IterationInterval, SpecifiedTimes, TimeInterval, WallTimeInterval
+from .schedules import (
+    AnyOf,
+    IterationInterval,
+    SpecifiedTimes,
+    TimeInterval,
+    WallSpaced,
+    WallTimeInterval,
+)
 from ..output.diagnostics import (
     DiagnosticsWriter,
     write_gauge_units,
@@ -222,6 +232,8 @@ class RunFolder:
             raise
         self.checkpoint_path = out / _ckpt.CHECKPOINT_NAME
         self.saved_t = sim.t if resume is not None else None  # the last checkpoint's time
+        # wall seconds at least between the checkpoints of output times (Simulation.run)
+        self.checkpoint_spacing = _ckpt.DEFAULT_SPACING
         sim.failure_dir = out / FAILURE_DIR
         self.counts()
 
@@ -310,7 +322,6 @@ class RunFolder:
         (`tiseg.output.fields`)."""
         with self._writing(self.fields.path):
             self.fields.write(snap.t, **with_computed(snap.fields(), self.fields.fields))
-            self._write_peaks()
         self.counts()
 
     def _write_peaks(self) -> None:
@@ -355,6 +366,8 @@ class RunFolder:
         sim.stats.wall = sim.wall_time()
         interval = sim.scene.output.checkpoint_interval
         nxt = (math.floor(sim.t / interval * (1 + 1e-12)) + 1) * interval if interval else math.nan
+        with self._writing(self.fields.path):
+            self._write_peaks()  # (the checkpoint's peaks: what a resume starts from)
         with self._writing(self.checkpoint_path):
             _ckpt.save(self.checkpoint_path, sim, next_sim=nxt)
             if self.saved_t is None:  # the first: the folder now holds a run
@@ -362,11 +375,17 @@ class RunFolder:
         self.saved_t = sim.t
 
     def finish(self) -> None:
-        """At the scene's end time nothing is left to resume: the checkpoint goes."""
+        """The end of a run: at the scene's end time nothing is left to resume, so the
+        checkpoint goes (the peak fields are written); before it the run's last state is
+        checkpointed unless it is already (a later run continues from there)."""
         t_end = self.sim.scene.t_end
         if self.sim.t >= t_end - 1e-12 * max(1.0, t_end):
+            with self._writing(self.fields.path):
+                self._write_peaks()
             record(self.path, saved=True)
             self.checkpoint_path.unlink(missing_ok=True)
+        elif self.saved_t != self.sim.t or not self.checkpoint_path.is_file():
+            self.save_checkpoint(self.sim)
 
     @contextlib.contextmanager
     def _writing(self, path: Path):
@@ -493,9 +512,10 @@ def register_writer(writer: RunWriter) -> RunWriter:
 
 
 def _checkpoint_schedule(folder: RunFolder, times, checkpoint_wall):
-    """After every step that crossed an output time, each checkpoint_interval of simulated
-    time and each ``checkpoint_wall`` seconds of wall time."""
-    when = [SpecifiedTimes(times)]
+    """After a step that crossed an output time, ``folder.checkpoint_spacing`` seconds of wall
+    time after the last, each checkpoint_interval of simulated time and each
+    ``checkpoint_wall`` seconds of wall time."""
+    when = [WallSpaced(SpecifiedTimes(times), folder.checkpoint_spacing)]
     interval = folder.sim.scene.output.checkpoint_interval
     if interval:
         when.append(TimeInterval(interval))

@@ -11,7 +11,9 @@ step: the sequence of steps of a run does not depend on them.
 * `IterationInterval` ``(n)``: after every step whose number is a multiple of n;
 * `WallTimeInterval` ``(seconds)``: after the first step that ends at least that much
   wall time after the last firing (or after the start of the run);
-* `AnyOf` ``(*schedules)``: due when one of them is.
+* `AnyOf` ``(*schedules)``: due when one of them is;
+* `WallSpaced` ``(schedule, seconds)``: when ``schedule`` is, but at least that much wall time
+  after its last firing (or after the start of the run).
 
 Every schedule depends on the simulation's (t, steps) alone, except the wall-time one; so a
 resumed run fires the same callbacks at the same steps as an uninterrupted one.
@@ -196,6 +198,37 @@ class AnyOf(Schedule):
         return f"AnyOf({', '.join(map(repr, self.schedules))})"
 
 
+class WallSpaced(Schedule):
+    """Due when ``schedule`` is and at least ``seconds`` of wall time have passed since this
+    schedule last fired (or since the start of the run): a writer that costs the same however
+    short the run (a checkpoint) keeps a fixed share of a slow run's wall time and none of a
+    fast one's. Not timed: it fires after the step, not at the inner schedule's times."""
+
+    def __init__(self, schedule: Schedule, seconds: float, clock=_time.perf_counter):
+        if not isinstance(schedule, Schedule):
+            raise InputError(f"WallSpaced({schedule!r}): not a schedule")
+        if not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds >= 0):
+            raise InputError(f"WallSpaced(..., {seconds!r}): seconds must be a number >= 0")
+        self.schedule, self.seconds, self.clock = schedule, float(seconds), clock
+        self.last = clock()
+
+    def start(self):
+        self.schedule.start()
+        self.last = self.clock()
+
+    def due(self, t0, t1, steps):
+        if not self.schedule.due(t0, t1, steps):
+            return False
+        now = self.clock()
+        if now - self.last >= self.seconds:
+            self.last = now
+            return True
+        return False
+
+    def __repr__(self):
+        return f"WallSpaced({self.schedule!r}, {self.seconds!r})"
+
+
 __all__ = [
     "Schedule",
     "TimeInterval",
@@ -203,4 +236,5 @@ __all__ = [
     "IterationInterval",
     "WallTimeInterval",
     "AnyOf",
+    "WallSpaced",
 ]

@@ -16,8 +16,9 @@ cell and field, and (with an output folder) saves ``failure/last_good.npz`` and
 ``failure/offending.npz``.
 
 Checkpoints (`tiseg.run.checkpoint`, `tiseg.run.run_folder`): with an output folder,
-``checkpoint.npz`` holds a step state, written after every step that crossed an output time,
-per ``output.checkpoint_interval`` and per ``checkpoint_wall`` seconds;
+``checkpoint.npz`` holds a step state, written after a step that crossed an output time (at
+least ``checkpoint_spacing`` wall seconds apart), per ``output.checkpoint_interval``, per
+``checkpoint_wall`` seconds and at the end of a run that stops early;
 `Simulation.resume` continues a killed run bit for bit.
 
 The Python API::
@@ -539,6 +540,7 @@ class Simulation:
         t_end: float | None = None,
         on_output=None,
         checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
+        checkpoint_spacing: float = _ckpt.DEFAULT_SPACING,
         callbacks=(),
         overwrite: bool = False,
         signals: bool = False,
@@ -553,7 +555,9 @@ class Simulation:
         * ``progress``: a progress bar.
 
         ``checkpoint_wall``: seconds of wall time between checkpoints at most (None: only at
-        output times and per ``output.checkpoint_interval``). None of this changes the steps.
+        output times and per ``output.checkpoint_interval``); ``checkpoint_spacing``: seconds
+        of wall time at least between the checkpoints of output times (0: one at every output
+        time). None of this changes the steps.
         A fresh run refuses an ``out_dir`` that holds other files or another run unless
         ``overwrite`` (`tiseg.run.run_folder`). ``signals``: SIGTERM and SIGINT stop
         the run at the end of the current step, with a checkpoint when there is a folder, by
@@ -578,6 +582,8 @@ class Simulation:
             extra.append(cb)
         if checkpoint_wall is not None and not (checkpoint_wall >= 0):
             raise InputError(f"checkpoint_wall={checkpoint_wall!r} must be a number >= 0")
+        if not (isinstance(checkpoint_spacing, (int, float)) and checkpoint_spacing >= 0):
+            raise InputError(f"checkpoint_spacing={checkpoint_spacing!r} must be a number >= 0")
         resume = self._resume
         if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
             resume = None  # continuing elsewhere: a fresh set of files
@@ -586,6 +592,7 @@ class Simulation:
         try:
             if out_dir is not None:
                 folder = RunFolder(self, out_dir, resume, overwrite)
+                folder.checkpoint_spacing = float(checkpoint_spacing)
                 self._resume = None  # the files are open: what resume knew is used
                 extra = list(folder.callbacks(times, checkpoint_wall)) + extra
             if progress:

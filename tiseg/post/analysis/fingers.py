@@ -373,6 +373,7 @@ def analyse_run(
     """
     path = _fields_path(run_dir)
     from ...output import read_fields
+    from ...output.netcdf import TimeFrames
 
     try:
         ds = read_fields(path)
@@ -411,20 +412,21 @@ def analyse_run(
         if time is not None:
             idx = [_time_index(times, float(time), path)]
 
+        # each variable's snapshots, read a block of times at once (every pass below visits
+        # them all)
+        frames = {name: TimeFrames(ds, name) for name in ("h", "u", "v", "phi") if name in ds}
+        h_all, u_all = frames["h"], frames["u"]
+        v_all, phi_all = frames.get("v"), frames.get("phi")
         # x_f^+ at every time (needs h only) so that the front speed has its neighbours
-        h_all = ds["h"]
-        xf_all = [
-            front_max(np.asarray(h_all.isel(time=i).values), x, h_min) for i in range(times.size)
-        ]
+        xf_all = [front_max(h_all[i], x, h_min) for i in range(times.size)]
         speeds = front_speed(times, xf_all)
         # the deposit: the largest speed and the momentum at every time, the last snapshot's
         # thickness
         area = cell_area(x, y)
         flow, moms = [], []
         for i in range(times.size):
-            h_i = h_all.isel(time=i).values
-            u_i = ds["u"].isel(time=i).values
-            v_i = ds["v"].isel(time=i).values if "v" in ds.variables else None
+            h_i, u_i = h_all[i], u_all[i]
+            v_i = v_all[i] if v_all is not None else None
             flow.append(max_speed(h_i, u_i, v_i, h_min))
             moms.append(momentum(h_i, u_i, v_i, h_min, area))
         k = deposit_index(flow, moms, rest_speed, settle_fraction)
@@ -433,8 +435,8 @@ def analyse_run(
         deposit = deposit_metrics(
             times,
             flow,
-            np.asarray(h_all.isel(time=last).values),
-            np.asarray(ds["phi"].isel(time=last).values) if has_phi else None,
+            h_all[last],
+            phi_all[last] if has_phi else None,
             x,
             y,
             h_min,
@@ -443,14 +445,14 @@ def analyse_run(
             rest_speed,
             momenta=moms,
             settle_fraction=settle_fraction,
-            u_last=np.asarray(ds["u"].isel(time=last).values),
-            v_last=np.asarray(ds["v"].isel(time=last).values) if "v" in ds.variables else None,
+            u_last=u_all[last],
+            v_last=v_all[last] if v_all is not None else None,
         )
         if deposit["basis"] is not None and scene is not None:
             bed = np.asarray(ds["b"].values) if "b" in ds.variables else None
             found = travel_angle(
-                np.asarray(h_all.isel(time=0).values),
-                np.asarray(h_all.isel(time=last).values),
+                h_all[0],
+                h_all[last],
                 x,
                 y,
                 bed,
@@ -462,7 +464,7 @@ def analyse_run(
                 deposit["travel_angle_deg"], deposit["drop"], deposit["reach"] = found
         if k is not None:
             deposit["thickness_change"] = thickness_change(
-                [h_all.isel(time=i).values for i in range(k, times.size)]
+                [h_all[i] for i in range(k, times.size)]
             )
         deposit["max_speed"] = flow
         deposit["momentum"] = moms
@@ -470,7 +472,7 @@ def analyse_run(
         result = {k: [] for k in RUN_KEYS}
         for i in idx:
             snap = {
-                name: (np.asarray(ds[name].isel(time=i).values) if name in ds.variables else None)
+                name: (frames[name][i] if name in frames else None)
                 for name in ("h", "u", "v", "phi")
             }
             if has_phi:
