@@ -546,7 +546,9 @@ class TimeFrames:
             raise IndexError(f"time index {i} outside 0..{len(self) - 1}")
         if self.start is None or not self.start <= i < self.start + len(self.data):
             self.start = i - i % self.block
-            self.data = np.asarray(self.var.isel(time=slice(self.start, self.start + self.block)).values)
+            self.data = np.asarray(
+                self.var.isel(time=slice(self.start, self.start + self.block)).values
+            )
         return self.data[i - self.start]
 
 

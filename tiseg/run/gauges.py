@@ -24,6 +24,8 @@ the same values; gauges.csv is cut back to the checkpoint's rows (`tiseg.run.run
 import numpy as np
 import taichi as ti
 
+from ..taichi_classes import data_oriented
+
 from ..solver.field_tree import FieldTree
 
 QUANTITIES = ("h", "u", "v", "phi")  # a gauge's columns, those of the run's fields
@@ -41,7 +43,7 @@ def stencil(coord: float, first: float, d: float, n: int) -> tuple[int, int, flo
     return i0, i0 + 1, float(s - i0)
 
 
-@ti.data_oriented
+@data_oriented
 class Gauges:
     """The gauges ``points`` ((name, x, y), ...) on the grid of ``op`` (the operator's state,
     `tiseg.solver.numerics.state.OperatorState`, or the operator); ``dx``, ``dy``: the cell

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
+from ..taichi_classes import data_oriented
+
 from ..solver.field_tree import FieldTree
 from ..solver.numerics.operator import NBUDGET
 
@@ -76,7 +78,7 @@ class Violation:
         )
 
 
-@ti.data_oriented
+@data_oriented
 class StateGuard:
     """Bounds and finiteness check of slot 0 of ``op``, plus a device copy of the last good state.
     ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator.

@@ -37,6 +37,8 @@ precision (`tiseg.run.checkpoint`), so a resumed run ends with the same bits.
 import numpy as np
 import taichi as ti
 
+from ..taichi_classes import data_oriented
+
 from ..model.material import REST_SPEED
 from ..model.physics.params import Params
 from ..solver.field_tree import FieldTree
@@ -47,7 +49,7 @@ CHECKPOINT_KEYS = {"h_max": "peak_h_max", "speed": "peak_speed_max", "arrival": 
 STENCIL_HALO = 3  # cells either side of the active range that a step writes
 
 
-@ti.data_oriented
+@data_oriented
 class PeakFields:
     """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision.
     ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator."""

@@ -8,6 +8,8 @@ they can change without recompiling.
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from .friction import FRICTION_LAWS
 from .param_layout import ParamLayout
 from .params import Params
@@ -25,7 +27,7 @@ def slot_bases(cfg) -> dict[str, int]:
     return {**dict(lay.bases), "end": lay.end}
 
 
-@ti.data_oriented
+@data_oriented
 class Physics:
     def __init__(self, cfg, par, params):
         """cfg: the OperatorConfig; par: the operator's parameter field, laid out by

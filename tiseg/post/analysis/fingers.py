@@ -463,9 +463,7 @@ def analyse_run(
             if found is not None:
                 deposit["travel_angle_deg"], deposit["drop"], deposit["reach"] = found
         if k is not None:
-            deposit["thickness_change"] = thickness_change(
-                [h_all[i] for i in range(k, times.size)]
-            )
+            deposit["thickness_change"] = thickness_change([h_all[i] for i in range(k, times.size)])
         deposit["max_speed"] = flow
         deposit["momentum"] = moms
 

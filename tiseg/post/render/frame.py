@@ -42,6 +42,8 @@ from functools import lru_cache
 import numpy as np
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ... import backend
 from ...solver import field_tree
 from . import colours as C
@@ -69,7 +71,7 @@ _BIG = 3.0e38
 # =================================================================================================
 # Sources: where the kernel reads (h, phi, u, v) of cell (i, j)
 # =================================================================================================
-@ti.data_oriented
+@data_oriented
 class _ArraySource:
     """Fields handed over as NumPy arrays, uploaded into one (nx, ny) vector field."""
 
@@ -100,7 +102,7 @@ class _ArraySource:
         return self.f[i, j]
 
 
-@ti.data_oriented
+@data_oriented
 class _StateSource:
     """A simulation's conserved state, a slot of ``op.q`` (ghost cells skipped), read in place:
     rendering a frame moves no state through NumPy. The slot is 0 (the step state) unless a
@@ -146,7 +148,7 @@ class _StateSource:
 # =================================================================================================
 # The painter: one kernel for every picture
 # =================================================================================================
-@ti.data_oriented
+@data_oriented
 class _Painter:
     """Colour kernels over one source of nx x ny cells.
 

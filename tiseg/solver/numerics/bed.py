@@ -37,6 +37,8 @@ compiles none of it (``ti.static``).
 import numpy as np
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...model.physics.params import Params
 
 
@@ -71,7 +73,7 @@ def bed_with_ghosts(b: np.ndarray, lay, bc) -> np.ndarray:
     return out
 
 
-@ti.data_oriented
+@data_oriented
 class BedFaces:
     def __init__(self, state, rec_slope):
         """``state``: the operator's fields (``w``, ``bed``, ``par``); ``rec_slope``: the

@@ -17,6 +17,8 @@ returns the Taichi function the loops call, and has its NumPy twin in the refere
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...errors import TisegError
 from ...model.physics.params import Params
 from .bed import BedFaces
@@ -26,7 +28,7 @@ from .state import NBUDGET
 from .walls import FLUID, SOLID, WALL_HI, SolidWalls
 
 
-@ti.data_oriented
+@data_oriented
 class FiniteVolume:
     def __init__(self, state, ghosts, rules):
         self.state = state

@@ -9,8 +9,10 @@ cells (an evaluation's preparation, a sweep, the wet scan).
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
 
-@ti.data_oriented
+
+@data_oriented
 class GhostCells:
     def __init__(self, state):
         self.state = state

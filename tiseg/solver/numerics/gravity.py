@@ -14,10 +14,12 @@ numbers, so the kernels are those of the plane.
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...model.bed_line import gravity_columns
 
 
-@ti.data_oriented
+@data_oriented
 class Gravity:
     def __init__(self, state, ft):
         """``state``: the operator's fields (``par``, ``phys``); ``ft``: its field tree."""

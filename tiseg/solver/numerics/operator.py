@@ -24,7 +24,8 @@ read-only attributes (`STATE_NAMES`) for the run's guards, gauges and renderers.
 """
 
 import numpy as np
-import taichi as ti
+
+from ...taichi_classes import data_oriented
 
 from .config import OperatorConfig
 from .finite_volume import FiniteVolume
@@ -47,7 +48,7 @@ STATE_NAMES = (
 ).split()
 
 
-@ti.data_oriented
+@data_oriented
 class TaichiOperator:
     def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
         """``serial``: run every loop on the calling thread (True), never (False), or decide

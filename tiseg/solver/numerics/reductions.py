@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...model.physics.params import Params
 from .ranges import piece_at, piece_count
 
@@ -38,7 +40,7 @@ class StabilityNumbers:
 NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in order
 
 
-@ti.data_oriented
+@data_oriented
 class StepReductions:
     def __init__(self, state):
         """``state``: the operator's fields, slots and ranges (`state.OperatorState`), which

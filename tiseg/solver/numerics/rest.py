@@ -28,6 +28,8 @@ Taichi functions.
 import numpy as np
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...model.physics.params import Params
 from .ranges import piece_at, piece_count
 
@@ -38,7 +40,7 @@ X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v 
 WET = 64  # h >= h_min (a face next to it carries a flux for the whole step: live_at_start)
 
 
-@ti.data_oriented
+@data_oriented
 class RestRules:
     def __init__(self, state, ghosts):
         """``state``: the operator's fields, slots and ranges (`state.OperatorState`, whose

@@ -17,6 +17,8 @@ state (`state.OperatorState`, whose slots, budgets and caches it writes), the ev
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...errors import TisegError
 
 from .state import NBUDGET
@@ -24,7 +26,7 @@ from .state import NBUDGET
 MAX_TERMS = 6
 
 
-@ti.data_oriented
+@data_oriented
 class SlotAlgebra:
     def __init__(self, state, fv, rules):
         """``state``: the slots and the budgets they carry (`state.OperatorState`); ``fv``:

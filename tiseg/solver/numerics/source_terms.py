@@ -11,10 +11,12 @@ field is allocated (the state's ``aux`` and ``srate`` are None).
 import numpy as np
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...model.physics.sources import SOURCES, TaichiContext, aux_arrays, chosen_aux
 
 
-@ti.data_oriented
+@data_oriented
 class SourceTerms:
     def __init__(self, state):
         """``state``: the operator's fields (``par``, ``w``, ``aux``) and layout constants."""

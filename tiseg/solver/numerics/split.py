@@ -90,11 +90,11 @@ and, with viscosity, `tiseg.solver.reference.split.hancock_pair`.
 
 import taichi as ti
 
-
+from ...taichi_classes import data_oriented
 from ...model.physics.pointwise import Params
 
 
-@ti.data_oriented
+@data_oriented
 class SplitSweeps:
     """The sweeps of the split scheme (its viscous sub-step: `viscous_substep.ViscousSubstep`)."""
 

@@ -25,6 +25,8 @@ The run-time numbers (`set_params`, `set_time`) are written here too: they are f
 import numpy as np
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ... import backend
 from ...errors import TisegError
 from ...model.physics.param_layout import ParamLayout
@@ -43,7 +45,7 @@ from .source_terms import SourceTerms
 NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 
 
-@ti.data_oriented
+@data_oriented
 class OperatorState:
     def __init__(self, cfg: OperatorConfig, nslots: int, serial: bool | None):
         """The constants and fields of ``cfg``'s layout with ``nslots`` state slots; the field

@@ -15,12 +15,14 @@ is `tiseg.solver.reference.split.viscous_substep`.
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 from ...errors import TisegError
 from ...model.physics.params import Params
 from .boundaries import inlet_rows
 
 
-@ti.data_oriented
+@data_oriented
 class ViscousSubstep:
     """The stages of the viscous sub-step of a split step."""
 

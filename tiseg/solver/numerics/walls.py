@@ -17,10 +17,12 @@ in `tiseg.solver.reference.walls`. Without solid cells nothing is allocated or c
 
 import taichi as ti
 
+from ...taichi_classes import data_oriented
+
 FLUID, WALL_HI, WALL_LO, SOLID = 0, 1, 2, 3  # the kinds of a face (low cell | high cell)
 
 
-@ti.data_oriented
+@data_oriented
 class SolidWalls:
     def __init__(self, state):
         """``state``: the operator's fields (``solid``) and layout constants."""
