@@ -378,3 +378,21 @@ def test_stepper_benchmark_from_a_runs_own_states(ti_cpu, tmp_path, capsys):
         steppers.measure(run, times=[0.7])
     with pytest.raises(InputError, match="no scene.toml"):
         steppers.measure(tmp_path)
+
+
+def test_ensemble_row_counts_every_members_cell_stages(tmp_path):
+    """The ensemble row of `tiseg bench gpu` on the CPU, f32 and f64 (a child process each):
+    every member ran (two seeds here) on the scene's grid, and the throughput is the members'
+    cells × stages over the wall time (so it cannot exceed cells × the largest possible stage
+    count per second). Its mode says how the members advanced."""
+    from tiseg.apps.bench import ensemble
+    from tiseg.setup.scene import load_scene
+
+    rows = ensemble.ensemble_rows("cpu", 2, 40, 0.2, tmp_path)
+    sc = load_scene("fingers", {"domain.resolution": 40, "time.t_end": 0.2})
+    assert [(r["backend"], r["precision"]) for r in rows] == [("cpu", "f32"), ("cpu", "f64")]
+    for r in rows:
+        assert r["ok"] and r["arch"] == "cpu" and r["members"] == 2, r
+        assert r["cells"] == sc.domain.nx * sc.domain.ny
+        assert r["steps"] >= 2 and r["wall_s"] > 0 and r["mode"] == ensemble.MODE
+        assert 0 < r["member_cell_stages_per_s"] <= r["cells"] * 2 * r["steps"] * 200 / r["wall_s"]

@@ -323,8 +323,14 @@ def test_gpu_check_runs_on_vulkan(tmp_path):
     assert run["steps"] > 5 and abs(run["mass_balance_error"]) < 1e-15
     view = rep["viewer"]
     assert view["ok"] and view["steps"] > 0 and view["sim_s_per_wall_s"] > 0
+    ens = {(r["backend"], r["precision"]): r for r in rep["ensemble"]}
+    assert set(ens) == set(rows)
+    for (b, _q), r in ens.items():
+        assert r["ok"] and r["members"] == 4 and r["member_cell_stages_per_s"] > 0, r
+        assert r["arch"] == b and r["steps"] >= 4
     md = (tmp_path / "gpu_check.md").read_text()
     assert "| vulkan | f64 |" in md and "fingers run at 60 cells/m" in md
+    assert "ensemble on vulkan/f32: 4 members" in md
 
 
 def test_vulkan_without_a_driver_is_one_line(tmp_path):
