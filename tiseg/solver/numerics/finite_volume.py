@@ -69,17 +69,19 @@ class FiniteVolume:
         computes only the ghost cells' ones. Any write to the slot, a parameter change or a
         new active range makes these caches stale."""
         key = (slot, t, self.state.active)
+        # a step begins (slot 0 was written): the rest mask of the prepared primitives, in
+        # the preparation's launch where there is one
+        mark = self.state.rest is not None and self.state.rest_stale
         if self.state.prepared != key:
             self.state.set_time(t)
             if self.state.interior == (slot, self.state.active):
-                self._ghosts_edges_slopes(slot, self.state.serial_loops())
+                self._ghosts_edges_slopes(slot, mark, self.state.serial_loops())
             else:
-                self._ghosts_primitives_slopes(slot, self.state.serial_loops())
+                self._ghosts_primitives_slopes(slot, mark, self.state.serial_loops())
             self.state.prepared = key
-        if (
-            self.state.rest is not None and self.state.rest_stale
-        ):  # a step begins: slot 0 was written
+        elif mark:
             self.rules.mark_rest(self.state.serial_loops())
+        if mark:
             self.state.rest_stale = False
             self.state.first_stage = True
             self.state.mask_inflow = self.state.inflow_on(t)
@@ -144,21 +146,26 @@ class FiniteVolume:
         return s
 
     @ti.kernel
-    def _ghosts_primitives_slopes(self, s: ti.i32, serial: ti.template()):
+    def _ghosts_primitives_slopes(self, s: ti.i32, rest: ti.template(), serial: ti.template()):
         """Everything an evaluation needs from slot s before the fluxes, in one launch (each
         launch costs tens of microseconds of Python and thread start-up: on small grids
-        that, not arithmetic, sets the pace). Top-level loops run in order."""
+        that, not arithmetic, sets the pace), and with ``rest`` the step's rest mask of
+        these primitives (`RestRules.mark`). Top-level loops run in order."""
         self.ghosts.fill(s)
         self.primitives(s, serial)
         self._slopes(serial)
+        if ti.static(rest):
+            self.rules.mark(serial)
 
     @ti.kernel
-    def _ghosts_edges_slopes(self, s: ti.i32, serial: ti.template()):
+    def _ghosts_edges_slopes(self, s: ti.i32, rest: ti.template(), serial: ti.template()):
         """The same when a limited combine already left the primitives of slot s's interior
-        cells in w: ghost cells, their primitives, the slopes."""
+        cells in w: ghost cells, their primitives, the slopes (and the rest mask)."""
         self.ghosts.fill(s)
         self.edge_primitives(s, serial)
         self._slopes(serial)
+        if ti.static(rest):
+            self.rules.mark(serial)
 
     @ti.func
     def primitives(self, s, serial: ti.template()):

@@ -51,6 +51,13 @@ class RestRules:
 
     @ti.kernel
     def mark_rest(self, serial: ti.template()):
+        """The rest mask of the prepared primitives (`mark`) in a launch of its own: where the
+        primitives were prepared already (the preparation's kernels take it in theirs,
+        `FiniteVolume.prepare`)."""
+        self.mark(serial)
+
+    @ti.func
+    def mark(self, serial: ti.template()):
         """rest := REST where the prepared primitives have u = v = 0, else the signs of u and v
         (X_POS / X_NEG, Y_POS / Y_NEG), and WET where h >= h_min, on the cells the faces near
         the active range read (further out no face flux is computed). With a law with
