@@ -68,19 +68,35 @@ class FiniteVolume:
         combine leaves its result's interior primitives in w, so preparing that slot next
         computes only the ghost cells' ones. Any write to the slot, a parameter change or a
         new active range makes these caches stale."""
+        work = self.preparation(slot, t)
+        kind, mark = work[1], work[2]
+        serial = self.state.serial_loops()
+        if kind:
+            self._prepare(slot, kind, mark, serial)
+        elif mark:
+            self.rules.mark_rest(serial)
+        self.prepared(work, t)
+
+    def preparation(self, slot: int, t: float) -> tuple:
+        """What preparing ``slot`` at time t must do, as (key, kind, mark): ``kind`` 0 nothing
+        (the slot was prepared at t), 1 the ghost cells' primitives and the slopes (a limited
+        combine left the interior's primitives), 2 every primitive and the slopes; ``mark``:
+        take the step's rest mask (a step begins: slot 0 was written). Sets the inflow's time
+        when there is work. The kernel that does it calls `prepare_in` and then hands the
+        tuple to `prepared` (`prepare`; the stability pass, which prepares in its own launch)."""
         key = (slot, t, self.state.active)
-        # a step begins (slot 0 was written): the rest mask of the prepared primitives, in
-        # the preparation's launch where there is one
         mark = self.state.rest is not None and self.state.rest_stale
+        kind = 0
         if self.state.prepared != key:
             self.state.set_time(t)
-            if self.state.interior == (slot, self.state.active):
-                self._ghosts_edges_slopes(slot, mark, self.state.serial_loops())
-            else:
-                self._ghosts_primitives_slopes(slot, mark, self.state.serial_loops())
+            kind = 1 if self.state.interior == (slot, self.state.active) else 2
+        return key, kind, mark
+
+    def prepared(self, work: tuple, t: float) -> None:
+        """The caches after the kernel did ``work`` (`preparation`)."""
+        key, kind, mark = work
+        if kind:
             self.state.prepared = key
-        elif mark:
-            self.rules.mark_rest(self.state.serial_loops())
         if mark:
             self.state.rest_stale = False
             self.state.first_stage = True
@@ -146,24 +162,25 @@ class FiniteVolume:
         return s
 
     @ti.kernel
-    def _ghosts_primitives_slopes(self, s: ti.i32, rest: ti.template(), serial: ti.template()):
+    def _prepare(self, s: ti.i32, kind: ti.template(), rest: ti.template(), serial: ti.template()):
         """Everything an evaluation needs from slot s before the fluxes, in one launch (each
         launch costs tens of microseconds of Python and thread start-up: on small grids
-        that, not arithmetic, sets the pace), and with ``rest`` the step's rest mask of
-        these primitives (`RestRules.mark`). Top-level loops run in order."""
-        self.ghosts.fill(s)
-        self.primitives(s, serial)
-        self._slopes(serial)
-        if ti.static(rest):
-            self.rules.mark(serial)
+        that, not arithmetic, sets the pace): `prepare_in`."""
+        self.prepare_in(s, kind, rest, serial)
 
-    @ti.kernel
-    def _ghosts_edges_slopes(self, s: ti.i32, rest: ti.template(), serial: ti.template()):
-        """The same when a limited combine already left the primitives of slot s's interior
-        cells in w: ghost cells, their primitives, the slopes (and the rest mask)."""
-        self.ghosts.fill(s)
-        self.edge_primitives(s, serial)
-        self._slopes(serial)
+    @ti.func
+    def prepare_in(self, s, kind: ti.template(), rest: ti.template(), serial: ti.template()):
+        """The preparation of slot s in the calling kernel (`preparation` says what): ghost
+        cells, their primitives (``kind`` 1: a limited combine left the interior's in w) or
+        every primitive (``kind`` 2), the slopes; with ``rest`` then the step's rest mask of
+        these primitives (`RestRules.mark`). Top-level loops run in order."""
+        if ti.static(kind > 0):
+            self.ghosts.fill(s)
+            if ti.static(kind == 1):
+                self.edge_primitives(s, serial)
+            else:
+                self.primitives(s, serial)
+            self._slopes(serial)
         if ti.static(rest):
             self.rules.mark(serial)
 

@@ -60,7 +60,7 @@ class TaichiOperator:
         self.slots = SlotAlgebra(st, self.fv, self.rules)
         self.sweeps = SplitSweeps(st, self.ghosts, self.fv, self.rules)
         self.viscous = ViscousSubstep(st, self.ghosts, self.fv)
-        self.reduce = StepReductions(st)
+        self.reduce = StepReductions(st, self.fv)
         st.finalize()  # the fields exist from here on
         self.ghosts.compose()
         self.fv.compose()
@@ -153,8 +153,7 @@ class TaichiOperator:
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         """Wave speeds and stiffness bounds of ``slot`` at time t (StepReductions.stability)."""
-        self.fv.prepare(slot, t)
-        return self.reduce.stability(self.state.serial_loops())
+        return self.reduce.stability(slot, t)
 
     def sums(self, slot: int = 0) -> tuple[float, float]:
         """(sum of h, sum of h phi) over interior cells, deterministic, in f64."""

@@ -42,16 +42,22 @@ NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in orde
 
 @data_oriented
 class StepReductions:
-    def __init__(self, state):
+    def __init__(self, state, fv):
         """``state``: the operator's fields, slots and ranges (`state.OperatorState`), which
-        also holds this collaborator's fields (``spd``, ``red``, ``rowsum``, ``total``)."""
+        also holds this collaborator's fields (``spd``, ``red``, ``rowsum``, ``total``);
+        ``fv``: the evaluation of L (`finite_volume.FiniteVolume`), whose preparation of the
+        slot the stability pass does in its own launch."""
         self.state = state
+        self.fv = fv
         fp = state.fp
         self._stability = self._stability_f64 if fp == ti.f64 else self._stability_f32
 
-    def stability(self, serial: bool) -> StabilityNumbers:
-        """The numbers of the prepared primitives (the caller prepares them)."""
-        r = [float(v) for v in self._stability(serial)]
+    def stability(self, slot: int, t: float) -> StabilityNumbers:
+        """The numbers of ``slot`` at time t, prepared (`FiniteVolume.preparation`) in the
+        same launch."""
+        work = self.fv.preparation(slot, t)
+        r = [float(v) for v in self._stability(slot, work[1], work[2], self.state.serial_loops())]
+        self.fv.prepared(work, t)
         return StabilityNumbers(
             ax=r[0],
             ay=r[1],
@@ -72,11 +78,17 @@ class StepReductions:
     # default is f32), which rounded every f64 run's step limits to f32. One kernel per
     # precision, chosen in __init__; only the chosen one is ever compiled (Metal has no f64).
     @ti.kernel
-    def _stability_f64(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f64):
+    def _stability_f64(
+        self, s: ti.i32, kind: ti.template(), rest: ti.template(), serial: ti.template()
+    ) -> ti.types.vector(NSTAB, ti.f64):
+        self.fv.prepare_in(s, kind, rest, serial)
         return self._stability_body(serial)
 
     @ti.kernel
-    def _stability_f32(self, serial: ti.template()) -> ti.types.vector(NSTAB, ti.f32):
+    def _stability_f32(
+        self, s: ti.i32, kind: ti.template(), rest: ti.template(), serial: ti.template()
+    ) -> ti.types.vector(NSTAB, ti.f32):
+        self.fv.prepare_in(s, kind, rest, serial)
         return self._stability_body(serial)
 
     @ti.func
