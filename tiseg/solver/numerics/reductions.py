@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import taichi as ti
 
+from ...errors import TisegError
+
 from ...taichi_classes import data_oriented
 
 from ...model.physics.params import Params
@@ -42,11 +44,11 @@ NSTAB = 7  # numbers the stability pass reduces (red): the fields above, in orde
 
 @data_oriented
 class StepReductions:
-    def __init__(self, state, fv):
+    def __init__(self, state, fv=None):
         """``state``: the operator's fields, slots and ranges (`state.OperatorState`), which
         also holds this collaborator's fields (``spd``, ``red``, ``rowsum``, ``total``);
         ``fv``: the evaluation of L (`finite_volume.FiniteVolume`), whose preparation of the
-        slot the stability pass does in its own launch."""
+        slot the stability pass does in its own launch (None: sums only, no stability)."""
         self.state = state
         self.fv = fv
         fp = state.fp
@@ -55,6 +57,8 @@ class StepReductions:
     def stability(self, slot: int, t: float) -> StabilityNumbers:
         """The numbers of ``slot`` at time t, prepared (`FiniteVolume.preparation`) in the
         same launch."""
+        if self.fv is None:
+            raise TisegError("StepReductions built without FiniteVolume has no stability pass")
         work = self.fv.preparation(slot, t)
         r = [float(v) for v in self._stability(slot, work[1], work[2], self.state.serial_loops())]
         self.fv.prepared(work, t)
