@@ -137,8 +137,8 @@ def test_resume_from_a_step_state_is_bitwise(ti_cpu, tmp_path):
 
     part = Simulation(sc)
     part.add_callback(stop, IterationInterval(1))
-    with pytest.raises(Stop):
-        part.run(out_dir=tmp_path / "p", progress=False)
+    with pytest.raises(Stop):  # (a checkpoint at every output time, however fast the run)
+        part.run(out_dir=tmp_path / "p", progress=False, checkpoint_spacing=0.0)
     again = Simulation.resume(tmp_path / "p")
     assert 0 < again.stats.steps < n_stop
     again.run(out_dir=tmp_path / "p", progress=False)

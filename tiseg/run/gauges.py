@@ -5,9 +5,10 @@ output times. A `Gauges` therefore reads the step state (slot 0) after every ste
 fields do (`tiseg.run.peaks`), so a gauge series is exact per step whatever the output schedule.
 
 Value at a point (x, y): the bilinear interpolation of the primitive fields of the four cell
-centres around it, the fields exactly as fields.nc stores them (`StateArrays.fields`: u = hu / h,
-v = hv / h and phi = h phi / h where h > 0, else 0, phi clipped to [0, 1]; phi missing, NaN,
-where h < numerics.h_min). So interpolating a snapshot of fields.nc by hand at a gauge gives
+centres around it, the fields exactly as fields.nc stores them (`StateArrays.fields`: u = hu / h
+and v = hv / h where h >= numerics.h_eps, the solver's desingularised velocity in thinner
+films (`state_access.output_velocity`), phi = h phi / h where h > 0, else 0, clipped to
+[0, 1]; phi missing, NaN, where h < numerics.h_min). So interpolating a snapshot of fields.nc by hand at a gauge gives
 that gauge's value at the snapshot time (when the snapshot is a step state). phi is NaN where
 one of the four cells has no material. A point within half a cell of the chute's edge (beyond
 the outermost centres) takes the value at the nearest centre along that axis (no
@@ -27,6 +28,7 @@ import taichi as ti
 from ..taichi_classes import data_oriented
 
 from ..solver.field_tree import FieldTree
+from .state_access import output_velocity
 
 QUANTITIES = ("h", "u", "v", "phi")  # a gauge's columns, those of the run's fields
 
@@ -84,9 +86,10 @@ class Gauges:
         lay = self.op.lay
         h = q[:, lay.H]
         safe = np.where(h > 0, h, 1.0)
-        corners = {"h": h, "u": np.where(h > 0, q[:, lay.HU] / safe, 0.0)}
+        h_eps = self.op.cfg.h_eps
+        corners = {"h": h, "u": output_velocity(h, q[:, lay.HU], h_eps)}
         if not lay.is_1d:
-            corners["v"] = np.where(h > 0, q[:, lay.HV] / safe, 0.0)
+            corners["v"] = output_velocity(h, q[:, lay.HV], h_eps)
         if lay.segregation:
             phi = np.clip(np.where(h > 0, q[:, lay.HPHI] / safe, 0.0), 0.0, 1.0)
             corners["phi"] = np.where(h < self.h_min, np.nan, phi)

@@ -15,6 +15,20 @@ import numpy as np
 from ..errors import InputError
 
 
+def output_velocity(h: np.ndarray, m: np.ndarray, h_eps: float) -> np.ndarray:
+    """The velocity of momentum ``m`` in thickness ``h`` as the output writes it: m/h where
+    h >= h_eps, below it the solver's desingularised sqrt(2) h m / sqrt(h^4 + h_eps^4)
+    (`FiniteVolume.primitive`; Kurganov & Petrova 2007), 0 where h <= 0. (A film of 1e-19 m
+    with a round-off momentum would otherwise report 1e7 m/s or more.) In the arrays' own
+    precision; the cells at or above h_eps keep m/h's bits."""
+    safe = np.where(h > 0, h, 1.0)
+    out = np.where(h > 0, m / safe, 0.0)
+    thin = h < h_eps
+    film = h[thin]
+    out[thin] = np.sqrt(2.0) * film * m[thin] / np.sqrt(film**4 + h_eps**4)
+    return out
+
+
 class StateArrays:
     """Reading and replacing the state of a `tiseg.run.simulation.Simulation`'s operator."""
 
@@ -89,18 +103,9 @@ class StateArrays:
         h = q[lay.H]
         safe = np.where(h > 0, h, 1.0)
         h_eps = self.state.cfg.h_eps
-        thin = h < h_eps
-        # (thin cells only: the others keep hu/h's bits)
-        scale = np.sqrt(2.0) * h[thin] / np.sqrt(h[thin] ** 4 + h_eps**4)
-
-        def velocity(m):
-            out = np.where(h > 0, m / safe, 0.0)
-            out[thin] = scale * m[thin]
-            return out.T.copy()
-
-        out = {"h": h.T.copy(), "u": velocity(q[lay.HU])}
+        out = {"h": h.T.copy(), "u": output_velocity(h, q[lay.HU], h_eps).T.copy()}
         if not lay.is_1d:
-            out["v"] = velocity(q[lay.HV])
+            out["v"] = output_velocity(h, q[lay.HV], h_eps).T.copy()
         if lay.segregation:
             out["phi"] = np.clip(np.where(h > 0, q[lay.HPHI] / safe, 0.0), 0.0, 1.0).T.copy()
         return out
