@@ -8,8 +8,8 @@ Value at a point (x, y): the bilinear interpolation of the primitive fields of t
 centres around it, the fields exactly as fields.nc stores them (`StateArrays.fields`: u = hu / h
 and v = hv / h where h >= numerics.h_eps, the solver's desingularised velocity in thinner
 films (`state_access.output_velocity`), phi = h phi / h where h > 0, else 0, clipped to
-[0, 1]; phi missing, NaN, where h < numerics.h_min). So interpolating a snapshot of fields.nc by hand at a gauge gives
-that gauge's value at the snapshot time (when the snapshot is a step state). phi is NaN where
+[0, 1]; phi missing, NaN, where h < numerics.h_min). So interpolating a snapshot of
+fields.nc by hand at a gauge gives that gauge's value at the snapshot time (when the snapshot is a step state). phi is NaN where
 one of the four cells has no material. A point within half a cell of the chute's edge (beyond
 the outermost centres) takes the value at the nearest centre along that axis (no
 extrapolation, and the periodic copy is not used).

@@ -207,26 +207,19 @@ class WallSpaced(Schedule):
     def __init__(self, schedule: Schedule, seconds: float, clock=_time.perf_counter):
         if not isinstance(schedule, Schedule):
             raise InputError(f"WallSpaced({schedule!r}): not a schedule")
-        if not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds >= 0):
-            raise InputError(f"WallSpaced(..., {seconds!r}): seconds must be a number >= 0")
-        self.schedule, self.seconds, self.clock = schedule, float(seconds), clock
-        self.last = clock()
+        self.schedule = schedule
+        # its clock, asked only when the inner schedule is due
+        self.wall = WallTimeInterval(seconds, clock)
 
     def start(self):
         self.schedule.start()
-        self.last = self.clock()
+        self.wall.start()
 
     def due(self, t0, t1, steps):
-        if not self.schedule.due(t0, t1, steps):
-            return False
-        now = self.clock()
-        if now - self.last >= self.seconds:
-            self.last = now
-            return True
-        return False
+        return self.schedule.due(t0, t1, steps) and self.wall.due(t0, t1, steps)
 
     def __repr__(self):
-        return f"WallSpaced({self.schedule!r}, {self.seconds!r})"
+        return f"WallSpaced({self.schedule!r}, {self.wall.seconds!r})"
 
 
 __all__ = [

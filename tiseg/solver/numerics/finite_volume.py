@@ -69,12 +69,8 @@ class FiniteVolume:
         computes only the ghost cells' ones. Any write to the slot, a parameter change or a
         new active range makes these caches stale."""
         work = self.preparation(slot, t)
-        kind, mark = work[1], work[2]
-        serial = self.state.serial_loops()
-        if kind:
-            self._prepare(slot, kind, mark, serial)
-        elif mark:
-            self.rules.mark_rest(serial)
+        if work[1] or work[2]:
+            self._prepare(slot, work[1], work[2], self.state.serial_loops())
         self.prepared(work, t)
 
     def preparation(self, slot: int, t: float) -> tuple:
@@ -165,7 +161,8 @@ class FiniteVolume:
     def _prepare(self, s: ti.i32, kind: ti.template(), rest: ti.template(), serial: ti.template()):
         """Everything an evaluation needs from slot s before the fluxes, in one launch (each
         launch costs tens of microseconds of Python and thread start-up: on small grids
-        that, not arithmetic, sets the pace): `prepare_in`."""
+        that, not arithmetic, sets the pace): `prepare_in` (the rest mask alone where the
+        slot was prepared already)."""
         self.prepare_in(s, kind, rest, serial)
 
     @ti.func

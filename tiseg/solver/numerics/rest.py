@@ -8,7 +8,7 @@ bitwise:
 
 * the rest mask of a step's start (``rest``: REST where u = v = 0, else the signs of u and v;
   HELD where a law with hysteresis holds the cell for the whole step; WET where h >= h_min),
-  `RestRules.mark_rest`;
+  `RestRules.mark`;
 * the face rules (`RestRules.rest_face`): no mass between two cells at rest, and at least
   the upwind cell's outrunning flux where it moves into a slower neighbour; and a face next
   to a cell that was wet or moving at the step's start keeps its flux through all the
@@ -33,7 +33,7 @@ from ...taichi_classes import data_oriented
 from ...model.physics.params import Params
 from .ranges import piece_at, piece_count
 
-# bits of the rest mask (projected friction), set at a step's start (mark_rest, project)
+# bits of the rest mask (projected friction), set at a step's start (mark, project)
 REST = 1  # u = v = 0 exactly
 HELD = 2  # the static friction holds the cell for the whole step (laws with hysteresis)
 X_POS, X_NEG, Y_POS, Y_NEG = 4, 8, 16, 32  # moving with u > 0, u < 0, v > 0, v < 0
@@ -48,13 +48,6 @@ class RestRules:
         wet scan fills first (`ghosts.GhostCells`)."""
         self.state = state
         self.ghosts = ghosts
-
-    @ti.kernel
-    def mark_rest(self, serial: ti.template()):
-        """The rest mask of the prepared primitives (`mark`) in a launch of its own: where the
-        primitives were prepared already (the preparation's kernels take it in theirs,
-        `FiniteVolume.prepare`)."""
-        self.mark(serial)
 
     @ti.func
     def mark(self, serial: ti.template()):
@@ -138,7 +131,7 @@ class RestRules:
     @ti.func
     def rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
         """With the projected friction scheme, the mass (and h phi) flux at a face next to a
-        cell at rest. "At rest" is read from the step's initial state (mark_rest), not from
+        cell at rest. "At rest" is read from the step's initial state (mark), not from
         the stage's: a cell that the first stage stops must not switch its faces off for the
         later ones. The rates of a step are then one smooth function, which RKC's stage
         weights (of both signs, ~2 and -1.6 at 2 stages) rely on; switching mid-step emptied a

@@ -47,7 +47,7 @@ The basal friction (6.4) is the projected one (Physics.project_friction; numeric
 
 * the x predictor projects each evolved edge over dt/2 at its cell's speed, so that the
   half-step edges see the friction with the gravity it balances;
-* the first sweep of a step takes the step's rest mask (RestRules.mark_rest): no mass or
+* the first sweep of a step takes the step's rest mask (RestRules.mark): no mass or
   h phi crosses a face between two cells at rest at the step's start, and such a face's flux
   is computed with both edges' velocities zero (the momentum a sweep gives a resting cell is
   not yet frictioned, and the flux's dissipation would trade it between the next sweep's

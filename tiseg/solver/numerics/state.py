@@ -323,7 +323,7 @@ class OperatorState:
             return  # each field write from Python is a kernel launch
         self.prepared = self.interior = None
         if self.rest is not None and self.first_stage:
-            # the step's rest mask was taken on the old range (mark_rest: act +- 4) and the
+            # the step's rest mask was taken on the old range (RestRules.mark: act +- 4) and the
             # step has not begun: take it again on the new one (slot 0 is the same), or
             # cells the range now takes in would keep bits of an earlier step, or none
             self.rest_stale = True

@@ -559,7 +559,7 @@ class ReferenceOperator:
 
     def rest_view(self, start: np.ndarray, t: float) -> np.ndarray:
         """The primitives of a step's initial state (at time t) as its rest decisions see
-        them (RestRules.mark_rest): a running inflow's ghost cells move at the inflow's
+        them (RestRules.mark): a running inflow's ghost cells move at the inflow's
         speed whatever their thickness (RestRules._inlet_moves)."""
         c, lay = self.cfg, self.lay
         if not (self.projected and c.bc[0] == "inflow") or t > c.inflow_stop:
