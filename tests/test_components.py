@@ -40,12 +40,12 @@ class LinearDrag(SourceTerm):
         par, base, w = ctx.par, ctx.base, ctx.w
 
         @ti.func
-        def rate(i, j):
-            c = w[i, j]
+        def rate(e, i, j):
+            c = w[i, j, e]
             r = ti.Vector.zero(ctx.fp, ctx.nc)
-            r[ctx.HU] = -par[base] * c[0] * c[ctx.HU]
+            r[ctx.HU] = -par[e, base] * c[0] * c[ctx.HU]
             if ti.static(not ctx.is_1d):
-                r[ctx.HV] = -par[base] * c[0] * c[ctx.HV]
+                r[ctx.HV] = -par[e, base] * c[0] * c[ctx.HV]
             return r
 
         return rate
@@ -54,8 +54,8 @@ class LinearDrag(SourceTerm):
         par, base = ctx.par, ctx.base
 
         @ti.func
-        def stiffness(i, j):
-            return par[base] + 0.0 * i
+        def stiffness(e, i, j):
+            return par[e, base] + 0.0 * i
 
         return stiffness
 
@@ -96,14 +96,20 @@ class BedPressure(SourceTerm):
         k = ctx.aux_index["test-bed"]
 
         @ti.func
-        def rate(i, j):
-            h = w[i, j][0]
-            gc = par[Params.G_COS]
+        def rate(e, i, j):
+            h = w[i, j, e][0]
+            gc = par[e, Params.G_COS]
             r = ti.Vector.zero(ctx.fp, ctx.nc)
-            r[ctx.HU] = -gc * h * (aux[i + 1, j][k] - aux[i - 1, j][k]) * 0.5 * par[Params.INV_DX]
+            r[ctx.HU] = (
+                -gc * h * (aux[i + 1, j, e][k] - aux[i - 1, j, e][k]) * 0.5 * par[e, Params.INV_DX]
+            )
             if ti.static(not ctx.is_1d):
                 r[ctx.HV] = (
-                    -gc * h * (aux[i, j + 1][k] - aux[i, j - 1][k]) * 0.5 * par[Params.INV_DY]
+                    -gc
+                    * h
+                    * (aux[i, j + 1, e][k] - aux[i, j - 1, e][k])
+                    * 0.5
+                    * par[e, Params.INV_DY]
                 )
             return r
 

@@ -21,7 +21,7 @@ def _rhs(cfg, q, poison=(), value=math.nan):
 
     op = TaichiOperator(cfg, nslots=2)
     for idx in poison:
-        op.par[idx] = value
+        op.par[0, idx] = value
     op.set(0, q)
     op.rhs(0, 1, 0.05)
     ix, iy = cfg.layout.interior()
@@ -61,7 +61,7 @@ def test_friction_none_has_no_friction_code(ti_cpu):
     off = make_config(8, 6, friction="none", bc=("periodic",) * 4)
     r, op = _rhs(off, _state(off))
     # the common numbers, the linear transport function's 1 - alpha and nu, nothing else
-    assert np.isfinite(r).all() and op.par.shape == (Params.COUNT + 2,)
+    assert np.isfinite(r).all() and op.par.shape == (1, Params.COUNT + 2)
     for law in ("pouliquen-mixture", "pouliquen-extended", "coulomb", "pouliquen-small"):
         on = make_config(8, 6, friction=law, bc=("periodic",) * 4)
         q = _state(on)
@@ -72,13 +72,13 @@ def test_friction_none_has_no_friction_code(ti_cpu):
         for k in _friction_slots(on):
             # NaN, or inf where a NaN would only fail a comparison (beta*: max(Fr, NaN) = Fr)
             reach = []
-            keep = op.par[k]
+            keep = op.par[0, k]
             for v in POISONS:
-                op.par[k] = v
+                op.par[0, k] = v
                 op.set(0, q)
                 op.rhs(0, 1, 0.05)
                 reach.append(not np.isfinite(op.get(1)[:, ix, iy]).all())
-            op.par[k] = keep
+            op.par[0, k] = keep
             assert any(reach), (law, k)
 
 
@@ -91,7 +91,7 @@ def test_one_friction_law_compiles_no_other(ti_cpu):
     assert len(_friction_slots(mix)) == 8 and len(_friction_slots(ext)) == 12
     q = _state(mix)
     r_mix, op = _rhs(mix, q)
-    assert op.par.shape == (Params.COUNT + 2 + 8,)
+    assert op.par.shape == (1, Params.COUNT + 2 + 8)
     # the extended law in its dynamic regime (every Froude number above beta*) is (3.4), (3.7)
     r_ext, _ = _rhs(ext, q)
     w_fr = _froude(mix, q)

@@ -777,7 +777,7 @@ def test_guard_stops_a_run_that_produces_nan(ti_cpu, tmp_path):
 
     def poison(snap):
         if snap.t >= 0.1:
-            snap.sim.op.par[Params.G_SIN] = float("nan")
+            snap.sim.op.par[0, Params.G_SIN] = float("nan")
 
     with pytest.raises(SimulationError) as info:
         sim.run(out_dir=tmp_path, progress=False, on_output=poison)

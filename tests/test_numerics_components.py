@@ -113,8 +113,8 @@ def test_reconstruction_slope_equals_its_twin(ti_cpu, name, seg):
     rec = RECONSTRUCTIONS[name]
     slope = rec.taichi(__import__("taichi"), op.par, lay, op.fp)
 
-    def fn(a, b):  # (dc is the mean of the two: the stencil's central difference)
-        return slope(a, b, 0.5 * (a + b))
+    def fn(a, b):  # (dc is the mean of the two: the stencil's central difference; member 0)
+        return slope(0, a, b, 0.5 * (a + b))
 
     got = _run_pairwise(op, __import__("taichi").func(fn), dm, dp)
     want = rec.slope_np(cfg, lay, dm, dp, dc)
@@ -142,9 +142,9 @@ def test_numerical_flux_equals_its_twin(ti_cpu, name, phi_flux, d):
 
     @ti.func
     def fn(a, b, dd: ti.template()):
-        F = flux(a, b, dd, op.phys.g0())
+        F = flux(0, a, b, dd, op.phys.g0(0))  # (member 0's numbers)
         if ti.static(modifies):
-            F = mod(F, a, b)
+            F = mod(0, F, a, b)
         return F
 
     got = _run_pairwise(op, fn, wl, wr, d)

@@ -261,12 +261,12 @@ def test_set_parameters_changes_scene_and_operator(ti_cpu):
     sim = Simulation(small())
     sim.set_parameters({"flow.nu": 0.02, "material.zeta_deg": 28.0})
     assert sim.scene.flow.nu == 0.02 and sim.scene.material.zeta_deg == 28.0
-    par = sim.op.par.to_numpy()
+    par = sim.op.par.to_numpy()[0]
     NU = slot_bases(sim.op.cfg)["viscosity"]
     assert par[NU] == 0.02 and sim.op.cfg.nu == 0.02
     assert par[Params.G_SIN] == pytest.approx(9.81 * np.sin(np.radians(28.0)), rel=1e-14)
     sim.set_parameters({"flow.nu": 0.0})  # viscosity off: same kernels (and slots), nu = 0
-    assert slot_bases(sim.op.cfg)["viscosity"] == NU and sim.op.par.to_numpy()[NU] == 0.0
+    assert slot_bases(sim.op.cfg)["viscosity"] == NU and sim.op.par.to_numpy()[0, NU] == 0.0
     for change, what in (
         ({"domain.resolution": 50}, "the grid"),
         ({"numerics.reconstruction": "minmod"}, "numerics.reconstruction"),
@@ -357,7 +357,7 @@ def test_no_checkpoint_is_written_from_a_broken_state(ti_cpu, tmp_path):
 
     def poison(s):
         if s.stats.steps == 4:
-            s.op.par[Params.G_SIN] = float("nan")
+            s.op.par[0, Params.G_SIN] = float("nan")
 
     sim.add_callback(poison, IterationInterval(1))
     with pytest.raises(SimulationError):

@@ -78,10 +78,10 @@ def _taichi_step(cfg, q, dirs, t=0.05, dt=DT, op=None):
 
 def _poisoned(op, q, k, value):
     """A split step of op from q with parameter slot k set to value (then restored)."""
-    keep = op.par[k]
-    op.par[k] = value
+    keep = op.par[0, k]
+    op.par[0, k] = value
     out, _ = _taichi_step(op.cfg, q, (0, 1), op=op)
-    op.par[k] = keep
+    op.par[0, k] = keep
     return out
 
 

@@ -1,5 +1,5 @@
 """Sweep members in batches (`tiseg sweep --batch`, `tiseg.apps.sweep.members.execute_batch`):
-members that share their compiled kernels run one after another on one simulation, and each
+members that share their compiled kernels advance together on one operator, and each
 member's fields, diagnostics and metrics are bitwise those of the member run alone."""
 
 from __future__ import annotations

@@ -229,13 +229,13 @@ def test_headless_window_matches_offscreen_frames(ti_cpu, tmp_path):
 
         # run-time parameters, no recompilation: nu, slope (g cos, g sin) and inflow
         v.set_params(nu=0.02, zeta=math.radians(30.0), inflow_h=0.003)
-        par = sim.op.par.to_numpy()
+        par = sim.op.par.to_numpy()[0]
         assert par[slot_bases(sim.op.cfg)["viscosity"]] == pytest.approx(0.02)
         assert par[Params.G_SIN] == pytest.approx(sim.op.cfg.g * math.sin(math.radians(30)))
         assert par[Params.G_COS] == pytest.approx(sim.op.cfg.g * math.cos(math.radians(30)))
         v.paused = False
         v.run_frames(1)
-        assert sim.op.par[Params.IN_H] > 0
+        assert sim.op.par[0, Params.IN_H] > 0
         assert sim.op.cfg.inflow_h == 0.003
 
         # screenshot and recording

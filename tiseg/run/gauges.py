@@ -51,8 +51,9 @@ class Gauges:
     `tiseg.solver.numerics.state.OperatorState`, or the operator); ``dx``, ``dy``: the cell
     size [m]; ``h_min``: where phi is missing."""
 
-    def __init__(self, op, points, dx: float, dy: float, h_min: float):
+    def __init__(self, op, points, dx: float, dy: float, h_min: float, member: int = 0):
         self.op = op
+        self.member = int(member)  # the ensemble member whose state it reads
         self.names = tuple(p[0] for p in points)
         self.h_min = float(h_min)
         lay = op.lay
@@ -72,21 +73,21 @@ class Gauges:
         self.cells.from_numpy(np.array(cells, dtype=np.int32))
 
     @ti.kernel
-    def _gather(self):
-        """The conserved vectors of the corner cells, from slot 0 (reads only)."""
+    def _gather(self, e: ti.i32):
+        """The conserved vectors of the corner cells, from member e's slot 0 (reads only)."""
         gx, gy = ti.static(self.op.gx, self.op.gy)
         for k in range(self.cells.shape[0]):
-            self.values[k] = self.op.q[0, gx + self.cells[k, 0], gy + self.cells[k, 1]]
+            self.values[k] = self.op.q[0, gx + self.cells[k, 0], gy + self.cells[k, 1], e]
 
     def read(self) -> dict[str, np.ndarray]:
         """{quantity: array (gauges,)} of the current step state, float64; the run's quantities
         only (no v in 1D, no phi without segregation)."""
-        self._gather()
+        self._gather(self.member)
         q = self.values.to_numpy()  # (4 gauges, nc), the run's precision
         lay = self.op.lay
         h = q[:, lay.H]
         safe = np.where(h > 0, h, 1.0)
-        h_eps = self.op.cfg.h_eps
+        h_eps = self.op.cfgs[self.member].h_eps
         corners = {"h": h, "u": output_velocity(h, q[:, lay.HU], h_eps)}
         if not lay.is_1d:
             corners["v"] = output_velocity(h, q[:, lay.HV], h_eps)

@@ -88,8 +88,9 @@ class StateGuard:
     f32; 0 or a negative value switches the mass check off).
     """
 
-    def __init__(self, op, h_ref: float, mass_tol: float | None = None):
+    def __init__(self, op, h_ref: float, mass_tol: float | None = None, member: int = 0):
         self.op = op
+        self.member = int(member)  # the ensemble member whose state it checks
         lay = op.lay
         self.lay = lay
         eps = float(np.finfo(op.np_fp).eps)
@@ -115,11 +116,13 @@ class StateGuard:
         op = self.op
         if h_ref is not None:
             self.h_tol = 16.0 * float(np.finfo(op.np_fp).eps) * h_ref
-        self.par.from_numpy(np.array([self.h_tol, self.phi_tol, op.cfg.h_min], dtype=op.np_fp))
+        self.par.from_numpy(
+            np.array([self.h_tol, self.phi_tol, op.cfgs[self.member].h_min], dtype=op.np_fp)
+        )
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
-    def _scan(self, serial: ti.template()):
+    def _scan(self, e: ti.i32, serial: ti.template()):
         gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
         ti.loop_config(serialize=True)
         for r in range(4):
@@ -130,7 +133,7 @@ class StateGuard:
         hmin = self.par[2]
         ti.loop_config(serialize=serial)  # as the operator's loops (operator.py)
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
-            v = self.op.q[0, i, j]
+            v = self.op.q[0, i, j, e]
             idx = (i - gx) * ny + (j - gy)
             bad = 0
             for c in ti.static(range(self.op.nc)):
@@ -154,19 +157,19 @@ class StateGuard:
                 ti.atomic_min(self.res[rule, 1], idx)
 
     @ti.kernel
-    def _keep(self, serial: ti.template()):
+    def _keep(self, e: ti.i32, serial: ti.template()):
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(self.op.NX, self.op.NY):
-            self.good[i, j] = self.op.q[0, i, j]
+            self.good[i, j] = self.op.q[0, i, j, e]
         ti.loop_config(serialize=True)
         for b in range(NBUDGET):
-            self.good_bud[b] = self.op.bud[0, b]
+            self.good_bud[b] = self.op.bud[e, 0, b]
 
     # ------------------------------------------------------------------ host side
     def scan(self, t: float, step: int) -> Violation | None:
         """Check slot 0; the first broken rule (in the order of RULES) or None."""
         self.op.check_alive()
-        self._scan(self.op.serial_loops(whole=True))
+        self._scan(self.member, self.op.serial_loops(whole=True))
         res = self.res.to_numpy()
         for rule in range(4):
             count, idx = int(res[rule, 0]), int(res[rule, 1])
@@ -191,7 +194,7 @@ class StateGuard:
 
     def keep(self, meta: dict) -> None:
         """Copy slot 0 and its budget into the last-good buffer (on the device)."""
-        self._keep(self.op.serial_loops(whole=True))
+        self._keep(self.member, self.op.serial_loops(whole=True))
         self.good_meta = dict(meta)
 
     def last_good(self) -> tuple[np.ndarray, np.ndarray, dict] | None:
@@ -204,7 +207,7 @@ class StateGuard:
     def _describe(self, rule: int, count: int, idx: int, t: float, step: int) -> Violation:
         lay = self.lay
         i, j = divmod(idx, lay.ny)
-        q = self.op.get(0)[:, lay.gx + i, lay.gy + j]
+        q = self.op.get(0, self.member)[:, lay.gx + i, lay.gy + j]
         names = ["h", "hu"] + ([] if lay.is_1d else ["hv"]) + (["h*phi"] if lay.segregation else [])
         if rule == NONFINITE:
             c = int(np.argmax(~np.isfinite(q)))
@@ -213,7 +216,7 @@ class StateGuard:
             field, value = "h", float(q[0])
         else:
             field, value = "phi", float(q[lay.HPHI] / q[0])
-        cfg = self.op.cfg
+        cfg = self.op.cfgs[self.member]
         return Violation(
             RULES[rule], field, i, j, (i + 0.5) * cfg.dx, (j + 0.5) * cfg.dy, value, count, t, step
         )

@@ -54,8 +54,9 @@ class PeakFields:
     """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision.
     ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator."""
 
-    def __init__(self, op):
+    def __init__(self, op, member: int = 0):
         self.op = op
+        self.member = int(member)  # the ensemble member whose state it folds in
         lay = op.lay
         self.shape = (lay.nx, lay.ny)
         ft = self.field_tree = FieldTree()  # freed with this object
@@ -68,20 +69,20 @@ class PeakFields:
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
-    def _update(self, t: float, whole: ti.template(), serial: ti.template()):
+    def _update(self, e: ti.i32, t: float, whole: ti.template(), serial: ti.template()):
         """Fold the state of slot 0 at time t into the peaks: on every interior cell
         (``whole``), else on the active x range and the cells a step writes beside it. The
         range and h_min are read on the device (the operator's fields): one argument to pass,
         since a launch's cost on small grids is mostly its arguments and set-up."""
         gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
-        hmin = self.op.par[Params.H_MIN]
+        hmin = self.op.par[e, Params.H_MIN]
         lo, hi = gx, gx + nx
         if ti.static(not whole):
             lo = ti.max(self.op.act[0] - STENCIL_HALO, gx)
             hi = ti.min(self.op.act[1] + STENCIL_HALO, gx + nx)
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, ny)):
-            v = self.op.q[0, i, gy + j]
+            v = self.op.q[0, i, gy + j, e]
             h = v[0]
             k = i - gx
             if h > self.h_max[k, j]:  # (a NaN compares false: the guard reports it)
@@ -102,13 +103,13 @@ class PeakFields:
         self.h_max.fill(0.0)
         self.speed.fill(0.0)
         self.arrival.fill(NEVER)
-        self._update(float(t), True, self.op.serial_loops(whole=True))
+        self._update(self.member, float(t), True, self.op.serial_loops(whole=True))
         self.launches += 1
 
     def update(self, t: float) -> None:
         """Fold in the state a step just ended with at time t: only the cells it could change
         (the operator's active range, as the step left it, and STENCIL_HALO cells beside it)."""
-        self._update(t, False, self.op.serial_loops())
+        self._update(self.member, t, False, self.op.serial_loops())
         self.launches += 1
 
     def arrays(self) -> dict[str, np.ndarray]:

@@ -69,6 +69,7 @@ from ..setup.sections import SECTIONS
 from ..solver.timestepping import stepper_for
 from ..solver.numerics.operator import TaichiOperator
 from ..solver.numerics.operator import StabilityNumbers
+from .member_view import MemberOperator
 from .run_folder import RunFolder
 
 
@@ -95,8 +96,14 @@ class Simulation:
         check_every: int = 10,
         mass_tol: float | None = None,
         skip_rest: bool = True,
+        operator: TaichiOperator | None = None,
+        member: int = 0,
     ):
-        """``active_region``: work only on the x range that can change (exact); ``skip_rest``:
+        """``operator``, ``member``: this simulation is member ``member`` of a batch, whose
+        operator (built with several members for the scene's compiled options) it shares; it
+        then steps with the batch (`tiseg.run.batch`), not alone.
+
+        ``active_region``: work only on the x range that can change (exact); ``skip_rest``:
         leave out of it the regions held at rest (projected friction with a law with
         hysteresis and a stepper that keeps rest bit for bit, every one but SSPRK(10,4);
         exact for the same steps: False only to compare); ``check_every``: guard check every that
@@ -119,13 +126,17 @@ class Simulation:
         # time, and the snapshot interpolated from it and the state after the step
         nstep = max(self.stepper.slots, 2)
         self.PREV, self.SNAP = nstep, nstep + 1
-        if self.backend.arch == "cpu":  # before Taichi tries the allocation
-            check_memory(self.layout, nstep + 2, self.backend.precision)
-        self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
+        self.member = int(member)
+        if operator is None:
+            if self.backend.arch == "cpu":  # before Taichi tries the allocation
+                check_memory(self.layout, nstep + 2, self.backend.precision)
+            self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
+        else:
+            self.op = self._member_of(operator, nstep + 2)
         if self.cfg.bed:  # the bed under the flow and its walls (tiseg.solver.numerics.bed)
             b, solid = scene.bed_arrays()
             self.op.set_bed(b, solid if self.cfg.solid else None)
-        self.arrays = StateArrays(self.op.state, self.op.reduce, scene.dx, scene.dy)
+        self.arrays = StateArrays(self.op.state, self.op.reduce, scene.dx, scene.dy, self.member)
         self.dispatch = CallbackDispatch(self)
         self.failures = FailureChecks(self)
         # Work only on the x range that can change (the wet region and a margin): exact,
@@ -137,9 +148,11 @@ class Simulation:
             self.op.skip_rest and bool(skip_rest) and self.active_region and self.stepper.keeps_rest
         )
         # the run's observers read the operator's state (its fields, slots and ranges)
-        self.guard = StateGuard(self.op.state, h_ref=scene.flow.h0, mass_tol=mass_tol)
+        self.guard = StateGuard(
+            self.op.state, h_ref=scene.flow.h0, mass_tol=mass_tol, member=self.member
+        )
         # the peak fields (tiseg.run.peaks), updated after every step; none when switched off
-        self.peaks = PeakFields(self.op.state) if scene.output.peak_fields else None
+        self.peaks = PeakFields(self.op.state, self.member) if scene.output.peak_fields else None
         # the gauges (tiseg.run.gauges): read after every step by the run folder; none without
         self.gauges = self._make_gauges(scene)
         self.callbacks: dict[str, Callback] = {}
@@ -174,6 +187,25 @@ class Simulation:
         elif overrides:
             scene = scene.with_overrides(overrides)
         return cls(scene, **kwargs)
+
+    def _member_of(self, operator: TaichiOperator, nslots: int) -> MemberOperator:
+        """This simulation's view of the batch's ``operator``, with this scene's run-time
+        numbers in its member's row: refused where the operator was built for other compiled
+        options or another stepper."""
+        if not isinstance(operator, TaichiOperator) or operator.state.M < 2:
+            raise InputError("Simulation(operator=...): give an operator of several members")
+        compiled = compiled_fields(compiled_keys(SECTIONS, "operator"))
+        what = sorted(
+            {v for k, v in compiled.items() if getattr(self.cfg, k) != getattr(operator.cfg, k)}
+        )
+        if what or operator.nslots != nslots:
+            raise InputError(
+                "Simulation(operator=...): the batch's operator was built for other "
+                f"{', '.join(what) or 'stepper slots'}; its members must share them"
+            )
+        view = MemberOperator(operator, self.member)
+        view.set_params(self.cfg)
+        return view
 
     # ------------------------------------------------------------------ mutators
     def reset(self) -> None:
@@ -354,7 +386,7 @@ class Simulation:
         pts = [(g.name, g.x, g.y) for g in scene.output.gauges]
         if not pts:
             return None
-        return Gauges(self.op.state, pts, scene.dx, scene.dy, scene.numerics.h_min)
+        return Gauges(self.op.state, pts, scene.dx, scene.dy, scene.numerics.h_min, self.member)
 
     def gauge_values(self) -> dict:
         """{gauge name: {quantity: value}} of the current state (tiseg.run.gauges): h, u, v,
@@ -390,10 +422,20 @@ class Simulation:
         Plan once per step: a second plan finds the rest mask the first one took (without
         the static friction's hold) and computes resting regions it could skip (correct,
         only slower)."""
+        return self._plan_step(self._plan_range(), t_stop, stages)
+
+    def _plan_range(self):
+        """The first part of `plan`: the wet scan and the x range it gives the step (None
+        without an active region). In a batch the scan is the batch's (`tiseg.run.batch`)."""
+        if not self.active_region:
+            return None
+        extent = self.op.wet_extent(0, self.t)
+        self._set_active(extent, self._last_stages)
+        return extent
+
+    def _plan_step(self, extent, t_stop: float | None, stages: int | None) -> StepPlan:
+        """The rest of `plan`: the stability pass (in a batch the batch's) and the step."""
         sc = self.scene
-        if self.active_region:
-            extent = self.op.wet_extent(0, self.t)
-            self._set_active(extent, self._last_stages)
         if self.active_region and self.op.active[0] == self.op.active[1]:
             # nothing can change (every cell is a dry film or held at rest, far from any
             # other): no stability limit, the step goes to the stop time at no cost
@@ -493,7 +535,14 @@ class Simulation:
                 f"t={self.t!r} s; give a later stop time"
             )
         p = self.plan(t_stop, stages)
-        dt, s = p.dt, p.stages
+        pending = self._step_begin(p)
+        self.stepper.step(self.op, self.t, p.dt, p.stages)
+        return self._step_end(p, pending)
+
+    def _step_begin(self, p: StepPlan) -> list:
+        """What comes before the step of plan ``p``: its checks, and the state before it
+        kept where a snapshot falls inside it. Returns the pending snapshots."""
+        dt = p.dt
         if not (dt > 0 and math.isfinite(dt)):
             # usually a NaN in the state: name it if the guard finds one
             self._guard(full=False)
@@ -507,13 +556,18 @@ class Simulation:
         if any(tk < t1 for tk, _ in pending):
             self.op.blend(self.PREV, 0, 0, 0.0)  # keep the state before the step
         self.stepper.index = self.stats.steps  # (a split step's sweep order follows it)
-        self.stepper.step(self.op, t0, dt, s)
+        return pending
+
+    def _step_end(self, p: StepPlan, pending: list) -> StepInfo:
+        """What comes after the step of plan ``p``: the time, the peaks, the statistics and
+        the callbacks that fell due."""
+        t0, t1, s = self.t, p.t_next, p.stages
         self.t = t1
         if self.peaks is not None:
             self.peaks.update(t1)  # observes the step state; writes nothing the steps read
         self.stats.steps += 1
         self.stats.stages += s
-        self.last_step = StepInfo(t1, dt, s, s)
+        self.last_step = StepInfo(t1, p.dt, s, s)
         self.dispatch.after_step(t0, t1, pending)
         return self.last_step
 
@@ -563,15 +617,59 @@ class Simulation:
         the run at the end of the current step, with a checkpoint when there is a folder, by
         raising `RunInterrupted` (the command line exits 143 / 130)."""
 
-        t_end = self.scene.t_end if t_end is None else float(t_end)
+        session = RunSession(
+            self,
+            out_dir,
+            progress,
+            t_end,
+            on_output,
+            checkpoint_wall,
+            checkpoint_spacing,
+            callbacks,
+            overwrite,
+            signals,
+        )
+        try:
+            session.open()
+            while not session.done():
+                self.step(session.t_end)
+            session.finish()
+        except _StopNow as now:  # a second signal: as RunInterrupted, out of Taichi's reach
+            raise now.error from None
+        finally:
+            session.close()
+        return self.stats
+
+
+class RunSession:
+    """A run of `Simulation.run` with its output folder, progress bar, signal handlers and
+    callbacks: checked when made (everything that can be refused is refused before the folder
+    is touched), then opened (`open`), stepped by its simulation until `done`, finished
+    (`finish`) and closed whatever happened (`close`). A batch (`tiseg.run.batch`) keeps one for each member."""
+
+    def __init__(
+        self,
+        sim,
+        out_dir=None,
+        progress: bool = True,
+        t_end: float | None = None,
+        on_output=None,
+        checkpoint_wall: float | None = _ckpt.DEFAULT_WALL_INTERVAL,
+        checkpoint_spacing: float = _ckpt.DEFAULT_SPACING,
+        callbacks=(),
+        overwrite: bool = False,
+        signals: bool = False,
+    ):
+        self.sim = sim
+        t_end = sim.scene.t_end if t_end is None else float(t_end)
         if not (math.isfinite(t_end) and t_end >= 0):
             raise InputError(f"run(t_end={t_end!r}): give a finite time >= 0")
-        times = self.output_times(t_end)
-        # everything that can be refused is checked before the folder is touched
+        self.t_end = t_end
+        self.times = sim.output_times(t_end)
         extra = []
         if on_output is not None:
             extra.append(
-                Callback(on_output, SpecifiedTimes(times), name="on_output", snapshot=True)
+                Callback(on_output, SpecifiedTimes(self.times), name="on_output", snapshot=True)
             )
         for cb in callbacks:
             if not isinstance(cb, Callback):
@@ -584,56 +682,69 @@ class Simulation:
             raise InputError(f"checkpoint_wall={checkpoint_wall!r} must be a number >= 0")
         if not (isinstance(checkpoint_spacing, (int, float)) and checkpoint_spacing >= 0):
             raise InputError(f"checkpoint_spacing={checkpoint_spacing!r} must be a number >= 0")
-        resume = self._resume
+        resume = sim._resume
         if resume is not None and (out_dir is None or Path(out_dir).resolve() != resume["dir"]):
             resume = None  # continuing elsewhere: a fresh set of files
-        saved, failure_dir = dict(self.callbacks), self.failure_dir
-        folder = bar = stop = None
-        try:
-            if out_dir is not None:
-                folder = RunFolder(self, out_dir, resume, overwrite)
-                folder.checkpoint_spacing = float(checkpoint_spacing)
-                self._resume = None  # the files are open: what resume knew is used
-                extra = list(folder.callbacks(times, checkpoint_wall)) + extra
-            if progress:
-                bar = ProgressBar(t_end, self.scene.name, self.t)
-                extra.append(Callback(bar, IterationInterval(1), name="progress"))
-            if signals:
-                stop = _SignalStop(self, folder, t_end)
-                extra.append(
-                    Callback(stop, IterationInterval(1), name="signals", order=1000, checked=True)
-                )
-            for cb in extra:
-                self.callbacks[f"run:{cb.name}"] = cb
-            for cb in self.callbacks.values():
-                cb.schedule.start()
-            self._wall0 = _time.perf_counter() - self.stats.wall
-            self._guard()
-            if resume is None:
-                self.dispatch.initial_snapshots()
-                if folder is not None:
-                    folder.start()
-            while self.t < t_end - 1e-12 * max(1.0, t_end):
-                self.step(t_end)
-            if folder is not None:
-                folder.finish()
-                if folder.checkpoint_path.is_file():  # stopped before the scene's end:
-                    self._resume = folder.resume_info()  # a later run() there continues it
-        except _StopNow as now:  # a second signal: as RunInterrupted, out of Taichi's reach
-            raise now.error from None
-        finally:
-            if stop is not None:
-                stop.restore()
-            if self._wall0 is not None:
-                self.stats.wall = self.wall_time()
-            self._wall0 = None
-            self.callbacks = saved
-            self.failure_dir = failure_dir
-            if bar is not None:
-                bar.close()
-            if folder is not None:
-                folder.close()
-        return self.stats
+        self.extra, self.resume = extra, resume
+        self.out_dir, self.progress, self.signals = out_dir, progress, signals
+        self.checkpoint_wall, self.checkpoint_spacing = checkpoint_wall, checkpoint_spacing
+        self.overwrite = overwrite
+        self.saved, self.failure_dir = dict(sim.callbacks), sim.failure_dir
+        self.folder = self.bar = self.stop = None
+
+    def open(self) -> None:
+        """The folder, the callbacks on their schedules, the first check and snapshots."""
+        sim, extra = self.sim, list(self.extra)
+        if self.out_dir is not None:
+            self.folder = folder = RunFolder(sim, self.out_dir, self.resume, self.overwrite)
+            folder.checkpoint_spacing = float(self.checkpoint_spacing)
+            sim._resume = None  # the files are open: what resume knew is used
+            extra = list(folder.callbacks(self.times, self.checkpoint_wall)) + extra
+        if self.progress:
+            self.bar = ProgressBar(self.t_end, sim.scene.name, sim.t)
+            extra.append(Callback(self.bar, IterationInterval(1), name="progress"))
+        if self.signals:
+            self.stop = _SignalStop(sim, self.folder, self.t_end)
+            extra.append(
+                Callback(self.stop, IterationInterval(1), name="signals", order=1000, checked=True)
+            )
+        for cb in extra:
+            sim.callbacks[f"run:{cb.name}"] = cb
+        for cb in sim.callbacks.values():
+            cb.schedule.start()
+        sim._wall0 = _time.perf_counter() - sim.stats.wall
+        sim._guard()
+        if self.resume is None:
+            sim.dispatch.initial_snapshots()
+            if self.folder is not None:
+                self.folder.start()
+
+    def done(self) -> bool:
+        """Whether the simulation has reached the run's end time."""
+        return not self.sim.t < self.t_end - 1e-12 * max(1.0, self.t_end)
+
+    def finish(self) -> None:
+        """The end of a run that reached its end time: the folder's last writes."""
+        folder = self.folder
+        if folder is not None:
+            folder.finish()
+            if folder.checkpoint_path.is_file():  # stopped before the scene's end:
+                self.sim._resume = folder.resume_info()  # a later run() there continues it
+
+    def close(self) -> None:
+        """Whatever happened: the handlers, the wall time, the callbacks and the files."""
+        sim = self.sim
+        if self.stop is not None:
+            self.stop.restore()
+        if sim._wall0 is not None:
+            sim.stats.wall = sim.wall_time()
+        sim._wall0 = None
+        sim.callbacks = self.saved
+        sim.failure_dir = self.failure_dir
+        if self.bar is not None:
+            self.bar.close()
+        if self.folder is not None:
+            self.folder.close()
 
 
 class _StopNow(BaseException):

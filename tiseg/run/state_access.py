@@ -32,11 +32,13 @@ def output_velocity(h: np.ndarray, m: np.ndarray, h_eps: float) -> np.ndarray:
 class StateArrays:
     """Reading and replacing the state of a `tiseg.run.simulation.Simulation`'s operator."""
 
-    def __init__(self, state, reductions, dx: float, dy: float):
+    def __init__(self, state, reductions, dx: float, dy: float, member: int = 0):
         """``state``: the operator's `OperatorState`; ``reductions``: its `StepReductions`;
-        ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life)."""
+        ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life); ``member``: the
+        ensemble member whose state these are."""
         self.state = state
         self.reductions = reductions
+        self.member = int(member)
         self.layout = state.lay
         # a cell's area (per metre of width in 1D)
         self.cell = dx * (dy if not self.layout.is_1d else 1.0)
@@ -82,14 +84,14 @@ class StateArrays:
     def conserved(self, slot: int = 0) -> np.ndarray:
         """Interior conserved variables (nc, nx, ny)."""
         ix, iy = self.layout.interior()
-        return self.state.get(slot)[:, ix, iy]
+        return self.state.get(slot, self.member)[:, ix, iy]
 
     def set_conserved(self, q_interior: np.ndarray) -> None:
         """Replace the interior conserved variables (nc, nx, ny) of slot 0."""
-        full = self.state.get(0)
+        full = self.state.get(0, self.member)
         ix, iy = self.layout.interior()
         full[:, ix, iy] = q_interior
-        self.state.set(0, full)
+        self.state.set(0, full, self.member)
 
     def fields(self, slot: int = 0) -> dict[str, np.ndarray]:
         """Primitive fields ``h, u[, v][, phi]`` shaped (ny, nx) as in the output files.
@@ -102,7 +104,7 @@ class StateArrays:
         q = self.conserved(slot)
         h = q[lay.H]
         safe = np.where(h > 0, h, 1.0)
-        h_eps = self.state.cfg.h_eps
+        h_eps = self.state.cfgs[self.member].h_eps
         out = {"h": h.T.copy(), "u": output_velocity(h, q[lay.HU], h_eps).T.copy()}
         if not lay.is_1d:
             out["v"] = output_velocity(h, q[lay.HV], h_eps).T.copy()
@@ -113,13 +115,13 @@ class StateArrays:
     def totals(self, slot: int = 0) -> dict[str, float]:
         """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
         fixed order on the device: deterministic for any thread count."""
-        sh, shphi = self.reductions.totals(slot, self.state.serial_loops(whole=True))
+        sh, shphi = self.reductions.totals(slot, self.state.serial_loops(whole=True), self.member)
         seg = self.layout.segregation
         return {"mass": sh * self.cell, "small_mass": shphi * self.cell if seg else float("nan")}
 
     def budget(self, slot: int = 0) -> dict[str, float]:
         """Mass and small-particle mass that entered through the boundaries since the start."""
-        b = self.state.budget(slot)
+        b = self.state.budget(slot, self.member)
         return {
             "mass_in": float((b[0] + b[2]) * self._per_width),
             "small_mass_in": float((b[1] + b[3]) * self._per_width),

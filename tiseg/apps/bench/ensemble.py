@@ -1,10 +1,10 @@
 """Ensemble throughput: members × cells × stages per second of a seed ensemble.
 
 The ensemble row of ``tiseg bench gpu``. M members of the fingers scene that differ in their
-inflow seed run as a sweep batch does (`tiseg.apps.sweep.members.execute_batch`): one after
-another on one simulation, whose kernels are compiled once (a first member, not timed, warms
-them); each member after the first only sets its parameters and its initial state. No output
-folder: the number is the members' steps alone. The throughput counted is
+inflow seed run as a sweep batch does (`tiseg.apps.sweep.members.execute_batch`): together,
+on one operator with a member axis (`tiseg.run.batch.Batch`: one launch a stage for all of
+them), once to compile the kernels (not timed) and then again from their initial states. No
+output folder: the number is the members' steps alone. The throughput counted is
 
     sum over members of (cells × stages) / wall,
 
@@ -24,28 +24,39 @@ from pathlib import Path
 from . import run_child
 from ...errors import TisegError
 
-#: how the members advance (the row says so): one after another on shared kernels
-MODE = "one after another on shared kernels"
+#: how the members advance (the row says so)
+MODE = "together: one launch a stage for all members"
 
 
 def measure(arch: str, precision: str, members: int, resolution: float, t_end: float) -> dict:
     """Run the ensemble in this process (Taichi initialised here) and return its row."""
+    from ...run.batch import Batch
     from ...run.simulation import Simulation
     from ...setup.scene import load_scene
 
     sets = {"domain.resolution": resolution, "time.t_end": t_end, "output.times": []}
-    sim = Simulation(load_scene("fingers", sets), arch=arch, precision=precision)
-    sim.run(progress=False)  # compiles every kernel of the run: not timed
-    cell_stages = 0
-    steps = 0
-    t0 = time.perf_counter()
-    for m in range(members):
-        sim.set_parameters({"inflow.seed": m + 1})
+    scenes = [load_scene("fingers", {**sets, "inflow.seed": m + 1}) for m in range(members)]
+    if members > 1:
+        batch = Batch(scenes, arch=arch, precision=precision)
+        sims = batch.sims
+    else:
+        batch, sims = None, [Simulation(scenes[0], arch=arch, precision=precision)]
+
+    def run_all() -> list:
+        return batch.run() if batch is not None else [sims[0].run(progress=False)]
+
+    run_all()  # compiles every kernel of the run: not timed
+    for sim in sims:
         sim.reset()
-        stats = sim.run(progress=False)
-        cell_stages += sim.layout.nx * sim.layout.ny * stats.stages
-        steps += stats.steps
+    t0 = time.perf_counter()
+    stats = run_all()
     wall = time.perf_counter() - t0
+    for s in stats:
+        if isinstance(s, Exception):
+            raise s
+    sim = sims[0]
+    cell_stages = sum(sim.layout.nx * sim.layout.ny * s.stages for s in stats)
+    steps = sum(s.steps for s in stats)
     return {
         "arch": sim.backend.arch,
         "precision": precision,

@@ -67,10 +67,10 @@ def register(sub) -> None:
         default=None,
         metavar="N",
         help="run up to N members that share their compiled kernels (grid, effects, "
-        "numerics) in one task, one after another on one simulation: Taichi's start-up and "
-        "the kernels' compilation are paid once per task, and each member's results are "
-        "bitwise those of a run alone; 1 runs each member in its own task (default: enough "
-        "tasks for two per worker, at most 16 members each)",
+        "numerics) in one task, advanced together (one kernel launch a stage for all of "
+        "them): Taichi's start-up and the kernels' compilation are paid once per task, and "
+        "each member's results are bitwise those of a run alone; 1 runs each member in its "
+        "own task (default: enough tasks for two per worker, at most 16 members each)",
     )
     add_overwrite(
         p,

@@ -122,17 +122,131 @@ _LAST: dict = {}
 
 
 def execute_batch(specs: list[dict], run: Callable[[dict], dict] | None = None) -> list[dict]:
-    """Run sweep members one after another in this process (a Dask task of `tiseg sweep
-    --batch`), each as `execute_run` would, on one simulation while their compiled
-    fingerprints agree: the Taichi start-up and the compilation of the kernels are paid once,
-    and each member after the first only sets its run-time parameters and its initial state
-    (`Simulation.set_parameters`, `Simulation.reset`). Each member's fields, diagnostics and
-    folder are bitwise those of the member run alone (tests/test_sweep_batch.py); one that
-    fails is reported and the others go on (the next on a fresh simulation). A later batch in
-    the same process starts on the last one's simulation where it can. Returns the records,
-    in the order of ``specs``. ``run``: the function that runs one member (`execute_run`)."""
+    """Run sweep members (a Dask task of `tiseg sweep --batch`) in this process, each into
+    its own folder as `execute_run` would. Members that share their compiled fingerprint
+    advance together on one operator with a member axis (`tiseg.run.batch.Batch`: one
+    launch a stage for all of them, each member bitwise as run alone; tests/test_batch.py);
+    the Taichi start-up and the compilation are paid once. A member that fails is reported
+    and the others go on. Returns the records, in the order of ``specs``. ``run``: the
+    function that runs a member alone (`execute_run`), for the members that cannot join
+    the others (a batch of one)."""
     run = execute_run if run is None else run
-    return [run({**spec, "reuse": True}) for spec in specs]
+    if run is not execute_run or len(specs) < 2:
+        return [run({**spec, "reuse": True}) for spec in specs]
+    records: list = [None] * len(specs)
+    held = []  # (index, spec, run dir, scene, lock) of the members to run
+    try:
+        for k, spec in enumerate(specs):
+            rec, entry = _claim(spec)
+            if rec is not None:
+                records[k] = rec
+            else:
+                held.append((k, *entry))
+        groups: dict = {}
+        for item in held:
+            groups.setdefault(compiled_fingerprint(item[3]), []).append(item)
+        for group in groups.values():
+            if len(group) == 1:
+                k, spec, run_dir, scene, _ = group[0]
+                records[k] = _guarded(spec, _execute_locked, spec, run_dir, scene, _LAST)
+                continue
+            for k, rec in _run_together(group):
+                records[k] = rec
+    finally:
+        for item in held:
+            item[4].release()
+    return records
+
+
+def _claim(spec: dict):
+    """A member's folder made ready and locked: (record, None) where it needs no run (reused,
+    busy, or a folder it may not write), else (None, (spec, run dir, scene, lock))."""
+    run_dir = Path(spec["dir"])
+    scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
+    rec = read_marker(run_dir, scene)
+    if rec is not None:  # checked again here: the worker's view counts
+        return {**rec, "status": "reused"}, None
+    run_dir.mkdir(parents=True, exist_ok=True)
+    lock = RunLock(run_dir)
+    try:  # held from here to the marker: one writer only
+        lock.acquire()
+    except InputError:  # another worker (or an orphaned task) runs it now
+        return {"name": spec["name"], "status": "busy", "holder": lock.holder()}, None
+    try:
+        rec = read_marker(run_dir, scene)
+        if rec is not None:  # finished meanwhile by the holder we waited on
+            lock.release()
+            return {**rec, "status": "reused"}, None
+        # a finished run of another scene is replaced only with overwrite (the submitter
+        # checked too; this is the worker's view, which counts); the member's own earlier
+        # output may be replaced, files that tiseg did not write may not
+        check_member_folder(
+            run_dir, scene, bool(spec.get("overwrite")), "pass --overwrite to replace it"
+        )
+        check_fresh_folder(run_dir, bool(spec.get("overwrite")), replace_run=True)
+        (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene
+    except Exception as exc:  # (a user's folder, or a full disk: the member fails, once)
+        lock.release()
+        return _failure(spec, exc), None
+    return None, (spec, run_dir, scene, lock)
+
+
+def _run_together(group: list) -> list:
+    """Run the locked members of ``group`` (sharing compiled kernels) as one batch; their
+    (index, record)s."""
+    from ...run.batch import Batch
+
+    _LAST.clear()  # the batch's operator replaces the process's last simulation
+    specs = [item[1] for item in group]
+    spec0, scene0 = specs[0], group[0][3]
+    t0 = _time.perf_counter()
+    threads = spec0.get("threads", 0)
+    if threads is None:
+        threads = _worker_threads()
+    try:
+        backend.init(spec0.get("arch", "cpu"), scene0.numerics.precision, int(threads), force=True)
+        batch = Batch([item[3] for item in group])
+        reports = [
+            _reporter(s["name"], item[3].t_end) if s.get("report", True) else None
+            for s, item in zip(specs, group)
+        ]
+        results = batch.run(out_dirs=[item[2] for item in group], on_output=reports, overwrite=True)
+    except Exception as exc:  # the batch as a whole failed: every member reports it
+        failed = _failure(spec0, exc)
+        return [(item[0], {**failed, "name": item[1]["name"]}) for item in group]
+    out = []
+    for (k, spec, run_dir, scene, _), sim, res in zip(group, batch.sims, results):
+        if isinstance(res, Exception):
+            out.append((k, _failure(spec, res)))
+            continue
+        spec = {**spec, "batch_members": len(group)}
+        out.append((k, _guarded(spec, _member_record, spec, run_dir, scene, sim, res, t0)))
+    return out
+
+
+def _guarded(spec: dict, fn, *args) -> dict:
+    """``fn(*args)``, a member's record, or its failure record."""
+    try:
+        return fn(*args)
+    except Exception as exc:
+        _LAST.clear()
+        return _failure(spec, exc)
+
+
+def _failure(spec: dict, exc: Exception) -> dict:
+    """The record of a member that failed: one line for a user mistake or a guard, the
+    traceback kept for anything else (a full disk, a bug)."""
+    if isinstance(exc, TisegError):
+        return {"name": spec["name"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    import traceback
+
+    first = next((ln for ln in str(exc).splitlines() if ln.strip()), "").strip()
+    return {
+        "name": spec["name"],
+        "status": "failed",
+        "error": f"{type(exc).__name__}: {first}" if first else type(exc).__name__,
+        "traceback": "".join(traceback.format_exception(exc)),
+    }
 
 
 def execute_run(spec: dict, cache: dict | None = None) -> dict:
@@ -149,59 +263,27 @@ def execute_run(spec: dict, cache: dict | None = None) -> dict:
     """
     if cache is None and spec.get("reuse"):
         cache = _LAST
-
-    run_dir = Path(spec["dir"])
-    scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
-    rec = read_marker(run_dir, scene)
-    if rec is not None:  # checked again here: the worker's view counts
-        return {**rec, "status": "reused"}
-
-    run_dir.mkdir(parents=True, exist_ok=True)
-    lock = RunLock(run_dir)
-    try:  # held from here to the marker: one writer only
-        lock.acquire()
-    except InputError:  # another worker (or an orphaned task) runs it now
-        return {"name": spec["name"], "status": "busy", "holder": lock.holder()}
+    rec, entry = _claim(spec)
+    if rec is not None:  # reused, busy or refused
+        return rec
+    _, run_dir, scene, lock = entry
     try:
         return _execute_locked(spec, run_dir, scene, cache)
-    except TisegError as exc:  # a user mistake or a run that failed its guard: no retry, one line
+    except Exception as exc:
+        # a user mistake or a run that failed its guard: no retry, one line; anything else
+        # (a full disk, a bug) fails the member the same way, its traceback kept in the
+        # record (sweep.json): raised, Dask would run it again to the same end
         if cache is not None:
             cache.clear()  # the next member starts on a fresh simulation
-        return {"name": spec["name"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
-    except Exception as exc:
-        if cache is not None:
-            cache.clear()
-        # anything else (a full disk, a bug) fails the member the same way: raised, Dask would
-        # run it again to the same end and print its traceback blocks between the progress
-        # lines; the traceback is kept in the record (sweep.json) for a bug report
-        import traceback
-
-        first = next((ln for ln in str(exc).splitlines() if ln.strip()), "").strip()
-        return {
-            "name": spec["name"],
-            "status": "failed",
-            "error": f"{type(exc).__name__}: {first}" if first else type(exc).__name__,
-            "traceback": traceback.format_exc(),
-        }
+        return _failure(spec, exc)
     finally:
         lock.release()
 
 
 def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None) -> dict:
-    """`execute_run` once the member's folder is locked."""
+    """`execute_run` once the member's folder is locked and ready (`_claim`)."""
     from ...run.simulation import Simulation
 
-    rec = read_marker(run_dir, scene)
-    if rec is not None:  # finished meanwhile by the holder we waited on
-        return {**rec, "status": "reused"}
-    # a finished run of another scene is replaced only with overwrite (the submitter checked
-    # too; this is the worker's view, which counts)
-    check_member_folder(
-        run_dir, scene, bool(spec.get("overwrite")), "pass --overwrite to replace it"
-    )
-    # the member's own earlier output may be replaced, files that tiseg did not write may not
-    check_fresh_folder(run_dir, bool(spec.get("overwrite")), replace_run=True)
-    (run_dir / DONE_MARKER).unlink(missing_ok=True)  # a stale marker of another scene
     t0 = _time.perf_counter()
     threads = spec.get("threads", 0)
     if threads is None:
@@ -236,6 +318,12 @@ def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None)
     stats = sim.run(
         out_dir=run_dir, progress=False, on_output=report, overwrite=True
     )  # its own folder, without a completion marker
+    return _member_record(spec, run_dir, scene, sim, stats, t0)
+
+
+def _member_record(spec: dict, run_dir: Path, scene, sim, stats, t0: float) -> dict:
+    """The finished member's metrics, fingers.json and completion record (done.json, written
+    last): the same whether it ran alone or in a batch."""
     metrics = measured_all(analyse_run(run_dir))  # the digits that matter (output.numbers)
     record(run_dir, [FINGERS_FILE, DONE_MARKER])
     write_json_atomic(run_dir / FINGERS_FILE, metrics)
@@ -263,6 +351,8 @@ def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None)
         "cell_updates_per_s": nx * ny * stats.stages / max(stats.wall, 1e-12),
         "metrics": _record_metrics(metrics),
     }
+    if spec.get("batch_members"):
+        rec["batch_members"] = int(spec["batch_members"])  # advanced together with others
     rec = measured_all(rec)
     write_json_atomic(run_dir / DONE_MARKER, rec)  # last: its presence means "complete"
     return {**rec, "status": "done"}

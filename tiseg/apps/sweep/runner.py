@@ -188,8 +188,8 @@ def run_sweep(
     both are refused, see `check_sweep_folder`). ``report``: where the closing line of results
     goes (default ``echo``; the command line: stdout, which ``-q`` keeps). ``batch``: members
     that share their compiled kernels (`compiled_fingerprint`) run up to this many to a Dask
-    task, one after another on one simulation (`execute_batch`: start-up and compilation paid
-    once); 1 runs each alone; None (default) chooses enough tasks to keep every worker busy
+    task, advanced together on one operator with a member axis (`execute_batch`: one launch
+    a stage for all, start-up and compilation paid once); 1 runs each alone; None (default) chooses enough tasks to keep every worker busy
     (`batch_size`).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
@@ -322,7 +322,7 @@ def _run_on_dask(
     size = batch or batch_size(len(pending), _worker_count(client))
     tasks = batches(pending, size)
     per = "the worker's" if threads is None else (threads or "all")
-    grouped = f" in {len(tasks)} tasks of up to {size} runs on shared kernels" if size > 1 else ""
+    grouped = f" in {len(tasks)} tasks of up to {size} runs advanced together" if size > 1 else ""
     say(
         f"running {len(pending)} runs{grouped} on the {where}, {per} Taichi thread"
         f"{'' if threads == 1 else 's'} per run"

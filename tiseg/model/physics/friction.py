@@ -8,8 +8,9 @@ A law holds everything the solver needs of it:
 * ``slots``: the names of its run-time numbers, stored in the operator's parameter field after
   `tiseg.model.physics.params.Params.COUNT` (a law without numbers has no slots), and
   ``values``, which reads them from `FrictionParams`;
-* ``taichi``: its Taichi functions ``mu(h, |u|, phi)`` and ``mu_start(h, phi)``, built for one
-  operator's parameter field (so a law that is not chosen leaves no code in the kernels);
+* ``taichi``: its Taichi functions ``mu(e, h, |u|, phi)`` and ``mu_start(e, h, phi)``, built
+  for one operator's parameter field, whose row e holds ensemble member e's numbers (so a law
+  that is not chosen leaves no code in the kernels);
 * ``mu_np`` / ``mu_start_np``: their NumPy twins, written independently, for the reference
   operator (`tiseg.solver.reference.operator`), which the Taichi kernels are tested against;
 * ``least_mu``: the smallest coefficient it can give, which bounds the acceleration in the run
@@ -124,16 +125,16 @@ class FrictionLaw:
         return self.mu_np(c, h, np.zeros_like(h), phi)
 
     def taichi(self, ti, par, base: int, f32_pow: bool = False):
-        """(mu(h, spd, phi), mu_start(h, phi)) as Taichi functions reading ``par[base + k]``
-        for slot k. ``f32_pow``: take powers in 32 bits (Vulkan has no 64-bit pow)."""
+        """(mu(h, spd, phi), mu_start(h, phi)) as Taichi functions reading ``par[e, base + k]``
+        for slot k of member e. ``f32_pow``: take powers in 32 bits (Vulkan has no 64-bit pow)."""
 
         @ti.func
-        def mu(h, spd, phi):
+        def mu(e, h, spd, phi):
             return 0.0 * h
 
         @ti.func
-        def mu_start(h, phi):
-            return mu(h, 0.0 * h, phi)
+        def mu_start(e, h, phi):
+            return mu(e, h, 0.0 * h, phi)
 
         return mu, mu_start
 
@@ -163,12 +164,12 @@ class Coulomb(FrictionLaw):
 
     def taichi(self, ti, par, base, f32_pow=False):
         @ti.func
-        def mu(h, spd, phi):
-            return par[base] + 0.0 * h
+        def mu(e, h, spd, phi):
+            return par[e, base] + 0.0 * h
 
         @ti.func
-        def mu_start(h, phi):
-            return mu(h, 0.0 * h, phi)
+        def mu_start(e, h, phi):
+            return mu(e, h, 0.0 * h, phi)
 
         return mu, mu_start
 
@@ -203,23 +204,23 @@ class PouliquenSpecies(FrictionLaw):
         one = _pouliquen_ti(ti, par, base)
 
         @ti.func
-        def mu(h, spd, phi):
-            return one(h, spd / ti.sqrt(par[Params.G_COS] * h))
+        def mu(e, h, spd, phi):
+            return one(e, h, spd / ti.sqrt(par[e, Params.G_COS] * h))
 
         @ti.func
-        def mu_start(h, phi):
-            return mu(h, 0.0 * h, phi)
+        def mu_start(e, h, phi):
+            return mu(e, h, 0.0 * h, phi)
 
         return mu, mu_start
 
 
 def _pouliquen_ti(ti, par, b: int):
-    """(3.7) at (h, Fr) with the species' (mu1, mu2, beta, L) in par[b:b + 4]."""
+    """(3.7) at (h, Fr) with the species' (mu1, mu2, beta, L) in member e's par[e, b:b + 4]."""
 
     @ti.func
-    def one(h, fr):
-        x = par[b + 3] * fr
-        return par[b] + (par[b + 1] - par[b]) * x / (par[b + 2] * h + x)
+    def one(e, h, fr):
+        x = par[e, b + 3] * fr
+        return par[e, b] + (par[e, b + 1] - par[e, b]) * x / (par[e, b + 2] * h + x)
 
     return one
 
@@ -228,10 +229,10 @@ def _mixture_ti(ti, par, small, large):
     """(3.4) of two species' laws one(h, Fr): mu(h, |u|, phi) = phi mu^S + (1 - phi) mu^L."""
 
     @ti.func
-    def mu(h, spd, phi):
-        fr = spd / ti.sqrt(par[Params.G_COS] * h)
-        mus = small(h, fr)
-        mul = large(h, fr)
+    def mu(e, h, spd, phi):
+        fr = spd / ti.sqrt(par[e, Params.G_COS] * h)
+        mus = small(e, h, fr)
+        mul = large(e, h, fr)
         return phi * mus + (1.0 - phi) * mul
 
     return mu
@@ -264,8 +265,8 @@ class PouliquenMixture(FrictionLaw):
         mu = _mixture_ti(ti, par, small, large)
 
         @ti.func
-        def mu_start(h, phi):
-            return mu(h, 0.0 * h, phi)
+        def mu_start(e, h, phi):
+            return mu(e, h, 0.0 * h, phi)
 
         return mu, mu_start
 
@@ -389,17 +390,17 @@ class PouliquenExtended(FrictionLaw):
             dyn = _pouliquen_ti(ti, par, b)
 
             @ti.func
-            def start(h):
-                L = par[b + 3]
-                return par[b + 4] + (par[b + 1] - par[b]) * L / (L + h)
+            def start(e, h):
+                L = par[e, b + 3]
+                return par[e, b + 4] + (par[e, b + 1] - par[e, b]) * L / (L + h)
 
             @ti.func
-            def one(h, fr):
-                bstar = par[bs]
-                m = dyn(h, ti.max(fr, bstar))  # mu_D(h, max(Fr, beta*))
+            def one(e, h, fr):
+                bstar = par[e, bs]
+                m = dyn(e, h, ti.max(fr, bstar))  # mu_D(h, max(Fr, beta*))
                 if fr < bstar:
-                    ms = start(h)
-                    m = power(fr / bstar, par[kp]) * (m - ms) + ms
+                    ms = start(e, h)
+                    m = power(fr / bstar, par[e, kp]) * (m - ms) + ms
                 return m
 
             return one, start
@@ -410,8 +411,8 @@ class PouliquenExtended(FrictionLaw):
         mu = _mixture_ti(ti, par, small, large)
 
         @ti.func
-        def mu_start(h, phi):
-            return phi * small_start(h) + (1.0 - phi) * large_start(h)
+        def mu_start(e, h, phi):
+            return phi * small_start(e, h) + (1.0 - phi) * large_start(e, h)
 
         return mu, mu_start
 

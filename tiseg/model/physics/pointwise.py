@@ -68,11 +68,11 @@ class Physics:
         self.bend = cfg.bend is not None
 
     @ti.func
-    def g0(self):
+    def g0(self, e):
         """The plane's gravity (g sin zeta, g cos zeta, kappa = 0): the vector g the functions
         below take, which on a bend is the column's (tiseg.solver.numerics.gravity)."""
-        gc = self.par[Params.G_COS]
-        return ti.Vector([self.par[Params.G_SIN], gc, 0.0 * gc])
+        gc = self.par[e, Params.G_COS]
+        return ti.Vector([self.par[e, Params.G_SIN], gc, 0.0 * gc])
 
     @ti.func
     def g_normal(self, u, g):
@@ -85,15 +85,15 @@ class Physics:
         return r
 
     @ti.func
-    def mu_g(self, h, spd, phi, gn):
+    def mu_g(self, e, h, spd, phi, gn):
         """mu_b under the normal load gn: a law's Froude number |u| / sqrt(g cos zeta h) is
         taken with the plane's g cos zeta (par), so on a bend the speed it sees is scaled to
         give |u| / sqrt(gn h) (gn floored: where it is 0 the friction is too)."""
         s = spd
         if ti.static(self.bend):
-            gc = self.par[Params.G_COS]
+            gc = self.par[e, Params.G_COS]
             s = spd * ti.sqrt(gc / ti.max(gn, 1e-6 * gc))
-        return self.mu_b(h, s, phi)
+        return self.mu_b(e, h, s, phi)
 
     @ti.func
     def vel(self, w, d: ti.template()):
@@ -104,13 +104,13 @@ class Physics:
         return r
 
     @ti.func
-    def G(self, phi):
+    def G(self, e, phi):
         """The scene's transport function, (2.17) or (2.18) (tiseg.model.physics.segregation)."""
-        return self._G(phi)
+        return self._G(e, phi)
 
     @ti.func
-    def dG(self, phi):
-        return self._dG(phi)
+    def dG(self, e, phi):
+        return self._dG(e, phi)
 
     @ti.func
     def conserved(self, w):
@@ -120,7 +120,7 @@ class Physics:
         return q
 
     @ti.func
-    def flux(self, w, d: ti.template(), g):
+    def flux(self, e, w, d: ti.template(), g):
         """Physical flux of (6.1)-(6.3) along d: mass, momentum with slope-normal pressure
         (1/2) g cos(zeta) h^2 (on a bend (1/2) (g cos zeta + kappa u^2) h^2, `g_normal`), and
         the large-particle transport h u (phi - G(phi)). g: (g sin zeta, g cos zeta, kappa) of
@@ -139,18 +139,18 @@ class Physics:
             f[self.HV] += half_gn * h * h
         if ti.static(self.seg):
             phi = w[self.HPHI]
-            f[self.HPHI] = h * vn * (phi - self.G(phi))
+            f[self.HPHI] = h * vn * (phi - self.G(e, phi))
         return f
 
     @ti.func
-    def speed(self, w, d: ti.template(), g):
+    def speed(self, e, w, d: ti.template(), g):
         """Local characteristic speed: max(|u| + sqrt(g h cos zeta), |u (1 - G'(phi))|)
         (5.25)-(5.26); on a bend sqrt(gn h) + |kappa| h |u| in place of sqrt(g h cos zeta),
         a bound of the waves of the pressure (1/2) (g cos zeta + kappa u^2) h^2."""
         vn = self.vel(w, d)
         a = ti.abs(vn) + self.wave(w, g)
         if ti.static(self.seg):
-            a = ti.max(a, ti.abs(vn * (1.0 - self.dG(w[self.HPHI]))))
+            a = ti.max(a, ti.abs(vn * (1.0 - self.dG(e, w[self.HPHI]))))
         return a
 
     @ti.func
@@ -163,7 +163,7 @@ class Physics:
         return c
 
     @ti.func
-    def speed_range(self, w, d: ti.template(), g):
+    def speed_range(self, e, w, d: ti.template(), g):
         """Smallest and largest characteristic speed along d, (u - c, u + c) widened to take in
         the segregation speed u (1 - G'(phi)) (5.26): the one-sided local speeds of the
         central-upwind flux."""
@@ -172,40 +172,40 @@ class Physics:
         lo = vn - c
         hi = vn + c
         if ti.static(self.seg):
-            s = vn * (1.0 - self.dG(w[self.HPHI]))
+            s = vn * (1.0 - self.dG(e, w[self.HPHI]))
             lo = ti.min(lo, s)
             hi = ti.max(hi, s)
         return ti.Vector([lo, hi])
 
     @ti.func
-    def transported(self, phi):
+    def transported(self, e, phi):
         """phi - G(phi): the large-particle flux per unit mass flux, h u (phi - G) / (h u).
         Non-decreasing in phi for every transport function (1 - G' >= alpha with (2.17),
         >= 0 with (2.18)), so upwinding phi by the sign of the mass flux is upwinding this
         flux."""
-        return phi - self.G(phi)
+        return phi - self.G(e, phi)
 
     @ti.func
-    def _weight(self, phi):
+    def _weight(self, e, phi):
         """The concentration a mixture law weights with: the local phi with mobility
         feedback, else flow.phi0."""
-        ph = self.par[Params.PHI_REF]
+        ph = self.par[e, Params.PHI_REF]
         if ti.static(self.feedback):
             ph = phi
         return ph
 
     @ti.func
-    def mu_b(self, h, spd, phi):
+    def mu_b(self, e, h, spd, phi):
         """Basal friction coefficient of the scene's law at thickness h and speed spd
         (tiseg.model.physics.friction); phi weights a mixture (3.4) with mobility feedback, else
         flow.phi0 does."""
-        return self._mu(h, spd, self._weight(phi))
+        return self._mu(e, h, spd, self._weight(e, phi))
 
     @ti.func
-    def mu_start(self, h, phi):
+    def mu_start(self, e, h, phi):
         """The largest coefficient at rest: mu_S(h) of a law with hysteresis, else mu_b at
         zero speed."""
-        return self._mu_start(h, self._weight(phi))
+        return self._mu_start(e, h, self._weight(e, phi))
 
     @ti.func
     def speed_mag(self, w):
@@ -216,7 +216,7 @@ class Physics:
         return s
 
     @ti.func
-    def acts(self, h):
+    def acts(self, e, h):
         """Whether the sources and the friction act on a cell of thickness h: wherever there
         is material in the split sweeps (films flow), only where h >= h_min in the unsplit
         scheme. There the paper's cut-off stays: RKC's stages are not positivity
@@ -224,20 +224,20 @@ class Physics:
         creating mass (3e-6 of a finite release's in ten steps). (Cutting the films off at
         h_eps instead of 0 coarsened the parabolic cap's margins: L1 5.6e-4 against 2.4e-4
         at 1000 cells.)"""
-        out = h >= self.par[Params.H_MIN]
+        out = h >= self.par[e, Params.H_MIN]
         if ti.static(self.films):
             out = h > 0.0
         return out
 
     @ti.func
-    def film_h(self, h):
+    def film_h(self, e, h):
         """The thickness a friction law is evaluated at: h, or h_min in a film thinner than
         that (the laws' thickness dependence (3.7) describes layers many grains deep, and
         0 / 0 at h = 0 is avoided)."""
-        return ti.max(h, self.par[Params.H_MIN])
+        return ti.max(h, self.par[e, Params.H_MIN])
 
     @ti.func
-    def source(self, w, g):
+    def source(self, e, w, g):
         """g h S of (6.4): gravity along the slope and basal friction opposing the motion, with
         u/|u| regularised as u / max(|u|, u_eps). With the projected friction scheme the
         friction is left to project_friction. g: the cell's (g sin zeta, g cos zeta, kappa);
@@ -250,50 +250,50 @@ class Physics:
         "Fronts")."""
         h = w[0]
         s = ti.Vector.zero(float, self.nc)
-        if self.acts(h):
+        if self.acts(e, h):
             s[1] = h * g[0]
             if ti.static(self.fr_source):
                 spd = self.speed_mag(w)
-                phi = self.par[Params.PHI_REF]
+                phi = self.par[e, Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
                 gn = self.g_normal(w[1], g)
-                mu = self.mu_g(self.film_h(h), spd, phi, gn)
-                inv = 1.0 / ti.max(spd, self.par[Params.U_EPS])
+                mu = self.mu_g(e, self.film_h(e, h), spd, phi, gn)
+                inv = 1.0 / ti.max(spd, self.par[e, Params.U_EPS])
                 s[1] = h * (g[0] - gn * mu * w[1] * inv)
                 if ti.static(not self.is_1d):
                     s[self.HV] = -h * gn * mu * w[self.HV] * inv
         return s
 
     @ti.func
-    def friction_rate(self, w, g):
+    def friction_rate(self, e, w, g):
         """Stiffness of the friction term, g cos(zeta) mu_b / max(|u|, u_eps) [1/s]; zero when
         the friction is projected (it is then no part of the explicit stages)."""
         r = 0.0 * w[0]
         if ti.static(self.fr_source):
             h = w[0]
-            if self.acts(h):
+            if self.acts(e, h):
                 spd = self.speed_mag(w)
-                phi = self.par[Params.PHI_REF]
+                phi = self.par[e, Params.PHI_REF]
                 if ti.static(self.seg):
                     phi = w[self.HPHI]
                 gn = self.g_normal(w[1], g)
                 r = (
                     gn
-                    * self.mu_g(self.film_h(h), spd, phi, gn)
-                    / ti.max(spd, self.par[Params.U_EPS])
+                    * self.mu_g(e, self.film_h(e, h), spd, phi, gn)
+                    / ti.max(spd, self.par[e, Params.U_EPS])
                 )
         return r
 
     @ti.func
-    def _phi_of(self, q, h):
-        phi = self.par[Params.PHI_REF]
+    def _phi_of(self, e, q, h):
+        phi = self.par[e, Params.PHI_REF]
         if ti.static(self.seg):
             phi = ti.min(ti.max(q[self.HPHI] / h, 0.0), 1.0)
         return phi
 
     @ti.func
-    def project_friction(self, q, tau, spd0, hb, g):
+    def project_friction(self, e, q, tau, spd0, hb, g):
         """Basal friction over the time tau as a projection of the conserved state q (friction
         scheme "projected"; Mangeney et al. 2007, J. Geophys. Res. 112, F02017, after Bouchut
         et al. 2003). The friction impulse per unit area is I = tau g cos(zeta) mu_b h. Where
@@ -324,11 +324,11 @@ class Physics:
         (`film_h`). g: the cell's gravity; on a bend the normal load is taken at q's velocity."""
         r = q
         h = q[0]
-        if self.acts(h) and tau > 0:
+        if self.acts(e, h) and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
-            phi = self._phi_of(q, h)
+            phi = self._phi_of(e, q, h)
             gn = self.g_normal_q(q, h, g)
-            imp = tau * gn * self.mu_g(self.film_h(h), spd0, phi, gn) * hb
+            imp = tau * gn * self.mu_g(e, self.film_h(e, h), spd0, phi, gn) * hb
             f = 0.0 * h
             if m > imp:
                 f = 1.0 - imp / m
@@ -346,7 +346,7 @@ class Physics:
         return self.g_normal(u, g)
 
     @ti.func
-    def holds(self, q, tau, g):
+    def holds(self, e, q, tau, g):
         """1 where the static friction holds a cell that was at rest at the step's start (a
         law with hysteresis), else 0. Called on the step's first stage, which is one Euler
         step of length tau from the step's initial state Y0 for every stepper, so the
@@ -359,9 +359,9 @@ class Physics:
         h_min thick would be (`film_h`)."""
         r = 0
         h = q[0]
-        if self.acts(h) and tau > 0:
+        if self.acts(e, h) and tau > 0:
             m = self.speed_mag(q)  # |h u| of the conserved state
-            mu = self.mu_start(self.film_h(h), self._phi_of(q, h))
+            mu = self.mu_start(e, self.film_h(e, h), self._phi_of(e, q, h))
             if m <= tau * self.g_normal_q(q, h, g) * mu * h:
                 r = 1
         return r

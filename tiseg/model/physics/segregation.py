@@ -7,7 +7,7 @@ holds everything the solver needs of it:
 
 * ``slots`` and ``values``: its run-time numbers, stored in the operator's parameter field at
   the index the operator gives it (`tiseg.model.physics.param_layout.ParamLayout`);
-* ``taichi``: its Taichi functions ``G(phi)`` and ``dG(phi)``, built for one operator (so a
+* ``taichi``: its Taichi functions ``G(e, phi)`` and ``dG(e, phi)``, built for one operator (e: the ensemble member, whose row of the parameter field they read) (so a
   function that is not chosen, or no segregation at all, leaves no code in the kernels);
 * ``G_np`` / ``dG_np``: the NumPy twins, written apart from the Taichi functions (and
   ``shear_profile_np``, the profile f of (2.12) or (2.13) that G comes from), used by the reference
@@ -52,15 +52,15 @@ class Linear:
         return alpha + 2.0 * (1.0 - alpha) * np.asarray(z, dtype=float)
 
     def taichi(self, ti, par, base: int):
-        """(G(phi), dG(phi)) reading 1 - alpha from par[base]."""
+        """(G(phi), dG(phi)) reading 1 - alpha from par[e, base]."""
 
         @ti.func
-        def G(phi):
-            return par[base] * phi * (1.0 - phi)
+        def G(e, phi):
+            return par[e, base] * phi * (1.0 - phi)
 
         @ti.func
-        def dG(phi):
-            return par[base] * (1.0 - 2.0 * phi)
+        def dG(e, phi):
+            return par[e, base] * (1.0 - 2.0 * phi)
 
         return G, dG
 
@@ -96,12 +96,12 @@ class Bagnold:
 
     def taichi(self, ti, par, base: int):
         @ti.func
-        def G(phi):
+        def G(e, phi):
             c = ti.max(1.0 - phi, 0.0)
             return (2.0 / 3.0) * c * (1.0 - c * ti.sqrt(c))
 
         @ti.func
-        def dG(phi):
+        def dG(e, phi):
             c = ti.max(1.0 - phi, 0.0)
             return (5.0 / 3.0) * c * ti.sqrt(c) - 2.0 / 3.0
 

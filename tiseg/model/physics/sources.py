@@ -52,9 +52,10 @@ MAX_STENCIL = 1
 @dataclass(frozen=True)
 class TaichiContext:
     """What a component's Taichi function may read, for one operator: ``par`` the parameter
-    field (its numbers from ``par[base]`` on, in the order of its ``constants``), ``w`` the
-    primitives (h, u[, v][, phi]) of every cell, ``aux`` the auxiliary fields (a vector
-    per cell; component ``aux_index[name]``) or None, and the layout's compile-time constants
+    field (member e's numbers from ``par[e, base]`` on, in the order of its ``constants``),
+    ``w`` the primitives (h, u[, v][, phi]) of every cell of every member (``w[i, j, e]``),
+    ``aux`` the auxiliary fields (a vector per cell, ``aux[i, j, e]``; component
+    ``aux_index[name]``) or None, and the layout's compile-time constants
     (``nc``, ``is_1d``, ``seg``, the component indices ``H, HU, HV, HPHI``, ``fp``).
     Grid spacings and the slope are in ``par`` at `tiseg.model.physics.params.Params`."""
 
@@ -96,13 +97,13 @@ class SourceTerm:
     stencil = 0  # how many cells along x and y its rate reads from its own (<= MAX_STENCIL)
 
     def taichi(self, ti, ctx: TaichiContext):
-        """Its Taichi function ``rate(i, j)``: the rate vector of the conserved variables
-        (nc components) at cell (i, j), from ``ctx``'s fields."""
+        """Its Taichi function ``rate(e, i, j)``: the rate vector of the conserved variables
+        (nc components) at cell (i, j) of ensemble member e, from ``ctx``'s fields."""
         raise NotImplementedError
 
     def stiffness_taichi(self, ti, ctx: TaichiContext):
-        """A Taichi function ``stiffness(i, j)`` [1/s] bounding its rate's Jacobian at cell
-        (i, j), or None for a term that is not stiff."""
+        """A Taichi function ``stiffness(e, i, j)`` [1/s] bounding its rate's Jacobian at
+        cell (i, j) of member e, or None for a term that is not stiff."""
         return None
 
     def rate_np(self, ctx: NumpyContext) -> np.ndarray:

@@ -9,7 +9,7 @@ The component holds what the solver needs of it:
 
 * ``slots`` / ``values``: its one run-time number, nu, stored in the operator's parameter field
   at the index the operator gives it (`tiseg.model.physics.param_layout.ParamLayout`);
-* ``taichi``: its Taichi functions, the face coefficient ``face_K(h_a, h_b)``, the normal and
+* ``taichi``: its Taichi functions, the face coefficient ``face_K(e, h_a, h_b)`` (e: the ensemble member, whose row of the parameter field it reads), the normal and
   shear stresses a face carries and the cell's Gershgorin bound ``cell_stiffness``; they take
   values, never fields (the operator reads the stencil);
 * ``face_K_np``: the NumPy twin of the face coefficient, used by the reference operator;
@@ -60,14 +60,14 @@ class MuIViscosity:
         )
 
     def taichi(self, ti, par, base: int, h_min_slot: int, two_d: bool):
-        """(face_K, normal_stress, shear_stress, cell_stiffness) reading nu from par[base] and
-        h_min from par[h_min_slot]; ``two_d``: the cell's bound takes in the y faces and the
+        """(face_K, normal_stress, shear_stress, cell_stiffness) reading nu from par[e, base] and
+        h_min from par[e, h_min_slot]; ``two_d``: the cell's bound takes in the y faces and the
         mixed derivatives."""
 
         @ti.func
-        def face_K(ha, hb):
-            hmin = par[h_min_slot]
-            nu = par[base]
+        def face_K(e, ha, hb):
+            hmin = par[e, h_min_slot]
+            nu = par[e, base]
             ka = nu * ha * ti.sqrt(ha)
             kb = nu * hb * ti.sqrt(hb)
             k = 0.0 * ha
@@ -76,31 +76,31 @@ class MuIViscosity:
             return k
 
         @ti.func
-        def normal_stress(K, dn, inv_d):
+        def normal_stress(e, K, dn, inv_d):
             """K du_n/dn on a face: dn the jump of the normal velocity across it, inv_d 1/spacing."""
             return K * dn * inv_d
 
         @ti.func
-        def shear_stress(K, dt, inv_d, cross):
+        def shear_stress(e, K, dt, inv_d, cross):
             """K/2 (du_t/dn + du_n/dt) on a face: dt the jump of the tangential velocity across
             it, cross the tangential derivative of the normal velocity there."""
             return 0.5 * K * (dt * inv_d + cross)
 
         @ti.func
-        def cell_stiffness(h, hp, hm, hn, hs, idx, idy):
+        def cell_stiffness(e, h, hp, hm, hn, hs, idx, idy):
             """Gershgorin bound of the viscous Jacobian's rows of a cell of thickness h >= h_min
             with x neighbours hp, hm and y neighbours hn, hs (read only in 2D) [1/s]. Each face adds
             K (1/h + 1/h_neighbour) / d^2 to the normal momentum's row sum and half of that to
             the tangential one's; the mixed derivatives couple u to 8 values of v with weights
             K / (8 dx dy) each per face pair: K / (h dx dy) for uniform h."""
-            hmin = par[h_min_slot]
+            hmin = par[e, h_min_slot]
             inv = 1.0 / h
-            sxs = face_K(h, hp) * (inv + 1.0 / ti.max(hp, hmin)) + face_K(h, hm) * (
+            sxs = face_K(e, h, hp) * (inv + 1.0 / ti.max(hp, hmin)) + face_K(e, h, hm) * (
                 inv + 1.0 / ti.max(hm, hmin)
             )
             rho = sxs * (idx * idx)
             if ti.static(two_d):
-                sys = face_K(h, hn) * (inv + 1.0 / ti.max(hn, hmin)) + face_K(h, hs) * (
+                sys = face_K(e, h, hn) * (inv + 1.0 / ti.max(hn, hmin)) + face_K(e, h, hs) * (
                     inv + 1.0 / ti.max(hs, hmin)
                 )
                 cross = 0.125 * (sxs + sys) * (idx * idy)

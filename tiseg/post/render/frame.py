@@ -106,12 +106,14 @@ class _ArraySource:
 class _StateSource:
     """A simulation's conserved state, a slot of ``op.q`` (ghost cells skipped), read in place:
     rendering a frame moves no state through NumPy. The slot is 0 (the step state) unless a
-    snapshot in another slot is drawn (`use_slot`)."""
+    snapshot in another slot is drawn (`use_slot`); the member is ``member`` of an ensemble
+    (compiled in)."""
 
-    def __init__(self, op):
+    def __init__(self, op, member: int = 0):
         lay = op.lay
         self.op = op  # keeps the operator, and so its field tree (tiseg.solver.field_tree), alive
         self.q = op.q
+        self.member = int(member)
         self.slot = ti.field(ti.i32, shape=())
         field_tree.track(self)
         self.slot[None] = 0  # written, not trusted to start at 0 (Vulkan does not)
@@ -128,11 +130,11 @@ class _StateSource:
 
     @ti.func
     def thickness(self, i, j):
-        return self.q[self.slot[None], i + self.gx, j + self.gy][0]
+        return self.q[self.slot[None], i + self.gx, j + self.gy, self.member][0]
 
     @ti.func
     def sample(self, i, j):
-        q = self.q[self.slot[None], i + self.gx, j + self.gy]
+        q = self.q[self.slot[None], i + self.gx, j + self.gy, self.member]
         h = q[0]
         inv = 0.0
         if h > 0:  # as Simulation.fields(): hu/h where h > 0, else 0

@@ -85,28 +85,28 @@ class BedFaces:
         self.stored = state.es is not None  # the slopes of eta kept by the slopes pass
 
     @ti.func
-    def eta_slope(self, i, j, d: ti.template()):
+    def eta_slope(self, e, i, j, d: ti.template()):
         """The slope of eta at cell (i, j) along d: kept by the unsplit scheme's slopes pass
         (`keep_slopes`), computed here in the split sweeps (each cell's once, in the
         predictor)."""
         s = ti.cast(0.0, self.state.fp)
         if ti.static(self.stored):
-            s = self.state.es[i, j][d]
+            s = self.state.es[i, j, e][d]
         else:
-            s = self.eta_slope_of(i, j, d)
+            s = self.eta_slope_of(e, i, j, d)
         return s
 
     @ti.func
-    def keep_slopes(self, i, j, x: ti.template(), y: ti.template()):
+    def keep_slopes(self, e, i, j, x: ti.template(), y: ti.template()):
         """Keep the slopes of eta at cell (i, j): along x where ``x``, along y where ``y``
         (the cells whose slopes of w the unsplit slopes pass takes)."""
         if ti.static(x):
-            self.state.es[i, j][0] = self.eta_slope_of(i, j, 0)
+            self.state.es[i, j, e][0] = self.eta_slope_of(e, i, j, 0)
         if ti.static(y):
-            self.state.es[i, j][1] = self.eta_slope_of(i, j, 1)
+            self.state.es[i, j, e][1] = self.eta_slope_of(e, i, j, 1)
 
     @ti.func
-    def eta_slope_of(self, i, j, d: ti.template()):
+    def eta_slope_of(self, e, i, j, d: ti.template()):
         """The limited undivided slope of eta = h + b at cell (i, j) along d (0 at first
         order), by the scene's reconstruction."""
         s = ti.cast(0.0, self.state.fp)
@@ -114,12 +114,12 @@ class BedFaces:
             im, jm, ip, jp = i - 1, j, i + 1, j
             if ti.static(d == 1):
                 im, jm, ip, jp = i, j - 1, i, j + 1
-            e0 = self.state.w[i, j][0] + self.state.bed[i, j]
+            e0 = self.state.w[i, j, e][0] + self.state.bed[i, j]
             dm = ti.Vector.zero(self.state.fp, self.state.nc)
             dp = dm
             dc = dm
-            dm[0] = e0 - (self.state.w[im, jm][0] + self.state.bed[im, jm])
-            dp[0] = (self.state.w[ip, jp][0] + self.state.bed[ip, jp]) - e0
+            dm[0] = e0 - (self.state.w[im, jm, e][0] + self.state.bed[im, jm])
+            dp[0] = (self.state.w[ip, jp, e][0] + self.state.bed[ip, jp]) - e0
             if ti.static(self.has_solid):  # a wall is level with the cell it faces
                 if self.state.solid[im, jm] != 0:
                     dm[0] = 0.0
@@ -127,10 +127,11 @@ class BedFaces:
                     dp[0] = 0.0
             dc[0] = 0.5 * (dm[0] + dp[0])
             hmin3 = ti.min(
-                ti.min(self.state.w[im, jm][0], self.state.w[i, j][0]), self.state.w[ip, jp][0]
+                ti.min(self.state.w[im, jm, e][0], self.state.w[i, j, e][0]),
+                self.state.w[ip, jp, e][0],
             )
             if hmin3 > 0.0:
-                s = self._rec_slope(dm, dp, dc)[0]
+                s = self._rec_slope(e, dm, dp, dc)[0]
             elif dm[0] * dp[0] > 0.0:
                 # a dry cell in the stencil (a shore, an island): minmod, whose slope is zero
                 # where either side is level, so a lake keeps eta flat up to its shore (a
@@ -141,22 +142,26 @@ class BedFaces:
         return s
 
     @ti.func
-    def edges(self, i, j, d: ti.template(), h_lo, h_hi):
+    def edges(self, e, i, j, d: ti.template(), h_lo, h_hi):
         """(b_lo, b_hi): the bed at the low and high edge of cell (i, j) along d whose
         reconstructed thicknesses are h_lo, h_hi (step 1)."""
-        e0 = self.state.w[i, j][0] + self.state.bed[i, j]
-        s = self.eta_slope(i, j, d)
+        e0 = self.state.w[i, j, e][0] + self.state.bed[i, j]
+        s = self.eta_slope(e, i, j, d)
         return e0 - 0.5 * s - h_lo, e0 + 0.5 * s - h_hi
 
     @ti.func
-    def edge_lo(self, i, j, d: ti.template(), h):
+    def edge_lo(self, e, i, j, d: ti.template(), h):
         """The bed at the low edge of cell (i, j) along d, whose reconstructed thickness is h."""
-        return self.state.w[i, j][0] + self.state.bed[i, j] - 0.5 * self.eta_slope(i, j, d) - h
+        return (
+            self.state.w[i, j, e][0] + self.state.bed[i, j] - 0.5 * self.eta_slope(e, i, j, d) - h
+        )
 
     @ti.func
-    def edge_hi(self, i, j, d: ti.template(), h):
+    def edge_hi(self, e, i, j, d: ti.template(), h):
         """The bed at the high edge of cell (i, j) along d, whose reconstructed thickness is h."""
-        return self.state.w[i, j][0] + self.state.bed[i, j] + 0.5 * self.eta_slope(i, j, d) - h
+        return (
+            self.state.w[i, j, e][0] + self.state.bed[i, j] + 0.5 * self.eta_slope(e, i, j, d) - h
+        )
 
     @ti.func
     def star(self, wl, bl, wr, br, g):
@@ -189,35 +194,35 @@ class BedFaces:
 
     # ---------------------------------------------------------------- the split sweeps
     @ti.func
-    def _inv(self, d: ti.template()):
-        inv = self.state.par[Params.INV_DX]
+    def _inv(self, e, d: ti.template()):
+        inv = self.state.par[e, Params.INV_DX]
         if ti.static(d == 1):
-            inv = self.state.par[Params.INV_DY]
+            inv = self.state.par[e, Params.INV_DY]
         return inv
 
     @ti.func
-    def predicted(self, i, j, d: ti.template(), h_lo, h_hi, dt):
+    def predicted(self, e, i, j, d: ti.template(), h_lo, h_hi, dt):
         """Hancock's predictor of cell (i, j) along d, whose unevolved edges have the
         thicknesses h_lo, h_hi: keeps the bed at those edges (``eb``, for the faces and the
         update) and returns the normal momentum the bed gives both edges over dt / 2 (its
         centred source), which balances their pressure difference in a lake at rest."""
-        e0 = self.state.w[i, j][0] + self.state.bed[i, j]
-        s = self.eta_slope(i, j, d)
+        e0 = self.state.w[i, j, e][0] + self.state.bed[i, j]
+        s = self.eta_slope(e, i, j, d)
         b_lo = e0 - 0.5 * s - h_lo
         b_hi = e0 + 0.5 * s - h_hi
-        self.state.eb[i, j] = ti.Vector([b_lo, b_hi])
-        g = self.state.grav.cell(i)
-        return (0.5 * dt * self._inv(d)) * self.centred(h_lo, h_hi, b_lo, b_hi, g)
+        self.state.eb[i, j, e] = ti.Vector([b_lo, b_hi])
+        g = self.state.grav.cell(e, i)
+        return (0.5 * dt * self._inv(e, d)) * self.centred(h_lo, h_hi, b_lo, b_hi, g)
 
     @ti.func
-    def sweep_face(self, i, j, i1, j1, d: ti.template(), wl, wr, wet, kind, g):
+    def sweep_face(self, e, i, j, i1, j1, d: ti.template(), wl, wr, wet, kind, g):
         """The predicted edges wl | wr of the face (i, j) | (i1, j1) along d with h* (where
         the face is ``wet``), and its two pressure corrections into pcx / pcy; a wall
         (``kind``, tiseg.solver.numerics.walls) sees the fluid side's bed on both sides."""
         wls = wl
         wrs = wr
-        bl = self.state.eb[i, j][1]
-        br = self.state.eb[i1, j1][0]
+        bl = self.state.eb[i, j, e][1]
+        br = self.state.eb[i1, j1, e][0]
         if kind == 1:  # the high cell is solid
             br = bl
         elif kind != 0:
@@ -228,25 +233,25 @@ class BedFaces:
         if wet:
             wls, wrs, p = self.star(wl, bl, wr, br, g)
         if ti.static(d == 0):
-            self.state.pcx[i, j] = p
+            self.state.pcx[i, j, e] = p
         else:
-            self.state.pcy[i, j] = p
+            self.state.pcy[i, j, e] = p
         return wls, wrs
 
     @ti.func
-    def sweep_rate(self, i, j, im, jm, d: ti.template(), lam, dt):
+    def sweep_rate(self, e, i, j, im, jm, d: ti.template(), lam, dt):
         """The normal momentum the bed gives cell (i, j) over a sweep along d (its low
         neighbour (im, jm)): its faces' corrections and the centred source of its predicted
         edges."""
         pc_hi = ti.Vector.zero(self.state.fp, 2)
         pc_lo = pc_hi
         if ti.static(d == 0):
-            pc_hi = self.state.pcx[i, j]
-            pc_lo = self.state.pcx[im, jm]
+            pc_hi = self.state.pcx[i, j, e]
+            pc_lo = self.state.pcx[im, jm, e]
         else:
-            pc_hi = self.state.pcy[i, j]
-            pc_lo = self.state.pcy[im, jm]
-        eb = self.state.eb[i, j]
-        g = self.state.grav.cell(i)
-        c = self.centred(self.state.ew[i, j][0], self.state.ee[i, j][0], eb[0], eb[1], g)
-        return (dt * self._inv(d)) * c - lam * (pc_hi[0] - pc_lo[1])
+            pc_hi = self.state.pcy[i, j, e]
+            pc_lo = self.state.pcy[im, jm, e]
+        eb = self.state.eb[i, j, e]
+        g = self.state.grav.cell(e, i)
+        c = self.centred(self.state.ew[i, j, e][0], self.state.ee[i, j, e][0], eb[0], eb[1], g)
+        return (dt * self._inv(e, d)) * c - lam * (pc_hi[0] - pc_lo[1])

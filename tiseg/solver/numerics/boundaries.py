@@ -5,8 +5,8 @@ The grid has g ghost layers on each side of each direction (`tiseg.solver.numeri
 Layout`); a boundary condition fills the ghost cell k (k = 0 next to the interior) of its side,
 given the index m across the direction. Each condition holds:
 
-* ``taichi(ti, op, d, side)``: its Taichi function ``fill(s, k, m)`` writing the ghost cell of
-  slot s of the operator's state field (``side`` 0 low, 1 high; ``d`` 0 = x, 1 = y); the
+* ``taichi(ti, op, d, side)``: its Taichi function ``fill(e, s, k, m)`` writing the ghost cell
+  of slot s of member e in the operator's state field (``side`` 0 low, 1 high; ``d`` 0 = x, 1 = y); the
   operator's ghost pass calls the four sides' functions, composed with ``ti.static`` at
   construction;
 * ``fill_np(ref, q, t, d, side, k)``: its NumPy twin on a whole layer of ghost cells of an
@@ -57,19 +57,19 @@ class _Copy:
         ga, gb = (g - 1, -1) if side == 0 else (n + g, 1)  # the ghost cell: ga + gb k
 
         @ti.func
-        def fill(s, k, m):
+        def fill(e, s, k, m):
             ghost = ga + gb * k
             inner = a + b * k
             if ti.static(d == 0):
-                v = q[s, inner, m]
+                v = q[s, inner, m, e]
                 if ti.static(mirrors):
                     v[comp] = -v[comp]
-                q[s, ghost, m] = v
+                q[s, ghost, m, e] = v
             else:
-                v = q[s, m, inner]
+                v = q[s, m, inner, e]
                 if ti.static(mirrors):
                     v[comp] = -v[comp]
-                q[s, m, ghost] = v
+                q[s, m, ghost, e] = v
 
         return fill
 
@@ -138,32 +138,32 @@ class Inflow:
         lo, hi = (0, ny) if full else rows
 
         @ti.func
-        def fill(s, k, m):
-            if par[Params.IN_ON] > 0.5:
+        def fill(e, s, k, m):
+            if par[e, Params.IN_ON] > 0.5:
                 if ti.static(full):
                     v = ti.Vector.zero(fp, nc)
                     if gy <= m < gy + ny:
-                        h = par[Params.IN_H]
+                        h = par[e, Params.IN_H]
                         v[0] = h
-                        v[1] = h * par[Params.IN_U]
+                        v[1] = h * par[e, Params.IN_U]
                         if ti.static(seg):
-                            v[P] = h * op.inflow_prof[m]
-                    q[s, g - 1 - k, m] = v
+                            v[P] = h * op.inflow_prof[e, m]
+                    q[s, g - 1 - k, m, e] = v
                 else:
                     if gy + lo <= m < gy + hi:
                         v = ti.Vector.zero(fp, nc)
-                        h = par[Params.IN_H]
+                        h = par[e, Params.IN_H]
                         v[0] = h
-                        v[1] = h * par[Params.IN_U]
+                        v[1] = h * par[e, Params.IN_U]
                         if ti.static(seg):
-                            v[P] = h * op.inflow_prof[m]
-                        q[s, g - 1 - k, m] = v
+                            v[P] = h * op.inflow_prof[e, m]
+                        q[s, g - 1 - k, m, e] = v
                     elif gy <= m < gy + ny:
-                        wall(s, k, m)
+                        wall(e, s, k, m)
                     else:
-                        q[s, g - 1 - k, m] = ti.Vector.zero(fp, nc)
+                        q[s, g - 1 - k, m, e] = ti.Vector.zero(fp, nc)
             else:
-                wall(s, k, m)
+                wall(e, s, k, m)
 
         return fill
 

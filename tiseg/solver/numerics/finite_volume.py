@@ -80,7 +80,7 @@ class FiniteVolume:
         take the step's rest mask (a step begins: slot 0 was written). Sets the inflow's time
         when there is work. The kernel that does it calls `prepare_in` and then hands the
         tuple to `prepared` (`prepare`; the stability pass, which prepares in its own launch)."""
-        key = (slot, t, self.state.active)
+        key = (slot, self.state.time_key(t), self.state.active)
         mark = self.state.rest is not None and self.state.rest_stale
         kind = 0
         if self.state.prepared != key:
@@ -113,15 +113,15 @@ class FiniteVolume:
         self._rates(dst, self.state.serial_loops())
 
     @ti.func
-    def primitive(self, q):
+    def primitive(self, e, q):
         """Desingularised primitives, u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4)).
         (The split scheme's cheaper form of the same, FiniteVolume.fast_primitive, in a split
         scene: every primitive of a run then comes from one formula.)"""
         if ti.static(self.state.split):
-            return self.fast_primitive(q)
+            return self.fast_primitive(e, q)
         h = ti.max(q[0], 0.0)
         h4 = h * h * h * h
-        denom = ti.sqrt(h4 + ti.max(h4, self.state.par[Params.H_EPS4]))
+        denom = ti.sqrt(h4 + ti.max(h4, self.state.par[e, Params.H_EPS4]))
         return self.primitive_of(q, h, ti.sqrt(2.0) * h / denom)
 
     @ti.func
@@ -141,14 +141,14 @@ class FiniteVolume:
         return w
 
     @ti.func
-    def slope(self, wm, w0, wp):
+    def slope(self, e, wm, w0, wp):
         """Undivided limited slope of w0 from its neighbours; edge values w0 +- slope/2: the
         reconstruction's slope, limited so that the edges keep h >= 0 and 0 <= phi <= 1."""
         dm = w0 - wm
         dp = wp - w0
         dc = 0.5 * (wp - wm)
         # the reconstruction's slope (tiseg.solver.numerics.reconstruction)
-        s = self._rec_slope(dm, dp, dc)
+        s = self._rec_slope(e, dm, dp, dc)
         # positivity of h and 0 <= phi <= 1 at the edges
         s[0] = ti.min(ti.max(s[0], -2.0 * w0[0]), 2.0 * w0[0])
         if ti.static(self.state.seg):
@@ -185,10 +185,10 @@ class FiniteVolume:
     def primitives(self, s, serial: ti.template()):
         a, b = self.state.act[0], self.state.act[1]
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange(
-            (ti.max(a - 3, 0), ti.min(b + 3, self.state.NX)), (0, self.state.NY)
+        for i, j, e in ti.ndrange(
+            (ti.max(a - 3, 0), ti.min(b + 3, self.state.NX)), (0, self.state.NY), self.state.M
         ):
-            self.state.w[i, j] = self.primitive(self.state.q[s, i, j])
+            self.state.w[i, j, e] = self.primitive(e, self.state.q[s, i, j, e])
 
     @ti.func
     def edge_primitives(self, s, serial: ti.template()):
@@ -197,20 +197,22 @@ class FiniteVolume:
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         a, b = self.state.act[0], self.state.act[1]
         ti.loop_config(serialize=self.state.strip_serial)  # 2 x 2 columns
-        for k, j in ti.ndrange(gx, self.state.NY):
+        for k, j, e in ti.ndrange(gx, self.state.NY, self.state.M):
             il = gx - 1 - k
             ih = gx + nx + k
             if il >= a - 3:
-                self.state.w[il, j] = self.primitive(self.state.q[s, il, j])
+                self.state.w[il, j, e] = self.primitive(e, self.state.q[s, il, j, e])
             if ih < b + 3:
-                self.state.w[ih, j] = self.primitive(self.state.q[s, ih, j])
+                self.state.w[ih, j, e] = self.primitive(e, self.state.q[s, ih, j, e])
         if ti.static(not self.state.is_1d):
             ti.loop_config(serialize=serial)
-            for i, k in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), gy):
+            for i, k, e in ti.ndrange(
+                (ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), gy, self.state.M
+            ):
                 jl = gy - 1 - k
                 jh = gy + ny + k
-                self.state.w[i, jl] = self.primitive(self.state.q[s, i, jl])
-                self.state.w[i, jh] = self.primitive(self.state.q[s, i, jh])
+                self.state.w[i, jl, e] = self.primitive(e, self.state.q[s, i, jl, e])
+                self.state.w[i, jh, e] = self.primitive(e, self.state.q[s, i, jh, e])
 
     @ti.func
     def _slopes(self, serial: ti.template()):
@@ -222,33 +224,33 @@ class FiniteVolume:
             gy, ny = ti.static(self.state.gy, self.state.ny)
             jlo, jhi = ti.static((1, self.state.NY - 1) if not self.state.is_1d else (0, 1))
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange(
-                (ti.max(a - 2, 1), ti.min(b + 2, self.state.NX - 1)), (jlo, jhi)
+            for i, j, e in ti.ndrange(
+                (ti.max(a - 2, 1), ti.min(b + 2, self.state.NX - 1)), (jlo, jhi), self.state.M
             ):
-                w0 = self.state.w[i, j]
+                w0 = self.state.w[i, j, e]
                 if gy <= j < gy + ny:
-                    self.state.sx[i, j] = self.slope(
-                        self.state.w[i - 1, j], w0, self.state.w[i + 1, j]
+                    self.state.sx[i, j, e] = self.slope(
+                        e, self.state.w[i - 1, j, e], w0, self.state.w[i + 1, j, e]
                     )
                     if ti.static(self.has_bed):  # and of eta (tiseg.solver.numerics.bed)
-                        self.bed.keep_slopes(i, j, True, False)
+                        self.bed.keep_slopes(e, i, j, True, False)
                 if ti.static(not self.state.is_1d):
                     if a <= i < b:
-                        self.state.sy[i, j] = self.slope(
-                            self.state.w[i, j - 1], w0, self.state.w[i, j + 1]
+                        self.state.sy[i, j, e] = self.slope(
+                            e, self.state.w[i, j - 1, e], w0, self.state.w[i, j + 1, e]
                         )
                         if ti.static(self.has_bed):
-                            self.bed.keep_slopes(i, j, False, True)
+                            self.bed.keep_slopes(e, i, j, False, True)
 
     @ti.func
-    def face_flux(self, wl, wr, d: ti.template(), g):
+    def face_flux(self, e, wl, wr, d: ti.template(), g):
         """Numerical flux between edge states wl | wr along d: the chosen numerical flux
         (numerics.flux), then, with segregation, the h phi modifier (numerics.phi_flux); both
         components of tiseg.solver.numerics.fluxes. g: the face's gravity
         (tiseg.solver.numerics.gravity)."""
-        F = self._num_flux(wl, wr, d, g)
+        F = self._num_flux(e, wl, wr, d, g)
         if ti.static(self._phi_modifies):
-            F = self._phi_mod(F, wl, wr)
+            F = self._phi_mod(e, F, wl, wr)
         return F
 
     @ti.kernel
@@ -260,7 +262,7 @@ class FiniteVolume:
         self.boundary_rates(d)
 
     @ti.func
-    def face_wet(self, w0, w1, hmin, i0, j0, i1, j1):
+    def face_wet(self, e, w0, w1, hmin, i0, j0, i1, j1):
         """Whether the face between cells (i0, j0) and (i1, j1), primitives w0 and w1, carries
         a convective flux: one of the cells is at least h_min thick; with the projected
         friction also where one of them was at the step's start (RestRules.wet_at_start).
@@ -272,67 +274,67 @@ class FiniteVolume:
         wet = ti.max(w0[0], w1[0]) >= hmin
         if not wet:
             if ti.static(self.state.phys.fr_projected and self.state.phys.films):
-                wet = self.rules.live_at_start(i0, j0, i1, j1)
+                wet = self.rules.live_at_start(e, i0, j0, i1, j1)
             elif ti.static(self.state.phys.fr_projected):
-                wet = self.rules.wet_at_start(i0, j0, i1, j1)
+                wet = self.rules.wet_at_start(e, i0, j0, i1, j1)
             elif ti.static(self.state.phys.films):
                 wet = self.rules.moving(w0) or self.rules.moving(w1)
         return wet
 
     @ti.func
-    def _x_face(self, i, j):
+    def _x_face(self, e, i, j):
         """Flux through the face between cells (i, j) and (i + 1, j): convective plus viscous."""
-        hmin = self.state.par[Params.H_MIN]
-        w0 = self.state.w[i, j]
-        w1 = self.state.w[i + 1, j]
+        hmin = self.state.par[e, Params.H_MIN]
+        w0 = self.state.w[i, j, e]
+        w1 = self.state.w[i + 1, j, e]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
         if ti.static(self.terrain):
-            F = self._terrain_face(i, j, i + 1, j, w0, w1, hmin, 0)
-        elif self.face_wet(w0, w1, hmin, i, j, i + 1, j):
+            F = self._terrain_face(e, i, j, i + 1, j, w0, w1, hmin, 0)
+        elif self.face_wet(e, w0, w1, hmin, i, j, i + 1, j):
             wl = w0
             wr = w1
             if ti.static(not self.state.rec_first):
-                wl = w0 + 0.5 * self.state.sx[i, j]
-                wr = w1 - 0.5 * self.state.sx[i + 1, j]
-            F = self.face_flux(wl, wr, 0, self.state.grav.xface(i))
-            F = self.rules.rest_face(F, wl, wr, 0, i, j, i + 1, j)
+                wl = w0 + 0.5 * self.state.sx[i, j, e]
+                wr = w1 - 0.5 * self.state.sx[i + 1, j, e]
+            F = self.face_flux(e, wl, wr, 0, self.state.grav.xface(e, i))
+            F = self.rules.rest_face(e, F, wl, wr, 0, i, j, i + 1, j)
         if ti.static(self.state.visc):  # the viscous stress (tiseg.model.physics.viscosity)
-            F = self.x_viscous(F, i, j, w0, w1)
+            F = self.x_viscous(e, F, i, j, w0, w1)
         return F
 
     @ti.func
-    def _edge_states(self, i0, j0, i1, j1, w0, w1, d: ti.template()):
+    def _edge_states(self, e, i0, j0, i1, j1, w0, w1, d: ti.template()):
         """The reconstructed edge states facing each other across the face (i0, j0) |
         (i1, j1) along d: the high edge of the first cell, the low edge of the second."""
         wl = w0
         wr = w1
         if ti.static(not self.state.rec_first):
             if ti.static(d == 0):
-                wl = w0 + 0.5 * self.state.sx[i0, j0]
-                wr = w1 - 0.5 * self.state.sx[i1, j1]
+                wl = w0 + 0.5 * self.state.sx[i0, j0, e]
+                wr = w1 - 0.5 * self.state.sx[i1, j1, e]
             else:
-                wl = w0 + 0.5 * self.state.sy[i0, j0]
-                wr = w1 - 0.5 * self.state.sy[i1, j1]
+                wl = w0 + 0.5 * self.state.sy[i0, j0, e]
+                wr = w1 - 0.5 * self.state.sy[i1, j1, e]
         return wl, wr
 
     @ti.func
-    def _terrain_face(self, i0, j0, i1, j1, w0, w1, hmin, d: ti.template()):
+    def _terrain_face(self, e, i0, j0, i1, j1, w0, w1, hmin, d: ti.template()):
         """The convective flux of a face over a bed or next to solid cells: a wall's fluid side
         and its mirror (tiseg.solver.numerics.walls); over a bed the numerical flux of the
         edge states with h* and each side's pressure correction into pcx / pcy (the whole
         pressure of each edge where the face carries no convective flux, none at a wall:
         tiseg.solver.numerics.bed)."""
-        wl, wr = self._edge_states(i0, j0, i1, j1, w0, w1, d)
+        wl, wr = self._edge_states(e, i0, j0, i1, j1, w0, w1, d)
         kind = FLUID
         if ti.static(self.has_solid):
             kind = self.walls.kind(i0, j0, i1, j1)
             wl, wr = self.walls.faced(kind, wl, wr, d)
         F = ti.Vector.zero(self.state.fp, self.state.nc)
-        wet = self.face_wet(w0, w1, hmin, i0, j0, i1, j1) and kind != SOLID
-        g = self.state.grav.face(i0, d)
+        wet = self.face_wet(e, w0, w1, hmin, i0, j0, i1, j1) and kind != SOLID
+        g = self.state.grav.face(e, i0, d)
         if ti.static(self.has_bed):
-            bl = self.bed.edge_hi(i0, j0, d, wl[0])
-            br = self.bed.edge_lo(i1, j1, d, wr[0])
+            bl = self.bed.edge_hi(e, i0, j0, d, wl[0])
+            br = self.bed.edge_lo(e, i1, j1, d, wr[0])
             if kind == WALL_HI:
                 br = bl
             elif kind != FLUID:
@@ -343,17 +345,17 @@ class FiniteVolume:
             if wet:
                 wl, wr, p = self.bed.star(wl, bl, wr, br, g)
             if ti.static(d == 0):
-                self.state.pcx[i0, j0] = p
+                self.state.pcx[i0, j0, e] = p
             else:
-                self.state.pcy[i0, j0] = p
+                self.state.pcy[i0, j0, e] = p
         if wet:
-            F = self.face_flux(wl, wr, d, g)
+            F = self.face_flux(e, wl, wr, d, g)
             if kind == FLUID:  # (at a wall, the mirror's flux: nothing crosses)
-                F = self.rules.rest_face(F, wl, wr, d, i0, j0, i1, j1)
+                F = self.rules.rest_face(e, F, wl, wr, d, i0, j0, i1, j1)
         return F
 
     @ti.func
-    def sweep_terrain(self, i0, j0, i1, j1, d: ti.template(), wl, wr, wet):
+    def sweep_terrain(self, e, i0, j0, i1, j1, d: ti.template(), wl, wr, wet):
         """A split sweep's face over a bed or next to solid cells, between the predicted
         edges wl | wr: (wl, wr, wet, fluid) as the face takes them (a wall's fluid side and
         its mirror, h* over a bed with the pressure corrections stored; `_terrain_face`)."""
@@ -363,89 +365,89 @@ class FiniteVolume:
             wl, wr = self.walls.faced(kind, wl, wr, d)
             wet = wet and kind != SOLID
         if ti.static(self.has_bed):
-            g = self.state.grav.face(i0, d)
-            wl, wr = self.bed.sweep_face(i0, j0, i1, j1, d, wl, wr, wet, kind, g)
+            g = self.state.grav.face(e, i0, d)
+            wl, wr = self.bed.sweep_face(e, i0, j0, i1, j1, d, wl, wr, wet, kind, g)
         return wl, wr, wet, kind == FLUID
 
     @ti.func
-    def bed_rate(self, i, j, d: ti.template()):
+    def bed_rate(self, e, i, j, d: ti.template()):
         """The normal momentum rate of cell (i, j) from the bed along d: the faces' pressure
         corrections and the centred source (tiseg.solver.numerics.bed), per unit area."""
-        h0 = self.state.w[i, j][0]
+        h0 = self.state.w[i, j, e][0]
         h_lo = h0
         h_hi = h0
         if ti.static(not self.state.rec_first):
             s = h0 * 0.0
             if ti.static(d == 0):
-                s = self.state.sx[i, j][0]
+                s = self.state.sx[i, j, e][0]
             else:
-                s = self.state.sy[i, j][0]
+                s = self.state.sy[i, j, e][0]
             h_lo = h0 - 0.5 * s
             h_hi = h0 + 0.5 * s
-        b_lo, b_hi = self.bed.edges(i, j, d, h_lo, h_hi)
-        r = self.bed.centred(h_lo, h_hi, b_lo, b_hi, self.state.grav.cell(i))
-        inv = self.state.par[Params.INV_DX]
+        b_lo, b_hi = self.bed.edges(e, i, j, d, h_lo, h_hi)
+        r = self.bed.centred(h_lo, h_hi, b_lo, b_hi, self.state.grav.cell(e, i))
+        inv = self.state.par[e, Params.INV_DX]
         if ti.static(d == 0):
-            r -= self.state.pcx[i, j][0] - self.state.pcx[i - 1, j][1]
+            r -= self.state.pcx[i, j, e][0] - self.state.pcx[i - 1, j, e][1]
         else:
-            r -= self.state.pcy[i, j][0] - self.state.pcy[i, j - 1][1]
-            inv = self.state.par[Params.INV_DY]
+            r -= self.state.pcy[i, j, e][0] - self.state.pcy[i, j - 1, e][1]
+            inv = self.state.par[e, Params.INV_DY]
         return r * inv
 
     @ti.func
-    def x_viscous(self, F, i, j, w0, w1):
+    def x_viscous(self, e, F, i, j, w0, w1):
         """F minus the viscous stress of (6.2) through the x face (i, j) | (i + 1, j), whose
         cells' primitives are w0, w1 (the cross derivative from the rows j -+ 1 of w)."""
         ph = self.state.phys
-        idx = self.state.par[Params.INV_DX]
-        K = ph.face_K(w0[0], w1[0])
-        F[1] -= ph.normal_stress(K, w1[1] - w0[1], idx)
+        idx = self.state.par[e, Params.INV_DX]
+        K = ph.face_K(e, w0[0], w1[0])
+        F[1] -= ph.normal_stress(e, K, w1[1] - w0[1], idx)
         if ti.static(not self.state.is_1d):
             HV = ti.static(self.state.HV)
-            idy = self.state.par[Params.INV_DY]
+            idy = self.state.par[e, Params.INV_DY]
             # paired differences: exactly zero for y-independent data
             dudy = (
-                (self.state.w[i, j + 1][1] - self.state.w[i, j - 1][1])
-                + (self.state.w[i + 1, j + 1][1] - self.state.w[i + 1, j - 1][1])
+                (self.state.w[i, j + 1, e][1] - self.state.w[i, j - 1, e][1])
+                + (self.state.w[i + 1, j + 1, e][1] - self.state.w[i + 1, j - 1, e][1])
             ) * (0.25 * idy)
-            F[HV] -= ph.shear_stress(K, w1[HV] - w0[HV], idx, dudy)
+            F[HV] -= ph.shear_stress(e, K, w1[HV] - w0[HV], idx, dudy)
         return F
 
     @ti.func
-    def _y_face(self, i, j):
+    def _y_face(self, e, i, j):
         """Flux through the face between cells (i, j) and (i, j + 1) (2D only)."""
-        hmin = self.state.par[Params.H_MIN]
-        w0 = self.state.w[i, j]
-        w1 = self.state.w[i, j + 1]
+        hmin = self.state.par[e, Params.H_MIN]
+        w0 = self.state.w[i, j, e]
+        w1 = self.state.w[i, j + 1, e]
         F = ti.Vector.zero(self.state.fp, self.state.nc)
         if ti.static(self.terrain):
-            F = self._terrain_face(i, j, i, j + 1, w0, w1, hmin, 1)
-        elif self.face_wet(w0, w1, hmin, i, j, i, j + 1):
+            F = self._terrain_face(e, i, j, i, j + 1, w0, w1, hmin, 1)
+        elif self.face_wet(e, w0, w1, hmin, i, j, i, j + 1):
             wl = w0
             wr = w1
             if ti.static(not self.state.rec_first):
-                wl = w0 + 0.5 * self.state.sy[i, j]
-                wr = w1 - 0.5 * self.state.sy[i, j + 1]
-            F = self.face_flux(wl, wr, 1, self.state.grav.cell(i))
-            F = self.rules.rest_face(F, wl, wr, 1, i, j, i, j + 1)
+                wl = w0 + 0.5 * self.state.sy[i, j, e]
+                wr = w1 - 0.5 * self.state.sy[i, j + 1, e]
+            F = self.face_flux(e, wl, wr, 1, self.state.grav.cell(e, i))
+            F = self.rules.rest_face(e, F, wl, wr, 1, i, j, i, j + 1)
         if ti.static(self.state.visc):
-            F = self.y_viscous(F, i, j, w0, w1)
+            F = self.y_viscous(e, F, i, j, w0, w1)
         return F
 
     @ti.func
-    def y_viscous(self, F, i, j, w0, w1):
+    def y_viscous(self, e, F, i, j, w0, w1):
         """F minus the viscous stress of (6.2) through the y face (i, j) | (i, j + 1) (2D)."""
         HV = ti.static(self.state.HV)
         ph = self.state.phys
-        idx = self.state.par[Params.INV_DX]
-        idy = self.state.par[Params.INV_DY]
-        K = ph.face_K(w0[0], w1[0])
-        F[HV] -= ph.normal_stress(K, w1[HV] - w0[HV], idy)
+        idx = self.state.par[e, Params.INV_DX]
+        idy = self.state.par[e, Params.INV_DY]
+        K = ph.face_K(e, w0[0], w1[0])
+        F[HV] -= ph.normal_stress(e, K, w1[HV] - w0[HV], idy)
         dvdx = (
-            (self.state.w[i + 1, j][HV] - self.state.w[i - 1, j][HV])
-            + (self.state.w[i + 1, j + 1][HV] - self.state.w[i - 1, j + 1][HV])
+            (self.state.w[i + 1, j, e][HV] - self.state.w[i - 1, j, e][HV])
+            + (self.state.w[i + 1, j + 1, e][HV] - self.state.w[i - 1, j + 1, e][HV])
         ) * (0.25 * idx)
-        F[1] -= ph.shear_stress(K, w1[1] - w0[1], idy, dvdx)
+        F[1] -= ph.shear_stress(e, K, w1[1] - w0[1], idy, dvdx)
         return F
 
     @ti.func
@@ -457,36 +459,36 @@ class FiniteVolume:
         a, b = self.state.act[0], self.state.act[1]
         if ti.static(self.state.is_1d):
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
-                self.state.fx[i, j] = self._x_face(i, j)
+            for i, j, e in ti.ndrange((a - 1, b), (gy, gy + ny), self.state.M):
+                self.state.fx[i, j, e] = self._x_face(e, i, j)
         else:
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
+            for i, j, e in ti.ndrange((a - 1, b), (gy - 1, gy + ny), self.state.M):
                 if j >= gy:
-                    self.state.fx[i, j] = self._x_face(i, j)
+                    self.state.fx[i, j, e] = self._x_face(e, i, j)
                 if i >= a:
-                    self.state.fy[i, j] = self._y_face(i, j)
+                    self.state.fy[i, j, e] = self._y_face(e, i, j)
 
     @ti.func
-    def cell_rate(self, i, j):
+    def cell_rate(self, e, i, j):
         """L at cell (i, j) from the face fluxes and the source: (6.1)-(6.6) in flux form,
         plus the scene's source terms (`source_terms.SourceTerms`); zero outside the active x
         range."""
-        idx = self.state.par[Params.INV_DX]
-        idy = self.state.par[Params.INV_DY]
+        idx = self.state.par[e, Params.INV_DX]
+        idy = self.state.par[e, Params.INV_DY]
         a, b = self.state.act[0], self.state.act[1]
         r = ti.Vector.zero(self.state.fp, self.state.nc)
         if a <= i < b:
-            r = -(self.state.fx[i, j] - self.state.fx[i - 1, j]) * idx
+            r = -(self.state.fx[i, j, e] - self.state.fx[i - 1, j, e]) * idx
             if ti.static(not self.state.is_1d):
-                r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
-            r += self.state.phys.source(self.state.w[i, j], self.state.grav.cell(i))
+                r -= (self.state.fy[i, j, e] - self.state.fy[i, j - 1, e]) * idy
+            r += self.state.phys.source(e, self.state.w[i, j, e], self.state.grav.cell(e, i))
             if ti.static(self.state.terms.on):  # the scene's terms beyond (6.4)
-                r += self.state.terms.rate(i, j)
+                r += self.state.terms.rate(e, i, j)
             if ti.static(self.has_bed):  # the bed's pressure (tiseg.solver.numerics.bed)
-                r[1] += self.bed_rate(i, j, 0)
+                r[1] += self.bed_rate(e, i, j, 0)
                 if ti.static(not self.state.is_1d):
-                    r[self.state.HV] += self.bed_rate(i, j, 1)
+                    r[self.state.HV] += self.bed_rate(e, i, j, 1)
             if ti.static(self.has_solid):  # a solid cell never changes
                 if self.walls.is_solid(i, j):
                     r = ti.Vector.zero(self.state.fp, self.state.nc)
@@ -499,30 +501,32 @@ class FiniteVolume:
         # rates on the active range and zero on the 3 cells either side that a combination also
         # reads; further out nothing reads them while this range holds (SlotAlgebra._combine)
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
-            self.state.q[d, i, j] = self.cell_rate(i, j)
+        for i, j, e in ti.ndrange(
+            (ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny), self.state.M
+        ):
+            self.state.q[d, i, j, e] = self.cell_rate(e, i, j)
 
     @ti.func
-    def fast_primitive(self, q):
+    def fast_primitive(self, e, q):
         """FiniteVolume.primitive, with its square root only where it matters: for
         h >= h_eps the desingularised velocity sqrt(2) h (hu) / sqrt(h^4 + max(h^4, h_eps^4))
         is (hu) / h, up to rounding."""
         h = ti.max(q[0], 0.0)
         h4 = h * h * h * h
         r = 0.0 * h
-        if h4 >= self.state.par[Params.H_EPS4]:
+        if h4 >= self.state.par[e, Params.H_EPS4]:
             r = 1.0 / h
         else:
-            r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.state.par[Params.H_EPS4])
+            r = ti.sqrt(2.0) * h / ti.sqrt(h4 + self.state.par[e, Params.H_EPS4])
         return self.primitive_of(q, h, r)
 
     @ti.func
-    def limit(self, v):
+    def limit(self, e, v):
         """The stage limiter: h >= 0, no momentum in films thinner than h_min (where there
         is no material in the split sweeps, whose films flow: Physics.acts), 0 <= h phi <= h."""
         h = ti.select(v[0] < 0.0, 0.0, v[0])  # unlike max(), lets a NaN through to the guard
         v[0] = h
-        if not self.state.phys.acts(h):
+        if not self.state.phys.acts(e, h):
             v[1] = 0.0
             if ti.static(not self.state.is_1d):
                 v[self.state.HV] = 0.0
@@ -532,34 +536,36 @@ class FiniteVolume:
 
     @ti.func
     def boundary_rates(self, d):
-        """Net inflow rates through the domain's faces, summed in a fixed order."""
+        """Net inflow rates through the domain's faces, summed in a fixed order (each
+        member's)."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
-        dx = self.state.par[Params.DX]
-        dy = self.state.par[Params.DY]
+        M = ti.static(self.state.M)
         ti.loop_config(serialize=True)
-        for b in range(NBUDGET):
-            self.state.bud[d, b] = 0.0
+        for b, e in ti.ndrange(NBUDGET, M):
+            self.state.bud[e, d, b] = 0.0
         # faces outside the active range were not computed this time: they carry no flux
         wl = 1.0 if self.state.act[0] == gx else 0.0
         wr = 1.0 if self.state.act[1] == gx + nx else 0.0
         ti.loop_config(serialize=True)
-        for j in range(gy, gy + ny):
-            self.state.bud[d, 0] += (
-                wl * self.state.fx[gx - 1, j][0] - wr * self.state.fx[gx + nx - 1, j][0]
+        for j, e in ti.ndrange((gy, gy + ny), M):
+            dy = self.state.par[e, Params.DY]
+            self.state.bud[e, d, 0] += (
+                wl * self.state.fx[gx - 1, j, e][0] - wr * self.state.fx[gx + nx - 1, j, e][0]
             ) * dy
             if ti.static(self.state.seg):
-                self.state.bud[d, 1] += (
-                    wl * self.state.fx[gx - 1, j][self.state.HPHI]
-                    - wr * self.state.fx[gx + nx - 1, j][self.state.HPHI]
+                self.state.bud[e, d, 1] += (
+                    wl * self.state.fx[gx - 1, j, e][self.state.HPHI]
+                    - wr * self.state.fx[gx + nx - 1, j, e][self.state.HPHI]
                 ) * dy
         if ti.static(not self.state.is_1d):
             ti.loop_config(serialize=True)
-            for i in range(self.state.act[0], self.state.act[1]):
-                self.state.bud[d, 2] += (
-                    self.state.fy[i, gy - 1][0] - self.state.fy[i, gy + ny - 1][0]
+            for i, e in ti.ndrange((self.state.act[0], self.state.act[1]), M):
+                dx = self.state.par[e, Params.DX]
+                self.state.bud[e, d, 2] += (
+                    self.state.fy[i, gy - 1, e][0] - self.state.fy[i, gy + ny - 1, e][0]
                 ) * dx
                 if ti.static(self.state.seg):
-                    self.state.bud[d, 3] += (
-                        self.state.fy[i, gy - 1][self.state.HPHI]
-                        - self.state.fy[i, gy + ny - 1][self.state.HPHI]
+                    self.state.bud[e, d, 3] += (
+                        self.state.fy[i, gy - 1, e][self.state.HPHI]
+                        - self.state.fy[i, gy + ny - 1, e][self.state.HPHI]
                     ) * dx

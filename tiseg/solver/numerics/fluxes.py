@@ -33,12 +33,12 @@ class KurganovTadmor:
 
     def taichi(self, ti, phys):
         @ti.func
-        def flux(wl, wr, d: ti.template(), g):
-            fl = phys.flux(wl, d, g)
-            fr = phys.flux(wr, d, g)
+        def flux(e, wl, wr, d: ti.template(), g):
+            fl = phys.flux(e, wl, d, g)
+            fr = phys.flux(e, wr, d, g)
             dq = phys.conserved(wr) - phys.conserved(wl)
             F = 0.5 * (fl + fr)
-            a = ti.max(phys.speed(wl, d, g), phys.speed(wr, d, g))
+            a = ti.max(phys.speed(e, wl, d, g), phys.speed(e, wr, d, g))
             F -= 0.5 * a * dq
             return F
 
@@ -63,13 +63,13 @@ class CentralUpwind:
 
     def taichi(self, ti, phys):
         @ti.func
-        def flux(wl, wr, d: ti.template(), g):
-            fl = phys.flux(wl, d, g)
-            fr = phys.flux(wr, d, g)
+        def flux(e, wl, wr, d: ti.template(), g):
+            fl = phys.flux(e, wl, d, g)
+            fr = phys.flux(e, wr, d, g)
             dq = phys.conserved(wr) - phys.conserved(wl)
             F = 0.5 * (fl + fr)
-            sl = phys.speed_range(wl, d, g)
-            sr = phys.speed_range(wr, d, g)
+            sl = phys.speed_range(e, wl, d, g)
+            sr = phys.speed_range(e, wr, d, g)
             ap = ti.max(ti.max(sl[1], sr[1]), 0.0)
             am = ti.min(ti.min(sl[0], sr[0]), 0.0)
             den = ap - am
@@ -108,9 +108,9 @@ class Rusanov:
 
     def taichi(self, ti, phys):
         @ti.func
-        def flux(wl, wr, d: ti.template(), g):
-            a = ti.max(phys.speed(wl, d, g), phys.speed(wr, d, g))
-            F = 0.5 * (phys.flux(wl, d, g) + phys.flux(wr, d, g))
+        def flux(e, wl, wr, d: ti.template(), g):
+            a = ti.max(phys.speed(e, wl, d, g), phys.speed(e, wr, d, g))
+            F = 0.5 * (phys.flux(e, wl, d, g) + phys.flux(e, wr, d, g))
             F -= 0.5 * a * (phys.conserved(wr) - phys.conserved(wl))
             return F
 
@@ -150,10 +150,10 @@ class UpwindPhi:
         P = lay.HPHI
 
         @ti.func
-        def modify(F, wl, wr):
+        def modify(e, F, wl, wr):
             out = F
             p = ti.select(F[0] >= 0.0, wl[P], wr[P])
-            out[P] = F[0] * phys.transported(p)
+            out[P] = F[0] * phys.transported(e, p)
             return out
 
         return modify

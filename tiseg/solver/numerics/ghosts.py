@@ -29,16 +29,19 @@ class GhostCells:
 
     @ti.func
     def fill(self, s):
-        """Ghost cells of slot s from the boundary conditions (two top-level loops): each
-        side's component (tiseg.solver.numerics.boundaries) fills its cells, low side first."""
+        """Ghost cells of slot s of every member from the boundary conditions (two top-level
+        loops): each side's component (tiseg.solver.numerics.boundaries) fills its cells, low
+        side first."""
         st = self.state  # (a Python object in Taichi scope: no code)
         gx, gy = ti.static(st.gx, st.gy)
         ti.loop_config(serialize=st.strip_serial)  # 2 columns of cells
-        for k, j in ti.ndrange(gx, (0, st.NY)):
-            self._fill[0](s, k, j)
-            self._fill[1](s, k, j)
+        for k, j, e in ti.ndrange(gx, (0, st.NY), st.M):
+            if st.runs(e):  # (a batch's finished members keep theirs)
+                self._fill[0](e, s, k, j)
+                self._fill[1](e, s, k, j)
         if ti.static(not st.is_1d):
             ti.loop_config(serialize=st.strip_serial)  # 2 rows of cells
-            for i, k in ti.ndrange((0, st.NX), gy):
-                self._fill[2](s, k, i)
-                self._fill[3](s, k, i)
+            for i, k, e in ti.ndrange((0, st.NX), gy, st.M):
+                if st.runs(e):
+                    self._fill[2](e, s, k, i)
+                    self._fill[3](e, s, k, i)

@@ -12,6 +12,7 @@ and the friction. Without a bend no field exists and `cell` and `xface` return t
 numbers, so the kernels are those of the plane.
 """
 
+import numpy as np
 import taichi as ti
 
 from ...taichi_classes import data_oriented
@@ -25,40 +26,41 @@ class Gravity:
         """``state``: the operator's fields (``par``, ``phys``); ``ft``: its field tree."""
         self.state = state
         self.bent = state.cfg.bend is not None
-        NX = state.NX
-        self.cells = ft.vector(3, state.fp, NX) if self.bent else None
-        self.faces = ft.vector(3, state.fp, NX) if self.bent else None
+        shape = (state.M, state.NX)  # per member: g and zeta are run-time numbers
+        self.cells = ft.vector(3, state.fp, shape) if self.bent else None
+        self.faces = ft.vector(3, state.fp, shape) if self.bent else None
 
-    def fill(self, cfg) -> None:
-        """The columns' gravity of ``cfg``'s bend (its g and zeta too: run-time numbers)."""
+    def fill(self, cfgs) -> None:
+        """The columns' gravity of each member's bend, ``cfgs`` the members' configurations
+        (their g and zeta too: run-time numbers)."""
         if not self.bent:
             return
         lay = self.state.lay
-        cells, faces = gravity_columns(cfg.bed_line(), cfg.g, cfg.dx, lay.gx, lay.NX)
-        self.cells.from_numpy(cells.astype(self.state.np_fp))
-        self.faces.from_numpy(faces.astype(self.state.np_fp))
+        cols = [gravity_columns(c.bed_line(), c.g, c.dx, lay.gx, lay.NX) for c in cfgs]
+        self.cells.from_numpy(np.stack([c for c, _ in cols]).astype(self.state.np_fp))
+        self.faces.from_numpy(np.stack([f for _, f in cols]).astype(self.state.np_fp))
 
     @ti.func
-    def cell(self, i):
-        """(g sin zeta, g cos zeta, kappa) at the centre of column i."""
-        g = self.state.phys.g0()
+    def cell(self, e, i):
+        """(g sin zeta, g cos zeta, kappa) at the centre of column i of member e."""
+        g = self.state.phys.g0(e)
         if ti.static(self.bent):
-            g = self.cells[i]
+            g = self.cells[e, i]
         return g
 
     @ti.func
-    def xface(self, i):
+    def xface(self, e, i):
         """The same on the x face between columns i and i + 1."""
-        g = self.state.phys.g0()
+        g = self.state.phys.g0(e)
         if ti.static(self.bent):
-            g = self.faces[i]
+            g = self.faces[e, i]
         return g
 
     @ti.func
-    def face(self, i, d: ti.template()):
+    def face(self, e, i, d: ti.template()):
         """On the face between column i's cell and its neighbour along d: an x face, or the
         column's centre for a y face (the bend is along x)."""
-        g = self.cell(i)
+        g = self.cell(e, i)
         if ti.static(d == 0):
-            g = self.xface(i)
+            g = self.xface(e, i)
         return g

@@ -41,7 +41,7 @@ from .state import NBUDGET, OperatorState  # noqa: F401 (public names)
 # the state's names that other code reads from the operator (read-only: the objects do not
 # change; item assignment into a field, op.par[k] = v, still works)
 STATE_NAMES = (
-    "generation lay nslots fp np_fp nc NX NY nx ny gx gy is_1d seg visc H HU HV HPHI "
+    "generation M lay nslots fp np_fp nc NX NY nx ny gx gy is_1d seg visc H HU HV HPHI "
     "rec_first local_rate split bc bcs field_tree q w fx sx fy sy ew ee drain par "
     "inflow_prof ranges strip_serial act wet wrng rows_per_block row_pieces bud phys rest "
     "spd0 hg spd red rowsum total cfg active wet_range force_serial"
@@ -50,10 +50,19 @@ STATE_NAMES = (
 
 @data_oriented
 class TaichiOperator:
-    def __init__(self, cfg: OperatorConfig, nslots: int = 6, serial: bool | None = None):
+    def __init__(
+        self,
+        cfg: OperatorConfig,
+        nslots: int = 6,
+        serial: bool | None = None,
+        members: int = 1,
+    ):
         """``serial``: run every loop on the calling thread (True), never (False), or decide
-        per launch (None, `serial_loops`); the results are the same bits either way."""
-        self.state = st = OperatorState(cfg, nslots, serial)
+        per launch (None, `serial_loops`); the results are the same bits either way.
+        ``members``: the ensemble members the fields hold (`OperatorState`), each with its own
+        state and run-time numbers (all ``cfg``'s until `set_params` gives a member others),
+        advanced together by every launch."""
+        self.state = st = OperatorState(cfg, nslots, serial, members)
         self.ghosts = GhostCells(st)
         self.rules = RestRules(st, self.ghosts)
         self.fv = FiniteVolume(st, self.ghosts, self.rules)
@@ -66,6 +75,8 @@ class TaichiOperator:
         self.fv.compose()
         st.set_active(st.gx, st.gx + st.nx)
         st.set_params(cfg)
+        if st.batched:
+            st.set_running(np.ones(st.M, dtype=bool))
         self.t = 0.0
 
     @property
@@ -84,9 +95,10 @@ class TaichiOperator:
         return self.state.prepared
 
     # ------------------------------------------------------------------ the state
-    def set_params(self, cfg: OperatorConfig) -> None:
-        """Copy run-time numbers into the parameter field (no recompilation)."""
-        self.state.set_params(cfg)
+    def set_params(self, cfg: OperatorConfig, member: int | None = None) -> None:
+        """Copy run-time numbers into the parameter field (no recompilation): member
+        ``member``'s, or every member's (None)."""
+        self.state.set_params(cfg, member)
 
     def set_bed(self, b: np.ndarray | None = None, solid: np.ndarray | None = None) -> None:
         """The bed heights (nx, ny) [m] and the solid cells (nx, ny) of an operator built for
@@ -97,20 +109,21 @@ class TaichiOperator:
         """Raise if Taichi was re-initialised since the fields were made."""
         self.state.check_alive()
 
-    def get(self, slot: int = 0) -> np.ndarray:
-        """Slot as a float64 array shaped (nc, NX, NY)."""
-        return self.state.get(slot)
+    def get(self, slot: int = 0, member: int = 0) -> np.ndarray:
+        """Slot of a member as a float64 array shaped (nc, NX, NY)."""
+        return self.state.get(slot, member)
 
-    def set(self, slot: int, arr: np.ndarray) -> None:
-        """Replace a slot by an array shaped (nc, NX, NY)."""
-        self.state.set(slot, arr)
+    def set(self, slot: int, arr: np.ndarray, member: int | None = None) -> None:
+        """Replace a slot of a member (of every member: None) by an array shaped
+        (nc, NX, NY)."""
+        self.state.set(slot, arr, member)
 
-    def budget(self, slot: int = 0) -> np.ndarray:
+    def budget(self, slot: int = 0, member: int = 0) -> np.ndarray:
         """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
-        return self.state.budget(slot)
+        return self.state.budget(slot, member)
 
-    def reset_budget(self, values=None) -> None:
-        self.state.reset_budget(values)
+    def reset_budget(self, values=None, member: int | None = None) -> None:
+        self.state.reset_budget(values, member)
 
     def set_active(self, a: int, b: int, wet: tuple[int, int] | None = None) -> None:
         """Restrict the operator to interior x indices [a, b) (OperatorState.set_active)."""
@@ -129,48 +142,61 @@ class TaichiOperator:
         """slot dst := L(slot src, t) on interior cells (FiniteVolume.rhs)."""
         self.fv.rhs(src, dst, t)
 
-    def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
+    def combine(self, dst, terms, limit: bool = False, tau=0.0, rates=(), live=None) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] (SlotAlgebra.combine)."""
-        self.slots.combine(dst, terms, limit, tau, rates)
+        self.slots.combine(dst, terms, limit, tau, rates, live)
 
     def stage(
-        self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
+        self, dst, terms, src: int, t, limit: bool = True, tau=None, rates=(), live=None
     ) -> None:
         """A combination with one term L(slot src, t), in one launch (SlotAlgebra.stage)."""
-        self.slots.stage(dst, terms, src, t, limit, tau, rates)
+        self.slots.stage(dst, terms, src, t, limit, tau, rates, live)
 
-    def blend(self, dst: int, a: int, b: int, theta: float) -> None:
+    def blend(self, dst: int, a: int, b: int, theta: float, member: int | None = None) -> None:
         """slot dst := (1 - theta) slot a + theta slot b, whole (SlotAlgebra.blend)."""
-        self.slots.blend(dst, a, b, theta)
+        self.slots.blend(dst, a, b, theta, member)
 
-    def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
+    def sweep(self, d: int, t, dt, first: bool = True, last: bool = True) -> None:
         """One sweep of the split scheme along d (SplitSweeps.sweep)."""
         self.sweeps.sweep(d, t, dt, first, last)
 
-    def viscous_stage(self, src, prev2, dst, coeffs, t: float, first: bool = False) -> None:
+    def viscous_stage(self, src, prev2, dst, coeffs, t, first: bool = False, live=None) -> None:
         """One stage of a split step's viscous sub-step (ViscousSubstep.viscous_stage)."""
-        self.viscous.viscous_stage(src, prev2, dst, coeffs, t, first)
+        self.viscous.viscous_stage(src, prev2, dst, coeffs, t, first, live)
+
+    def set_running(self, running) -> None:
+        """Which members of a batch still advance (OperatorState.set_running)."""
+        self.state.set_running(running)
 
     def stability(self, slot: int, t: float) -> StabilityNumbers:
-        """Wave speeds and stiffness bounds of ``slot`` at time t (StepReductions.stability)."""
+        """Wave speeds and stiffness bounds of ``slot`` at time t (StepReductions.stability),
+        member 0's; every member's then by `member_stability`."""
         return self.reduce.stability(slot, t)
 
-    def sums(self, slot: int = 0) -> tuple[float, float]:
-        """(sum of h, sum of h phi) over interior cells, deterministic, in f64."""
-        return self.reduce.totals(slot, self.state.serial_loops(whole=True))
+    def member_stability(self) -> list[StabilityNumbers]:
+        """Each member's numbers of the last stability pass (StepReductions.members)."""
+        return self.reduce.members()
+
+    def sums(self, slot: int = 0, member: int = 0) -> tuple[float, float]:
+        """(sum of h, sum of h phi) over interior cells of a member, deterministic, in f64."""
+        return self.reduce.totals(slot, self.state.serial_loops(whole=True), member)
 
     # ------------------------------------------------------------------ the run's ranges
     def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
         """The wet and live x extents of ``slot`` (RestRules.wet_extent)."""
         return self.rules.wet_extent(slot, t)
 
-    def rest_state(self) -> dict[str, np.ndarray] | None:
-        """The rest mask and ranges for a checkpoint (RestRules.rest_state)."""
-        return self.rules.rest_state()
+    def member_extents(self) -> list[tuple[int, int, int, int]]:
+        """Each member's wet and live extents of the last wet scan (RestRules.member_extents)."""
+        return self.rules.member_extents()
 
-    def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
+    def rest_state(self, member: int = 0) -> dict[str, np.ndarray] | None:
+        """A member's rest mask and the ranges for a checkpoint (RestRules.rest_state)."""
+        return self.rules.rest_state(member)
+
+    def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray, member: int = 0):
         """Inverse of `rest_state` (RestRules.restore_rest_state)."""
-        self.rules.restore_rest_state(rest_mask, ranges)
+        self.rules.restore_rest_state(rest_mask, ranges, member)
 
 
 def _state_name(name: str) -> property:

@@ -23,9 +23,10 @@ SERIAL_CELLS = 60_000
 
 
 class ActiveRange:
-    def __init__(self, ft, lay, serial: bool | None, threads: int, on_cpu: bool):
+    def __init__(self, ft, lay, serial: bool | None, threads: int, on_cpu: bool, members: int = 1):
         """Fields in the field tree ``ft`` (before it is finalised); ``serial``: run every loop
-        on the calling thread (True), never (False), or decide per launch (None)."""
+        on the calling thread (True), never (False), or decide per launch (None); ``members``:
+        the ensemble members, each with its own wet scan (one range for all)."""
         self.gx, self.nx, self.NX, self.NY = lay.gx, lay.nx, lay.NX, lay.NY
         self.force_serial = None if serial is None else bool(serial)
         self._threads = threads
@@ -33,7 +34,7 @@ class ActiveRange:
         self._serial_whole = self.serial_for(lay.NX * lay.NY)
         self.act = ft.field(ti.i32, 2)
         # first and last x index of a wet cell, then of a live one (the operator's wet scan)
-        self.wet = ft.field(ti.i32, 4)
+        self.wet = ft.field(ti.i32, (members, 4))
         # the x range the wet scan covers (besides the halo): the wet cells and their margin,
         # which contains the active range act and, with resting regions skipped, more
         self.wrng = ft.field(ti.i32, 2)
@@ -45,11 +46,7 @@ class ActiveRange:
         """Set the active range to the interior x indices [a, b) (clamped to the interior) and
         the wet range to ``wet`` (by default [a, b), widened to hold it); True where the
         active range changed."""
-        a = max(self.gx, int(a))
-        b = max(a, min(self.gx + self.nx, int(b)))
-        wa, wb = (a, b) if wet is None else wet
-        wa = min(max(self.gx, int(wa)), a)
-        wb = max(min(self.gx + self.nx, int(wb)), b)
+        (a, b), (wa, wb) = clamp_range(self, a, b, wet)
         if self.wet_range != (wa, wb):
             self.wrng[0] = wa
             self.wrng[1] = wb
@@ -77,6 +74,17 @@ class ActiveRange:
         or on the whole grid (``whole``). Both modes give the same bits
         (tests/test_determinism.py)."""
         return self._serial_whole if whole else self._serial_active
+
+
+def clamp_range(lay, a: int, b: int, wet=None) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The active range [a, b) clamped to the interior x indices of ``lay`` (which has gx,
+    nx), and the wet range (by default [a, b)) widened to hold it."""
+    a = max(lay.gx, int(a))
+    b = max(a, min(lay.gx + lay.nx, int(b)))
+    wa, wb = (a, b) if wet is None else wet
+    wa = min(max(lay.gx, int(wa)), a)
+    wb = max(min(lay.gx + lay.nx, int(wb)), b)
+    return (a, b), (wa, wb)
 
 
 def row_pieces(lay, threads: int, on_cpu: bool) -> int:

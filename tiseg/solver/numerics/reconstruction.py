@@ -48,8 +48,8 @@ class Minmod:
 
     def taichi(self, ti, par, lay, fp):
         @ti.func
-        def slope(dm, dp, dc):
-            th = par[Params.THETA]
+        def slope(e, dm, dp, dc):
+            th = par[e, Params.THETA]
             a = th * dm
             b = dc
             c = th * dp
@@ -83,10 +83,10 @@ class Weno:
         nc, seg, P = lay.nc, lay.segregation, lay.HPHI
 
         @ti.func
-        def slope(dm, dp, dc):
-            eps = par[Params.WENO_EPS]
-            isc = ti.Vector.zero(fp, nc) + par[Params.INV_U_REF]
-            isc[0] = par[Params.INV_H_REF]
+        def slope(e, dm, dp, dc):
+            eps = par[e, Params.WENO_EPS]
+            isc = ti.Vector.zero(fp, nc) + par[e, Params.INV_U_REF]
+            isc[0] = par[e, Params.INV_H_REF]
             if ti.static(seg):
                 isc[P] = 1.0
             bm = dm * isc

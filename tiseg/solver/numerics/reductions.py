@@ -62,6 +62,13 @@ class StepReductions:
         work = self.fv.preparation(slot, t)
         r = [float(v) for v in self._stability(slot, work[1], work[2], self.state.serial_loops())]
         self.fv.prepared(work, t)
+        return self._numbers(r)
+
+    def members(self) -> list[StabilityNumbers]:
+        """Each member's numbers of the last stability pass (its row of ``red``)."""
+        return [self._numbers([float(v) for v in row]) for row in self.state.red.to_numpy()]
+
+    def _numbers(self, r) -> StabilityNumbers:
         return StabilityNumbers(
             ax=r[0],
             ay=r[1],
@@ -72,9 +79,10 @@ class StepReductions:
             rate_local=r[6] if self.state.local_rate else None,
         )
 
-    def totals(self, slot: int, serial: bool) -> tuple[float, float]:
-        """(sum of h, sum of h phi) over interior cells of ``slot``, deterministic, in f64."""
-        t = self._totals(slot, serial)
+    def totals(self, slot: int, serial: bool, member: int = 0) -> tuple[float, float]:
+        """(sum of h, sum of h phi) over interior cells of ``slot`` of member ``member``,
+        deterministic, in f64."""
+        t = self._totals(slot, self.state._member(member), serial)
         return float(t[0]), float(t[1])
 
     # The return type must follow the run's precision. A type built from ``float`` is fixed
@@ -117,11 +125,8 @@ class StepReductions:
         tiseg.run.simulation.step_limits). Only such runs compute it."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         ti.loop_config(serialize=True)  # a handful of iterations
-        for k in range(NSTAB):
-            self.state.red[k] = 0.0
-        hmin = self.state.par[Params.H_MIN]
-        idx = self.state.par[Params.INV_DX]
-        idy = self.state.par[Params.INV_DY]
+        for k, e in ti.ndrange(NSTAB, self.state.M):
+            self.state.red[e, k] = 0.0
         # include the first ghost layer in x so that an inflow into an empty chute sets a speed
         lo = ti.max(self.state.act[0] - 1, gx - 1)
         hi = ti.min(self.state.act[1] + 1, gx + nx + 1)
@@ -131,15 +136,18 @@ class StepReductions:
             # 5 speeds per cell, and recomputing them (a square root each) cost 10 % of a
             # Stoker step on one thread
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((lo - 1, hi + 1), (0, self.state.NY)):
-                w = self.state.w[i, j]
-                g = self.state.grav.cell(i)
-                self.state.spd[i, j] = ti.Vector(
-                    [self.state.phys.speed(w, 0, g), self.state.phys.speed(w, 1, g)]
+            for i, j, e in ti.ndrange((lo - 1, hi + 1), (0, self.state.NY), self.state.M):
+                w = self.state.w[i, j, e]
+                g = self.state.grav.cell(e, i)
+                self.state.spd[i, j, e] = ti.Vector(
+                    [self.state.phys.speed(e, w, 0, g), self.state.phys.speed(e, w, 1, g)]
                 )
         P = ti.static(self.state.row_pieces)
         ti.loop_config(serialize=serial)
-        for it in range(piece_count(lo, hi, B, P)):
+        for it, e in ti.ndrange(piece_count(lo, hi, B, P), self.state.M):
+            hmin = self.state.par[e, Params.H_MIN]
+            idx = self.state.par[e, Params.INV_DX]
+            idy = self.state.par[e, Params.INV_DY]
             i0, j0, j1 = piece_at(it, lo, B, P, gy, ny)
             m0 = 0.0
             m1 = 0.0
@@ -152,29 +160,29 @@ class StepReductions:
                 i = i0 + r
                 if i < hi:
                     for j in range(j0, j1):
-                        w = self.state.w[i, j]
-                        g = self.state.grav.cell(i)
+                        w = self.state.w[i, j, e]
+                        g = self.state.grav.cell(e, i)
                         if ti.static(self.state.local_rate):
-                            sp = self.state.spd[i, j]
+                            sp = self.state.spd[i, j, e]
                             m0 = ti.max(m0, sp[0])
                             m1 = ti.max(m1, sp[1])
                             axm = ti.max(
-                                ti.max(self.state.spd[i - 1, j][0], sp[0]),
-                                self.state.spd[i + 1, j][0],
+                                ti.max(self.state.spd[i - 1, j, e][0], sp[0]),
+                                self.state.spd[i + 1, j, e][0],
                             )
                             aym = ti.max(
-                                ti.max(self.state.spd[i, j - 1][1], sp[1]),
-                                self.state.spd[i, j + 1][1],
+                                ti.max(self.state.spd[i, j - 1, e][1], sp[1]),
+                                self.state.spd[i, j + 1, e][1],
                             )
                             m6 = ti.max(m6, axm * idx + aym * idy)
                         else:
-                            m0 = ti.max(m0, self.state.phys.speed(w, 0, g))
+                            m0 = ti.max(m0, self.state.phys.speed(e, w, 0, g))
                             if ti.static(not self.state.is_1d):
-                                m1 = ti.max(m1, self.state.phys.speed(w, 1, g))
+                                m1 = ti.max(m1, self.state.phys.speed(e, w, 1, g))
                         m4 = ti.max(m4, self.state.phys.speed_mag(w))
-                        fr = self.state.phys.friction_rate(w, g)
+                        fr = self.state.phys.friction_rate(e, w, g)
                         if ti.static(self.state.terms.stiff_on):  # stiff source terms
-                            fr += self.state.terms.stiffness(i, j)
+                            fr += self.state.terms.stiffness(e, i, j)
                         m3 = ti.max(m3, fr)
                         rho = 0.0 * fr
                         if ti.static(self.state.visc):
@@ -183,12 +191,13 @@ class StepReductions:
                                 hn = h  # (not read in 1D)
                                 hs = h
                                 if ti.static(not self.state.is_1d):
-                                    hn = self.state.w[i, j + 1][0]
-                                    hs = self.state.w[i, j - 1][0]
+                                    hn = self.state.w[i, j + 1, e][0]
+                                    hs = self.state.w[i, j - 1, e][0]
                                 rho = self.state.phys.visc_stiffness(
+                                    e,
                                     h,
-                                    self.state.w[i + 1, j][0],
-                                    self.state.w[i - 1, j][0],
+                                    self.state.w[i + 1, j, e][0],
+                                    self.state.w[i - 1, j, e][0],
                                     hn,
                                     hs,
                                     idx,
@@ -200,30 +209,32 @@ class StepReductions:
             # maxima only grow), so the atomic is never skipped where it is needed, and the
             # threads no longer take turns on one cache line for every piece
             for k, m in ti.static(enumerate((m0, m1, m2, m3, m4, m5, m6))):
-                if m > self.state.red[k]:
-                    ti.atomic_max(self.state.red[k], m)
-        return ti.Vector([self.state.red[k] for k in ti.static(range(NSTAB))])
+                if m > self.state.red[e, k]:
+                    ti.atomic_max(self.state.red[e, k], m)
+        # member 0's numbers, returned (a single run reads no field); every member's are in red
+        return ti.Vector([self.state.red[0, k] for k in ti.static(range(NSTAB))])
 
     @ti.kernel
-    def _totals(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
-        """Sums of h and h phi over interior cells in a fixed order (rows in parallel, each
-        summed serially, then the rows serially): the same bits for any thread count."""
+    def _totals(self, s: ti.i32, e: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
+        """Sums of h and h phi over member e's interior cells in a fixed order (rows in
+        parallel, each summed serially, then the rows serially): the same bits for any thread
+        count."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
-        self.state.total[0] = 0.0
-        self.state.total[1] = 0.0
+        self.state.total[e, 0] = 0.0
+        self.state.total[e, 1] = 0.0
         ti.loop_config(serialize=serial)
         for i in range(gx, gx + nx):
             a = ti.cast(0.0, ti.f64)
             b = ti.cast(0.0, ti.f64)
             for j in range(gy, gy + ny):
-                v = self.state.q[s, i, j]
+                v = self.state.q[s, i, j, e]
                 a += ti.cast(v[0], ti.f64)
                 if ti.static(self.state.seg):
                     b += ti.cast(v[self.state.HPHI], ti.f64)
-            self.state.rowsum[i, 0] = a
-            self.state.rowsum[i, 1] = b
+            self.state.rowsum[e, i, 0] = a
+            self.state.rowsum[e, i, 1] = b
         ti.loop_config(serialize=True)
         for i in range(gx, gx + nx):
-            self.state.total[0] += self.state.rowsum[i, 0]
-            self.state.total[1] += self.state.rowsum[i, 1]
-        return ti.Vector([self.state.total[0], self.state.total[1]])
+            self.state.total[e, 0] += self.state.rowsum[e, i, 0]
+            self.state.total[e, 1] += self.state.rowsum[e, i, 1]
+        return ti.Vector([self.state.total[e, 0], self.state.total[e, 1]])

@@ -56,12 +56,12 @@ class RestRules:
         the active range read (further out no face flux is computed). With a law with
         hysteresis the step's first stage then adds HELD to the cells the static friction
         holds (project)."""
-        hmin = self.state.par[Params.H_MIN]
         lo = ti.max(self.state.act[0] - 4, 0)
         hi = ti.min(self.state.act[1] + 4, self.state.NX)
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((lo, hi), (0, self.state.NY)):
-            w = self.state.w[i, j]
+        for i, j, e in ti.ndrange((lo, hi), (0, self.state.NY), self.state.M):
+            hmin = self.state.par[e, Params.H_MIN]
+            w = self.state.w[i, j, e]
             r = w[1] == 0.0
             if ti.static(not self.state.is_1d):
                 r = r and w[self.state.HV] == 0.0
@@ -81,11 +81,11 @@ class RestRules:
             if w[0] >= hmin:
                 flag |= WET
             if ti.static(self.state.bcs[0].prescribed):
-                flag = self._inlet_moves(flag, i, j)
-            self.state.rest[i, j] = ti.cast(flag, ti.i8)
+                flag = self._inlet_moves(e, flag, i, j)
+            self.state.rest[i, j, e] = ti.cast(flag, ti.i8)
 
     @ti.func
-    def _inlet_moves(self, flag, i, j):
+    def _inlet_moves(self, e, flag, i, j):
         """A running inflow's ghost cells move downslope (X_POS), whatever thickness its ramp
         (6.8) starts the step with: at h_in = 0 they had u = 0 and counted as at rest, so the
         inlet face of a step starting then carried no mass for the whole step, though the
@@ -94,7 +94,7 @@ class RestRules:
         out = flag
         lo, hi = ti.static(self._inlet_row_range())
         if i < self.state.gx and lo <= j < hi:
-            if self.state.par[Params.IN_ON] > 0.5 and self.state.par[Params.IN_U] > 0.0:
+            if self.state.par[e, Params.IN_ON] > 0.5 and self.state.par[e, Params.IN_U] > 0.0:
                 out = (flag & ~REST) | X_POS
         return out
 
@@ -105,7 +105,7 @@ class RestRules:
         return self.state.gy + lo, self.state.gy + hi
 
     @ti.func
-    def wet_at_start(self, i0, j0, i1, j1):
+    def wet_at_start(self, e, i0, j0, i1, j1):
         """Whether cell (i0, j0) or (i1, j1) was wet (h >= h_min) at the step's start: their
         face then carries its flux in every stage of the step, even where both cells have
         thinned below h_min since (face_wet), so that the step's rates are one smooth
@@ -115,21 +115,25 @@ class RestRules:
         was emptied below zero, and the stage limiter's clip to h = 0 then created mass (a
         relative 1e-6 in one step at the margin of a flow spreading from a narrow inlet, the
         levees scene at 150 cells/m). A face that becomes wet mid-step switches on as before."""
-        r = ti.cast(self.state.rest[i0, j0], ti.i32) | ti.cast(self.state.rest[i1, j1], ti.i32)
+        r = ti.cast(self.state.rest[i0, j0, e], ti.i32) | ti.cast(
+            self.state.rest[i1, j1, e], ti.i32
+        )
         return (r & WET) != 0
 
     @ti.func
-    def live_at_start(self, i0, j0, i1, j1):
+    def live_at_start(self, e, i0, j0, i1, j1):
         """wet_at_start, or one of the two cells moved at the step's start (a film with a
         velocity, the split sweeps, whose films flow): the face then carries its flux in every
         stage of the step even where both cells are films now (face_wet). Between two films
         at rest no mass moves: a dry bed stays dry, and the film a flow leaves behind stays
         where the friction stopped it."""
-        r = ti.cast(self.state.rest[i0, j0], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
-        return self.wet_at_start(i0, j0, i1, j1) or (r & REST) == 0
+        r = ti.cast(self.state.rest[i0, j0, e], ti.i32) & ti.cast(
+            self.state.rest[i1, j1, e], ti.i32
+        )
+        return self.wet_at_start(e, i0, j0, i1, j1) or (r & REST) == 0
 
     @ti.func
-    def rest_face(self, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
+    def rest_face(self, e, F, wl, wr, d: ti.template(), i0, j0, i1, j1):
         """With the projected friction scheme, the mass (and h phi) flux at a face next to a
         cell at rest. "At rest" is read from the step's initial state (mark), not from
         the stage's: a cell that the first stage stops must not switch its faces off for the
@@ -157,8 +161,8 @@ class RestRules:
           central flux and changes nothing; the momentum flux stays the central one."""
         out = F
         if ti.static(self.state.phys.fr_projected):
-            r0 = ti.cast(self.state.rest[i0, j0], ti.i32)
-            r1 = ti.cast(self.state.rest[i1, j1], ti.i32)
+            r0 = ti.cast(self.state.rest[i0, j0, e], ti.i32)
+            r1 = ti.cast(self.state.rest[i1, j1, e], ti.i32)
             if (r0 & REST) != 0 and (r1 & REST) != 0:
                 out[0] = 0.0
                 if ti.static(self.state.seg):
@@ -168,13 +172,13 @@ class RestRules:
                 pos = ti.static(X_POS if d == 0 else Y_POS)
                 neg = ti.static(X_NEG if d == 0 else Y_NEG)
                 if (r0 & pos) != 0 and (r1 & neg) == 0:
-                    out = self._flux_floor(out, wl, wr, d, 1.0)
+                    out = self._flux_floor(e, out, wl, wr, d, 1.0)
                 elif (r1 & neg) != 0 and (r0 & pos) == 0:
-                    out = self._flux_floor(out, wr, wl, d, -1.0)
+                    out = self._flux_floor(e, out, wr, wl, d, -1.0)
         return out
 
     @ti.func
-    def film_faces(self, Fm, Fp, i, j, im, jm, ip, jp):
+    def film_faces(self, e, Fm, Fp, i, j, im, jm, ip, jp):
         """The fluxes through the low (Fm) and high (Fp) face of cell (i, j) along one
         direction as that cell takes them: a film (thinner than h_min) at rest at the step's
         start takes no momentum through a face to a neighbour at rest. No mass crosses such a
@@ -182,11 +186,11 @@ class RestRules:
         neighbour's friction hold to see; a film, with next to no mass to carry it, was given
         speeds of km/s by it. The neighbour still feels it (the cells' friction projections
         already take momentum out of the books)."""
-        r = ti.cast(self.state.rest[i, j], ti.i32)
+        r = ti.cast(self.state.rest[i, j, e], ti.i32)
         if (r & REST) != 0 and (r & WET) == 0:
-            if (ti.cast(self.state.rest[im, jm], ti.i32) & REST) != 0:
+            if (ti.cast(self.state.rest[im, jm, e], ti.i32) & REST) != 0:
                 Fm = self.still(Fm)
-            if (ti.cast(self.state.rest[ip, jp], ti.i32) & REST) != 0:
+            if (ti.cast(self.state.rest[ip, jp, e], ti.i32) & REST) != 0:
                 Fp = self.still(Fp)
         return Fm, Fp
 
@@ -200,7 +204,7 @@ class RestRules:
         return out
 
     @ti.func
-    def _flux_floor(self, F, wu, wd, d: ti.template(), s: ti.template()):
+    def _flux_floor(self, e, F, wu, wd, d: ti.template(), s: ti.template()):
         """F with its mass flux raised (s = 1, upwind cell on the left) or lowered (s = -1, on
         the right) to s (f_u - f_d^2 / f_u) where that is beyond it: f_u = h max(s u_n, 0) of
         the upwind edge state wu, f_d the same of the downwind one wd; h phi then moves at
@@ -216,11 +220,11 @@ class RestRules:
             if s * b > s * out[0]:  # never false but at a tie of rounding
                 out[0] = b
                 if ti.static(self.state.seg):
-                    out[self.state.HPHI] = b * self.state.phys.transported(wu[self.state.HPHI])
+                    out[self.state.HPHI] = b * self.state.phys.transported(e, wu[self.state.HPHI])
         return out
 
     @ti.func
-    def project(self, acc, tau, i, j, first: ti.template(), spd0, hb):
+    def project(self, e, acc, tau, i, j, first: ti.template(), spd0, hb):
         """The friction projection of a stage's result (Physics.project_friction, with the
         coefficient at ``spd0``, the speed of the state the stage started from, and the
         impulse on the thickness ``hb``). With a law
@@ -230,24 +234,24 @@ class RestRules:
         projected. Deciding per stage instead made the starts depend on the step length and
         on RKC's stage weights (signed: a cell that stage 1 started, stage 2 could stop)."""
         out = acc
-        g = self.state.grav.cell(i)
+        g = self.state.grav.cell(e, i)
         if ti.static(self.state.phys.law.hysteresis):
-            flag = ti.cast(self.state.rest[i, j], ti.i32)
+            flag = ti.cast(self.state.rest[i, j, e], ti.i32)
             if ti.static(first):
                 # nested, not `and`: Taichi's `and` evaluates both sides, and holds() (the start
                 # coefficient mu_S) on every moving cell cost ~5 % of a fingers step
                 if (flag & REST) != 0:
-                    if self.state.phys.holds(acc, tau, g) == 1:
+                    if self.state.phys.holds(e, acc, tau, g) == 1:
                         flag |= HELD
-                        self.state.rest[i, j] = ti.cast(flag, ti.i8)
+                        self.state.rest[i, j, e] = ti.cast(flag, ti.i8)
             if (flag & HELD) != 0:
                 out[1] = 0.0
                 if ti.static(not self.state.is_1d):
                     out[self.state.HV] = 0.0
             else:
-                out = self.state.phys.project_friction(acc, tau, spd0, hb, g)
+                out = self.state.phys.project_friction(e, acc, tau, spd0, hb, g)
         else:
-            out = self.state.phys.project_friction(acc, tau, spd0, hb, g)
+            out = self.state.phys.project_friction(e, acc, tau, spd0, hb, g)
         return out
 
     @staticmethod
@@ -256,7 +260,7 @@ class RestRules:
 
     @ti.func
     def keep_rest(
-        self, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
+        self, e, acc, r, i, j, n: ti.template(), rate: ti.template(), rmask: ti.template(), ss
     ):
         """A cell at rest after the projection whose state terms all hold the same h and h phi
         and whose rates of h and h phi are all zero (no mass crossed its faces: _x_face) keeps
@@ -269,7 +273,7 @@ class RestRules:
             moving = moving or acc[self.state.HV] != 0.0
         # a moving cell (most of a flow) reads no term again: the test costs one branch there
         if not moving:
-            ref = self.state.q[ss[f], i, j]
+            ref = self.state.q[ss[f], i, j, e]
             keep = 1
             for k in ti.static(range(n)):
                 if ti.static(k == rate):
@@ -279,14 +283,14 @@ class RestRules:
                         if r[self.state.HPHI] != 0.0:
                             keep = 0
                 elif ti.static((rmask >> k) & 1):
-                    v = self.state.q[ss[k], i, j]
+                    v = self.state.q[ss[k], i, j, e]
                     if v[0] != 0.0:
                         keep = 0
                     if ti.static(self.state.seg):
                         if v[self.state.HPHI] != 0.0:
                             keep = 0
                 elif ti.static(k != f):
-                    v = self.state.q[ss[k], i, j]
+                    v = self.state.q[ss[k], i, j, e]
                     if v[0] != ref[0]:
                         keep = 0
                     if ti.static(self.state.seg):
@@ -298,10 +302,11 @@ class RestRules:
                     out[self.state.HPHI] = ref[self.state.HPHI]
         return out
 
-    def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
+    def wet_extent(self, slot: int, t) -> tuple[int, int, int, int]:
         """(first, last) x index with a cell h >= h_min after filling ghosts, (NX, -1) if
         none; then (first, last) x index of a live cell, one that may change in the next step
-        (_quiescent), found only where resting regions are skipped (else (NX, -1))."""
+        (_quiescent), found only where resting regions are skipped (else (NX, -1)). Member
+        0's; every member's then by `member_extents` (t: one per member in a batch)."""
         self.state.set_time(t)
         if self.state.skip_rest and self.state.mask_inflow != self.state.inflow_on(t):
             # the inflow stopped since the last step began: the inlet is a wall now, and the
@@ -309,6 +314,10 @@ class RestRules:
             self.state.forget_rest()
         w = self._wet_extent(slot, self.state.serial_loops())
         return int(w[0]), int(w[1]), int(w[2]), int(w[3])
+
+    def member_extents(self) -> list[tuple[int, int, int, int]]:
+        """Each member's extents of the last wet scan (`wet_extent`)."""
+        return [tuple(int(v) for v in row) for row in self.state.wet.to_numpy()]
 
     @ti.kernel
     def _wet_extent(self, s: ti.i32, serial: ti.template()) -> ti.types.vector(4, ti.i32):
@@ -324,11 +333,12 @@ class RestRules:
         wrote, [a - 3, b + 3) around the active range: every cell beyond it was quiescent when
         it was left out, and nothing has touched it since."""
         self.ghosts.fill(s)
-        self.state.wet[0] = self.state.NX
-        self.state.wet[1] = -1
-        self.state.wet[2] = self.state.NX
-        self.state.wet[3] = -1
-        hmin = self.state.par[Params.H_MIN]
+        ti.loop_config(serialize=True)  # (a handful of numbers)
+        for e in range(self.state.M):
+            self.state.wet[e, 0] = self.state.NX
+            self.state.wet[e, 1] = -1
+            self.state.wet[e, 2] = self.state.NX
+            self.state.wet[e, 3] = -1
         lo = ti.max(self.state.wrng[0] - 3, 0)
         hi = ti.min(self.state.wrng[1] + 3, self.state.NX)
         # the live scan: interior cells only (their neighbours, ghosts included, are read)
@@ -337,7 +347,8 @@ class RestRules:
         B = ti.static(self.state.rows_per_block)
         P = ti.static(self.state.row_pieces)  # pieces of a row, as in _stability
         ti.loop_config(serialize=serial)
-        for it in range(piece_count(lo, hi, B, P)):
+        for it, e in ti.ndrange(piece_count(lo, hi, B, P), self.state.M):
+            hmin = self.state.par[e, Params.H_MIN]
             i0, j0, j1 = piece_at(it, lo, B, P, self.state.gy, self.state.ny)
             first = self.state.NX
             last = -1
@@ -348,31 +359,31 @@ class RestRules:
                 if i < hi:
                     scan_live = llo <= i < lhi
                     for j in range(j0, j1):
-                        if self._live(self.state.q[s, i, j], hmin):
+                        if self._live(self.state.q[s, i, j, e], hmin):
                             first = ti.min(first, i)
                             last = ti.max(last, i)
                         if ti.static(self.state.skip_rest):
                             if scan_live:
-                                if self._quiescent(s, i, j) == 0:
+                                if self._quiescent(e, s, i, j) == 0:
                                     lfirst = ti.min(lfirst, i)
                                     llast = ti.max(llast, i)
             # an atomic per piece only where it moves a bound (see _stability)
             if last >= 0:
-                if first < self.state.wet[0]:
-                    ti.atomic_min(self.state.wet[0], first)
-                if last > self.state.wet[1]:
-                    ti.atomic_max(self.state.wet[1], last)
+                if first < self.state.wet[e, 0]:
+                    ti.atomic_min(self.state.wet[e, 0], first)
+                if last > self.state.wet[e, 1]:
+                    ti.atomic_max(self.state.wet[e, 1], last)
             if llast >= 0:
-                if lfirst < self.state.wet[2]:
-                    ti.atomic_min(self.state.wet[2], lfirst)
-                if llast > self.state.wet[3]:
-                    ti.atomic_max(self.state.wet[3], llast)
+                if lfirst < self.state.wet[e, 2]:
+                    ti.atomic_min(self.state.wet[e, 2], lfirst)
+                if llast > self.state.wet[e, 3]:
+                    ti.atomic_max(self.state.wet[e, 3], llast)
         return ti.Vector(
-            [self.state.wet[0], self.state.wet[1], self.state.wet[2], self.state.wet[3]]
+            [self.state.wet[0, 0], self.state.wet[0, 1], self.state.wet[0, 2], self.state.wet[0, 3]]
         )
 
     @ti.func
-    def _quiescent(self, s, i, j):
+    def _quiescent(self, e, s, i, j):
         """1 where cell (i, j) sat out the last step exactly unchanged, and would sit out the
         next one as well if nothing within the step's reach has changed: it was at rest at
         the step's start, the static friction held it (HELD) or it is dry (_dry_film), and its four
@@ -382,25 +393,25 @@ class RestRules:
         data around the cell give the same answer in the next step: a cell further than the
         next step's reach from every live cell keeps its bits without being computed. (Rest
         mask of the last step: REST from its start, HELD from its first stage.)"""
-        r = ti.cast(self.state.rest[i, j], ti.i32)
+        r = ti.cast(self.state.rest[i, j, e], ti.i32)
         q = 0
         if (r & REST) != 0:
-            if (r & HELD) != 0 or self._dry_film(self.state.q[s, i, j][0]):
-                nb = ti.cast(self.state.rest[i - 1, j], ti.i32) & ti.cast(
-                    self.state.rest[i + 1, j], ti.i32
+            if (r & HELD) != 0 or self._dry_film(e, self.state.q[s, i, j, e][0]):
+                nb = ti.cast(self.state.rest[i - 1, j, e], ti.i32) & ti.cast(
+                    self.state.rest[i + 1, j, e], ti.i32
                 )
                 if ti.static(not self.state.is_1d):
-                    nb &= ti.cast(self.state.rest[i, j - 1], ti.i32)
-                    nb &= ti.cast(self.state.rest[i, j + 1], ti.i32)
+                    nb &= ti.cast(self.state.rest[i, j - 1, e], ti.i32)
+                    nb &= ti.cast(self.state.rest[i, j + 1, e], ti.i32)
                 if (nb & REST) != 0:
                     q = 1
         return q
 
     @ti.func
-    def _dry_film(self, h):
+    def _dry_film(self, e, h):
         """A cell that no source acts on (Physics.acts): h = 0 where films flow (the split
         sweeps), thinner than h_min in the unsplit scheme."""
-        return not self.state.phys.acts(h)
+        return not self.state.phys.acts(e, h)
 
     @ti.func
     def _live(self, q, hmin):
@@ -419,29 +430,34 @@ class RestRules:
             out = out or w[self.state.HV] != 0.0
         return out
 
-    def rest_state(self) -> dict[str, np.ndarray] | None:
-        """What the skipping of resting regions needs besides slot 0, for a checkpoint: the
-        rest mask of the last step and the active and wet ranges (None without skipping)."""
+    def rest_state(self, member: int = 0) -> dict[str, np.ndarray] | None:
+        """What the skipping of resting regions needs besides slot 0, for a checkpoint of
+        member ``member``: its rest mask of the last step and the active and wet ranges (None
+        without skipping)."""
         if not self.state.skip_rest:
             return None
         on = -1 if self.state.mask_inflow is None else int(self.state.mask_inflow)
         return {
-            "rest_mask": self.state.rest.to_numpy(),
+            "rest_mask": self.state.rest.to_numpy()[..., self.state._member(member)],
             "ranges": np.array([*self.state.active, *self.state.wet_range, on], dtype=np.int64),
         }
 
-    def restore_rest_state(self, rest_mask: np.ndarray, ranges: np.ndarray) -> None:
+    def restore_rest_state(
+        self, rest_mask: np.ndarray, ranges: np.ndarray, member: int = 0
+    ) -> None:
         """Inverse of `rest_state` (after slot 0 was set): the next step then skips
         what the run it continues would have skipped, so a resumed run keeps its bits."""
         if not self.state.skip_rest:
             return
-        self.state.rest.from_numpy(np.asarray(rest_mask).astype(np.int8))
+        full = self.state.rest.to_numpy()
+        full[..., self.state._member(member)] = np.asarray(rest_mask).astype(np.int8)
+        self.state.rest.from_numpy(full)
         a, b, wa, wb, on = (int(v) for v in ranges)
         self.state.set_active(a, b, (wa, wb))
         self.state.mask_inflow = None if on < 0 else bool(on)
 
     @ti.func
-    def both_at_rest(self, i, j, i1, j1):
+    def both_at_rest(self, e, i, j, i1, j1):
         """Whether cells (i, j) and (i1, j1) were both at rest at the step's start."""
-        r = ti.cast(self.state.rest[i, j], ti.i32) & ti.cast(self.state.rest[i1, j1], ti.i32)
+        r = ti.cast(self.state.rest[i, j, e], ti.i32) & ti.cast(self.state.rest[i1, j1, e], ti.i32)
         return (r & REST) != 0

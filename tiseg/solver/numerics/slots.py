@@ -15,13 +15,14 @@ state (`state.OperatorState`, whose slots, budgets and caches it writes), the ev
 (`rest.RestRules`: the friction projection of a limited stage and its exact rest).
 """
 
+import numpy as np
 import taichi as ti
 
 from ...taichi_classes import data_oriented
 
 from ...errors import TisegError
 
-from .state import NBUDGET
+from .state import C_DST, C_LIVE, C_TAU, NBUDGET
 
 MAX_TERMS = 6
 
@@ -37,7 +38,7 @@ class SlotAlgebra:
         self.fv = fv
         self.rules = rules
 
-    def combine(self, dst: int, terms, limit: bool = False, tau: float = 0.0, rates=()) -> None:
+    def combine(self, dst, terms, limit: bool = False, tau=0.0, rates=(), live=None) -> None:
         """slot dst := sum(c * slot) over terms [(c, slot), ...] on the interior cells a step
         can touch (the active range and its stencil halo; all cells without an active range);
         ``limit=True`` applies the stage limiter (`limit`) in the same pass, and with
@@ -45,24 +46,27 @@ class SlotAlgebra:
         stage's share of the step). ``rates``: the slots among the terms that hold rates, not
         states (for the exact rest of keep_rest).
 
+        In a batch the coefficients, ``tau`` and ``dst`` may be one per member, and ``live``
+        (one bool per member) leaves out the members this combination is not a stage of.
+
         dst may be one of the sources: the update is element-wise.
         """
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
         first = self.state.first_of_step(limit)
-        self._combine(
-            dst, n, -1, bool(limit), *cs, *ss, float(tau), rmask, first, self.state.serial_loops()
-        )
-        self.state.written(dst, primitives=bool(limit))
+        d, tau = self._numbers(dst, terms, tau, live)
+        self._combine(d, n, -1, bool(limit), *cs, *ss, tau, rmask, first, self.state.serial_loops())
+        self.state.written_by(dst, live, bool(limit))
 
     def stage(
-        self, dst: int, terms, src: int, t: float, limit: bool = True, tau=None, rates=()
+        self, dst, terms, src: int, t, limit: bool = True, tau=None, rates=(), live=None
     ) -> None:
         """slot dst := sum(c * term) where a term's slot is a slot, or RATE (negative) for
         L(slot src, t): `rhs` into a spare slot and then `combine`, with the same
         bits, in one launch and without storing the rate. Exactly one term is the rate.
         ``tau`` (the friction projection's time) defaults to the rate's coefficient: an SSP
-        stage is a convex combination of states and one Euler step of that length."""
+        stage is a convex combination of states and one Euler step of that length. In a batch
+        t, the coefficients, tau and dst may be one per member, and ``live`` as in `combine`."""
         self.fv.no_operator()
         rate = [k for k, (_, s) in enumerate(terms) if s < 0]
         if len(rate) != 1:
@@ -72,19 +76,33 @@ class SlotAlgebra:
         n, cs, ss = self._terms(terms)
         rmask = self._rate_mask(terms, rates)
         first = self.state.first_of_step(limit)
+        d, tau = self._numbers(dst, terms, tau, live)
         self._combine(
-            dst,
+            d,
             n,
             rate[0],
             bool(limit),
             *cs,
             *ss,
-            float(tau),
+            tau,
             rmask,
             first,
             self.state.serial_loops(),
         )
-        self.state.written(dst, primitives=bool(limit))
+        self.state.written_by(dst, live, bool(limit))
+
+    def _numbers(self, dst, terms, tau, live) -> tuple[int, float]:
+        """A combination's kernel arguments (dst, tau) of a single run; in a batch its
+        numbers per member written into the state's coef (the kernel reads them there)."""
+        st = self.state
+        if not st.batched:
+            return int(dst), float(tau)
+        cols = {k: c for k, (c, _) in enumerate(terms)}
+        cols.update({C_TAU: tau, C_DST: dst})
+        if live is not None:
+            cols[C_LIVE] = np.asarray(live, dtype=float)
+        st.put_numbers(cols)
+        return 0, 0.0
 
     @staticmethod
     def _rate_mask(terms, rates) -> int:
@@ -95,15 +113,21 @@ class SlotAlgebra:
         n = len(terms)
         if not 1 <= n <= MAX_TERMS:
             raise TisegError(f"a combination takes 1 to {MAX_TERMS} terms, got {n}")
-        cs = [float(c) for c, _ in terms] + [0.0] * (MAX_TERMS - n)
+        cs = [float(c) if np.ndim(c) == 0 else 0.0 for c, _ in terms] + [0.0] * (MAX_TERMS - n)
         ss = [max(int(s), 0) for _, s in terms] + [0] * (MAX_TERMS - n)
         return n, cs, ss
 
-    def blend(self, dst: int, a: int, b: int, theta: float) -> None:
+    def blend(self, dst: int, a: int, b: int, theta: float, member: int | None = None) -> None:
         """slot dst := (1 - theta) slot a + theta slot b, whole (ghost cells, budget); with
-        theta = 0 a copy of slot a. For snapshots between two step states (tiseg.run.callbacks)."""
+        theta = 0 a copy of slot a. For snapshots between two step states (tiseg.run.callbacks).
+        ``member``: of that member of a batch alone (each member's snapshot its own; None:
+        every member)."""
         self.state.written(dst)
-        self._blend(dst, a, b, float(theta), self.state.serial_loops(whole=True))
+        serial = self.state.serial_loops(whole=True)
+        if member is None or not self.state.batched:
+            self._blend(dst, a, b, float(theta), serial)
+        else:
+            self._blend_one(dst, a, b, float(theta), self.state._member(member), serial)
 
     @ti.kernel
     def _combine(
@@ -183,43 +207,48 @@ class SlotAlgebra:
         lo = ti.max(self.state.act[0] - 3, gx)
         hi = ti.min(self.state.act[1] + 3, gx + nx)
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((lo, hi), (gy, gy + ny)):
-            r = ti.Vector.zero(self.state.fp, self.state.nc)
-            # the speed of the state the stage starts from (the prepared one): the friction
-            # coefficient of the projection (Physics.project_friction)
-            spd0 = 0.0 * r[0]
-            if ti.static(limit and self.state.phys.fr_projected):
-                spd0 = self.state.phys.speed_mag(self.state.w[i, j])
-            if ti.static(rate >= 0):
-                r = self.fv.cell_rate(i, j)
-            acc = ti.Vector.zero(self.state.fp, self.state.nc)
-            for k in ti.static(range(n)):
-                term = r if ti.static(k == rate) else self.state.q[ss[k], i, j]
-                if ti.static(k == 0):
-                    acc = cs[0] * term
-                else:
-                    acc += cs[k] * term
-            if ti.static(limit):
-                acc = self.fv.limit(acc)
-                if ti.static(self.state.phys.fr_projected):
-                    acc = self.rules.project(acc, tau, i, j, first, spd0, acc[0])
-                    acc = self.rules.keep_rest(acc, r, i, j, n, rate, rmask, ss)
-                self.state.w[i, j] = self.fv.primitive(acc)
-            self.state.q[d, i, j] = acc
+        for i, j, e in ti.ndrange((lo, hi), (gy, gy + ny), self.state.M):
+            if self.state.live(e):  # (a batch's member that takes this stage)
+                ce = self.state.numbers(e, cs)
+                te = self.state.number(e, C_TAU, tau)
+                r = ti.Vector.zero(self.state.fp, self.state.nc)
+                # the speed of the state the stage starts from (the prepared one): the friction
+                # coefficient of the projection (Physics.project_friction)
+                spd0 = 0.0 * r[0]
+                if ti.static(limit and self.state.phys.fr_projected):
+                    spd0 = self.state.phys.speed_mag(self.state.w[i, j, e])
+                if ti.static(rate >= 0):
+                    r = self.fv.cell_rate(e, i, j)
+                acc = ti.Vector.zero(self.state.fp, self.state.nc)
+                for k in ti.static(range(n)):
+                    term = r if ti.static(k == rate) else self.state.q[ss[k], i, j, e]
+                    if ti.static(k == 0):
+                        acc = ce[0] * term
+                    else:
+                        acc += ce[k] * term
+                if ti.static(limit):
+                    acc = self.fv.limit(e, acc)
+                    if ti.static(self.state.phys.fr_projected):
+                        acc = self.rules.project(e, acc, te, i, j, first, spd0, acc[0])
+                        acc = self.rules.keep_rest(e, acc, r, i, j, n, rate, rmask, ss)
+                    self.state.w[i, j, e] = self.fv.primitive(e, acc)
+                self.state.q[self.state.dst(e, d), i, j, e] = acc
         ti.loop_config(serialize=True)  # a handful of iterations
-        for b in range(NBUDGET):
-            acc = 0.0 * cs[0]
-            for k in ti.static(range(n)):
-                bk = (
-                    self.state.bud[self.state.nslots, b]
-                    if ti.static(k == rate)
-                    else self.state.bud[ss[k], b]
-                )
-                if ti.static(k == 0):
-                    acc = cs[0] * bk
-                else:
-                    acc += cs[k] * bk
-            self.state.bud[d, b] = acc
+        for b, e in ti.ndrange(NBUDGET, self.state.M):
+            if self.state.live(e):
+                ce = self.state.numbers(e, cs)
+                acc = 0.0 * ce[0]
+                for k in ti.static(range(n)):
+                    bk = (
+                        self.state.bud[e, self.state.nslots, b]
+                        if ti.static(k == rate)
+                        else self.state.bud[e, ss[k], b]
+                    )
+                    if ti.static(k == 0):
+                        acc = ce[0] * bk
+                    else:
+                        acc += ce[k] * bk
+                self.state.bud[e, self.state.dst(e, d), b] = acc
 
     @ti.kernel
     def _blend(self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, serial: ti.template()):
@@ -228,11 +257,26 @@ class SlotAlgebra:
         which gives a's bits where b == a: a deposit at rest then has the same h in every
         snapshot, as it has in the step states ((1 - theta) a + theta a can be an ulp off)."""
         ti.loop_config(serialize=serial)
+        for i, j, e in ti.ndrange(self.state.NX, self.state.NY, self.state.M):
+            qa = self.state.q[a, i, j, e]
+            self.state.q[d, i, j, e] = qa + theta * (self.state.q[b, i, j, e] - qa)
+        ti.loop_config(serialize=True)  # a handful of iterations
+        for k, e in ti.ndrange(NBUDGET, self.state.M):
+            self.state.bud[e, d, k] = self.state.bud[e, a, k] + theta * (
+                self.state.bud[e, b, k] - self.state.bud[e, a, k]
+            )
+
+    @ti.kernel
+    def _blend_one(
+        self, d: ti.i32, a: ti.i32, b: ti.i32, theta: float, e: ti.i32, serial: ti.template()
+    ):
+        """`_blend` of member e of a batch alone."""
+        ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(self.state.NX, self.state.NY):
-            qa = self.state.q[a, i, j]
-            self.state.q[d, i, j] = qa + theta * (self.state.q[b, i, j] - qa)
+            qa = self.state.q[a, i, j, e]
+            self.state.q[d, i, j, e] = qa + theta * (self.state.q[b, i, j, e] - qa)
         ti.loop_config(serialize=True)  # a handful of iterations
         for k in range(NBUDGET):
-            self.state.bud[d, k] = self.state.bud[a, k] + theta * (
-                self.state.bud[b, k] - self.state.bud[a, k]
+            self.state.bud[e, d, k] = self.state.bud[e, a, k] + theta * (
+                self.state.bud[e, b, k] - self.state.bud[e, a, k]
             )

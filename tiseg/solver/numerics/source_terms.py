@@ -49,26 +49,29 @@ class SourceTerms:
                 self._stiff.append(stiff)
         self.stiff_on = bool(self._stiff)
 
-    def fill_aux(self, cfg) -> None:
-        """The auxiliary fields' values on every cell, from ``cfg``'s constants."""
+    def fill_aux(self, cfgs) -> None:
+        """The auxiliary fields' values on every cell of each member, from the constants of
+        ``cfgs``, the members' configurations."""
         if self.state.aux is None:
             return
-        arrays = aux_arrays(cfg)
-        stacked = np.stack([arrays[n] for n in self.aux_names], axis=-1)
-        self.state.aux.from_numpy(stacked.astype(self.state.np_fp))
+        rows = []
+        for cfg in cfgs:
+            arrays = aux_arrays(cfg)
+            rows.append(np.stack([arrays[n] for n in self.aux_names], axis=-1))
+        self.state.aux.from_numpy(np.stack(rows, axis=2).astype(self.state.np_fp))
 
     @ti.func
-    def rate(self, i, j):
-        """The sum of the terms' rates at cell (i, j) (nc components)."""
+    def rate(self, e, i, j):
+        """The sum of the terms' rates at cell (i, j) of member e (nc components)."""
         r = ti.Vector.zero(self.state.fp, self.state.nc)
         for k in ti.static(range(len(self._rates))):
-            r += self._rates[k](i, j)
+            r += self._rates[k](e, i, j)
         return r
 
     @ti.func
-    def stiffness(self, i, j):
-        """The sum of the terms' stiffness bounds at cell (i, j) [1/s]."""
+    def stiffness(self, e, i, j):
+        """The sum of the terms' stiffness bounds at cell (i, j) of member e [1/s]."""
         s = ti.cast(0.0, self.state.fp)
         for k in ti.static(range(len(self._stiff))):
-            s += self._stiff[k](i, j)
+            s += self._stiff[k](e, i, j)
         return s

@@ -88,6 +88,7 @@ when it is read). The NumPy twins are `tiseg.solver.reference.split.hancock_swee
 and, with viscosity, `tiseg.solver.reference.split.hancock_pair`.
 """
 
+import numpy as np
 import taichi as ti
 
 from ...taichi_classes import data_oriented
@@ -110,10 +111,11 @@ class SplitSweeps:
         self.fv = fv
         self.rules = rules
 
-    def sweep(self, d: int, t: float, dt: float, first: bool = True, last: bool = True) -> None:
+    def sweep(self, d: int, t, dt, first: bool = True, last: bool = True) -> None:
         """One sweep along d (0 = x, 1 = y) of slot 0 over dt from time t: ghost cells (an
         inflow's at t + dt/2), the update of the active range in place, its boundary fluxes
-        into slot 0's budget.
+        into slot 0's budget. In a batch t and dt may be one per member (each running member
+        takes its own sweep).
         ``first``, ``last``: the sweep opens or closes its step (both in 1D). With the
         projected friction the first sweep takes the step's rest mask and initial speeds,
         and the last one projects the friction of the whole step."""
@@ -135,11 +137,16 @@ class SplitSweeps:
         # slot 0), the interior (the last sweep, or a stability pass at another time), or
         # nothing
         fresh = self.state.fresh(0, tg)
-        lam = dt / (self.state.cfg.dx if d == 0 else self.state.cfg.dy)
+        lam = (np.asarray(dt) if self.state.batched else dt) / (
+            self.state.cfg.dx if d == 0 else self.state.cfg.dy
+        )
         # compile-time flags only where they change the code: with the projected friction
         first, last = bool(fr and first), bool(fr and last)
         hold = self.state.first_of_step(True) if last else False
-        self._sweep(d, fresh, lam, dt, first, last, hold, self.state.serial_loops())
+        if self.state.batched:  # each member's lambda and dt, read by the kernel
+            self.state.put_numbers({0: lam, 1: dt})
+            lam, dt = 0.0, 0.0
+        self._sweep(d, fresh, float(lam), float(dt), first, last, hold, self.state.serial_loops())
         self.state.written(0, primitives=True)
 
     @ti.kernel
@@ -194,33 +201,35 @@ class SplitSweeps:
         else:
             jlo, jhi = gy - 1, gy + ny + 1
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
-            w0 = self.state.w[i, j]
+        for i, j, e in ti.ndrange((ilo, ihi), (jlo, jhi), self.state.M):
+            lam_e = self.state.number(e, 0, lam)
+            dt_e = self.state.number(e, 1, dt)
+            w0 = self.state.w[i, j, e]
             s = w0 * 0.0
             if ti.static(not self.state.rec_first):
                 im, jm = self._nb(i, j, d, -1)
                 ip, jp = self._nb(i, j, d, 1)
-                s = self.fv.slope(self.state.w[im, jm], w0, self.state.w[ip, jp])
+                s = self.fv.slope(e, self.state.w[im, jm, e], w0, self.state.w[ip, jp, e])
             wW = w0 - 0.5 * s
             wE = w0 + 0.5 * s
             qW = ph.conserved(wW)
             qE = ph.conserved(wE)
-            g = self.state.grav.cell(i)  # (its edges' gravity: the cell's)
-            shift = (0.5 * lam) * (ph.flux(wE, d, g) - ph.flux(wW, d, g))
+            g = self.state.grav.cell(e, i)  # (its edges' gravity: the cell's)
+            shift = (0.5 * lam_e) * (ph.flux(e, wE, d, g) - ph.flux(e, wW, d, g))
             keep = 0  # 1: the edges stay unevolved
             if ti.static(d == 0):
-                sgn, keep = self._ghost_source(i)
-                src = ph.source(w0, g)
+                sgn, keep = self._ghost_source(e, i)
+                src = ph.source(e, w0, g)
                 if ti.static(self.state.terms.on):
                     # the scene's terms, from the sweep's initial state: half a step here,
                     # the whole step in the update (kept for it)
-                    rate = self.state.terms.rate(i, j)
-                    self.state.srate[i, j] = rate
+                    rate = self.state.terms.rate(e, i, j)
+                    self.state.srate[i, j, e] = rate
                     src += rate
-                shift -= (0.5 * dt * sgn) * src
+                shift -= (0.5 * dt_e * sgn) * src
             if ti.static(self.fv.has_bed):  # the bed's pull (tiseg.solver.numerics.bed)
                 shift[1 if d == 0 else self.state.HV] -= self.fv.bed.predicted(
-                    i, j, d, wW[0], wE[0], dt
+                    e, i, j, d, wW[0], wE[0], dt_e
                 )
             pW = qW - shift
             pE = qE - shift
@@ -231,13 +240,13 @@ class SplitSweeps:
                 # the friction of the half step with the gravity it balances: the projection
                 # of each edge over dt/2 at the cell's speed (Physics.project_friction)
                 spd = ph.speed_mag(w0)
-                pW = ph.project_friction(pW, 0.5 * dt, spd, pW[0], g)
-                pE = ph.project_friction(pE, 0.5 * dt, spd, pE[0], g)
-            self.state.ew[i, j] = self.fv.fast_primitive(pW)
-            self.state.ee[i, j] = self.fv.fast_primitive(pE)
+                pW = ph.project_friction(e, pW, 0.5 * dt_e, spd, pW[0], g)
+                pE = ph.project_friction(e, pE, 0.5 * dt_e, spd, pE[0], g)
+            self.state.ew[i, j, e] = self.fv.fast_primitive(e, pW)
+            self.state.ee[i, j, e] = self.fv.fast_primitive(e, pE)
 
     @ti.func
-    def _ghost_source(self, i):
+    def _ghost_source(self, e, i):
         """(sign of the source, keep as 0 or 1) in the x predictor of cell column i.
         Interior, outflow and periodic ghost cells evolve as the cells they copy (+1). A
         wall's ghost cell is the mirror image of its interior cell, so its source is mirrored
@@ -258,7 +267,7 @@ class SplitSweeps:
             if ti.static(lo_mirrors):
                 sgn = -1.0
             elif ti.static(lo_prescribed):
-                if self.state.par[Params.IN_ON] > 0.5:
+                if self.state.par[e, Params.IN_ON] > 0.5:
                     keep = 1
                 else:
                     sgn = -1.0
@@ -274,25 +283,27 @@ class SplitSweeps:
         (FiniteVolume.face_wet)."""
         gy, ny = ti.static(self.state.gy, self.state.ny)
         a, b = self.state.act[0], self.state.act[1]
-        hmin = self.state.par[Params.H_MIN]
         ilo, ihi, jlo, jhi = a, b, gy, gy + ny
         if ti.static(d == 0):
             ilo = a - 1
         else:
             jlo = gy - 1
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
+        for i, j, e in ti.ndrange((ilo, ihi), (jlo, jhi), self.state.M):
+            hmin = self.state.par[e, Params.H_MIN]
             i1, j1 = self._nb(i, j, d, 1)
             F = ti.Vector.zero(self.state.fp, self.state.nc)
-            wl = self.state.ee[i, j]
-            wr = self.state.ew[i1, j1]
-            wet = self.fv.face_wet(self.state.w[i, j], self.state.w[i1, j1], hmin, i, j, i1, j1)
+            wl = self.state.ee[i, j, e]
+            wr = self.state.ew[i1, j1, e]
+            wet = self.fv.face_wet(
+                e, self.state.w[i, j, e], self.state.w[i1, j1, e], hmin, i, j, i1, j1
+            )
             fluid = True  # (not a wall: tiseg.solver.numerics.walls; h* over a bed)
             if ti.static(self.fv.terrain):
-                wl, wr, wet, fluid = self.fv.sweep_terrain(i, j, i1, j1, d, wl, wr, wet)
+                wl, wr, wet, fluid = self.fv.sweep_terrain(e, i, j, i1, j1, d, wl, wr, wet)
             if wet:
                 if ti.static(self.state.phys.fr_projected):
-                    if self.rules.both_at_rest(i, j, i1, j1):
+                    if self.rules.both_at_rest(e, i, j, i1, j1):
                         # two cells at rest at the step's start meet with no velocity: the
                         # momentum a sweep gave them is not yet frictioned, and the flux's
                         # dissipation would trade it between them (the friction's hold must
@@ -300,16 +311,16 @@ class SplitSweeps:
                         # scheme's first stage does)
                         wl = self.rules.still(wl)
                         wr = self.rules.still(wr)
-                F = self.fv.face_flux(wl, wr, d, self.state.grav.face(i, d))
+                F = self.fv.face_flux(e, wl, wr, d, self.state.grav.face(e, i, d))
                 # the projected friction's face rules, from the step's rest mask
                 if ti.static(not self.fv.terrain):
-                    F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
+                    F = self.rules.rest_face(e, F, wl, wr, d, i, j, i1, j1)
                 elif fluid:
-                    F = self.rules.rest_face(F, wl, wr, d, i, j, i1, j1)
+                    F = self.rules.rest_face(e, F, wl, wr, d, i, j, i1, j1)
             if ti.static(d == 0):
-                self.state.fx[i, j] = F
+                self.state.fx[i, j, e] = F
             else:
-                self.state.fy[i, j] = F
+                self.state.fy[i, j, e] = F
 
     @ti.func
     def _across(self, d: ti.template()):
@@ -329,10 +340,10 @@ class SplitSweeps:
         return i, j
 
     @ti.func
-    def _face(self, i, j, d: ti.template()):
-        F = self.state.fx[i, j]
+    def _face(self, e, i, j, d: ti.template()):
+        F = self.state.fx[i, j, e]
         if ti.static(d == 1):
-            F = self.state.fy[i, j]
+            F = self.state.fy[i, j, e]
         return F
 
     @ti.func
@@ -351,17 +362,18 @@ class SplitSweeps:
         else:
             jlo, jhi = gy - 1, gy + ny + 1
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((ilo, ihi), (jlo, jhi)):
-            th = 1.0 + 0.0 * lam
+        for i, j, e in ti.ndrange((ilo, ihi), (jlo, jhi), self.state.M):
+            lam_e = self.state.number(e, 0, lam)
+            th = 1.0 + 0.0 * lam_e
             inside = a <= i < b
             if ti.static(d == 1):
                 inside = gy <= j < gy + ny
             if inside:
                 im, jm = self._nb(i, j, d, -1)
-                Fp = self._face(i, j, d)
-                Fm = self._face(im, jm, d)
-                q0 = self.state.q[0, i, j]
-                out = lam * (ti.max(Fp[0], 0.0) - ti.min(Fm[0], 0.0))
+                Fp = self._face(e, i, j, d)
+                Fm = self._face(e, im, jm, d)
+                q0 = self.state.q[0, i, j, e]
+                out = lam_e * (ti.max(Fp[0], 0.0) - ti.min(Fm[0], 0.0))
                 if out > q0[0]:
                     th = q0[0] / out
                 if ti.static(self.state.seg):
@@ -370,33 +382,34 @@ class SplitSweeps:
                     # would create or destroy particles (with phi_flux "upwind" all three
                     # fluxes of a face run the same way, so one factor serves the face)
                     P = ti.static(self.state.HPHI)
-                    out_s = lam * (ti.max(Fp[P], 0.0) - ti.min(Fm[P], 0.0))
+                    out_s = lam_e * (ti.max(Fp[P], 0.0) - ti.min(Fm[P], 0.0))
                     if out_s * th > q0[P]:
                         th = q0[P] / out_s
-                    out_l = lam * (ti.max(Fp[0] - Fp[P], 0.0) - ti.min(Fm[0] - Fm[P], 0.0))
+                    out_l = lam_e * (ti.max(Fp[0] - Fp[P], 0.0) - ti.min(Fm[0] - Fm[P], 0.0))
                     if out_l * th > q0[0] - q0[P]:
                         th = (q0[0] - q0[P]) / out_l
-            self.state.drain[i, j] = th
+            self.state.drain[i, j, e] = th
         # across a periodic boundary the ghost cell is its image: the face there is one face
         # of two cells, so both must scale it by the same factor (else mass is made or lost)
         if ti.static(self.state.bcs[2 * d].periodic):
             lo, hi = self._across(d)
             ti.loop_config(serialize=self.state.strip_serial)  # a column or a row of cells
-            for k in range(lo, hi):
-                self._periodic_image(d, k)
+            for k, e in ti.ndrange((lo, hi), self.state.M):
+                self._periodic_image(e, d, k)
 
     @ti.func
-    def _periodic_image(self, d: ti.template(), k):
-        """The draining factors of the two ghost cells at index k across d from their images."""
+    def _periodic_image(self, e, d: ti.template(), k):
+        """The draining factors of member e's two ghost cells at index k across d from
+        their images."""
         g, n = ti.static(
             (self.state.gx, self.state.nx) if d == 0 else (self.state.gy, self.state.ny)
         )
         i0, j0 = self._along(d, g - 1, k)
         i1, j1 = self._along(d, g + n - 1, k)
-        self.state.drain[i0, j0] = self.state.drain[i1, j1]
+        self.state.drain[i0, j0, e] = self.state.drain[i1, j1, e]
         i0, j0 = self._along(d, g + n, k)
         i1, j1 = self._along(d, g, k)
-        self.state.drain[i0, j0] = self.state.drain[i1, j1]
+        self.state.drain[i0, j0, e] = self.state.drain[i1, j1, e]
 
     @ti.func
     def _gravity(self, h, g):
@@ -435,56 +448,59 @@ class SplitSweeps:
         fr = ti.static(first or last)  # (the projected friction: a sweep that opens or closes)
         a, b = self.state.act[0], self.state.act[1]
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((a, b), (gy, gy + ny)):
-            im, jm = self._nb(i, j, d, -1)
-            ip, jp = self._nb(i, j, d, 1)
-            th = self.state.drain[i, j]
-            Fp = self._scaled(self._face(i, j, d), th, self.state.drain[ip, jp])
-            Fm = self._scaled(self._face(im, jm, d), self.state.drain[im, jm], th)
-            if ti.static(self.state.phys.fr_projected):
-                Fm, Fp = self.rules.film_faces(Fm, Fp, i, j, im, jm, ip, jp)
-            q0 = self.state.q[0, i, j]
-            upd = -lam * (Fp - Fm)
-            if ti.static(self.fv.has_bed):  # the bed's pressure (tiseg.solver.numerics.bed)
-                upd[1 if d == 0 else self.state.HV] += self.fv.bed.sweep_rate(
-                    i, j, im, jm, d, lam, dt
-                )
-            hg = 0.0 * dt  # the mean thickness gravity acted on over the step
-            if ti.static(d == 0):
-                # gravity along the slope, h g sin(zeta) (the only source without friction),
-                # by the trapezoidal rule between the cell's h before and after the fluxes
-                h1 = q0[0] + upd[0]
-                g = self.state.grav.cell(i)
-                upd[1] += (0.5 * dt) * (self._gravity(q0[0], g) + self._gravity(h1, g))
-                if ti.static(self.state.terms.on):  # the scene's terms (from the predictor)
-                    upd += dt * self.state.srate[i, j]
-                if ti.static(fr):
-                    hg = 0.5 * (q0[0] + h1)
-                    if ti.static(not last):
-                        self.state.hg[i, j] = hg  # for the friction of the step's last sweep
-            elif ti.static(last and not first):
-                hg = self.state.hg[i, j]  # (written by the step's x sweep)
-            acc = self.fv.limit(q0 + upd)
-            if ti.static(d == 1 and first and last):
-                hg = acc[0]  # a lone y sweep: no gravity acted, the friction on the cell's h
-            if ti.static(first or last):
-                spd0 = 0.0 * dt
-                if ti.static(first):
-                    spd0 = self.state.phys.speed_mag(
-                        self.state.w[i, j]
-                    )  # (w: the step's initial state)
-                    if ti.static(not last):
-                        self.state.spd0[i, j] = spd0
-                else:
-                    spd0 = self.state.spd0[i, j]
-                if ti.static(last):
-                    # the friction acts on the thickness the gravity acted on
-                    acc = self.rules.project(acc, dt, i, j, hold, spd0, hg)
-            if ti.static(self.fv.has_solid):  # a solid cell never changes
-                if self.fv.walls.is_solid(i, j):
-                    acc = q0
-            self.state.w[i, j] = self.fv.fast_primitive(acc)
-            self.state.q[0, i, j] = acc
+        for i, j, e in ti.ndrange((a, b), (gy, gy + ny), self.state.M):
+            if self.state.live(e):  # (a batch's finished members keep their state)
+                lam_e = self.state.number(e, 0, lam)
+                dt_e = self.state.number(e, 1, dt)
+                im, jm = self._nb(i, j, d, -1)
+                ip, jp = self._nb(i, j, d, 1)
+                th = self.state.drain[i, j, e]
+                Fp = self._scaled(self._face(e, i, j, d), th, self.state.drain[ip, jp, e])
+                Fm = self._scaled(self._face(e, im, jm, d), self.state.drain[im, jm, e], th)
+                if ti.static(self.state.phys.fr_projected):
+                    Fm, Fp = self.rules.film_faces(e, Fm, Fp, i, j, im, jm, ip, jp)
+                q0 = self.state.q[0, i, j, e]
+                upd = -lam_e * (Fp - Fm)
+                if ti.static(self.fv.has_bed):  # the bed's pressure (tiseg.solver.numerics.bed)
+                    upd[1 if d == 0 else self.state.HV] += self.fv.bed.sweep_rate(
+                        e, i, j, im, jm, d, lam_e, dt_e
+                    )
+                hg = 0.0 * dt_e  # the mean thickness gravity acted on over the step
+                if ti.static(d == 0):
+                    # gravity along the slope, h g sin(zeta) (the only source without friction),
+                    # by the trapezoidal rule between the cell's h before and after the fluxes
+                    h1 = q0[0] + upd[0]
+                    g = self.state.grav.cell(e, i)
+                    upd[1] += (0.5 * dt_e) * (self._gravity(q0[0], g) + self._gravity(h1, g))
+                    if ti.static(self.state.terms.on):  # the scene's terms (from the predictor)
+                        upd += dt_e * self.state.srate[i, j, e]
+                    if ti.static(fr):
+                        hg = 0.5 * (q0[0] + h1)
+                        if ti.static(not last):
+                            self.state.hg[i, j, e] = hg  # for the friction of the step's last sweep
+                elif ti.static(last and not first):
+                    hg = self.state.hg[i, j, e]  # (written by the step's x sweep)
+                acc = self.fv.limit(e, q0 + upd)
+                if ti.static(d == 1 and first and last):
+                    hg = acc[0]  # a lone y sweep: no gravity acted, the friction on the cell's h
+                if ti.static(first or last):
+                    spd0 = 0.0 * dt_e
+                    if ti.static(first):
+                        spd0 = self.state.phys.speed_mag(
+                            self.state.w[i, j, e]
+                        )  # (w: the step's initial state)
+                        if ti.static(not last):
+                            self.state.spd0[i, j, e] = spd0
+                    else:
+                        spd0 = self.state.spd0[i, j, e]
+                    if ti.static(last):
+                        # the friction acts on the thickness the gravity acted on
+                        acc = self.rules.project(e, acc, dt_e, i, j, hold, spd0, hg)
+                if ti.static(self.fv.has_solid):  # a solid cell never changes
+                    if self.fv.walls.is_solid(i, j):
+                        acc = q0
+                self.state.w[i, j, e] = self.fv.fast_primitive(e, acc)
+                self.state.q[0, i, j, e] = acc
         # the budget: what entered through the domain's faces along d (as boundary_rates;
         # along x a face beyond the active range carried no flux this time)
         g, n = ti.static((gx, nx) if d == 0 else (gy, ny))
@@ -495,23 +511,33 @@ class SplitSweeps:
             wr = ti.select(b == gx + nx, 1.0, 0.0)
         lo, hi = self._across(d)
         ti.loop_config(serialize=True)
-        for _ in range(1):  # (one thread sums in a fixed order)
-            mass = 0.0 * dt
-            small = 0.0 * dt
-            for k in range(lo, hi):
-                i0, j0 = self._along(d, g - 1, k)
-                i1, j1 = self._along(d, g, k)
-                Fl = self._scaled(
-                    self._face(i0, j0, d), self.state.drain[i0, j0], self.state.drain[i1, j1]
+        for e in range(self.state.M):  # (one thread sums each member's in a fixed order)
+            if self.state.live(e):
+                dt_e = self.state.number(e, 1, dt)
+                mass = 0.0 * dt_e
+                small = 0.0 * dt_e
+                for k in range(lo, hi):
+                    i0, j0 = self._along(d, g - 1, k)
+                    i1, j1 = self._along(d, g, k)
+                    Fl = self._scaled(
+                        self._face(e, i0, j0, d),
+                        self.state.drain[i0, j0, e],
+                        self.state.drain[i1, j1, e],
+                    )
+                    i0, j0 = self._along(d, g + n - 1, k)
+                    i1, j1 = self._along(d, g + n, k)
+                    Fr = self._scaled(
+                        self._face(e, i0, j0, d),
+                        self.state.drain[i0, j0, e],
+                        self.state.drain[i1, j1, e],
+                    )
+                    mass += wl * Fl[0] - wr * Fr[0]
+                    if ti.static(self.state.seg):
+                        small += wl * Fl[self.state.HPHI] - wr * Fr[self.state.HPHI]
+                width = (
+                    self.state.par[e, Params.DY]
+                    if ti.static(d == 0)
+                    else self.state.par[e, Params.DX]
                 )
-                i0, j0 = self._along(d, g + n - 1, k)
-                i1, j1 = self._along(d, g + n, k)
-                Fr = self._scaled(
-                    self._face(i0, j0, d), self.state.drain[i0, j0], self.state.drain[i1, j1]
-                )
-                mass += wl * Fl[0] - wr * Fr[0]
-                if ti.static(self.state.seg):
-                    small += wl * Fl[self.state.HPHI] - wr * Fr[self.state.HPHI]
-            width = self.state.par[Params.DY] if ti.static(d == 0) else self.state.par[Params.DX]
-            self.state.bud[0, 2 * d] += dt * mass * width
-            self.state.bud[0, 2 * d + 1] += dt * small * width
+                self.state.bud[e, 0, 2 * d] += dt_e * mass * width
+                self.state.bud[e, 0, 2 * d + 1] += dt_e * small * width

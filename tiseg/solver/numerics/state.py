@@ -44,19 +44,35 @@ from .source_terms import SourceTerms
 
 NBUDGET = 4  # mass in through x faces, small mass x, mass y, small mass y
 
+# A launch's numbers per member in a batch (members > 1), a row of OperatorState.coef each:
+# the coefficients of a combination's terms (or a sweep's lambda and dt, a viscous stage's
+# mu, nu, mu~ dt, gamma~ dt) from column 0, the friction projection's time, the slot the
+# member's result goes to, whether the member takes part, whether its viscous stage is its
+# last. A single run passes them as the kernels' arguments instead.
+C_TAU, C_DST, C_LIVE, C_FINAL = 6, 7, 8, 9
+NCOEF = 10
+
 
 @data_oriented
 class OperatorState:
-    def __init__(self, cfg: OperatorConfig, nslots: int, serial: bool | None):
-        """The constants and fields of ``cfg``'s layout with ``nslots`` state slots; the field
-        tree is finalised by `finalize` (the operator calls it once its collaborators are
-        built). ``serial``: see `TaichiOperator`."""
+    def __init__(self, cfg: OperatorConfig, nslots: int, serial: bool | None, members: int = 1):
+        """The constants and fields of ``cfg``'s layout with ``nslots`` state slots for each of
+        ``members`` ensemble members; the field tree is finalised by `finalize` (the operator
+        calls it once its collaborators are built). ``serial``: see `TaichiOperator`."""
         st = backend.state()
         self.generation = st.generation
         self.cfg = cfg
         lay = cfg.layout
         self.lay = lay
         self.nslots = nslots
+        if not (isinstance(members, int) and members >= 1):
+            raise TisegError(f"members={members!r}: give a whole number >= 1")
+        # the ensemble members: every field of the state, the parameters and the reductions
+        # have a member axis of this size, and one launch covers them all. The cells' fields
+        # hold the members innermost, (..., NX, NY, M), as the loops run over them: the
+        # members of a cell lie side by side (contiguous on a CPU, coalesced on a GPU), and
+        # one member compiles to the fields and loops of a single run
+        self.M = M = members
         self.fp = ti.f64 if st.precision == "f64" else ti.f32
         self.np_fp = np.float64 if st.precision == "f64" else np.float32
         nc, NX, NY = lay.nc, lay.NX, lay.NY
@@ -77,48 +93,50 @@ class OperatorState:
         # effects), in one field tree that is freed with this object; a field the scene does
         # not need is not an attribute (fy, sy, ew, ee, drain) or None (the others)
         ft = self.field_tree = FieldTree()
-        self.q = ft.vector(nc, self.fp, (nslots, NX, NY))
-        self.w = ft.vector(nc, self.fp, (NX, NY))
-        self.fx = ft.vector(nc, self.fp, (NX, NY))
+        self.q = ft.vector(nc, self.fp, (nslots, NX, NY, M))
+        self.w = ft.vector(nc, self.fp, (NX, NY, M))
+        self.fx = ft.vector(nc, self.fp, (NX, NY, M))
         slopes = not self.rec_first and not self.split
-        self.sx = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
+        self.sx = ft.vector(nc, self.fp, (NX, NY, M)) if slopes else None
         if not self.is_1d:
-            self.fy = ft.vector(nc, self.fp, (NX, NY))
-            self.sy = ft.vector(nc, self.fp, (NX, NY)) if slopes else None
+            self.fy = ft.vector(nc, self.fp, (NX, NY, M))
+            self.sy = ft.vector(nc, self.fp, (NX, NY, M)) if slopes else None
         if self.split:  # a sweep's predicted edge states and draining factors
-            self.ew = ft.vector(nc, self.fp, (NX, NY))
-            self.ee = ft.vector(nc, self.fp, (NX, NY))
-            self.drain = ft.field(self.fp, (NX, NY))
+            self.ew = ft.vector(nc, self.fp, (NX, NY, M))
+            self.ee = ft.vector(nc, self.fp, (NX, NY, M))
+            self.drain = ft.field(self.fp, (NX, NY, M))
         # where each component's numbers sit in par, built once from the components
         self.params = ParamLayout.of(cfg)
-        self.par = ft.field(self.fp, self.params.end)
+        self.par = ft.field(self.fp, (M, self.params.end))
         # the auxiliary fields the scene's source terms read (a vector per cell), and the
         # split x sweep's source rates of the step (predicted once, applied in the update):
         # only with terms (tiseg.model.physics.sources)
         n_aux = len(chosen_aux(cfg.sources))
-        self.aux = ft.vector(n_aux, self.fp, (NX, NY)) if n_aux else None
-        self.srate = ft.vector(nc, self.fp, (NX, NY)) if self.split and cfg.sources else None
+        self.aux = ft.vector(n_aux, self.fp, (NX, NY, M)) if n_aux else None
+        self.srate = ft.vector(nc, self.fp, (NX, NY, M)) if self.split and cfg.sources else None
         # a bed (tiseg.solver.numerics.bed): its heights on every cell, and the two pressure
         # corrections of each x and y face (the low side's, the high side's); in the split
         # sweeps also the bed at each cell's predicted edges (low, high)
         self.bed = ft.field(self.fp, (NX, NY)) if cfg.bed else None
-        self.pcx = ft.vector(2, self.fp, (NX, NY)) if cfg.bed else None
-        self.pcy = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and not self.is_1d else None
-        self.eb = ft.vector(2, self.fp, (NX, NY)) if cfg.bed and self.split else None
+        self.pcx = ft.vector(2, self.fp, (NX, NY, M)) if cfg.bed else None
+        self.pcy = ft.vector(2, self.fp, (NX, NY, M)) if cfg.bed and not self.is_1d else None
+        self.eb = ft.vector(2, self.fp, (NX, NY, M)) if cfg.bed and self.split else None
         # the unsplit scheme's slopes of eta = h + b along x and y, taken with the slopes of w
         # and read by both faces and the centred source of a cell (none at first order)
         stored = cfg.bed and not self.split and not self.rec_first
-        self.es = ft.vector(2, self.fp, (NX, NY)) if stored else None
+        self.es = ft.vector(2, self.fp, (NX, NY, M)) if stored else None
         # solid cells, whose faces are walls (tiseg.solver.numerics.walls): 1 where solid
         self.solid = ft.field(ti.i8, (NX, NY)) if cfg.solid else None
         # inflow concentration per cross-slope cell: only with an inflow that carries phi
-        self.inflow_prof = ft.field(self.fp, NY) if self.seg and cfg.bc[0] == "inflow" else None
+        self.inflow_prof = (
+            ft.field(self.fp, (M, NY)) if self.seg and cfg.bc[0] == "inflow" else None
+        )
         # Active range [a, b) of x indices whose cells may change, the wet scan's range and
         # the serial-or-parallel choice (tiseg.solver.numerics.ranges); its fields, which the
         # kernels read, under their old names. Serial loops: forced (True/False), or chosen
         # from the cells a launch covers, for the active range when the range is set.
         threads = st.threads or backend.available_cores()
-        self.ranges = ActiveRange(ft, lay, serial, threads, st.arch == "cpu")
+        self.ranges = ActiveRange(ft, lay, serial, threads, st.arch == "cpu", M)
         # loops over a strip of cells (ghost columns and rows: a few thousand cells) run on
         # one CPU thread, where a hand-off costs more than the work; on a GPU one thread
         # would walk the strip alone (1 ms a launch at 750 cells/m on an H200, most of a
@@ -140,7 +158,13 @@ class OperatorState:
         # combination to them as to the states, so slot 0 accumulates exactly the time
         # integral the scheme uses. (row nslots: the boundary rates of a fused stage, whose
         # rate has no slot)
-        self.bud = ft.field(self.fp, (nslots + 1, NBUDGET))
+        self.bud = ft.field(self.fp, (M, nslots + 1, NBUDGET))
+        # a batch's numbers per member and launch (C_TAU ...), and which members still run
+        # (1; 0: finished or stopped, their state no longer written): one field write a launch
+        # instead of one per member
+        self.batched = M > 1
+        self.coef = ft.field(self.fp, (M, NCOEF)) if self.batched else None
+        self.running = ft.field(ti.i32, M) if self.batched else None
         self.phys = Physics(cfg, self.par, self.params)
         # gravity per x column on a run-out's bend (tiseg.solver.numerics.gravity); on a
         # plane no field, the two numbers of par
@@ -149,22 +173,22 @@ class OperatorState:
         # With the projected friction: which cells were at rest at the start of the step,
         # the state in slot 0 (RestRules.rest_face). Recomputed at the first preparation
         # after slot 0 is written, so every stage of a step sees the same rest faces.
-        self.rest = ft.field(ti.i8, (NX, NY)) if self.phys.fr_projected else None
+        self.rest = ft.field(ti.i8, (NX, NY, M)) if self.phys.fr_projected else None
         # the split step's friction acts once, after its last sweep, at the speed of the
         # step's initial state (SplitSweeps.sweep): in 2D that speed is kept from the first
         # sweep (in 1D as well when a viscous sub-step may open the step)
         spd = self.split and self.phys.fr_projected and (not self.is_1d or self.visc)
-        self.spd0 = ft.field(self.fp, (NX, NY)) if spd else None
+        self.spd0 = ft.field(self.fp, (NX, NY, M)) if spd else None
         # and the thickness the x sweep's gravity acted on, for the friction of a 2D step
         # whose last sweep is along y (SplitSweeps._sweep_update)
         hg = self.split and self.phys.fr_projected and not self.is_1d
-        self.hg = ft.field(self.fp, (NX, NY)) if hg else None
+        self.hg = ft.field(self.fp, (NX, NY, M)) if hg else None
         # the reductions' numbers (tiseg.solver.numerics.reductions): step_rule "local"'s
         # per-cell speeds, the reduced stability numbers, the row sums of the totals
-        self.spd = ft.vector(2, self.fp, (NX, NY)) if self.local_rate else None
-        self.red = ft.field(self.fp, NSTAB)
-        self.rowsum = ft.field(ti.f64, (NX, 2))
-        self.total = ft.field(ti.f64, 2)
+        self.spd = ft.vector(2, self.fp, (NX, NY, M)) if self.local_rate else None
+        self.red = ft.field(self.fp, (M, NSTAB))
+        self.rowsum = ft.field(ti.f64, (M, NX, 2))
+        self.total = ft.field(ti.f64, (M, 2))
         # A law with hysteresis holds resting cells exactly for a whole step (HELD): columns
         # of such cells far from any moving one then need no work at all, and the active
         # range leaves them out (RestRules._quiescent, Simulation._set_active). Decided from
@@ -179,7 +203,14 @@ class OperatorState:
         self.rest_stale = True  # slot 0 was written: the next preparation takes the mask
         self.first_stage = False  # the next limited combination is a step's first stage
         self.mask_inflow = None  # whether an inflow ran when the mask was taken (None: none)
-        self.inflow_key = None  # the (h, on) of the inflow last written into par
+        # each member's run-time configuration (set_params; the compiled options are cfg's)
+        self.cfgs = [cfg] * self.M
+        # the (h, on) of the inflow last written into each member's row of par
+        self.inflow_key = [None] * self.M
+        # host copies of the per-member rows that set_params writes whole
+        self._par_host = np.zeros((self.M, self.params.end), dtype=self.np_fp)
+        self._prof_host = np.zeros((self.M, NY)) if self.inflow_prof is not None else None
+        self._running = None  # the running flags last written (set_running)
 
     def finalize(self) -> None:
         """The fields exist from here on; they are freed with this object."""
@@ -187,28 +218,39 @@ class OperatorState:
         self.field_tree.free_with(self)
 
     # ------------------------------------------------------------------ run-time numbers
-    def set_params(self, cfg: OperatorConfig) -> None:
-        """Copy run-time numbers into the parameter field (no recompilation)."""
+    def set_params(self, cfg: OperatorConfig, member: int | None = None) -> None:
+        """Copy run-time numbers into the parameter field (no recompilation): into member
+        ``member``'s row, or every member's (None). ``cfg`` must have the compiled options
+        this state was built for; its run-time numbers may differ from member to member."""
         p = ParamLayout.of(cfg).vector(cfg)  # the common slots, then the components'
-        self.cfg = cfg
+        rows = range(self.M) if member is None else (self._member(member),)
+        for e in rows:
+            self.cfgs[e] = cfg
+        self.cfg = self.cfgs[0]
         self.prepared = self.interior = None
         self.rest_stale = True
         # a new h_min may make films outside the active range wet (the range is set before
         # the first call, in TaichiOperator.__init__), and new numbers may start resting cells
         self.set_active(self.gx, self.gx + self.nx)
         self.forget_rest()
-        self.par.from_numpy(p.astype(self.np_fp))
-        self.grav.fill(cfg)
-        self.terms.fill_aux(cfg)
+        self._par_host[list(rows)] = p.astype(self.np_fp)
+        self.par.from_numpy(self._par_host)
+        self.grav.fill(self.cfgs)
+        self.terms.fill_aux(self.cfgs)
         if self.inflow_prof is not None:
             # the inflow concentration profile (6.9) + noise, computed once on the host: no
             # 64-bit transcendental functions in the kernels (SPIR-V has none), and the same
             # numbers as the NumPy reference
-            prof = np.zeros(self.NY)
             y = (np.arange(self.ny) + 0.5) * cfg.dy
-            prof[self.gy : self.gy + self.ny] = cfg.inflow_phi_profile(y)
-            self.inflow_prof.from_numpy(prof.astype(self.np_fp))
-        self.inflow_key = None
+            for e in rows:
+                self._prof_host[e, self.gy : self.gy + self.ny] = cfg.inflow_phi_profile(y)
+            self.inflow_prof.from_numpy(self._prof_host.astype(self.np_fp))
+        self.inflow_key = [None] * self.M
+
+    def _member(self, member: int) -> int:
+        if not (isinstance(member, (int, np.integer)) and 0 <= member < self.M):
+            raise TisegError(f"member {member!r}: this state has members 0 to {self.M - 1}")
+        return int(member)
 
     def set_bed(self, b=None, solid=None) -> None:
         """The bed heights (nx, ny) [m] normal to the reference plane and the solid cells
@@ -225,21 +267,45 @@ class OperatorState:
         self.prepared = self.interior = None
         self.rest_stale = True
 
-    def set_time(self, t: float) -> None:
-        """Inflow thickness of (6.8) at the stage time t (ramp) and whether it still flows."""
+    def set_time(self, t) -> None:
+        """Inflow thickness of (6.8) at the stage time t (ramp) and whether it still flows,
+        each member's from its own numbers; ``t``: one time, or one per member (a batch's
+        members each at their own time)."""
         if self.bc[0] != "inflow":
             return
-        h, _, _ = self.cfg.inflow_state(t)
-        on = 1.0 if self.inflow_on(t) else 0.0
-        key = (h, on)
-        if key != self.inflow_key:
-            self.par[Params.IN_H] = h
-            self.par[Params.IN_ON] = on
-            self.inflow_key = key
+        if not self.batched:  # (a single run: the time of its one member)
+            h, _, _ = self.cfg.inflow_state(t)
+            key = (h, 0.0 if t > self.cfg.inflow_stop else 1.0)
+            if key != self.inflow_key[0]:
+                self.par[0, Params.IN_H] = h
+                self.par[0, Params.IN_ON] = key[1]
+                self.inflow_key[0] = key
+            return
+        ts = (t,) * self.M if np.ndim(t) == 0 else tuple(float(v) for v in t)
+        for e, cfg in enumerate(self.cfgs):
+            h, _, _ = cfg.inflow_state(ts[e])
+            on = 0.0 if ts[e] > cfg.inflow_stop else 1.0
+            key = (h, on)
+            if key != self.inflow_key[e]:
+                self.par[e, Params.IN_H] = h
+                self.par[e, Params.IN_ON] = on
+                self.inflow_key[e] = key
 
-    def inflow_on(self, t: float) -> bool:
-        """Whether an inflow runs at time t (until the scene's inflow stop time)."""
-        return self.bc[0] == "inflow" and not t > self.cfg.inflow_stop
+    def inflow_on(self, t) -> bool:
+        """Whether an inflow runs at time t (until the scene's inflow stop time) in any
+        member (t: one time, or one per member)."""
+        if self.bc[0] != "inflow":
+            return False
+        if not self.batched:
+            return not t > self.cfg.inflow_stop
+        ts = (t,) * self.M if np.ndim(t) == 0 else tuple(t)
+        return any(not v > c.inflow_stop for v, c in zip(ts, self.cfgs))
+
+    def time_key(self, t):
+        """A launch's time(s) as a cache key: a number, or the tuple of the members' times."""
+        if not self.batched or np.ndim(t) == 0:
+            return t
+        return tuple(float(v) for v in t)
 
     # ------------------------------------------------------------------ host access
     def check_alive(self) -> None:
@@ -249,29 +315,59 @@ class OperatorState:
                 "this simulation's fields no longer exist: create it again"
             )
 
-    def get(self, slot: int = 0) -> np.ndarray:
-        """Slot as a float64 array shaped (nc, NX, NY)."""
-        a = self.q.to_numpy()[slot]
-        return np.moveaxis(a, -1, 0).astype(np.float64)
+    def get(self, slot: int = 0, member: int = 0) -> np.ndarray:
+        """Slot of member ``member`` as a float64 array shaped (nc, NX, NY): one slot of one
+        member copied out (a batch's other members and slots stay on the device)."""
+        out = np.empty((self.nc, self.NX, self.NY), dtype=self.np_fp)
+        self._slot_out(self._member(member), int(slot), out, self.serial_loops(whole=True))
+        return out.astype(np.float64)
 
-    def set(self, slot: int, arr: np.ndarray) -> None:
-        """Replace slot ``slot`` by ``arr`` shaped (nc, NX, NY)."""
+    def set(self, slot: int, arr: np.ndarray, member: int | None = None) -> None:
+        """Replace slot ``slot`` of member ``member`` (of every member: None) by ``arr``
+        shaped (nc, NX, NY)."""
         self.prepared = self.interior = None
         self.rest_stale = self.rest_stale or slot == 0
         self.set_active(self.gx, self.gx + self.nx)  # wet cells may now lie anywhere
         if slot == 0:
             self.forget_rest()  # and any of them may move
-        full = self.q.to_numpy()
-        full[slot] = np.moveaxis(np.asarray(arr), 0, -1).astype(self.np_fp)
-        self.q.from_numpy(full)
+        a = np.ascontiguousarray(np.asarray(arr), dtype=self.np_fp)
+        if a.shape != (self.nc, self.NX, self.NY):
+            raise TisegError(
+                f"set: a state of shape {a.shape}, expected {(self.nc, self.NX, self.NY)}"
+            )
+        rows = range(self.M) if member is None else (self._member(member),)
+        for e in rows:
+            self._slot_in(e, int(slot), a, self.serial_loops(whole=True))
 
-    def budget(self, slot: int = 0) -> np.ndarray:
+    @ti.kernel
+    def _slot_out(self, e: ti.i32, s: ti.i32, out: ti.types.ndarray(), serial: ti.template()):
+        """out[c, i, j] := component c of slot s of member e, every cell."""
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange(self.NX, self.NY):
+            v = self.q[s, i, j, e]
+            for c in ti.static(range(self.nc)):
+                out[c, i, j] = v[c]
+
+    @ti.kernel
+    def _slot_in(self, e: ti.i32, s: ti.i32, a: ti.types.ndarray(), serial: ti.template()):
+        """Slot s of member e := a (nc, NX, NY), every cell."""
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange(self.NX, self.NY):
+            v = self.q[s, i, j, e]
+            for c in ti.static(range(self.nc)):
+                v[c] = a[c, i, j]
+            self.q[s, i, j, e] = v
+
+    def budget(self, slot: int = 0, member: int = 0) -> np.ndarray:
         """Accumulated [mass, small mass] that entered through x faces and y faces [m^3]."""
-        return self.bud.to_numpy()[slot].astype(float)
+        return self.bud.to_numpy()[self._member(member), slot].astype(float)
 
-    def reset_budget(self, values=None) -> None:
+    def reset_budget(self, values=None, member: int | None = None) -> None:
+        """Slot 0's budget of member ``member`` (every member's: None) set to ``values``
+        (zero: None)."""
         b = self.bud.to_numpy()
-        b[0] = 0.0 if values is None else values
+        rows = slice(None) if member is None else self._member(member)
+        b[rows, 0] = 0.0 if values is None else values
         self.bud.from_numpy(b)
 
     # ------------------------------------------------------------------ the caches
@@ -288,11 +384,26 @@ class OperatorState:
         if self.interior is not None and self.interior[0] == dst:
             self.interior = None
 
+    def written_by(self, dst, live, primitives: bool) -> None:
+        """`written` after a launch whose members write ``dst`` (one slot, or one per member of
+        a batch), those of ``live`` only (None: all). Where they write different slots, or
+        some write none, w holds no one slot's primitives."""
+        if not self.batched:
+            self.written(dst, primitives=primitives)
+            return
+        dsts = set(np.atleast_1d(np.asarray(dst, dtype=int)).tolist())
+        if len(dsts) == 1 and (live is None or bool(np.all(live))):
+            self.written(dsts.pop(), primitives=primitives)
+            return
+        for d in dsts:
+            self.written(d)
+        self.prepared = self.interior = None
+
     def fresh(self, slot: int, t: float) -> int:
         """What the last preparation left valid in w for ``slot`` at time t: 2 everything
         (the slot prepared at t), 1 the interior (a limited combine's or sweep's result, or
         the slot prepared at another time), 0 nothing."""
-        key = (slot, t, self.active)
+        key = (slot, self.time_key(t), self.active)
         interior = self.interior == (slot, self.active) or (
             self.prepared is not None and self.prepared[::2] == key[::2]
         )
@@ -313,6 +424,85 @@ class OperatorState:
         if self.rest is not None:
             self.rest.fill(0)
         self.mask_inflow = None
+
+    # ------------------------------------------------------------------ a batch's numbers
+    def per_member(self, v) -> np.ndarray:
+        """``v`` (a number, or one per member) as an array of the members' values."""
+        a = np.asarray(v, dtype=np.float64)
+        if a.ndim == 0:
+            return np.full(self.M, float(a))
+        if a.shape != (self.M,):
+            raise TisegError(f"{a.shape[0]} values given for {self.M} members")
+        return a
+
+    def put_numbers(self, columns: dict[int, object]) -> None:
+        """A batch's numbers of the next launch, {column: value or one per member} (columns
+        not given are 0, C_LIVE 1): one field write."""
+        rows = np.zeros((self.M, NCOEF))
+        rows[:, C_LIVE] = 1.0
+        for k, v in columns.items():
+            rows[:, k] = self.per_member(v)
+        self._put_numbers(rows.astype(self.np_fp))  # (a launch: from_numpy costs ~1 ms)
+
+    @ti.kernel
+    def _put_numbers(self, rows: ti.types.ndarray()):
+        ti.loop_config(serialize=True)  # (a few hundred numbers)
+        for e, k in ti.ndrange(self.M, NCOEF):
+            self.coef[e, k] = rows[e, k]
+
+    def set_running(self, running) -> None:
+        """Which members a batch still advances (one bool per member): the others' states
+        are no longer written (their ghost cells neither)."""
+        flags = np.asarray(running, dtype=bool)
+        if flags.shape != (self.M,):
+            raise TisegError(f"{flags.shape} running flags given for {self.M} members")
+        if self._running is None or not np.array_equal(flags, self._running):
+            self.running.from_numpy(flags.astype(np.int32))
+            self._running = flags.copy()
+
+    @ti.func
+    def number(self, e, k: ti.template(), arg):
+        """Member e's number k of this launch: the launch's argument ``arg`` in a single run,
+        its row of ``coef`` in a batch."""
+        r = arg
+        if ti.static(self.batched):
+            r = self.coef[e, k]
+        return r
+
+    @ti.func
+    def numbers(self, e, args):
+        """The vector of member e's first numbers of this launch (``args`` in a single run)."""
+        r = args
+        if ti.static(self.batched):
+            for k in ti.static(range(args.n)):
+                r[k] = self.coef[e, k]
+        return r
+
+    @ti.func
+    def dst(self, e, arg):
+        """The slot member e's result of this launch goes to (``arg`` in a single run)."""
+        r = arg
+        if ti.static(self.batched):
+            r = ti.cast(self.coef[e, C_DST], ti.i32)
+        return r
+
+    @ti.func
+    def live(self, e):
+        """Whether member e takes part in this launch's update: always in a single run; in a
+        batch where it still runs and this launch is one of its stages."""
+        r = True
+        if ti.static(self.batched):
+            r = self.running[e] != 0 and self.coef[e, C_LIVE] > 0.5
+        return r
+
+    @ti.func
+    def runs(self, e):
+        """Whether member e's state may be written (ghost cells): a batch's finished and
+        stopped members' may not."""
+        r = True
+        if ti.static(self.batched):
+            r = self.running[e] != 0
+        return r
 
     # ------------------------------------------------------------------ ranges
     def set_active(self, a: int, b: int, wet: tuple[int, int] | None = None) -> None:

@@ -13,6 +13,7 @@ state (`state.OperatorState`), its ghost cells and its finite-volume evaluation.
 is `tiseg.solver.reference.split.viscous_substep`.
 """
 
+import numpy as np
 import taichi as ti
 
 from ...taichi_classes import data_oriented
@@ -20,6 +21,7 @@ from ...taichi_classes import data_oriented
 from ...errors import TisegError
 from ...model.physics.params import Params
 from .boundaries import inlet_rows
+from .state import C_DST, C_FINAL, C_LIVE
 
 
 @data_oriented
@@ -39,10 +41,11 @@ class ViscousSubstep:
         self,
         src: int,
         prev2: int,
-        dst: int,
-        coeffs: tuple[float, float, float, float],
-        t: float,
+        dst,
+        coeffs: tuple,
+        t,
         first: bool = False,
+        live=None,
     ) -> None:
         """One stage of the viscous sub-step V of a split step (the RKC stages of
         tiseg.solver.timestepping.split.Hancock), in one launch, on the cells a sweep updates:
@@ -57,16 +60,31 @@ class ViscousSubstep:
         only the momenta change, and a cell whose rates are zero at every stage keeps its bits
         (the increments are summed before Y0 is added). ``t``: the time of Y_src (an inflow's
         ghost cells); ``first``: the stage opens the second half of the split step (the rest
-        mask and the speeds of the state V starts from, as a first sweep)."""
+        mask and the speeds of the state V starts from, as a first sweep).
+
+        In a batch ``t``, the coefficients and ``dst`` may be one per member (a member whose
+        last stage this is writes slot 0), and ``live`` (one bool per member) leaves out the
+        members whose stages are done."""
         fr = self.state.phys.fr_projected
         one = src == 0
-        _check_stage(src, prev2, dst, bool(fr and first))
+        for d in set(np.atleast_1d(dst).tolist()) if self.state.batched else (dst,):
+            _check_stage(src, prev2, int(d), bool(fr and first))
         if fr and first:
             self.fv.prepare(0, t)  # the rest mask of the step's initial state (if not taken)
         self.state.set_time(t)
         fresh = self.state.fresh(src, t)
         first = bool(fr and first)
-        mu, nu, ct, cg = (float(c) for c in coeffs)
+        if self.state.batched:  # each member's numbers, read by the kernel
+            cols = dict(enumerate(coeffs))
+            cols.update({C_DST: dst, C_FINAL: np.asarray(dst) == 0})
+            if live is not None:
+                cols[C_LIVE] = np.asarray(live, dtype=float)
+            self.state.put_numbers(cols)
+            mu = nu = ct = cg = 0.0
+            final = 2
+        else:
+            mu, nu, ct, cg = (float(c) for c in coeffs)
+            final = int(dst == 0)
         # the inlet's rows of w (_inlet_velocities; inflow.width and inflow.y0 are compiled
         # in), the ghost rows where it reaches the domain's side: the cross derivatives at
         # the inlet's faces read them
@@ -74,18 +92,18 @@ class ViscousSubstep:
         self._viscous(
             src,
             max(prev2, 0),
-            dst,
+            0 if self.state.batched else int(dst),
             mu,
             nu,
             ct,
             cg,
             fresh,
             one,
-            dst == 0,
+            final,
             first,
             self.state.serial_loops(),
         )
-        self.state.written(dst, primitives=True)
+        self.state.written_by(dst, live, True)
 
     @ti.kernel
     def _viscous(
@@ -127,14 +145,14 @@ class ViscousSubstep:
         friction, it left the fingers chute at 250 cells/m 0.35 % thin all the way down)."""
         gx = ti.static(self.state.gx)
         lo, hi = ti.static(self.inlet_rows)
-        if self.state.par[Params.IN_ON] > 0.5:
-            ti.loop_config(serialize=self.state.strip_serial)  # the inlet's ghost columns
-            for k, m in ti.ndrange(gx, (lo, hi)):
-                g = self.state.w[gx - 1 - k, m]
-                g[1] = self.state.w[gx, m][1]
+        ti.loop_config(serialize=self.state.strip_serial)  # the inlet's ghost columns
+        for k, m, e in ti.ndrange(gx, (lo, hi), self.state.M):
+            if self.state.par[e, Params.IN_ON] > 0.5:
+                g = self.state.w[gx - 1 - k, m, e]
+                g[1] = self.state.w[gx, m, e][1]
                 if ti.static(not self.state.is_1d):
-                    g[self.state.HV] = self.state.w[gx, m][self.state.HV]
-                self.state.w[gx - 1 - k, m] = g
+                    g[self.state.HV] = self.state.w[gx, m, e][self.state.HV]
+                self.state.w[gx - 1 - k, m, e] = g
 
     @ti.func
     def _viscous_faces(self, serial: ti.template()):
@@ -145,20 +163,24 @@ class ViscousSubstep:
         a, b = self.state.act[0], self.state.act[1]
         if ti.static(self.state.is_1d):
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a - 1, b), (gy, gy + ny)):
+            for i, j, e in ti.ndrange((a - 1, b), (gy, gy + ny), self.state.M):
                 zero = ti.Vector.zero(self.state.fp, self.state.nc)
-                self.state.fx[i, j] = self.fv.x_viscous(
-                    zero, i, j, self.state.w[i, j], self.state.w[i + 1, j]
+                self.state.fx[i, j, e] = self.fv.x_viscous(
+                    e, zero, i, j, self.state.w[i, j, e], self.state.w[i + 1, j, e]
                 )
         else:
             ti.loop_config(serialize=serial)
-            for i, j in ti.ndrange((a - 1, b), (gy - 1, gy + ny)):
+            for i, j, e in ti.ndrange((a - 1, b), (gy - 1, gy + ny), self.state.M):
                 zero = ti.Vector.zero(self.state.fp, self.state.nc)
-                w0 = self.state.w[i, j]
+                w0 = self.state.w[i, j, e]
                 if j >= gy:
-                    self.state.fx[i, j] = self.fv.x_viscous(zero, i, j, w0, self.state.w[i + 1, j])
+                    self.state.fx[i, j, e] = self.fv.x_viscous(
+                        e, zero, i, j, w0, self.state.w[i + 1, j, e]
+                    )
                 if i >= a:
-                    self.state.fy[i, j] = self.fv.y_viscous(zero, i, j, w0, self.state.w[i, j + 1])
+                    self.state.fy[i, j, e] = self.fv.y_viscous(
+                        e, zero, i, j, w0, self.state.w[i, j + 1, e]
+                    )
 
     @ti.func
     def _viscous_update(
@@ -181,37 +203,57 @@ class ViscousSubstep:
         stage writes slot 0 on [a, b) only."""
         gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
         a, b = self.state.act[0], self.state.act[1]
-        idx = self.state.par[Params.INV_DX]
-        idy = self.state.par[Params.INV_DY]
         ti.loop_config(serialize=serial)
-        for i, j in ti.ndrange((ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny)):
-            y0 = self.state.q[0, i, j]
-            r = ti.Vector.zero(self.state.fp, self.state.nc)
-            inside = a <= i < b
-            if inside:
-                r = -(self.state.fx[i, j] - self.state.fx[i - 1, j]) * idx
-                if ti.static(not self.state.is_1d):
-                    r -= (self.state.fy[i, j] - self.state.fy[i, j - 1]) * idy
-            acc = y0
-            if ti.static(one):
-                self.state.q[1, i, j] = r  # F0
-                acc = y0 + ct * r
-                if ti.static(first):
-                    self.state.spd0[i, j] = self.state.phys.speed_mag(
-                        self.state.w[i, j]
-                    )  # (the step's start)
-            else:
-                inc = mu * (self.state.q[src, i, j] - y0) + nu * (self.state.q[prev2, i, j] - y0)
-                acc = y0 + (inc + ct * r + cg * self.state.q[1, i, j])
-            if ti.static(final):
+        for i, j, e in ti.ndrange(
+            (ti.max(a - 3, gx), ti.min(b + 3, gx + nx)), (gy, gy + ny), self.state.M
+        ):
+            if self.state.live(e):  # (a batch's member whose stages are done is left out)
+                mu_e = self.state.number(e, 0, mu)
+                nu_e = self.state.number(e, 1, nu)
+                ct_e = self.state.number(e, 2, ct)
+                cg_e = self.state.number(e, 3, cg)
+                idx = self.state.par[e, Params.INV_DX]
+                idy = self.state.par[e, Params.INV_DY]
+                y0 = self.state.q[0, i, j, e]
+                r = ti.Vector.zero(self.state.fp, self.state.nc)
+                inside = a <= i < b
                 if inside:
-                    acc = self.fv.limit(acc)
-                    self.state.q[0, i, j] = acc
+                    r = -(self.state.fx[i, j, e] - self.state.fx[i - 1, j, e]) * idx
+                    if ti.static(not self.state.is_1d):
+                        r -= (self.state.fy[i, j, e] - self.state.fy[i, j - 1, e]) * idy
+                acc = y0
+                if ti.static(one):
+                    self.state.q[1, i, j, e] = r  # F0
+                    acc = y0 + ct_e * r
+                    if ti.static(first):
+                        self.state.spd0[i, j, e] = self.state.phys.speed_mag(
+                            self.state.w[i, j, e]
+                        )  # (the step's start)
                 else:
-                    acc = y0
-            else:
-                self.state.q[dst, i, j] = acc
-            self.state.w[i, j] = self.fv.fast_primitive(acc)
+                    inc = mu_e * (self.state.q[src, i, j, e] - y0) + nu_e * (
+                        self.state.q[prev2, i, j, e] - y0
+                    )
+                    acc = y0 + (inc + ct_e * r + cg_e * self.state.q[1, i, j, e])
+                if ti.static(final == 2):  # a batch: the member's own last stage or not
+                    if self.state.coef[e, C_FINAL] > 0.5:
+                        acc = self._last(e, i, j, acc, y0, inside)
+                    else:
+                        self.state.q[self.state.dst(e, dst), i, j, e] = acc
+                elif ti.static(final == 1):
+                    acc = self._last(e, i, j, acc, y0, inside)
+                else:
+                    self.state.q[dst, i, j, e] = acc
+                self.state.w[i, j, e] = self.fv.fast_primitive(e, acc)
+
+    @ti.func
+    def _last(self, e, i, j, acc, y0, inside):
+        """The last stage's result at cell (i, j) of member e: limited and written over Y0
+        on the active range, Y0 itself beside it."""
+        out = y0
+        if inside:
+            out = self.fv.limit(e, acc)
+            self.state.q[0, i, j, e] = out
+        return out
 
 
 def _check_stage(src: int, prev2: int, dst: int, opens: bool) -> None:

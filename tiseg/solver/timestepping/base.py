@@ -54,6 +54,18 @@ class Stepper:
         """Advance slot 0 of ``op`` from t to t + dt."""
         raise NotImplementedError
 
+    def step_members(self, op, t, dt, stages) -> None:
+        """Advance slot 0 of each member of a batch (``op`` with several members) by its own
+        step: ``t``, ``dt`` and ``stages`` one per member. A stepper with a fixed stage count
+        takes its `step` with arrays for t and dt (each member's numbers are the single run's,
+        element by element); one whose stage count varies overrides this."""
+        counts = set(int(k) for k in stages)
+        if len(counts) != 1:
+            raise InputError(
+                f"{self.name} takes the same stage count in every member, got {counts}"
+            )
+        self.step(op, t, dt, counts.pop())
+
 
 def stepper_for(
     numerics, name: str | None = None, is_1d: bool = False, viscous: bool = False

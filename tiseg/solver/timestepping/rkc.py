@@ -15,6 +15,8 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+import numpy as np
+
 from ...errors import InputError
 from .base import RATE, Stepper, register
 
@@ -111,3 +113,51 @@ class RKC(Stepper):
                 rates=(F0,),
             )
             prev2, prev1 = prev1, dst
+
+    def step_members(self, op, t, dt, stages):
+        """RKC.step of each member of a batch with its own stage count: stage j is taken by
+        the members with at least j stages, with each member's own coefficients; a member's
+        last stage writes its slot 0, the later ones leave it out."""
+        s, mu_t1, stage_numbers = member_tables(stages)
+        Y0, F0, A, B = 0, 1, 2, 3
+        op.rhs(Y0, F0, t)
+        op.combine(A, [(1.0, Y0), (mu_t1 * dt, F0)], limit=True, tau=mu_t1 * dt, rates=(F0,))
+        prev2, prev1 = Y0, A
+        for j in range(2, int(s.max()) + 1):
+            mu, nu, mu_t, gamma_t, c_prev = stage_numbers(j)
+            common = B if prev2 == Y0 else prev2  # (the slot of a member not yet at its last)
+            op.stage(
+                np.where(s == j, Y0, common),
+                [
+                    (1.0 - mu - nu, Y0),
+                    (mu, prev1),
+                    (nu, prev2),
+                    (mu_t * dt, RATE),
+                    (gamma_t * dt, F0),
+                ],
+                prev1,
+                t + c_prev * dt,
+                tau=(mu_t + gamma_t) * dt,
+                rates=(F0,),
+                live=s >= j,
+            )
+            prev2, prev1 = prev1, common
+
+
+def member_tables(stages):
+    """Each member's RKC numbers for stage counts ``stages`` (one per member): (s as an
+    array, mu~_1 per member, a function of the stage j giving arrays of (mu_j, nu_j, mu~_j,
+    gamma~_j, c_{j-1}) with zeros for the members of fewer stages)."""
+    s = np.asarray([int(k) for k in stages])
+    tables = [rkc_coefficients(int(k)) for k in s]
+    mu_t1 = np.array([tb[0] for tb in tables])
+
+    def stage_numbers(j: int):
+        rows = np.zeros((5, len(s)))
+        for e, (_, coeffs, c) in enumerate(tables):
+            if j <= s[e]:
+                rows[:4, e] = coeffs[j - 2]
+                rows[4, e] = c[j - 1]
+        return tuple(rows)
+
+    return s, mu_t1, stage_numbers

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ...errors import InputError
 from .base import Stepper, register
-from .rkc import rkc_coefficients, stages_for
+from .rkc import member_tables, rkc_coefficients, stages_for
 
 
 @register
@@ -95,6 +97,23 @@ class Hancock(Stepper):
             for k, d in enumerate(dirs):
                 op.sweep(d, t, dt, first=k == 0, last=k == len(dirs) - 1)
             return
+        self._pair(op, t, dt, dirs, lambda: viscous_substep(op, t, dt, stages - self.sweeps))
+
+    def step_members(self, op, t, dt, stages):
+        """`step` of each member of a batch (t, dt, stages one per member): the sweeps take
+        every member's own dt; the viscous sub-step each member's own stage count."""
+        counts = np.asarray([int(k) for k in stages])
+        if not self.viscous:
+            super().step_members(op, t, dt, counts)
+            return
+        dirs = (0,) if self.dims == 1 else (0, 1)
+        self._pair(
+            op, t, dt, dirs, lambda: viscous_substep_members(op, t, dt, counts - self.sweeps)
+        )
+
+    @staticmethod
+    def _pair(op, t, dt, dirs, substep) -> None:
+        """The two half steps of sweeps around the viscous sub-step ``substep()``."""
         half = 0.5 * dt
         # the first half from t: its first sweep takes the step's rest mask and speeds, its
         # last projects the friction over dt/2
@@ -102,7 +121,7 @@ class Hancock(Stepper):
             op.sweep(d, t, half, first=k == 0, last=k == len(dirs) - 1)
         # V over the whole step from t (its stage times span [t, t + dt]); it opens the
         # second half: the rest mask and speeds of the state it starts from
-        viscous_substep(op, t, dt, stages - self.sweeps)
+        substep()
         for k, d in enumerate(dirs[::-1]):
             op.sweep(d, t + half, half, first=False, last=k == len(dirs) - 1)
 
@@ -127,3 +146,25 @@ def viscous_substep(op, t: float, dt: float, s: int) -> None:
             t + c[j - 1] * dt,
         )
         prev2, prev1 = prev1, dst
+
+
+def viscous_substep_members(op, t, dt, stages) -> None:
+    """viscous_substep of each member of a batch with its own stage count (``stages``, one
+    per member; t and dt too): stage j is taken by the members with at least j stages, with
+    their own coefficients, and a member's last stage writes its slot 0."""
+    s, mu_t1, stage_numbers = member_tables(stages)
+    Y0, A, B = 0, 2, 3
+    op.viscous_stage(Y0, -1, A, (0.0, 0.0, mu_t1 * dt, 0.0), t, first=True)
+    prev2, prev1 = Y0, A
+    for j in range(2, int(s.max()) + 1):
+        mu, nu, mu_t, gamma_t, c_prev = stage_numbers(j)
+        common = B if prev2 == Y0 else prev2
+        op.viscous_stage(
+            prev1,
+            prev2,
+            np.where(s == j, Y0, common),
+            (mu, nu, mu_t * dt, gamma_t * dt),
+            t + c_prev * dt,
+            live=s >= j,
+        )
+        prev2, prev1 = prev1, common
