@@ -80,7 +80,7 @@ class FiniteVolume:
         take the step's rest mask (a step begins: slot 0 was written). Sets the inflow's time
         when there is work. The kernel that does it calls `prepare_in` and then hands the
         tuple to `prepared` (`prepare`; the stability pass, which prepares in its own launch)."""
-        key = (slot, self.state.time_key(t), self.state.active)
+        key = (slot, self.state.times(t), self.state.active)
         mark = self.state.rest is not None and self.state.rest_stale
         kind = 0
         if self.state.prepared != key:

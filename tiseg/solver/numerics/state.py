@@ -273,38 +273,26 @@ class OperatorState:
         members each at their own time)."""
         if self.bc[0] != "inflow":
             return
-        if not self.batched:  # (a single run: the time of its one member)
-            h, _, _ = self.cfg.inflow_state(t)
-            key = (h, 0.0 if t > self.cfg.inflow_stop else 1.0)
-            if key != self.inflow_key[0]:
-                self.par[0, Params.IN_H] = h
-                self.par[0, Params.IN_ON] = key[1]
-                self.inflow_key[0] = key
-            return
-        ts = (t,) * self.M if np.ndim(t) == 0 else tuple(float(v) for v in t)
-        for e, cfg in enumerate(self.cfgs):
-            h, _, _ = cfg.inflow_state(ts[e])
-            on = 0.0 if ts[e] > cfg.inflow_stop else 1.0
-            key = (h, on)
+        for e, (te, cfg) in enumerate(zip(self.times(t), self.cfgs)):
+            h, _, _ = cfg.inflow_state(te)
+            key = (h, 0.0 if te > cfg.inflow_stop else 1.0)
             if key != self.inflow_key[e]:
                 self.par[e, Params.IN_H] = h
-                self.par[e, Params.IN_ON] = on
+                self.par[e, Params.IN_ON] = key[1]
                 self.inflow_key[e] = key
 
     def inflow_on(self, t) -> bool:
         """Whether an inflow runs at time t (until the scene's inflow stop time) in any
         member (t: one time, or one per member)."""
-        if self.bc[0] != "inflow":
-            return False
-        if not self.batched:
-            return not t > self.cfg.inflow_stop
-        ts = (t,) * self.M if np.ndim(t) == 0 else tuple(t)
-        return any(not v > c.inflow_stop for v, c in zip(ts, self.cfgs))
+        return self.bc[0] == "inflow" and any(
+            not te > c.inflow_stop for te, c in zip(self.times(t), self.cfgs)
+        )
 
-    def time_key(self, t):
-        """A launch's time(s) as a cache key: a number, or the tuple of the members' times."""
+    def times(self, t) -> tuple:
+        """Each member's time of a launch at ``t`` (one time for all, or one per member of a
+        batch); also the launch's key in the caches of what w holds."""
         if not self.batched or np.ndim(t) == 0:
-            return t
+            return (t,) * self.M
         return tuple(float(v) for v in t)
 
     # ------------------------------------------------------------------ host access
@@ -403,7 +391,7 @@ class OperatorState:
         """What the last preparation left valid in w for ``slot`` at time t: 2 everything
         (the slot prepared at t), 1 the interior (a limited combine's or sweep's result, or
         the slot prepared at another time), 0 nothing."""
-        key = (slot, self.time_key(t), self.active)
+        key = (slot, self.times(t), self.active)
         interior = self.interior == (slot, self.active) or (
             self.prepared is not None and self.prepared[::2] == key[::2]
         )
