@@ -36,7 +36,7 @@ def test_the_state_alone_holds_slots_params_and_caches(ti_cpu):
     assert np.array_equal(st.get(1), q.astype(st.np_fp))
     assert st.active == (st.gx, st.gx + st.nx) and st.wet_range == st.active
     # what the scratch fields hold follows the writes
-    st.prepared = (1, 0.0, st.active)
+    st.prepared = (1, st.times(0.0), st.active)  # the key: each member's time
     assert st.fresh(1, 0.0) == 2 and st.fresh(1, 0.5) == 1 and st.fresh(0, 0.0) == 0
     st.written(1)
     assert st.prepared is None and st.fresh(1, 0.0) == 0

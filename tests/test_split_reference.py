@@ -117,7 +117,7 @@ def test_sweeps_from_a_stability_pass_on_a_partial_active_range_match_reference(
     op.set_active(lay.gx + 2, lay.gx + 16)
     t = 0.05
     op.stability(0, t)
-    assert op._prepared == (0, t, op.active)  # the sweep's "fresh" path
+    assert op._prepared == (0, op.state.times(t), op.active)  # the sweep's "fresh" path
     ref = ReferenceOperator(cfg)
     qr = q.copy()
     for d in (0, 1):
