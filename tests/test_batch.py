@@ -1,6 +1,8 @@
 """A batch runs its members together and each member's run is bitwise the member run alone:
 its fields.nc, diagnostics.csv and final state; a member that fails its guard stops alone."""
 
+import shutil
+
 import netCDF4
 import numpy as np
 import pytest
@@ -8,6 +10,10 @@ import pytest
 from tiseg.errors import InputError
 from tiseg.run.failures import SimulationError
 from tiseg.run.batch import Batch
+from tiseg.run.callbacks import Callback
+from tiseg.run import checkpoint
+from tiseg.run.checkpoint import CHECKPOINT_NAME
+from tiseg.run.schedules import IterationInterval
 from tiseg.run.simulation import Simulation
 from tiseg.setup.reading import load_scene
 
@@ -93,3 +99,72 @@ def test_members_must_share_their_compiled_options(ti_cpu):
         Batch([a, b])
     with pytest.raises(InputError, match="at least two"):
         Batch([a])
+
+
+class _Kill(Exception):
+    """Stands for a kill of the whole batch's process."""
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_a_killed_batch_resumes_each_member_from_its_own_checkpoint(ti_cpu, tmp_path, name):
+    """A batch stopped mid-run (as if killed) leaves a checkpoint in each member's folder;
+    the batch resumed from them, and a member resumed alone (`tiseg run --resume`), end
+    bitwise as the members run alone without a stop."""
+    base, members = CASES[name]
+    every = {**SMALL, **base, "output.checkpoint_interval": 0.1}
+    scenes = [load_scene(name, {**every, **m}) for m in members]
+    t_kill = 0.45 * min(sc.t_end for sc in scenes)
+
+    killed = Batch(scenes)
+
+    def kill(sim):  # once every member is past t_kill (their times differ)
+        if all(s.t >= t_kill for s in killed.sims):
+            raise _Kill
+
+    dirs = [tmp_path / f"batch{e}" for e in range(len(scenes))]
+    with pytest.raises(_Kill):
+        killed.run(out_dirs=dirs, callbacks=[Callback(kill, IterationInterval(1))])
+    for d in dirs:
+        assert (d / CHECKPOINT_NAME).is_file()
+    solo = tmp_path / "solo"
+    shutil.copytree(dirs[-1], solo)
+
+    batch = Batch.resume(dirs)
+    assert all(0 < sim.t <= s.t for sim, s in zip(batch.sims, killed.sims))
+    results = batch.run(out_dirs=dirs)
+    assert not any(isinstance(r, Exception) for r in results)
+    alone = Simulation.resume(solo)
+    alone.run(out_dir=solo, progress=False)
+    for e, sc in enumerate(scenes):
+        Simulation(sc).run(out_dir=tmp_path / f"alone{e}", progress=False)
+        _same_runs(dirs[e], tmp_path / f"alone{e}")
+        assert not (dirs[e] / CHECKPOINT_NAME).exists()
+    _same_runs(solo, tmp_path / f"alone{len(scenes) - 1}")
+
+
+def test_a_batch_member_checkpoints_what_the_member_alone_does(ti_cpu, tmp_path):
+    """Stopped before the scene's end, each member's checkpoint holds the state, budget, time,
+    step counts and active ranges of the member's run alone (its own ranges, not the batch's
+    union; the rest mask may differ outside them, where no step reads it)."""
+    base, members = CASES["finite-release-deposit"]
+    scenes = [load_scene("finite-release-deposit", {**SMALL, **base, **m}) for m in members]
+    dirs = [tmp_path / f"batch{e}" for e in range(len(scenes))]
+    Batch(scenes).run(out_dirs=dirs, t_end=0.35)
+    ranges = []
+    for e, sc in enumerate(scenes):
+        Simulation(sc).run(out_dir=tmp_path / f"alone{e}", t_end=0.35, progress=False)
+        a = checkpoint.load(dirs[e] / CHECKPOINT_NAME)
+        b = checkpoint.load(tmp_path / f"alone{e}" / CHECKPOINT_NAME)
+        peaks = [k for k in b if k.startswith("peak_")]
+        for key in ("q", "budget", "t", "steps", "stages", "last_stages", "ranges", *peaks):
+            assert np.array_equal(a[key], b[key]), key
+        ranges.append(tuple(a["ranges"]))
+    assert ranges[0] != ranges[1]  # the members' own ranges, not one union
+
+
+def test_a_batch_resumes_only_run_folders(ti_cpu, tmp_path):
+    (tmp_path / "other").mkdir()
+    with pytest.raises(InputError, match="no such folder"):
+        Batch.resume([tmp_path / "none", tmp_path / "other"])
+    with pytest.raises(InputError, match="not a tiseg run folder"):
+        Batch.resume([tmp_path / "other", tmp_path / "other"])

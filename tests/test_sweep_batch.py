@@ -149,3 +149,41 @@ def test_a_sweep_on_dask_runs_its_batch_in_one_task(tmp_path):
     for run in load_sweep(TINY).runs:
         assert execute_run(member_spec(run, tmp_path / "alone", "cpu", 1))["status"] == "done"
         _same_run(tmp_path / "dask" / run.name, tmp_path / "alone" / run.name)
+
+
+class _Kill(Exception):
+    """Stands for the kill of a sweep's worker."""
+
+
+def test_a_killed_sweeps_members_resume_from_their_own_checkpoints(ti_cpu, tmp_path):
+    """Members of a killed sweep, each stopped with a checkpoint in its folder, continue from
+    it when the sweep runs again, together (a batch) or alone, and end bitwise as members
+    that were never stopped; a checkpoint of another scene is not resumed."""
+    from tiseg.run.schedules import IterationInterval
+    from tiseg.run.simulation import Simulation
+
+    def kill(sim):
+        if sim.t >= 0.3:
+            raise _Kill
+
+    sweep = load_sweep(TINY, grid_overrides={"inflow.seed": [1, 2]})
+    specs = _specs(sweep, tmp_path / "killed")
+    for run, spec in zip(sweep.runs, specs):
+        scene = run.scene
+        if run is sweep.runs[3]:  # a folder whose checkpoint is another scene's
+            scene = scene.with_overrides({"flow.nu": 0.03})
+        sim = Simulation(scene)
+        sim.add_callback(kill, IterationInterval(1), name="kill")
+        with pytest.raises(_Kill):
+            sim.run(out_dir=spec["dir"], progress=False, checkpoint_spacing=0)
+        assert (Path(spec["dir"]) / "checkpoint.npz").is_file()
+    members._LAST.clear()
+    again = execute_batch(specs[:2]) + [execute_run(spec) for spec in specs[2:]]
+    assert [r["status"] for r in again] == ["done"] * 4
+    assert all(0.25 < r["resumed_at"] <= 0.3 for r in again[:3]), again
+    assert "resumed_at" not in again[3]  # another scene's checkpoint: run from the start
+    assert again[0]["batch_members"] == 2
+    for spec in _specs(sweep, tmp_path / "fresh"):
+        assert "resumed_at" not in execute_run(spec)
+    for run in sweep.runs:
+        _same_run(tmp_path / "killed" / run.name, tmp_path / "fresh" / run.name)

@@ -23,6 +23,8 @@ is no longer written) and the others go on; a failure is reported for that membe
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..errors import InputError, TisegError
@@ -56,6 +58,27 @@ class Batch:
             Simulation(sc, operator=self.op, member=e, **kwargs) for e, sc in enumerate(scenes)
         ]
         self.views = [sim.op for sim in self.sims]
+
+    @classmethod
+    def resume(cls, run_dirs, **kwargs) -> "Batch":
+        """The batch of killed run folders, each member at its folder's last checkpoint (a
+        batch member's or a single run's: they are the same); continue it with
+        ``batch.run(out_dirs=run_dirs)``, which appends to each folder's files. The members
+        must share their compiled options and precision; ``kwargs`` as `Simulation`'s."""
+        from . import checkpoint as _ckpt
+
+        run_dirs = [Path(d) for d in run_dirs]
+        opened = [_ckpt.open_run_dir(d) for d in run_dirs]
+        precisions = sorted({ck["precision"] for _, ck in opened})
+        if len(precisions) > 1:
+            raise InputError(
+                f"Batch.resume: the checkpoints were written in {' and '.join(precisions)}; "
+                "a batch runs in one precision"
+            )
+        batch = cls([scene for scene, _ in opened], precision=precisions[0], **kwargs)
+        for sim, d, (_, ck) in zip(batch.sims, run_dirs, opened):
+            sim._continue(d, ck)
+        return batch
 
     def __len__(self) -> int:
         return len(self.sims)

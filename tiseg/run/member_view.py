@@ -12,6 +12,8 @@ and collects the x range each member asks for (``wanted``) to set their union.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import TisegError
 from ..solver.numerics.ranges import clamp_range
 
@@ -63,7 +65,14 @@ class MemberOperator:
         self._op.blend(dst, a, b, theta, self.member)
 
     def rest_state(self):
-        return self._op.rest_state(self.member)
+        """The member's rest mask and the ranges its own step asked for (not the batch's
+        union): the ranges a run of it alone holds, so that its checkpoint resumes alone or
+        in a batch."""
+        rest = self._op.rest_state(self.member)
+        if rest is not None and self.wanted is not None:
+            (a, b), (wa, wb) = self.wanted
+            rest["ranges"] = np.array([a, b, wa, wb, rest["ranges"][4]], dtype=np.int64)
+        return rest
 
     def restore_rest_state(self, rest_mask, ranges) -> None:
         self._op.restore_rest_state(rest_mask, ranges, self.member)

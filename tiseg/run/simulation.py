@@ -170,12 +170,17 @@ class Simulation:
         ``sim.run(out_dir=run_dir)`` (which appends to its fields.nc and diagnostics.csv)."""
         scene, ck = _ckpt.open_run_dir(run_dir)
         sim = cls(scene, arch=arch, precision=ck["precision"], threads=threads, **kwargs)
-        _ckpt.restore(sim, ck)
-        sim._resume = {
+        sim._continue(run_dir, ck)
+        return sim
+
+    def _continue(self, run_dir, ck: dict) -> None:
+        """Put the checkpoint ``ck`` of the run folder ``run_dir`` in, so that the next run
+        into that folder appends to its files (`resume`; a batch's members, `Batch.resume`)."""
+        _ckpt.restore(self, ck)
+        self._resume = {
             "dir": Path(run_dir).resolve(),
             **{k: ck[k] for k in ("snapshots", "diag_rows", "wall")},
         }
-        return sim
 
     @classmethod
     def from_scene(cls, scene, overrides=None, **kwargs) -> "Simulation":

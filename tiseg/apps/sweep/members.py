@@ -134,7 +134,7 @@ def execute_batch(specs: list[dict], run: Callable[[dict], dict] | None = None) 
     if run is not execute_run or len(specs) < 2:
         return [run({**spec, "reuse": True}) for spec in specs]
     records: list = [None] * len(specs)
-    held = []  # (index, spec, run dir, scene, lock) of the members to run
+    held = []  # (index, spec, run dir, scene, lock, checkpoint) of the members to run
     try:
         for k, spec in enumerate(specs):
             rec, entry = _claim(spec)
@@ -147,8 +147,8 @@ def execute_batch(specs: list[dict], run: Callable[[dict], dict] | None = None) 
             groups.setdefault(compiled_fingerprint(item[3]), []).append(item)
         for group in groups.values():
             if len(group) == 1:
-                k, spec, run_dir, scene, _ = group[0]
-                records[k] = _guarded(spec, _execute_locked, spec, run_dir, scene, _LAST)
+                k, spec, run_dir, scene, _, ck = group[0]
+                records[k] = _guarded(spec, _execute_locked, spec, run_dir, scene, _LAST, ck)
                 continue
             for k, rec in _run_together(group):
                 records[k] = rec
@@ -160,7 +160,8 @@ def execute_batch(specs: list[dict], run: Callable[[dict], dict] | None = None) 
 
 def _claim(spec: dict):
     """A member's folder made ready and locked: (record, None) where it needs no run (reused,
-    busy, or a folder it may not write), else (None, (spec, run dir, scene, lock))."""
+    busy, or a folder it may not write), else (None, (spec, run dir, scene, lock, the
+    member's own checkpoint or None))."""
     run_dir = Path(spec["dir"])
     scene = scene_from_text(spec["scene_toml"], name=spec.get("scene_name", "scene"))
     rec = read_marker(run_dir, scene)
@@ -188,7 +189,43 @@ def _claim(spec: dict):
     except Exception as exc:  # (a user's folder, or a full disk: the member fails, once)
         lock.release()
         return _failure(spec, exc), None
-    return None, (spec, run_dir, scene, lock)
+    return None, (spec, run_dir, scene, lock, own_checkpoint(run_dir, scene))
+
+
+def own_checkpoint(run_dir: Path, scene: Scene) -> dict | None:
+    """The checkpoint a killed sweep left in this member's folder, when it is this member's
+    (the same scene, in the scene's precision) and whole; else None (the member starts
+    afresh, replacing the folder's files)."""
+    from ...run.checkpoint import CHECKPOINT_NAME, open_run_dir
+
+    if not (run_dir / CHECKPOINT_NAME).is_file():
+        return None
+    try:
+        saved, ck = open_run_dir(run_dir)
+    except InputError as exc:
+        log.warning("%s: not resumed (%s)", run_dir, exc)
+        return None
+    if saved != scene or ck["precision"] != scene.numerics.precision:
+        return None
+    return ck
+
+
+def _resume_member(sim, run_dir: Path, ck: dict | None) -> float | None:
+    """Put a member's own checkpoint into its simulation (`own_checkpoint`): the time it
+    resumes from, or None where it starts afresh (no checkpoint, or one that fails the
+    checks of a resume, which the simulation's reset then undoes)."""
+    from ...run.checkpoint import CheckpointError
+
+    if ck is None:
+        return None
+    try:
+        sim._continue(run_dir, ck)
+    except (CheckpointError, InputError) as exc:
+        log.warning("%s: not resumed, run again from the start (%s)", run_dir, exc)
+        sim.reset()
+        return None
+    log.info("%s: resumed from its checkpoint at t=%.6g s", run_dir, sim.t)
+    return sim.t
 
 
 def _run_together(group: list) -> list:
@@ -206,6 +243,7 @@ def _run_together(group: list) -> list:
     try:
         backend.init(spec0.get("arch", "cpu"), scene0.numerics.precision, int(threads), force=True)
         batch = Batch([item[3] for item in group])
+        resumed = [_resume_member(sim, item[2], item[5]) for sim, item in zip(batch.sims, group)]
         reports = [
             _reporter(s["name"], item[3].t_end) if s.get("report", True) else None
             for s, item in zip(specs, group)
@@ -215,11 +253,11 @@ def _run_together(group: list) -> list:
         failed = _failure(spec0, exc)
         return [(item[0], {**failed, "name": item[1]["name"]}) for item in group]
     out = []
-    for (k, spec, run_dir, scene, _), sim, res in zip(group, batch.sims, results):
+    for (k, spec, run_dir, scene, *_), sim, res, t in zip(group, batch.sims, results, resumed):
         if isinstance(res, Exception):
             out.append((k, _failure(spec, res)))
             continue
-        spec = {**spec, "batch_members": len(group)}
+        spec = {**spec, "batch_members": len(group), "resumed_at": t}
         out.append((k, _guarded(spec, _member_record, spec, run_dir, scene, sim, res, t0)))
     return out
 
@@ -266,9 +304,9 @@ def execute_run(spec: dict, cache: dict | None = None) -> dict:
     rec, entry = _claim(spec)
     if rec is not None:  # reused, busy or refused
         return rec
-    _, run_dir, scene, lock = entry
+    _, run_dir, scene, lock, ck = entry
     try:
-        return _execute_locked(spec, run_dir, scene, cache)
+        return _execute_locked(spec, run_dir, scene, cache, ck)
     except Exception as exc:
         # a user mistake or a run that failed its guard: no retry, one line; anything else
         # (a full disk, a bug) fails the member the same way, its traceback kept in the
@@ -280,8 +318,11 @@ def execute_run(spec: dict, cache: dict | None = None) -> dict:
         lock.release()
 
 
-def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None) -> dict:
-    """`execute_run` once the member's folder is locked and ready (`_claim`)."""
+def _execute_locked(
+    spec: dict, run_dir: Path, scene, cache: dict | None = None, ck: dict | None = None
+) -> dict:
+    """`execute_run` once the member's folder is locked and ready (`_claim`); ``ck``: the
+    member's own checkpoint to resume from (`own_checkpoint`)."""
     from ...run.simulation import Simulation
 
     t0 = _time.perf_counter()
@@ -314,6 +355,7 @@ def _execute_locked(spec: dict, run_dir: Path, scene, cache: dict | None = None)
         if cache is not None:
             # (a Taichi runtime started since, by anyone, has freed its fields)
             cache.update(key=key, sim=sim, generation=backend.generation())
+    spec = {**spec, "resumed_at": _resume_member(sim, run_dir, ck)}
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
     stats = sim.run(
         out_dir=run_dir, progress=False, on_output=report, overwrite=True
@@ -353,6 +395,8 @@ def _member_record(spec: dict, run_dir: Path, scene, sim, stats, t0: float) -> d
     }
     if spec.get("batch_members"):
         rec["batch_members"] = int(spec["batch_members"])  # advanced together with others
+    if spec.get("resumed_at") is not None:
+        rec["resumed_at"] = float(spec["resumed_at"])  # continued a killed sweep's checkpoint
     rec = measured_all(rec)
     write_json_atomic(run_dir / DONE_MARKER, rec)  # last: its presence means "complete"
     return {**rec, "status": "done"}
