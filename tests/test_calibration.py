@@ -144,6 +144,49 @@ def test_two_parameters_and_their_covariance(tmp_path):
     assert sens["initial.h_left"]["deposit.thickness_mean"] == pytest.approx(-2.0, rel=1e-6)
 
 
+def test_points_asked_for_at_once_run_together_on_dask(tmp_path, monkeypatch):
+    """On Dask, the points of the initial design (2P + 1 = 5) run in tasks of up to --batch
+    members (`execute_batch`), the search's single points alone; the result is the one of
+    the points run one at a time in this process."""
+    import distributed
+
+    from tiseg.apps.sweep import runner
+
+    p0, q0 = 0.3, 0.004
+    targets = [f"x_front_max={1 + p0 + q0}+-0.002", f"deposit.thickness_mean={p0 - 2 * q0}+-0.001"]
+    fixed = {**FIXED, "output.interval": 0.1, "time.t_end": 0.2}
+    cal = calibration_from_args(
+        SCENE,
+        ["effects.coulomb_mu=0.1:0.5", "initial.h_left=0.001:0.01"],
+        targets,
+        time=0.2,
+        fixed=fixed,
+        budget=20,
+    )
+    tally = tmp_path / "tasks"
+    tally.mkdir()
+    real = runner.execute_batch
+
+    def batch(specs, run=None):  # (Dask runs a copy of this: count in files)
+        (tally / specs[0]["name"]).write_text(str(len(specs)))
+        return real(specs, run=run)
+
+    monkeypatch.setattr(runner, "execute_run", Model(linear_pair))
+    monkeypatch.setattr(runner, "execute_batch", batch)
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cluster:
+        res = run_calibration(
+            cal, tmp_path / "dask", echo=None, scheduler=cluster.scheduler_address, batch=4
+        )
+    # tasks of several: the design's 5 points (4, the fifth alone as the search's points)
+    # and the 2P = 4 points of the sensitivity around the best
+    assert [int(f.read_text()) for f in tally.iterdir()] == [4, 4]
+    alone = run_calibration(cal, tmp_path / "alone", echo=None, execute=Model(linear_pair))
+    assert res.best == alone.best
+    assert len(res.result["evaluations"]) == len(alone.result["evaluations"])
+
+
 def test_the_seeds_spread_adds_to_the_tolerance(tmp_path):
     """With --seeds 3 the best point runs again with inflow.seed 1 and 2; the wavelength's
     spread over the three (sd 0.002) and the tolerance (0.0015) add in quadrature, and the

@@ -97,6 +97,7 @@ def run_calibration(
     report: Callable[[str], None] | None = None,
     progress_interval: float = 30.0,
     overwrite: bool = False,
+    batch: int | None = None,
     execute: Callable[[dict], dict] | None = None,
 ) -> CalibrationResult:
     """Search the parameters of ``cal`` that reproduce its targets, with each point a member
@@ -104,11 +105,13 @@ def run_calibration(
     the uncertainty around the best point; writes ``out/calibration.json`` (also after every
     finished run, with ``"complete": false``) and ``out/misfit.png``.
 
-    The options are those of `tiseg.apps.sweep.run_sweep`; ``execute`` runs the members in
-    this process with that function instead of `tiseg.apps.sweep.execute_run` on Dask."""
+    The options are those of `tiseg.apps.sweep.run_sweep` (``batch``: the points asked for
+    at once, an initial design, the sensitivity runs or the seeds, advance together up to
+    this many to a task); ``execute`` runs the members in this process with that function
+    instead of `tiseg.apps.sweep.execute_run` on Dask."""
     out = Path(out)
     say = echo or (lambda _s: None)
-    check_dask_options(workers, scheduler, threads_per_task)
+    check_dask_options(workers, scheduler, threads_per_task, batch)
     if not overwrite:
         check_calibration_folder(cal, out)
     create_output_folder(out)
@@ -125,6 +128,7 @@ def run_calibration(
         progress_interval=progress_interval,
         overwrite=overwrite,
         execute=execute,
+        batch=batch,
     )
     state = {"method": None, "best": None, "uncertainty": None, "failed": None}
     ev.on_batch = lambda: write_json_atomic(out / RESULT_FILE, _result(cal, ev, state, False))

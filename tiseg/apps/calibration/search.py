@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -12,8 +11,17 @@ import numpy as np
 
 from ...backend import available_cores
 from ...errors import TisegError
-from ..sweep.members import check_member_folder, execute_run, read_marker, refresh_metrics
-from ..sweep.runner import member_spec, open_dask, progress_handler
+from ..sweep.members import check_member_folder, read_marker, refresh_metrics
+from ..sweep.runner import (
+    batch_size,
+    batches,
+    member_spec,
+    open_dask,
+    progress_handler,
+    submit_tasks,
+    task_records,
+    worker_count,
+)
 from ..sweep.spec import PROGRESS_TOPIC, SweepRun, time_index
 from .spec import Calibration
 
@@ -97,8 +105,10 @@ class Evaluator:
     """Evaluates points of a calibration as members of a sweep: a folder ``out/<name>`` per
     point (named after its values), reused when a finished run of the same scene is there
     (`tiseg.apps.sweep.members.read_marker`), else run by `execute_run` on Dask; the Dask
-    client starts with the first run that is not found finished. ``execute``: run pending
-    members in this process with that function instead (tests)."""
+    client starts with the first run that is not found finished. ``batch``: points asked for
+    at once run up to this many to a task, advanced together (`tiseg sweep --batch`'s
+    meaning; None: enough tasks for every worker). ``execute``: run pending members in this
+    process with that function instead, one at a time (tests)."""
 
     def __init__(
         self,
@@ -113,8 +123,10 @@ class Evaluator:
         progress_interval: float = 30.0,
         overwrite: bool = False,
         execute: Callable[[dict], dict] | None = None,
+        batch: int | None = None,
     ):
         self.cal, self.out = cal, Path(out)
+        self.batch = batch  # points a task advances together (None: as the sweep chooses)
         self.scheduler, self.workers, self.threads_per_task = scheduler, workers, threads_per_task
         self.arch, self.say, self.progress_interval = arch, say, progress_interval
         self.overwrite, self.execute = overwrite, execute
@@ -209,26 +221,25 @@ class Evaluator:
                 pass
         futures = {}
         try:
-            for run in runs:
-                spec = member_spec(run, self.out, self.arch, self._threads, self.overwrite)
-                # every point of a calibration has the same kernels: a worker runs its next
-                # point on the simulation of its last (sweep.members.execute_run)
-                fut = self._client.submit(
-                    execute_run,
-                    {**spec, "reuse": True},
-                    key=f"tiseg-{run.name}-{os.urandom(4).hex()}",
-                    pure=False,
-                    retries=1,
-                )
-                futures[fut] = run
+            # every point of a calibration has the same kernels: the points asked for at
+            # once (a design, the sensitivity runs, the seeds) advance together in tasks of
+            # up to `batch` (sweep.members.execute_batch), and a worker runs a lone point
+            # on the simulation of its last (execute_run's reuse)
+            size = self.batch or batch_size(len(runs), worker_count(self._client))
+            futures = submit_tasks(
+                self._client,
+                batches(runs, size),
+                self.out,
+                self.arch,
+                self._threads,
+                self.overwrite,
+                reuse=True,
+            )
             for fut in as_completed(list(futures), loop=self._client.loop):
-                run = futures[fut]
-                try:
-                    rec = fut.result()
-                except Exception as exc:  # a failed run counts as undefined, the search goes on
-                    first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
-                    rec = {"status": "failed", "error": f"{type(exc).__name__}: {first.strip()}"}
-                yield run.name, rec
+                task = futures[fut]
+                # a failed run counts as undefined, the search goes on
+                for run, rec in zip(task, task_records(fut, task)):
+                    yield run.name, rec
         except BaseException:
             for fut in futures:
                 fut.cancel()

@@ -113,7 +113,7 @@ def add_threads(p) -> None:
 
 def add_dask_options(p, runs: str) -> None:
     """Where the members of a sweep or a calibration run: --scheduler, --workers,
-    --threads-per-task, --arch (``runs``: what a member is called in the help)."""
+    --threads-per-task, --arch, --batch (``runs``: what a member is called in the help)."""
     p.add_argument(
         "--scheduler",
         default=None,
@@ -138,6 +138,17 @@ def add_dask_options(p, runs: str) -> None:
         "cores on a remote cluster; 0 = all cores)",
     )
     add_arch(p, help="Taichi backend of each run (default cpu)")
+    p.add_argument(
+        "--batch",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"run up to N {runs} that share their compiled kernels (grid, effects, "
+        "numerics) in one task, advanced together (one kernel launch a stage for all of "
+        "them): Taichi's start-up and the kernels' compilation are paid once per task, and "
+        f"each member's results are bitwise those of a run alone; 1 runs each of the {runs} "
+        "in its own task (default: enough tasks for two per worker, at most 16 members each)",
+    )
 
 
 def dask_options(args) -> dict:
@@ -151,6 +162,7 @@ def dask_options(args) -> dict:
         workers=args.workers,
         threads_per_task=args.threads_per_task,
         arch=args.arch,
+        batch=args.batch,
         echo=info,
         overwrite=args.overwrite,
         report=info if args.json else print,

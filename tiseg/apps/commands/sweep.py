@@ -61,17 +61,6 @@ def register(sub) -> None:
         help="replace (or add) a grid axis, e.g. --grid 'domain.resolution=[250,375]' (repeatable)",
     )
     add_dask_options(p, runs="runs")
-    p.add_argument(
-        "--batch",
-        type=int,
-        default=None,
-        metavar="N",
-        help="run up to N members that share their compiled kernels (grid, effects, "
-        "numerics) in one task, advanced together (one kernel launch a stage for all of "
-        "them): Taichi's start-up and the kernels' compilation are paid once per task, and "
-        "each member's results are bitwise those of a run alone; 1 runs each member in its "
-        "own task (default: enough tasks for two per worker, at most 16 members each)",
-    )
     add_overwrite(
         p,
         "write into an --out folder that holds another sweep, replacing its table and "
@@ -149,7 +138,6 @@ def run(args) -> int:
             sweep,
             out,
             progress_interval=args.progress_interval,
-            batch=args.batch,
             **dask_options(args),
         )
     if args.json:

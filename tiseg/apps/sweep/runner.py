@@ -87,10 +87,15 @@ CALIBRATION_FILE = "calibration.json"
 SAME_SWEEP_KEYS = ("name", "scene", "set", "grid", "sample", "times")
 
 
-def check_dask_options(workers: int | None, scheduler: str | None, threads_per_task) -> None:
-    """The options of where members run (`check_workers`, and --threads-per-task: at least 0,
-    and on a local cluster no more than this process may use), checked before any run."""
+def check_dask_options(
+    workers: int | None, scheduler: str | None, threads_per_task, batch: int | None = None
+) -> None:
+    """The options of where members run (`check_workers`, --threads-per-task: at least 0,
+    and on a local cluster no more than this process may use, and --batch: at least 1),
+    checked before any run."""
     check_workers(workers, scheduler)
+    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
+        raise InputError(f"--batch {batch!r}: give a whole number of members >= 1")
     if threads_per_task is not None and threads_per_task < 0:
         raise InputError(f"--threads-per-task={threads_per_task}: must be >= 0 (0 = all cores)")
     if threads_per_task and scheduler is None:
@@ -197,9 +202,7 @@ def run_sweep(
     """
     out = Path(out)
     say = echo or (lambda _s: None)
-    check_dask_options(workers, scheduler, threads_per_task)
-    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
-        raise InputError(f"--batch {batch!r}: give a whole number of members >= 1")
+    check_dask_options(workers, scheduler, threads_per_task, batch)
     if not overwrite:
         check_sweep_folder(sweep, out)
     create_output_folder(out)
@@ -319,7 +322,7 @@ def _run_on_dask(
     client, cluster, threads, where = open_dask(
         scheduler, workers, threads_per_task, len(pending), say
     )
-    size = batch or batch_size(len(pending), _worker_count(client))
+    size = batch or batch_size(len(pending), worker_count(client))
     tasks = batches(pending, size)
     per = "the worker's" if threads is None else (threads or "all")
     grouped = f" in {len(tasks)} tasks of up to {size} runs advanced together" if size > 1 else ""
@@ -338,34 +341,11 @@ def _run_on_dask(
             client.subscribe_topic(PROGRESS_TOPIC, on_progress)
         except Exception:  # older distributed: no events, only completion lines
             pass
-        for task in tasks:  # longest first: better packing
-            specs = [member_spec(run, out, arch, threads, overwrite) for run in task]
-            # retries=1: a transient failure outside execute_run (a worker lost) is tried once
-            # more; execute_run returns a run's own error as a failed record (no retry, no
-            # Dask traceback) and retries a failed ti.init itself. A batch's members that
-            # finished before such a failure are reused by the retry (their done.json).
-            # (a batch runs its members through this module's execute_run, the function
-            # every task of the runner calls, so that a replacement of it covers them too)
-            fut = client.submit(
-                functools.partial(execute_batch, run=execute_run) if len(task) > 1 else execute_run,
-                specs if len(task) > 1 else specs[0],
-                key=f"tiseg-{task[0].name}-{os.urandom(4).hex()}",
-                pure=False,
-                priority=int(sum(r.cost for r in task) // 1e6),
-                retries=1,
-            )
-            futures[fut] = task
+        futures = submit_tasks(client, tasks, out, arch, threads, overwrite)
         done = 0
         for fut in as_completed(list(futures), loop=client.loop):
             task = futures[fut]
-            try:
-                recs = fut.result()
-                recs = recs if isinstance(recs, list) else [recs]
-            except Exception as exc:  # a failed run is reported, the others go on
-                first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
-                error = f"{type(exc).__name__}: {first.strip()}"
-                recs = [{"name": run.name, "status": "failed", "error": error} for run in task]
-            for run, rec in zip(task, recs):
+            for run, rec in zip(task, task_records(fut, task)):
                 done += 1
                 if rec.get("status") == "failed":
                     say(f"[{done}/{len(pending)}] {run.name}: FAILED ({rec['error']})")
@@ -547,7 +527,52 @@ def batches(runs: list, size: int) -> list[list]:
     return sorted(tasks, key=lambda t: -sum(r.cost for r in t))
 
 
-def _worker_count(client) -> int:
+def submit_tasks(
+    client, tasks: list[list], out, arch: str, threads, overwrite: bool, reuse: bool = False
+) -> dict:
+    """Submit each task (a list of runs, `batches`) to Dask: {future: task}. A task of
+    several members runs them together (`execute_batch`), a task of one alone
+    (`execute_run`); ``reuse``: a lone member runs on the simulation of the worker's last
+    member when that was compiled for it (a calibration's points)."""
+    futures = {}
+    for task in tasks:  # longest first: better packing
+        specs = [member_spec(run, out, arch, threads, overwrite) for run in task]
+        if len(task) > 1:
+            # (a batch runs its members through this module's execute_run, the function
+            # every task of the runner calls, so that a replacement of it covers them too)
+            fn, arg = functools.partial(execute_batch, run=execute_run), specs
+        else:
+            fn, arg = execute_run, {**specs[0], "reuse": True} if reuse else specs[0]
+        # retries=1: a transient failure outside execute_run (a worker lost) is tried once
+        # more; execute_run returns a run's own error as a failed record (no retry, no Dask
+        # traceback) and retries a failed ti.init itself. A batch's members that finished
+        # before such a failure are reused by the retry (their done.json), the others
+        # continue from their checkpoints.
+        fut = client.submit(
+            fn,
+            arg,
+            key=f"tiseg-{task[0].name}-{os.urandom(4).hex()}",
+            pure=False,
+            priority=int(sum(r.cost for r in task) // 1e6),
+            retries=1,
+        )
+        futures[fut] = task
+    return futures
+
+
+def task_records(fut, task: list) -> list[dict]:
+    """The completion records of a finished task's runs, in the task's order: a failed
+    record for each where the task itself failed (the others go on)."""
+    try:
+        recs = fut.result()
+        return recs if isinstance(recs, list) else [recs]
+    except Exception as exc:
+        first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
+        error = f"{type(exc).__name__}: {first.strip()}"
+        return [{"name": run.name, "status": "failed", "error": error} for run in task]
+
+
+def worker_count(client) -> int:
     """The Dask workers the client sees now (1 if it cannot tell)."""
     try:
         return max(1, len(client.scheduler_info().get("workers", {})))
