@@ -78,7 +78,13 @@ print(json.dumps({"base_kib": base, "peak_kib": peak, "estimate_bytes": est,
 def _sweep(m: int, r: int, batch: int, workers: int, out: Path, t_end: float = 7.5) -> dict:
     spec = out.with_suffix(".toml")
     spec.write_text(SWEEP.format(m=m, r=r, t_end=t_end, seeds=list(range(1, m + 1))))
-    cmd = [sys.executable, "-m", "tiseg.apps.cli", "-q", "sweep", str(spec), "--out", str(out)]
+    return timed_sweep([str(spec)], batch, workers, out)
+
+
+def timed_sweep(args: list[str], batch: int, workers: int, out: Path) -> dict:
+    """``tiseg sweep ARGS --out OUT --batch B --workers W`` (one Taichi thread a task): its
+    wall time and the members' own run times (their done.json)."""
+    cmd = [sys.executable, "-m", "tiseg.apps.cli", "-q", "sweep", *args, "--out", str(out)]
     cmd += ["--batch", str(batch), "--workers", str(workers), "--threads-per-task", "1"]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, env=ENV)

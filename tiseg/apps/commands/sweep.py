@@ -40,7 +40,8 @@ def register(sub) -> None:
         "DIR/sensitivity.png, and a [probability] table DIR/probability.nc (per-cell "
         "probabilities of exceeding thresholds of h_max and speed_max, means and quantiles of "
         "h_max and of the arrival time; `tiseg render DIR` draws them). Finished runs (folders with "
-        "done.json) are reused, so an interrupted sweep resumes where it stopped. "
+        "done.json) are reused and runs cut off continue from their checkpoints, so an "
+        "interrupted sweep resumes where it stopped. "
         "Every combination is validated before anything runs.",
     )
     p.add_argument(
