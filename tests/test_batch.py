@@ -70,6 +70,10 @@ def test_a_batch_member_is_the_member_run_alone(ti_cpu, tmp_path, name):
         assert np.array_equal(batch.sims[e].conserved(), alone.conserved())
         _same_runs(dirs[e], tmp_path / f"alone{e}")
     assert not np.array_equal(batch.sims[0].conserved(), batch.sims[1].conserved())
+    # one set of observer kernels for the batch, each member at its own index
+    assert len({id(sim.guard.store) for sim in batch.sims}) == 1
+    assert len({id(sim.peaks.store) for sim in batch.sims}) == 1
+    assert [sim.guard.member for sim in batch.sims] == list(range(len(scenes)))
 
 
 def test_a_member_that_fails_stops_alone(ti_cpu, tmp_path):

@@ -400,4 +400,4 @@ def test_step_to_a_time_already_reached_is_an_input_error(ti_cpu):
 def test_set_parameters_reaches_the_guard(ti_cpu):
     sim = Simulation(small())
     sim.set_parameters({"numerics.h_min": 5e-5})
-    assert sim.guard.par.to_numpy()[2] == 5e-5 and sim.op.cfg.h_min == 5e-5
+    assert sim.guard.store.par.to_numpy()[0, 2] == 5e-5 and sim.op.cfg.h_min == 5e-5

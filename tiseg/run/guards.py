@@ -79,58 +79,35 @@ class Violation:
 
 
 @data_oriented
-class StateGuard:
-    """Bounds and finiteness check of slot 0 of ``op``, plus a device copy of the last good state.
-    ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator.
+class GuardStore:
+    """The guard's fields for every member of an operator's state, on the device: the
+    result table (members, 4, 2), each member's tolerances and h_min, and the last good
+    state and budget. One per state (`OperatorState.observer`), which each member's
+    `StateGuard` uses with its own index, so a batch traces and compiles these kernels
+    once."""
 
-    ``h_ref``: thickness scale [m] for the round-off tolerance on h; ``mass_tol``: relative
-    tolerance of the mass balance (None: a default for the precision, 1e-6 in f64 and 1e-3 in
-    f32; 0 or a negative value switches the mass check off).
-    """
-
-    def __init__(self, op, h_ref: float, mass_tol: float | None = None, member: int = 0):
-        self.op = op
-        self.member = int(member)  # the ensemble member whose state it checks
-        lay = op.lay
-        self.lay = lay
-        eps = float(np.finfo(op.np_fp).eps)
-        # a few ulps: the scheme itself clamps exactly, so anything beyond this is a real breach
-        self.h_tol = 16.0 * eps * h_ref
-        self.phi_tol = 16.0 * eps
-        if mass_tol is None:
-            mass_tol = 1e-6 if op.np_fp == np.float64 else 1e-3
-        self.mass_tol = float(mass_tol)
-        ft = self.field_tree = FieldTree()  # freed with the guard
-        self.res = ft.field(ti.i32, (4, 2))
-        self.par = ft.field(op.fp, 3)  # h_tol, phi_tol, h_min
-        self.good = ft.vector(op.nc, op.fp, (op.NX, op.NY))
-        self.good_bud = ft.field(op.fp, NBUDGET)
+    def __init__(self, state):
+        self.op = state
+        M = state.M
+        ft = self.field_tree = FieldTree()  # freed with this object
+        self.res = ft.field(ti.i32, (M, 4, 2))
+        self.par = ft.field(state.fp, (M, 3))  # h_tol, phi_tol, h_min
+        self.good = ft.vector(state.nc, state.fp, (state.NX, state.NY, M))
+        self.good_bud = ft.field(state.fp, (M, NBUDGET))
         ft.finalize()
         ft.free_with(self)
-        self.good_meta: dict | None = None  # t, steps, ... of the copy in self.good
-        self.set_params()
+        self.par_host = np.zeros((M, 3), dtype=state.np_fp)
 
-    def set_params(self, h_ref: float | None = None) -> None:
-        """Take the operator's h_min again (after Simulation.set_parameters), and the
-        thickness scale ``h_ref`` [m] of the round-off tolerance on h where given."""
-        op = self.op
-        if h_ref is not None:
-            self.h_tol = 16.0 * float(np.finfo(op.np_fp).eps) * h_ref
-        self.par.from_numpy(
-            np.array([self.h_tol, self.phi_tol, op.cfgs[self.member].h_min], dtype=op.np_fp)
-        )
-
-    # ------------------------------------------------------------------ kernels
     @ti.kernel
     def _scan(self, e: ti.i32, serial: ti.template()):
         gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
         ti.loop_config(serialize=True)
         for r in range(4):
-            self.res[r, 0] = 0
-            self.res[r, 1] = _NO_CELL
-        h_tol = self.par[0]
-        phi_tol = self.par[1]
-        hmin = self.par[2]
+            self.res[e, r, 0] = 0
+            self.res[e, r, 1] = _NO_CELL
+        h_tol = self.par[e, 0]
+        phi_tol = self.par[e, 1]
+        hmin = self.par[e, 2]
         ti.loop_config(serialize=serial)  # as the operator's loops (operator.py)
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
             v = self.op.q[0, i, j, e]
@@ -153,24 +130,69 @@ class StateGuard:
                     elif hp > (1.0 + phi_tol) * h:
                         rule = PHI_HIGH
             if rule >= 0:
-                ti.atomic_add(self.res[rule, 0], 1)
-                ti.atomic_min(self.res[rule, 1], idx)
+                ti.atomic_add(self.res[e, rule, 0], 1)
+                ti.atomic_min(self.res[e, rule, 1], idx)
 
     @ti.kernel
     def _keep(self, e: ti.i32, serial: ti.template()):
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange(self.op.NX, self.op.NY):
-            self.good[i, j] = self.op.q[0, i, j, e]
+            self.good[i, j, e] = self.op.q[0, i, j, e]
         ti.loop_config(serialize=True)
         for b in range(NBUDGET):
-            self.good_bud[b] = self.op.bud[e, 0, b]
+            self.good_bud[e, b] = self.op.bud[e, 0, b]
+
+    @ti.kernel
+    def _good_out(self, e: ti.i32, out: ti.types.ndarray(), serial: ti.template()):
+        """out[c, i, j] := component c of member e's last good state, every cell."""
+        ti.loop_config(serialize=serial)
+        for i, j in ti.ndrange(self.op.NX, self.op.NY):
+            v = self.good[i, j, e]
+            for c in ti.static(range(self.op.nc)):
+                out[c, i, j] = v[c]
+
+
+class StateGuard:
+    """Bounds and finiteness check of slot 0 of member ``member`` of ``op``, plus a device
+    copy of its last good state (the state's `GuardStore`). ``op``: the operator's state
+    (`tiseg.solver.numerics.state.OperatorState`) or the operator.
+
+    ``h_ref``: thickness scale [m] for the round-off tolerance on h; ``mass_tol``: relative
+    tolerance of the mass balance (None: a default for the precision, 1e-6 in f64 and 1e-3 in
+    f32; 0 or a negative value switches the mass check off).
+    """
+
+    def __init__(self, op, h_ref: float, mass_tol: float | None = None, member: int = 0):
+        self.op = op = getattr(op, "state", op)
+        self.member = int(member)  # the ensemble member whose state it checks
+        self.store = op.observer(GuardStore)
+        lay = op.lay
+        self.lay = lay
+        eps = float(np.finfo(op.np_fp).eps)
+        # a few ulps: the scheme itself clamps exactly, so anything beyond this is a real breach
+        self.h_tol = 16.0 * eps * h_ref
+        self.phi_tol = 16.0 * eps
+        if mass_tol is None:
+            mass_tol = 1e-6 if op.np_fp == np.float64 else 1e-3
+        self.mass_tol = float(mass_tol)
+        self.good_meta: dict | None = None  # t, steps, ... of the copy in the store
+        self.set_params()
+
+    def set_params(self, h_ref: float | None = None) -> None:
+        """Take the operator's h_min again (after Simulation.set_parameters), and the
+        thickness scale ``h_ref`` [m] of the round-off tolerance on h where given."""
+        op, store = self.op, self.store
+        if h_ref is not None:
+            self.h_tol = 16.0 * float(np.finfo(op.np_fp).eps) * h_ref
+        store.par_host[self.member] = (self.h_tol, self.phi_tol, op.cfgs[self.member].h_min)
+        store.par.from_numpy(store.par_host)
 
     # ------------------------------------------------------------------ host side
     def scan(self, t: float, step: int) -> Violation | None:
         """Check slot 0; the first broken rule (in the order of RULES) or None."""
         self.op.check_alive()
-        self._scan(self.member, self.op.serial_loops(whole=True))
-        res = self.res.to_numpy()
+        self.store._scan(self.member, self.op.serial_loops(whole=True))
+        res = self.store.res.to_numpy()[self.member]
         for rule in range(4):
             count, idx = int(res[rule, 0]), int(res[rule, 1])
             if count:
@@ -194,15 +216,17 @@ class StateGuard:
 
     def keep(self, meta: dict) -> None:
         """Copy slot 0 and its budget into the last-good buffer (on the device)."""
-        self._keep(self.member, self.op.serial_loops(whole=True))
+        self.store._keep(self.member, self.op.serial_loops(whole=True))
         self.good_meta = dict(meta)
 
     def last_good(self) -> tuple[np.ndarray, np.ndarray, dict] | None:
         """(q with ghosts (nc, NX, NY) in float64, budget, meta) of the last state that passed."""
         if self.good_meta is None:
             return None
-        q = np.moveaxis(self.good.to_numpy(), -1, 0).astype(np.float64)
-        return q, self.good_bud.to_numpy().astype(np.float64), dict(self.good_meta)
+        q = np.empty((self.op.nc, self.op.NX, self.op.NY), dtype=self.op.np_fp)
+        self.store._good_out(self.member, q, self.op.serial_loops(whole=True))
+        bud = self.store.good_bud.to_numpy()[self.member]
+        return q.astype(np.float64), bud.astype(np.float64), dict(self.good_meta)
 
     def _describe(self, rule: int, count: int, idx: int, t: float, step: int) -> Violation:
         lay = self.lay

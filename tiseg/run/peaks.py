@@ -50,30 +50,37 @@ STENCIL_HALO = 3  # cells either side of the active range that a step writes
 
 
 @data_oriented
-class PeakFields:
-    """The running peaks of slot 0 of ``op``, on the interior cells, in the run's precision.
-    ``op``: the operator's state (`tiseg.solver.numerics.state.OperatorState`) or the operator."""
+class PeakStore:
+    """The running peaks of every member of an operator's state, on the device: fields
+    (nx, ny, members), the members innermost as in the state. One per state
+    (`OperatorState.observer`), which each member's `PeakFields` uses with its own index, so
+    a batch traces and compiles these kernels once."""
 
-    def __init__(self, op, member: int = 0):
-        self.op = op
-        self.member = int(member)  # the ensemble member whose state it folds in
-        lay = op.lay
-        self.shape = (lay.nx, lay.ny)
+    def __init__(self, state):
+        self.op = state
+        lay = state.lay
+        shape = (lay.nx, lay.ny, state.M)
         ft = self.field_tree = FieldTree()  # freed with this object
-        self.h_max = ft.field(op.fp, self.shape)
-        self.speed = ft.field(op.fp, self.shape)
-        self.arrival = ft.field(op.fp, self.shape)
+        self.h_max = ft.field(state.fp, shape)
+        self.speed = ft.field(state.fp, shape)
+        self.arrival = ft.field(state.fp, shape)
         ft.finalize()
         ft.free_with(self)
-        self.launches = 0  # kernel launches of update() (a test counts them)
 
-    # ------------------------------------------------------------------ kernels
     @ti.kernel
-    def _update(self, e: ti.i32, t: float, whole: ti.template(), serial: ti.template()):
-        """Fold the state of slot 0 at time t into the peaks: on every interior cell
-        (``whole``), else on the active x range and the cells a step writes beside it. The
-        range and h_min are read on the device (the operator's fields): one argument to pass,
-        since a launch's cost on small grids is mostly its arguments and set-up."""
+    def _update(
+        self,
+        e: ti.i32,
+        t: float,
+        fresh: ti.template(),
+        whole: ti.template(),
+        serial: ti.template(),
+    ):
+        """Fold the state of slot 0 of member e at time t into its peaks: on every interior
+        cell (``whole``), else on the active x range and the cells a step writes beside it;
+        ``fresh``: begin anew (every cell). The range and h_min are read on the device (the
+        operator's fields): one argument to pass, since a launch's cost on small grids is
+        mostly its arguments and set-up."""
         gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
         hmin = self.op.par[e, Params.H_MIN]
         lo, hi = gx, gx + nx
@@ -85,65 +92,94 @@ class PeakFields:
             v = self.op.q[0, i, gy + j, e]
             h = v[0]
             k = i - gx
-            if h > self.h_max[k, j]:  # (a NaN compares false: the guard reports it)
-                self.h_max[k, j] = h
+            if ti.static(fresh):
+                self.h_max[k, j, e] = 0.0
+                self.speed[k, j, e] = 0.0
+                self.arrival[k, j, e] = NEVER
+            if h > self.h_max[k, j, e]:  # (a NaN compares false: the guard reports it)
+                self.h_max[k, j, e] = h
             if h >= hmin:
                 m2 = v[1] * v[1]
                 if ti.static(not self.op.is_1d):
                     m2 += v[self.op.HV] * v[self.op.HV]
                 s = ti.sqrt(m2) / h
-                if s > self.speed[k, j]:
-                    self.speed[k, j] = s
-                if self.arrival[k, j] < 0.0:
-                    self.arrival[k, j] = t
+                if s > self.speed[k, j, e]:
+                    self.speed[k, j, e] = s
+                if self.arrival[k, j, e] < 0.0:
+                    self.arrival[k, j, e] = t
 
-    # ------------------------------------------------------------------ host side
+    @ti.kernel
+    def _copy(self, e: ti.i32, a: ti.types.ndarray(), out: ti.template(), serial: ti.template()):
+        """``out``: a[0..2, k, j] := member e's h_max, speed, arrival; else the reverse."""
+        ti.loop_config(serialize=serial)
+        for k, j in ti.ndrange(self.op.nx, self.op.ny):
+            if ti.static(out):
+                a[0, k, j] = self.h_max[k, j, e]
+                a[1, k, j] = self.speed[k, j, e]
+                a[2, k, j] = self.arrival[k, j, e]
+            else:
+                self.h_max[k, j, e] = a[0, k, j]
+                self.speed[k, j, e] = a[1, k, j]
+                self.arrival[k, j, e] = a[2, k, j]
+
+
+class PeakFields:
+    """The running peaks of slot 0 of member ``member`` of ``op``, on the interior cells, in
+    the run's precision. ``op``: the operator's state (`tiseg.solver.numerics.state
+    .OperatorState`) or the operator. The fields are the state's `PeakStore`."""
+
+    def __init__(self, op, member: int = 0):
+        self.op = getattr(op, "state", op)
+        self.member = int(member)  # the ensemble member whose state it folds in
+        self.store = self.op.observer(PeakStore)
+        self.shape = (self.op.lay.nx, self.op.lay.ny)
+        self.launches = 0  # kernel launches of start() and update() (a test counts them)
+
     def start(self, t: float) -> None:
         """Begin anew from the state of slot 0 at time t (every cell)."""
-        self.h_max.fill(0.0)
-        self.speed.fill(0.0)
-        self.arrival.fill(NEVER)
-        self._update(self.member, float(t), True, self.op.serial_loops(whole=True))
+        self.store._update(self.member, float(t), True, True, self.op.serial_loops(whole=True))
         self.launches += 1
 
     def update(self, t: float) -> None:
         """Fold in the state a step just ended with at time t: only the cells it could change
         (the operator's active range, as the step left it, and STENCIL_HALO cells beside it)."""
-        self._update(self.member, t, False, self.op.serial_loops())
+        self.store._update(self.member, t, False, False, self.op.serial_loops())
         self.launches += 1
+
+    def _fields(self) -> np.ndarray:
+        """h_max, speed, arrival as stored, (3, nx, ny) in the run's precision."""
+        a = np.empty((3, *self.shape), dtype=self.op.np_fp)
+        self.store._copy(self.member, a, True, self.op.serial_loops(whole=True))
+        return a
 
     def arrays(self) -> dict[str, np.ndarray]:
         """``h_max``, ``speed_max``, ``arrival_time`` as float64 arrays (ny, nx), NaN where
         missing (never wet)."""
-        arrival = self.arrival.to_numpy().astype(np.float64).T
+        h_max, speed, arrival = (f.astype(np.float64).T for f in self._fields())
         never = arrival < 0.0
-        speed = self.speed.to_numpy().astype(np.float64).T
         return {
-            "h_max": self.h_max.to_numpy().astype(np.float64).T.copy(),
+            "h_max": h_max.copy(),
             "speed_max": np.where(never, np.nan, speed),
             "arrival_time": np.where(never, np.nan, arrival),
         }
 
     def state(self) -> dict[str, np.ndarray]:
         """The fields as stored (nx, ny), in the run's precision: the checkpoint's arrays."""
-        return {
-            CHECKPOINT_KEYS["h_max"]: self.h_max.to_numpy(),
-            CHECKPOINT_KEYS["speed"]: self.speed.to_numpy(),
-            CHECKPOINT_KEYS["arrival"]: self.arrival.to_numpy(),
-        }
+        a = self._fields()
+        return {CHECKPOINT_KEYS[key]: a[k] for k, key in enumerate(("h_max", "speed", "arrival"))}
 
     def restore(self, arrays: dict) -> bool:
         """Inverse of `state`; False (and nothing changed) when ``arrays`` lacks them, a
         ValueError when one has the wrong shape."""
-        pairs = (("h_max", self.h_max), ("speed", self.speed), ("arrival", self.arrival))
-        if not all(CHECKPOINT_KEYS[key] in arrays for key, _ in pairs):
+        keys = [CHECKPOINT_KEYS[key] for key in ("h_max", "speed", "arrival")]
+        if not all(key in arrays for key in keys):
             return False
-        data = [np.asarray(arrays[CHECKPOINT_KEYS[key]]) for key, _ in pairs]
-        for (key, _), a in zip(pairs, data):
+        data = [np.asarray(arrays[key]) for key in keys]
+        for key, a in zip(keys, data):
             if a.shape != self.shape or a.dtype.kind != "f":
-                raise ValueError(f"{CHECKPOINT_KEYS[key]} is {a.dtype} {a.shape}, not {self.shape}")
-        for (_, f), a in zip(pairs, data):
-            f.from_numpy(a.astype(self.op.np_fp))
+                raise ValueError(f"{key} is {a.dtype} {a.shape}, not {self.shape}")
+        a = np.ascontiguousarray(np.stack(data).astype(self.op.np_fp))
+        self.store._copy(self.member, a, False, self.op.serial_loops(whole=True))
         return True
 
 

@@ -211,6 +211,7 @@ class OperatorState:
         self._par_host = np.zeros((self.M, self.params.end), dtype=self.np_fp)
         self._prof_host = np.zeros((self.M, NY)) if self.inflow_prof is not None else None
         self._running = None  # the running flags last written (set_running)
+        self._observers = {}  # the run's observers of every member (observer)
 
     def finalize(self) -> None:
         """The fields exist from here on; they are freed with this object."""
@@ -246,6 +247,16 @@ class OperatorState:
                 self._prof_host[e, self.gy : self.gy + self.ny] = cfg.inflow_phi_profile(y)
             self.inflow_prof.from_numpy(self._prof_host.astype(self.np_fp))
         self.inflow_key = [None] * self.M
+
+    def observer(self, cls):
+        """This state's one instance of ``cls``, a run-side class that reads the state on
+        the device for each member (peak fields, guard: `tiseg.run.peaks`,
+        `tiseg.run.guards`), made with ``cls(self)`` on first use: every member of a batch
+        uses it with its own index, so its kernels are traced and compiled once, not once a
+        member. It lives as long as this state."""
+        if cls not in self._observers:
+            self._observers[cls] = cls(self)
+        return self._observers[cls]
 
     def _member(self, member: int) -> int:
         if not (isinstance(member, (int, np.integer)) and 0 <= member < self.M):
