@@ -15,6 +15,7 @@ from tests.solver_helpers import exit_code
 from tiseg.apps.sweep import load_sweep
 from tiseg.apps.sweep import members
 from tiseg.apps.sweep.members import compiled_fingerprint, execute_batch, execute_run
+from tiseg.apps.sweep import runner
 from tiseg.apps.sweep.runner import batch_size, batches, member_spec
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -107,6 +108,35 @@ def test_tasks_group_members_that_share_kernels():
     for t in tasks:
         assert len({compiled_fingerprint(r.scene) for r in t}) == 1
     assert sorted(r.name for t in tasks for r in t) == sorted(r.name for r in sweep.runs)
+
+
+def test_the_default_batch_fits_a_workers_share_of_the_memory(monkeypatch):
+    """Without --batch a local task takes no more members than a worker's share of the
+    available memory holds: memory_needed counts a batch's Taichi fields once a member and
+    its host arrays and overhead once (by hand below)."""
+    from tiseg.run import limits
+    from tiseg.run.batch import slots_of
+    from tiseg.solver.numerics.config import config_from_scene
+
+    sweep = load_sweep(TINY, grid_overrides={"inflow.seed": list(range(1, 17))})
+    scene = sweep.runs[0].scene
+    lay, nslots = config_from_scene(scene).layout, slots_of(scene)
+    state = lay.nc * lay.NX * lay.NY * 8  # f64
+    one = limits.memory_needed(lay, nslots, "f64")
+    assert one == (2 * nslots + limits.WORK_ARRAYS + limits.HOST_ARRAYS["f64"]) * state + (
+        limits.OVERHEAD
+    )
+    more = (nslots + limits.WORK_ARRAYS) * state
+    assert limits.memory_needed(lay, nslots, "f64", members=5) == one + 4 * more
+    assert runner.default_batch(sweep.runs, 2, local=True) in (8, runner.MAX_AUTO_BATCH)
+    # two workers sharing room for one member and three more each: tasks of 4
+    monkeypatch.setattr(limits, "memory_available", lambda: 2 * (one + 3 * more + more // 2))
+    assert runner.default_batch(sweep.runs, 2, local=True) == 4
+    assert runner.default_batch(sweep.runs, 2, local=False) == 8  # a remote cluster's: unknown
+    monkeypatch.setattr(limits, "memory_available", lambda: one // 2)
+    assert runner.default_batch(sweep.runs, 2, local=True) == 1  # (each alone then says why)
+    monkeypatch.setattr(limits, "memory_available", lambda: None)
+    assert runner.default_batch(sweep.runs, 2, local=True) == 8
 
 
 @pytest.mark.parametrize("value", ["0", "-2"])

@@ -35,6 +35,23 @@ from .limits import check_memory
 from .simulation import RunSession, Simulation
 
 
+def slots_of(scene) -> int:
+    """The state slots a simulation of ``scene`` holds: its stepper's and two more (the
+    state before a step that crosses a snapshot time, and the snapshot), as `Simulation`."""
+    cfg = config_from_scene(scene)
+    stepper = stepper_for(scene.numerics, is_1d=scene.is_1d, viscous=cfg.viscous)
+    return max(stepper.slots, 2) + 2
+
+
+def members_that_fit(scene, share: int = 1) -> int | None:
+    """The most members of ``scene`` a batch can hold in 1/``share`` of the memory available
+    now (None where unknown): what `tiseg sweep` gives a task at most by default."""
+    from .limits import members_that_fit as fit
+
+    layout = config_from_scene(scene).layout
+    return fit(layout, slots_of(scene), scene.numerics.precision, share)
+
+
 class Batch:
     def __init__(self, scenes, **kwargs):
         """The members of ``scenes`` (at least two, sharing their compiled options) on one
@@ -44,15 +61,14 @@ class Batch:
             raise InputError("a batch takes at least two scenes (run one alone as a Simulation)")
         # the first member's simulation fixes Taichi and the operator's options
         cfg = config_from_scene(scenes[0])
-        stepper = stepper_for(scenes[0].numerics, is_1d=scenes[0].is_1d, viscous=cfg.viscous)
-        nslots = max(stepper.slots, 2) + 2  # as Simulation's (its PREV and SNAP slots)
+        nslots = slots_of(scenes[0])
         from .. import backend
 
         prec = kwargs.get("precision") or scenes[0].numerics.precision
         if not backend.is_initialised():
             backend.init(kwargs.get("arch") or "cpu", prec, kwargs.get("threads", 0))
         if backend.state().arch == "cpu":
-            check_memory(cfg.layout, nslots * len(scenes), backend.state().precision)
+            check_memory(cfg.layout, nslots, backend.state().precision, members=len(scenes))
         self.op = TaichiOperator(cfg, nslots=nslots, members=len(scenes))
         self.sims = [
             Simulation(sc, operator=self.op, member=e, **kwargs) for e, sc in enumerate(scenes)

@@ -49,13 +49,26 @@ SELF_CGROUP = Path("/proc/self/cgroup")
 UNLIMITED = 2**60
 
 
-def memory_needed(layout, nslots: int, precision: str) -> int:
-    """Bytes the run adds at its peak (an upper estimate, within 10 % on large grids: see HOST_ARRAYS)."""
+def memory_needed(layout, nslots: int, precision: str, members: int = 1) -> int:
+    """Bytes the run adds at its peak (an upper estimate, within 10 % on large grids: see
+    HOST_ARRAYS); ``members``: a batch's (`tiseg.run.batch`), whose Taichi fields hold every
+    member while its host arrays are one member's at a time."""
     value = 8 if precision == "f64" else 4
     state = layout.nc * layout.NX * layout.NY * value
-    taichi = (nslots + WORK_ARRAYS) * state
+    taichi = members * (nslots + WORK_ARRAYS) * state
     host = (nslots + HOST_ARRAYS.get(precision, HOST_ARRAYS["f32"])) * state
     return taichi + host + OVERHEAD
+
+
+def members_that_fit(layout, nslots: int, precision: str, share: int = 1) -> int | None:
+    """The most members of a batch on this grid that fit in 1/``share`` of the memory
+    available now (`memory_needed`; at least 1), or None where the memory is unknown."""
+    have = memory_available()
+    if have is None:
+        return None
+    one = memory_needed(layout, nslots, precision)
+    more = memory_needed(layout, nslots, precision, members=2) - one  # each further member
+    return max(1, 1 + int((have / max(share, 1) - one) // more))
 
 
 def memory_available(meminfo=None, cgroup_root=None, self_cgroup=None) -> int | None:
@@ -134,16 +147,19 @@ def _read_int(path: Path) -> int | None:
         return None
 
 
-def check_memory(layout, nslots: int, precision: str) -> None:
-    """InputError when the grid's fields cannot fit in the available memory."""
-    need = memory_needed(layout, nslots, precision)
+def check_memory(layout, nslots: int, precision: str, members: int = 1) -> None:
+    """InputError when the grid's fields (of ``members`` members) cannot fit in the
+    available memory."""
+    need = memory_needed(layout, nslots, precision, members)
     have = memory_available()
     if have is not None and need > have:
+        what = f"{members} members on the grid" if members > 1 else "the grid"
+        fewer = "fewer members in a batch (--batch), " if members > 1 else ""
         raise InputError(
-            f"the grid of {layout.nx} x {layout.ny} cells needs about {need / GB:.3g} GB of "
+            f"{what} of {layout.nx} x {layout.ny} cells needs about {need / GB:.3g} GB of "
             f"memory in {precision} and {have / GB:.3g} GB are available (free memory, within "
-            "any cgroup memory limit); use a coarser domain.resolution (memory grows with its "
-            "square in 2D)" + (" or --precision f32" if precision == "f64" else "")
+            f"any cgroup memory limit); use {fewer}a coarser domain.resolution (memory grows "
+            "with its square in 2D)" + (" or --precision f32" if precision == "f64" else "")
         )
 
 

@@ -13,8 +13,8 @@ from ...backend import available_cores
 from ...errors import TisegError
 from ..sweep.members import check_member_folder, read_marker, refresh_metrics
 from ..sweep.runner import (
-    batch_size,
     batches,
+    default_batch,
     member_spec,
     open_dask,
     progress_handler,
@@ -225,7 +225,9 @@ class Evaluator:
             # once (a design, the sensitivity runs, the seeds) advance together in tasks of
             # up to `batch` (sweep.members.execute_batch), and a worker runs a lone point
             # on the simulation of its last (execute_run's reuse)
-            size = self.batch or batch_size(len(runs), worker_count(self._client))
+            size = self.batch or default_batch(
+                runs, worker_count(self._client), local=self.scheduler is None
+            )
             futures = submit_tasks(
                 self._client,
                 batches(runs, size),

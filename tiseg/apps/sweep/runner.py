@@ -322,7 +322,7 @@ def _run_on_dask(
     client, cluster, threads, where = open_dask(
         scheduler, workers, threads_per_task, len(pending), say
     )
-    size = batch or batch_size(len(pending), worker_count(client))
+    size = batch or default_batch(pending, worker_count(client), local=scheduler is None)
     tasks = batches(pending, size)
     per = "the worker's" if threads is None else (threads or "all")
     grouped = f" in {len(tasks)} tasks of up to {size} runs advanced together" if size > 1 else ""
@@ -515,6 +515,22 @@ def batch_size(n_runs: int, workers: int) -> int:
     most `MAX_AUTO_BATCH`."""
     per = math.ceil(n_runs / max(2 * workers, 1))
     return max(1, min(per, MAX_AUTO_BATCH))
+
+
+def default_batch(runs: list, workers: int, local: bool) -> int:
+    """The members per task when --batch is not given: `batch_size`, and on a local cluster
+    no more than the largest member's batch can hold in a worker's share of the memory
+    available now (`tiseg.run.batch.members_that_fit`; a remote cluster's memory is not
+    known here)."""
+    size = batch_size(len(runs), workers)
+    if local and size > 1 and runs:
+        from ...run.batch import members_that_fit
+
+        largest = max(runs, key=lambda r: r.scene.domain.nx * r.scene.domain.ny)
+        fit = members_that_fit(largest.scene, share=workers)
+        if fit is not None:
+            size = min(size, fit)
+    return size
 
 
 def batches(runs: list, size: int) -> list[list]:
