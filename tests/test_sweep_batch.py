@@ -79,6 +79,26 @@ def test_a_batch_gives_each_member_the_bits_of_its_run_alone(ti_cpu, tmp_path):
     assert not np.array_equal(f0["h"], f1["h"])
 
 
+def test_a_workers_next_task_reuses_its_batch(ti_cpu, tmp_path):
+    """A worker's next task of members with the same kernels, as many, runs on the batch of
+    its last (no new Taichi runtime: each member given its scene and reset), and each member
+    is bitwise its run alone."""
+    from tiseg import backend
+
+    first = load_sweep(TINY, grid_overrides={"inflow.seed": [1]})
+    second = load_sweep(TINY, grid_overrides={"inflow.seed": [2]})
+    members._LAST.clear()
+    execute_batch(_specs(first, tmp_path / "first"))
+    g = backend.state().generation
+    batch = members._LAST["batch"]
+    again = execute_batch(_specs(second, tmp_path / "second"))
+    assert backend.state().generation == g and members._LAST["batch"] is batch
+    assert [r["status"] for r in again] == ["done"] * 2
+    for run, spec in zip(second.runs, _specs(second, tmp_path / "alone")):
+        execute_run(spec)
+        _same_run(tmp_path / "second" / run.name, tmp_path / "alone" / run.name)
+
+
 def test_a_batch_of_different_kernels_builds_a_simulation_for_each(ti_cpu, tmp_path):
     """Two grids in one batch: the second member needs other kernels and gets its own
     simulation; both equal their runs alone, and a batch is reused as a sweep's folders are."""

@@ -58,7 +58,9 @@ class MemberOperator:
         return self._op.sums(slot, self.member)
 
     def set_params(self, cfg) -> None:
+        """New run-time numbers: the whole interior active again, as the operator makes it."""
         self._op.set_params(cfg, self.member)
+        self.wanted = None
 
     def blend(self, dst: int, a: int, b: int, theta: float) -> None:
         """A snapshot's blend of this member's slots alone."""

@@ -231,18 +231,14 @@ def _resume_member(sim, run_dir: Path, ck: dict | None) -> float | None:
 def _run_together(group: list) -> list:
     """Run the locked members of ``group`` (sharing compiled kernels) as one batch; their
     (index, record)s."""
-    from ...run.batch import Batch
-
-    _LAST.clear()  # the batch's operator replaces the process's last simulation
     specs = [item[1] for item in group]
-    spec0, scene0 = specs[0], group[0][3]
+    spec0 = specs[0]
     t0 = _time.perf_counter()
     threads = spec0.get("threads", 0)
     if threads is None:
         threads = _worker_threads()
     try:
-        backend.init(spec0.get("arch", "cpu"), scene0.numerics.precision, int(threads), force=True)
-        batch = Batch([item[3] for item in group])
+        batch = _batch_for([item[3] for item in group], spec0.get("arch", "cpu"), int(threads))
         resumed = [_resume_member(sim, item[2], item[5]) for sim, item in zip(batch.sims, group)]
         reports = [
             _reporter(s["name"], item[3].t_end) if s.get("report", True) else None
@@ -250,6 +246,7 @@ def _run_together(group: list) -> list:
         ]
         results = batch.run(out_dirs=[item[2] for item in group], on_output=reports, overwrite=True)
     except Exception as exc:  # the batch as a whole failed: every member reports it
+        _LAST.clear()  # (its state is not known: the next task starts afresh)
         failed = _failure(spec0, exc)
         return [(item[0], {**failed, "name": item[1]["name"]}) for item in group]
     out = []
@@ -260,6 +257,27 @@ def _run_together(group: list) -> list:
         spec = {**spec, "batch_members": len(group), "resumed_at": t}
         out.append((k, _guarded(spec, _member_record, spec, run_dir, scene, sim, res, t0)))
     return out
+
+
+def _batch_for(scenes: list, arch: str, threads: int):
+    """A batch of ``scenes``: the process's last one (`_LAST`) where it was built for the
+    same kernels, number of members and threads, each member given its scene and reset to
+    its initial state (a worker's next task of a sweep: no Taichi start-up, no kernels
+    traced or loaded again); else a new one on a fresh Taichi runtime, kept for the next."""
+    from ...run.batch import Batch
+
+    key = ("batch", arch, threads, compiled_fingerprint(scenes[0]), len(scenes))
+    if _LAST.get("key") == key and _LAST.get("generation") == backend.generation():
+        batch = _LAST["batch"]
+        for sim, scene in zip(batch.sims, scenes):
+            sim.set_parameters(scene=scene)
+            sim.reset()
+        return batch
+    _LAST.clear()  # the batch's operator replaces the process's last simulation
+    backend.init(arch, scenes[0].numerics.precision, threads, force=True)
+    batch = Batch(scenes)
+    _LAST.update(key=key, batch=batch, generation=backend.generation())
+    return batch
 
 
 def _guarded(spec: dict, fn, *args) -> dict:
