@@ -105,6 +105,13 @@ def test_members_must_share_their_compiled_options(ti_cpu):
         Batch([a])
 
 
+def test_members_write_folders_of_their_own(ti_cpu, tmp_path):
+    scenes = [load_scene("fingers", {"domain.resolution": 40, "inflow.seed": s}) for s in (1, 2)]
+    with pytest.raises(InputError, match="two members were given the folder"):
+        Batch(scenes).run(out_dirs=[tmp_path / "run", tmp_path / "." / "run"])
+    assert not (tmp_path / "run").exists()
+
+
 class _Kill(Exception):
     """Stands for a kill of the whole batch's process."""
 

@@ -110,6 +110,12 @@ class Batch:
         on_output = list(on_output) if on_output is not None else [None] * n
         if len(out_dirs) != n or len(on_output) != n:
             raise InputError(f"Batch.run: give one folder and one callback per member ({n})")
+        folders = [Path(d).resolve() for d in out_dirs if d is not None]
+        if len(set(folders)) < len(folders):
+            same = next(str(d) for d in folders if folders.count(d) > 1)
+            raise InputError(
+                f"Batch.run: two members were given the folder {same!r}; each writes its own"
+            )
         kwargs.setdefault("progress", False)
         sessions = [
             RunSession(sim, out_dirs[e], on_output=on_output[e], **kwargs)
