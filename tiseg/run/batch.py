@@ -32,6 +32,7 @@ from ..solver.numerics.config import config_from_scene
 from ..solver.numerics.operator import TaichiOperator
 from ..solver.timestepping import stepper_for
 from .limits import check_memory
+from .member_view import SharedSums
 from .simulation import RunSession, Simulation
 
 
@@ -74,6 +75,10 @@ class Batch:
             Simulation(sc, operator=self.op, member=e, **kwargs) for e, sc in enumerate(scenes)
         ]
         self.views = [sim.op for sim in self.sims]
+        # slot 0's totals after a step: every member's in one launch (diagnostics rows, checks)
+        self.sums = SharedSums(self.op)
+        for view in self.views:
+            view.shared_sums = self.sums
 
     @classmethod
     def resume(cls, run_dirs, **kwargs) -> "Batch":
@@ -123,6 +128,7 @@ class Batch:
         ]
         results: list = [None] * n
         live = [True] * n
+        self.sums.clear()  # (the state may have been set since the last step)
 
         def stop(e: int, exc: Exception) -> None:
             results[e] = exc
@@ -199,10 +205,17 @@ class Batch:
         stepper = sims[idx[0]].stepper
         stepper.index = sims[idx[0]].stats.steps
         stepper.step_members(op, ts, dt, stages)
-        # 4. each member's time, peaks, statistics and callbacks
+        self.sums.clear()
+        # 4. the peaks of all in one launch, then each member's time, statistics, callbacks
+        observed = [e for e in idx if sims[e].peaks is not None]
+        if observed:
+            on = np.zeros(len(sims), dtype=np.int32)
+            on[observed] = 1
+            t_next = np.array([plans[e].t_next if on[e] else 0.0 for e in range(len(sims))])
+            sims[observed[0]].peaks.store.update_members(t_next, on)
         for e in idx:
             try:
-                sims[e]._step_end(plans[e], pending[e])
+                sims[e]._step_end(plans[e], pending[e], peaks_done=True)
             except TisegError as exc:
                 failed.append((e, exc))
         return failed

@@ -26,6 +26,7 @@ class MemberOperator:
         self.extent = None  # this step's wet and live extents (set by the batch)
         self.numbers = None  # this step's stability numbers (set by the batch)
         self.wanted = None  # the active and wet x ranges this member asks for, clamped
+        self.shared_sums = None  # the batch's totals of slot 0 (SharedSums), where it keeps them
 
     def __getattr__(self, name):
         # the layout's constants, the fields, the state and the collaborators are the batch's
@@ -47,6 +48,8 @@ class MemberOperator:
 
     def set(self, slot: int, arr) -> None:
         self._op.set(slot, arr, self.member)
+        if self.shared_sums is not None:
+            self.shared_sums.clear()
 
     def budget(self, slot: int = 0):
         return self._op.budget(slot, self.member)
@@ -55,6 +58,10 @@ class MemberOperator:
         self._op.reset_budget(values, self.member)
 
     def sums(self, slot: int = 0):
+        """The member's totals; those of slot 0 after a batch's step are every member's,
+        taken in one launch by the first member that asks (`SharedSums`)."""
+        if slot == 0 and self.shared_sums is not None:
+            return self.shared_sums.of(self.member)
         return self._op.sums(slot, self.member)
 
     def set_params(self, cfg) -> None:
@@ -119,3 +126,22 @@ class MemberOperator:
     @skip_rest.setter
     def skip_rest(self, on: bool) -> None:
         self._op.skip_rest = on
+
+
+class SharedSums:
+    """The totals of slot 0 of every member of a batch's operator after a step, taken in one
+    launch (`TaichiOperator.member_sums`) when the first member asks for its own (its
+    diagnostics row, its mass check) and handed to the others. The batch clears them after
+    each step, as does a write of a member's state."""
+
+    def __init__(self, op):
+        self._op = op
+        self._sums = None
+
+    def of(self, member: int) -> tuple[float, float]:
+        if self._sums is None:
+            self._sums = self._op.member_sums(0)
+        return float(self._sums[member, 0]), float(self._sums[member, 1])
+
+    def clear(self) -> None:
+        self._sums = None

@@ -81,32 +81,67 @@ class PeakStore:
         ``fresh``: begin anew (every cell). The range and h_min are read on the device (the
         operator's fields): one argument to pass, since a launch's cost on small grids is
         mostly its arguments and set-up."""
-        gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
-        hmin = self.op.par[e, Params.H_MIN]
+        gx, nx, ny = ti.static(self.op.gx, self.op.nx, self.op.ny)
         lo, hi = gx, gx + nx
         if ti.static(not whole):
-            lo = ti.max(self.op.act[0] - STENCIL_HALO, gx)
-            hi = ti.min(self.op.act[1] + STENCIL_HALO, gx + nx)
+            lo, hi = self._written()
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, ny)):
-            v = self.op.q[0, i, gy + j, e]
-            h = v[0]
-            k = i - gx
-            if ti.static(fresh):
-                self.h_max[k, j, e] = 0.0
-                self.speed[k, j, e] = 0.0
-                self.arrival[k, j, e] = NEVER
-            if h > self.h_max[k, j, e]:  # (a NaN compares false: the guard reports it)
-                self.h_max[k, j, e] = h
-            if h >= hmin:
-                m2 = v[1] * v[1]
-                if ti.static(not self.op.is_1d):
-                    m2 += v[self.op.HV] * v[self.op.HV]
-                s = ti.sqrt(m2) / h
-                if s > self.speed[k, j, e]:
-                    self.speed[k, j, e] = s
-                if self.arrival[k, j, e] < 0.0:
-                    self.arrival[k, j, e] = t
+            self._fold(e, i, j, t, fresh)
+
+    @ti.kernel
+    def _update_members(
+        self, ts: ti.types.ndarray(), on: ti.types.ndarray(), serial: ti.template()
+    ):
+        """`_update` after a step of each member e with on[e] != 0, at its time ts[e]: one
+        launch for a batch's members (the active range is the batch's, as each member's
+        own launch would read)."""
+        lo, hi = self._written()
+        ti.loop_config(serialize=serial)
+        for i, j, e in ti.ndrange((lo, hi), (0, self.op.ny), self.op.M):
+            if on[e] != 0:
+                self._fold(e, i, j, ts[e], False)
+
+    @ti.func
+    def _written(self):
+        """The x range a step can have written: the active range and STENCIL_HALO cells
+        beside it, within the interior."""
+        gx, nx = ti.static(self.op.gx, self.op.nx)
+        lo = ti.max(self.op.act[0] - STENCIL_HALO, gx)
+        hi = ti.min(self.op.act[1] + STENCIL_HALO, gx + nx)
+        return lo, hi
+
+    @ti.func
+    def _fold(self, e, i, j, t, fresh: ti.template()):
+        """Cell (i, j) of member e's slot 0 at time t into its peaks (``fresh``: begin
+        anew)."""
+        gx, gy = ti.static(self.op.gx, self.op.gy)
+        hmin = self.op.par[e, Params.H_MIN]
+        v = self.op.q[0, i, gy + j, e]
+        h = v[0]
+        k = i - gx
+        if ti.static(fresh):
+            self.h_max[k, j, e] = 0.0
+            self.speed[k, j, e] = 0.0
+            self.arrival[k, j, e] = NEVER
+        if h > self.h_max[k, j, e]:  # (a NaN compares false: the guard reports it)
+            self.h_max[k, j, e] = h
+        if h >= hmin:
+            m2 = v[1] * v[1]
+            if ti.static(not self.op.is_1d):
+                m2 += v[self.op.HV] * v[self.op.HV]
+            s = ti.sqrt(m2) / h
+            if s > self.speed[k, j, e]:
+                self.speed[k, j, e] = s
+            if self.arrival[k, j, e] < 0.0:
+                self.arrival[k, j, e] = t
+
+    def update_members(self, ts, on) -> None:
+        """Fold in the state a step just ended with for each member e with on[e], at its time
+        ts[e] (one launch; `_update_members`)."""
+        ts = np.ascontiguousarray(ts, dtype=self.op.np_fp)
+        on = np.ascontiguousarray(on, dtype=np.int32)
+        self._update_members(ts, on, self.op.serial_loops())
 
     @ti.kernel
     def _copy(self, e: ti.i32, a: ti.types.ndarray(), out: ti.template(), serial: ti.template()):

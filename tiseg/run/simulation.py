@@ -136,7 +136,7 @@ class Simulation:
         if self.cfg.bed:  # the bed under the flow and its walls (tiseg.solver.numerics.bed)
             b, solid = scene.bed_arrays()
             self.op.set_bed(b, solid if self.cfg.solid else None)
-        self.arrays = StateArrays(self.op.state, self.op.reduce, scene.dx, scene.dy, self.member)
+        self.arrays = StateArrays(self.op.state, self.op.sums, scene.dx, scene.dy, self.member)
         self.dispatch = CallbackDispatch(self)
         self.failures = FailureChecks(self)
         # Work only on the x range that can change (the wet region and a margin): exact,
@@ -563,12 +563,13 @@ class Simulation:
         self.stepper.index = self.stats.steps  # (a split step's sweep order follows it)
         return pending
 
-    def _step_end(self, p: StepPlan, pending: list) -> StepInfo:
-        """What comes after the step of plan ``p``: the time, the peaks, the statistics and
-        the callbacks that fell due."""
+    def _step_end(self, p: StepPlan, pending: list, peaks_done: bool = False) -> StepInfo:
+        """What comes after the step of plan ``p``: the time, the peaks (unless a batch
+        folded them in for all its members: ``peaks_done``), the statistics and the
+        callbacks that fell due."""
         t0, t1, s = self.t, p.t_next, p.stages
         self.t = t1
-        if self.peaks is not None:
+        if self.peaks is not None and not peaks_done:
             self.peaks.update(t1)  # observes the step state; writes nothing the steps read
         self.stats.steps += 1
         self.stats.stages += s

@@ -2,8 +2,8 @@
 
 A collaborator of `tiseg.run.simulation.Simulation` (issue 49; a mixin before) that receives
 the operator's state (`tiseg.solver.numerics.state.OperatorState`: its slots, budgets and
-layout) and its reductions (`tiseg.solver.numerics.reductions.StepReductions`, the
-deterministic totals): the conserved slots seen as NumPy arrays shaped (ny, nx) (primitive
+layout) and the operator's deterministic totals (`TaichiOperator.sums`, or a batch member's,
+`tiseg.run.member_view.MemberOperator.sums`): the conserved slots seen as NumPy arrays shaped (ny, nx) (primitive
 fields) or (nc, nx, ny) (conserved, no ghost cells), the totals that the mass balance compares
 and the boundary budget. What a new state means for the run (the mass balance, the peak
 fields) is the simulation's."""
@@ -32,12 +32,13 @@ def output_velocity(h: np.ndarray, m: np.ndarray, h_eps: float) -> np.ndarray:
 class StateArrays:
     """Reading and replacing the state of a `tiseg.run.simulation.Simulation`'s operator."""
 
-    def __init__(self, state, reductions, dx: float, dy: float, member: int = 0):
-        """``state``: the operator's `OperatorState`; ``reductions``: its `StepReductions`;
-        ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life); ``member``: the
-        ensemble member whose state these are."""
+    def __init__(self, state, sums, dx: float, dy: float, member: int = 0):
+        """``state``: the operator's `OperatorState`; ``sums``: ``sums(slot)``, the
+        member's (sum of h, sum of h phi) over the interior cells of a slot (the operator's
+        `sums`); ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life);
+        ``member``: the ensemble member whose state these are."""
         self.state = state
-        self.reductions = reductions
+        self.sums = sums
         self.member = int(member)
         self.layout = state.lay
         # a cell's area (per metre of width in 1D)
@@ -115,7 +116,7 @@ class StateArrays:
     def totals(self, slot: int = 0) -> dict[str, float]:
         """Total mass and small-particle mass [m^3] (per metre of width in 1D), summed in a
         fixed order on the device: deterministic for any thread count."""
-        sh, shphi = self.reductions.totals(slot, self.state.serial_loops(whole=True), self.member)
+        sh, shphi = self.sums(slot)
         seg = self.layout.segregation
         return {"mass": sh * self.cell, "small_mass": shphi * self.cell if seg else float("nan")}
 

@@ -181,6 +181,10 @@ class TaichiOperator:
         """(sum of h, sum of h phi) over interior cells of a member, deterministic, in f64."""
         return self.reduce.totals(slot, self.state.serial_loops(whole=True), member)
 
+    def member_sums(self, slot: int = 0) -> np.ndarray:
+        """`sums` of every member at once, (M, 2), in one launch (a batch's step)."""
+        return self.reduce.member_totals(slot, self.state.serial_loops(whole=True))
+
     # ------------------------------------------------------------------ the run's ranges
     def wet_extent(self, slot: int, t: float) -> tuple[int, int, int, int]:
         """The wet and live x extents of ``slot`` (RestRules.wet_extent)."""

@@ -15,6 +15,7 @@ step_rule "local", the row sums of the totals).
 
 from dataclasses import dataclass
 
+import numpy as np
 import taichi as ti
 
 from ...errors import TisegError
@@ -84,6 +85,12 @@ class StepReductions:
         deterministic, in f64."""
         t = self._totals(slot, self.state._member(member), serial)
         return float(t[0]), float(t[1])
+
+    def member_totals(self, slot: int, serial: bool) -> np.ndarray:
+        """`totals` of every member at once, (M, 2): the same sums in the same order, one
+        launch for a batch's members."""
+        self._totals_all(slot, serial)
+        return self.state.total.to_numpy()
 
     # The return type must follow the run's precision. A type built from ``float`` is fixed
     # when this module is imported, i.e. before tiseg.init chooses the precision (Taichi's
@@ -213,6 +220,30 @@ class StepReductions:
                     ti.atomic_max(self.state.red[e, k], m)
         # member 0's numbers, returned (a single run reads no field); every member's are in red
         return ti.Vector([self.state.red[0, k] for k in ti.static(range(NSTAB))])
+
+    @ti.kernel
+    def _totals_all(self, s: ti.i32, serial: ti.template()):
+        """`_totals` of every member into total (M, 2), each member's rows and then its
+        sum in the order `_totals` takes them: the same bits."""
+        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        ti.loop_config(serialize=serial)
+        for i, e in ti.ndrange((gx, gx + nx), self.state.M):
+            a = ti.cast(0.0, ti.f64)
+            b = ti.cast(0.0, ti.f64)
+            for j in range(gy, gy + ny):
+                v = self.state.q[s, i, j, e]
+                a += ti.cast(v[0], ti.f64)
+                if ti.static(self.state.seg):
+                    b += ti.cast(v[self.state.HPHI], ti.f64)
+            self.state.rowsum[e, i, 0] = a
+            self.state.rowsum[e, i, 1] = b
+        ti.loop_config(serialize=True)
+        for e in range(self.state.M):
+            self.state.total[e, 0] = 0.0
+            self.state.total[e, 1] = 0.0
+            for i in range(gx, gx + nx):
+                self.state.total[e, 0] += self.state.rowsum[e, i, 0]
+                self.state.total[e, 1] += self.state.rowsum[e, i, 1]
 
     @ti.kernel
     def _totals(self, s: ti.i32, e: ti.i32, serial: ti.template()) -> ti.types.vector(2, ti.f64):
