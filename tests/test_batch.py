@@ -105,6 +105,26 @@ def test_members_must_share_their_compiled_options(ti_cpu):
         Batch([a])
 
 
+def test_a_members_totals_follow_its_state(ti_cpu, tmp_path):
+    """The totals of a batch's step are every member's, taken once; a member's state set
+    anew is summed anew (not the step's totals)."""
+    scenes = [
+        load_scene("fingers", {"domain.resolution": 40, "time.t_end": 0.2, "inflow.seed": s})
+        for s in (1, 2)
+    ]
+    batch = Batch(scenes)
+    batch.run(out_dirs=[tmp_path / "a", tmp_path / "b"])
+    before = [sim.totals()["mass"] for sim in batch.sims]  # (the step's, shared)
+    assert before == [
+        sim.op.batch.sums(0, e)[0] * (scenes[e].dx * scenes[e].dy)
+        for e, sim in enumerate(batch.sims)
+    ]
+    sim = batch.sims[1]
+    sim.set_conserved(0.5 * sim.conserved())
+    assert sim.totals()["mass"] == pytest.approx(0.5 * before[1], rel=1e-14)
+    assert batch.sims[0].totals()["mass"] == before[0]
+
+
 def test_members_write_folders_of_their_own(ti_cpu, tmp_path):
     scenes = [load_scene("fingers", {"domain.resolution": 40, "inflow.seed": s}) for s in (1, 2)]
     with pytest.raises(InputError, match="two members were given the folder"):

@@ -48,8 +48,6 @@ class MemberOperator:
 
     def set(self, slot: int, arr) -> None:
         self._op.set(slot, arr, self.member)
-        if self.shared_sums is not None:
-            self.shared_sums.clear()
 
     def budget(self, slot: int = 0):
         return self._op.budget(slot, self.member)
@@ -132,15 +130,18 @@ class SharedSums:
     """The totals of slot 0 of every member of a batch's operator after a step, taken in one
     launch (`TaichiOperator.member_sums`) when the first member asks for its own (its
     diagnostics row, its mass check) and handed to the others. The batch clears them after
-    each step, as does a write of a member's state."""
+    each step; a slot set from the host (`OperatorState.set`: a member's new state, a reset, a
+    checkpoint) makes them stale."""
 
     def __init__(self, op):
         self._op = op
         self._sums = None
+        self._writes = None  # the state's host writes when they were taken
 
     def of(self, member: int) -> tuple[float, float]:
-        if self._sums is None:
-            self._sums = self._op.member_sums(0)
+        writes = self._op.state.host_writes
+        if self._sums is None or self._writes != writes:
+            self._sums, self._writes = self._op.member_sums(0), writes
         return float(self._sums[member, 0]), float(self._sums[member, 1])
 
     def clear(self) -> None:

@@ -212,6 +212,7 @@ class OperatorState:
         self._prof_host = np.zeros((self.M, NY)) if self.inflow_prof is not None else None
         self._running = None  # the running flags last written (set_running)
         self._observers = {}  # the run's observers of every member (observer)
+        self.host_writes = 0  # slots replaced from the host so far (set)
 
     def finalize(self) -> None:
         """The fields exist from here on; they are freed with this object."""
@@ -337,6 +338,7 @@ class OperatorState:
         rows = range(self.M) if member is None else (self._member(member),)
         for e in rows:
             self._slot_in(e, int(slot), a, self.serial_loops(whole=True))
+        self.host_writes += 1  # (what was summed of the slots before is stale: SharedSums)
 
     @ti.kernel
     def _slot_out(self, e: ti.i32, s: ti.i32, out: ti.types.ndarray(), serial: ti.template()):
