@@ -233,6 +233,15 @@ def test_a_killed_sweeps_members_resume_from_their_own_checkpoints(ti_cpu, tmp_p
     assert all(0.25 < r["resumed_at"] <= 0.3 for r in again[:3]), again
     assert "resumed_at" not in again[3]  # another scene's checkpoint: run from the start
     assert again[0]["batch_members"] == 2
+    # a damaged checkpoint: the member is run from the start, not resumed and not failed
+    damaged = _specs(sweep, tmp_path / "damaged")[0]
+    Path(damaged["dir"]).mkdir(parents=True)
+    for name in ("scene.toml", "fields.nc", "diagnostics.csv"):
+        (Path(damaged["dir"]) / name).write_bytes((Path(specs[0]["dir"]) / name).read_bytes())
+    (Path(damaged["dir"]) / "checkpoint.npz").write_bytes(b"not a checkpoint")
+    rec = execute_run(damaged)
+    assert rec["status"] == "done" and "resumed_at" not in rec
+    _same_run(tmp_path / "damaged" / sweep.runs[0].name, tmp_path / "killed" / sweep.runs[0].name)
     for spec in _specs(sweep, tmp_path / "fresh"):
         assert "resumed_at" not in execute_run(spec)
     for run in sweep.runs:

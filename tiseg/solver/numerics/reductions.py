@@ -225,18 +225,10 @@ class StepReductions:
     def _totals_all(self, s: ti.i32, serial: ti.template()):
         """`_totals` of every member into total (M, 2), each member's rows and then its
         sum in the order `_totals` takes them: the same bits."""
-        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        gx, nx = ti.static(self.state.gx, self.state.nx)
         ti.loop_config(serialize=serial)
         for i, e in ti.ndrange((gx, gx + nx), self.state.M):
-            a = ti.cast(0.0, ti.f64)
-            b = ti.cast(0.0, ti.f64)
-            for j in range(gy, gy + ny):
-                v = self.state.q[s, i, j, e]
-                a += ti.cast(v[0], ti.f64)
-                if ti.static(self.state.seg):
-                    b += ti.cast(v[self.state.HPHI], ti.f64)
-            self.state.rowsum[e, i, 0] = a
-            self.state.rowsum[e, i, 1] = b
+            self._row_sums(s, i, e)
         ti.loop_config(serialize=True)
         for e in range(self.state.M):
             self.state.total[e, 0] = 0.0
@@ -250,22 +242,29 @@ class StepReductions:
         """Sums of h and h phi over member e's interior cells in a fixed order (rows in
         parallel, each summed serially, then the rows serially): the same bits for any thread
         count."""
-        gx, nx, gy, ny = ti.static(self.state.gx, self.state.nx, self.state.gy, self.state.ny)
+        gx, nx = ti.static(self.state.gx, self.state.nx)
         self.state.total[e, 0] = 0.0
         self.state.total[e, 1] = 0.0
         ti.loop_config(serialize=serial)
         for i in range(gx, gx + nx):
-            a = ti.cast(0.0, ti.f64)
-            b = ti.cast(0.0, ti.f64)
-            for j in range(gy, gy + ny):
-                v = self.state.q[s, i, j, e]
-                a += ti.cast(v[0], ti.f64)
-                if ti.static(self.state.seg):
-                    b += ti.cast(v[self.state.HPHI], ti.f64)
-            self.state.rowsum[e, i, 0] = a
-            self.state.rowsum[e, i, 1] = b
+            self._row_sums(s, i, e)
         ti.loop_config(serialize=True)
         for i in range(gx, gx + nx):
             self.state.total[e, 0] += self.state.rowsum[e, i, 0]
             self.state.total[e, 1] += self.state.rowsum[e, i, 1]
         return ti.Vector([self.state.total[e, 0], self.state.total[e, 1]])
+
+    @ti.func
+    def _row_sums(self, s, i, e):
+        """Row i of slot s of member e: the sums of h and h phi along y, taken serially (a
+        fixed order), into rowsum."""
+        gy, ny = ti.static(self.state.gy, self.state.ny)
+        a = ti.cast(0.0, ti.f64)
+        b = ti.cast(0.0, ti.f64)
+        for j in range(gy, gy + ny):
+            v = self.state.q[s, i, j, e]
+            a += ti.cast(v[0], ti.f64)
+            if ti.static(self.state.seg):
+                b += ti.cast(v[self.state.HPHI], ti.f64)
+        self.state.rowsum[e, i, 0] = a
+        self.state.rowsum[e, i, 1] = b
