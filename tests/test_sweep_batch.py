@@ -5,6 +5,7 @@ member's fields, diagnostics and metrics are bitwise those of the member run alo
 from __future__ import annotations
 
 import csv
+import shutil
 import json
 from pathlib import Path
 
@@ -227,6 +228,8 @@ def test_a_killed_sweeps_members_resume_from_their_own_checkpoints(ti_cpu, tmp_p
         with pytest.raises(_Kill):
             sim.run(out_dir=spec["dir"], progress=False, checkpoint_spacing=0)
         assert (Path(spec["dir"]) / "checkpoint.npz").is_file()
+    damaged = _specs(sweep, tmp_path / "damaged")[0]
+    shutil.copytree(specs[0]["dir"], damaged["dir"])
     members._LAST.clear()
     again = execute_batch(specs[:2]) + [execute_run(spec) for spec in specs[2:]]
     assert [r["status"] for r in again] == ["done"] * 4
@@ -234,13 +237,9 @@ def test_a_killed_sweeps_members_resume_from_their_own_checkpoints(ti_cpu, tmp_p
     assert "resumed_at" not in again[3]  # another scene's checkpoint: run from the start
     assert again[0]["batch_members"] == 2
     # a damaged checkpoint: the member is run from the start, not resumed and not failed
-    damaged = _specs(sweep, tmp_path / "damaged")[0]
-    Path(damaged["dir"]).mkdir(parents=True)
-    for name in ("scene.toml", "fields.nc", "diagnostics.csv"):
-        (Path(damaged["dir"]) / name).write_bytes((Path(specs[0]["dir"]) / name).read_bytes())
     (Path(damaged["dir"]) / "checkpoint.npz").write_bytes(b"not a checkpoint")
     rec = execute_run(damaged)
-    assert rec["status"] == "done" and "resumed_at" not in rec
+    assert rec["status"] == "done" and "resumed_at" not in rec, rec
     _same_run(tmp_path / "damaged" / sweep.runs[0].name, tmp_path / "killed" / sweep.runs[0].name)
     for spec in _specs(sweep, tmp_path / "fresh"):
         assert "resumed_at" not in execute_run(spec)
