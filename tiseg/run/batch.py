@@ -14,7 +14,10 @@ the batch is
    numbers (`Simulation._plan_step`), which may widen its range;
 3. the step of every running member with its own dt and stage count, one launch a stage
    (`Stepper.step_members`: a member with fewer RKC stages sits out the later ones);
-4. each member's time, peaks, statistics and callbacks (`Simulation._step_end`).
+4. the peak fields of every member in one launch (`PeakStore.update_members`), then each
+   member's time, statistics and callbacks (`Simulation._step_end`); the first member that
+   asks for slot 0's totals (its diagnostics row, its mass check) takes every member's in
+   one launch (`SharedSums`).
 
 A member's steps, diagnostics and fields are bitwise those of the same member run alone
 (tests/test_batch.py). A member that reaches its end time, or fails a guard, stops (its state
