@@ -36,15 +36,13 @@ from ..solver.numerics.operator import TaichiOperator
 from ..solver.timestepping import stepper_for
 from .limits import check_memory
 from .member_view import SharedSums
-from .simulation import RunSession, Simulation
+from .simulation import RunSession, Simulation, state_slots
 
 
 def slots_of(scene) -> int:
-    """The state slots a simulation of ``scene`` holds: its stepper's and two more (the
-    state before a step that crosses a snapshot time, and the snapshot), as `Simulation`."""
+    """The state slots a simulation of ``scene`` holds (`state_slots`)."""
     cfg = config_from_scene(scene)
-    stepper = stepper_for(scene.numerics, is_1d=scene.is_1d, viscous=cfg.viscous)
-    return max(stepper.slots, 2) + 2
+    return state_slots(stepper_for(scene.numerics, is_1d=scene.is_1d, viscous=cfg.viscous))
 
 
 def members_that_fit(scene, share: int = 1) -> int | None:
@@ -131,7 +129,6 @@ class Batch:
         ]
         results: list = [None] * n
         live = [True] * n
-        self.sums.clear()  # (the state may have been set since the last step)
 
         def stop(e: int, exc: Exception) -> None:
             results[e] = exc

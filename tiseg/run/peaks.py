@@ -85,9 +85,10 @@ class PeakStore:
         lo, hi = gx, gx + nx
         if ti.static(not whole):
             lo, hi = self._written()
+        hmin = self.op.par[e, Params.H_MIN]
         ti.loop_config(serialize=serial)
         for i, j in ti.ndrange((lo, hi), (0, ny)):
-            self._fold(e, i, j, t, fresh)
+            self._fold(e, i, j, t, hmin, fresh)
 
     @ti.kernel
     def _update_members(
@@ -100,7 +101,7 @@ class PeakStore:
         ti.loop_config(serialize=serial)
         for i, j, e in ti.ndrange((lo, hi), (0, self.op.ny), self.op.M):
             if on[e] != 0:
-                self._fold(e, i, j, ts[e], False)
+                self._fold(e, i, j, ts[e], self.op.par[e, Params.H_MIN], False)
 
     @ti.func
     def _written(self):
@@ -112,11 +113,10 @@ class PeakStore:
         return lo, hi
 
     @ti.func
-    def _fold(self, e, i, j, t, fresh: ti.template()):
-        """Cell (i, j) of member e's slot 0 at time t into its peaks (``fresh``: begin
-        anew)."""
+    def _fold(self, e, i, j, t, hmin, fresh: ti.template()):
+        """Cell (i, j) of member e's slot 0 at time t into its peaks, wet from h >= hmin
+        (``fresh``: begin anew)."""
         gx, gy = ti.static(self.op.gx, self.op.gy)
-        hmin = self.op.par[e, Params.H_MIN]
         v = self.op.q[0, i, gy + j, e]
         h = v[0]
         k = i - gx

@@ -73,6 +73,13 @@ from .member_view import MemberOperator
 from .run_folder import RunFolder
 
 
+def state_slots(stepper) -> int:
+    """The state slots a simulation holds: its stepper's (at least two) and two more, the
+    state before a step that crosses a snapshot time (PREV) and the snapshot interpolated
+    from it and the state after the step (SNAP)."""
+    return max(stepper.slots, 2) + 2
+
+
 class Simulation:
     """A scene being simulated. ``Simulation.from_scene("fingers", {"domain.resolution": 250})``.
 
@@ -122,17 +129,15 @@ class Simulation:
         self.cfg = config_from_scene(scene)
         self.layout = self.cfg.layout
         self.stepper = stepper_for(scene.numerics, is_1d=scene.is_1d, viscous=self.cfg.viscous)
-        # two slots beyond the stepper's: the state before a step that crosses a snapshot
-        # time, and the snapshot interpolated from it and the state after the step
-        nstep = max(self.stepper.slots, 2)
-        self.PREV, self.SNAP = nstep, nstep + 1
+        nslots = state_slots(self.stepper)  # the stepper's, PREV and SNAP
+        self.PREV, self.SNAP = nslots - 2, nslots - 1
         self.member = int(member)
         if operator is None:
             if self.backend.arch == "cpu":  # before Taichi tries the allocation
-                check_memory(self.layout, nstep + 2, self.backend.precision)
-            self.op = TaichiOperator(self.cfg, nslots=nstep + 2)
+                check_memory(self.layout, nslots, self.backend.precision)
+            self.op = TaichiOperator(self.cfg, nslots=nslots)
         else:
-            self.op = self._member_of(operator, nstep + 2)
+            self.op = self._member_of(operator, nslots)
         if self.cfg.bed:  # the bed under the flow and its walls (tiseg.solver.numerics.bed)
             b, solid = scene.bed_arrays()
             self.op.set_bed(b, solid if self.cfg.solid else None)
