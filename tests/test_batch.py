@@ -96,6 +96,70 @@ def test_a_member_that_fails_stops_alone(ti_cpu, tmp_path):
     assert np.array_equal(batch.sims[0].conserved(), alone.conserved())
 
 
+def test_a_failing_member_saves_the_states_it_saves_alone(ti_cpu, tmp_path):
+    """The guard's last good state (kept for the members that passed, in one launch after
+    the batch's step) and the offending one, as the member run alone saves them."""
+    scenes = [
+        load_scene("fingers", {**SMALL, "domain.resolution": 40, "time.t_end": 0.75, **m})
+        for m in ({}, {"inflow.seed": 2})
+    ]
+
+    def poison(op, e):
+        def cb(snap):  # the member's state turns to NaN after its second snapshot
+            if snap.t > 0.3:
+                op.state.par[e, 0] = float("nan")
+
+        return cb
+
+    batch = Batch(scenes)
+    stats = batch.run(
+        on_output=[None, poison(batch.op, 1)], out_dirs=[tmp_path / "a", tmp_path / "b"]
+    )
+    assert isinstance(stats[1], SimulationError) and len(stats[1].files) == 2
+    alone = Simulation(scenes[1])
+    with pytest.raises(SimulationError) as err:
+        alone.run(out_dir=tmp_path / "alone", on_output=poison(alone.op, 0), progress=False)
+    assert [f.name for f in stats[1].files] == [f.name for f in err.value.files]
+    for mine, theirs in zip(stats[1].files, err.value.files):
+        with np.load(mine) as a, np.load(theirs) as b:
+            assert sorted(a.files) == sorted(b.files)
+            for k in a.files:
+                if a[k].dtype.kind in "fiub" and k != "wall":  # (wall: the run's wall clock)
+                    assert np.array_equal(a[k], b[k], equal_nan=True), (mine.name, k)
+    # the last good state is a state before the poison, not the one the check broke on
+    with np.load(stats[1].files[0]) as good:
+        assert np.isfinite(good["q"]).all() and float(good["t"]) < 0.75
+
+
+def test_the_members_due_a_check_are_scanned_in_one_launch(ti_cpu, tmp_path, monkeypatch):
+    scenes = [
+        load_scene("fingers", {**SMALL, "domain.resolution": 40, "time.t_end": 0.3, **m})
+        for m in ({}, {"inflow.seed": 2}, {"inflow.seed": 3})
+    ]
+    batch = Batch(scenes)
+    store = batch.guards
+    calls = {"one": 0, "all": 0, "keep": 0}
+    for name, key in (("_scan", "one"), ("_scan_members", "all"), ("_keep_members", "keep")):
+        kernel = getattr(store, name)
+
+        def counted(*args, _k=kernel, _key=key):
+            calls[_key] += 1
+            return _k(*args)
+
+        monkeypatch.setattr(store, name, counted)
+    for sim in batch.sims:
+        sim.check_every = 2
+    stats = batch.run(out_dirs=[tmp_path / f"m{e}" for e in range(3)])
+    assert all(not isinstance(s, Exception) for s in stats)
+    steps = max(s.steps for s in stats)
+    # the first check, every second step and every step with a snapshot check each member:
+    # no member alone
+    assert calls["one"] == 0 and 1 < calls["all"] <= steps + 1
+    assert 0 < calls["keep"] <= steps
+    # the last good state is each member's last (its end time is a snapshot)
+    assert all(sim.guard.good_meta["t"] == sim.t == 0.3 for sim in batch.sims)
+
+
 def test_members_must_share_their_compiled_options(ti_cpu):
     a = load_scene("fingers", {"domain.resolution": 40})
     b = load_scene("fingers", {"domain.resolution": 50})

@@ -160,6 +160,22 @@ def test_the_default_batch_fits_a_workers_share_of_the_memory(monkeypatch):
     assert runner.default_batch(sweep.runs, 2, local=True) == 8
 
 
+def test_large_members_run_one_at_a_time_by_default_on_the_cpu(monkeypatch):
+    """Members above MAX_CPU_BATCH_CELLS run alone without --batch on the CPU (measured: no
+    gain there), batched on a GPU; --batch still groups them."""
+    sweep = load_sweep(TINY, grid_overrides={"inflow.seed": list(range(1, 9))})  # 16 runs
+    assert runner.default_batch(sweep.runs, 2, local=False) == 4
+    domain = sweep.runs[0].scene.domain
+    cells = domain.nx * domain.ny
+    monkeypatch.setattr(runner, "MAX_CPU_BATCH_CELLS", cells - 1)
+    assert runner.default_batch(sweep.runs, 2, local=False) == 1
+    assert runner.default_batch(sweep.runs, 2, local=False, arch="gpu") == 4
+    monkeypatch.setattr(runner, "MAX_CPU_BATCH_CELLS", cells)
+    assert runner.default_batch(sweep.runs, 2, local=False) == 4
+    # the study point of the grid study at 375 cells/m is above it
+    assert 375 * 375 * 0.75 > runner.MAX_CPU_BATCH_CELLS
+
+
 @pytest.mark.parametrize("value", ["0", "-2"])
 def test_a_batch_below_one_is_refused(tmp_path, capsys, value):
     code = exit_code(["sweep", str(TINY), "--out", str(tmp_path / "s"), "--batch", value])

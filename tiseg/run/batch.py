@@ -14,10 +14,12 @@ the batch is
    numbers (`Simulation._plan_step`), which may widen its range;
 3. the step of every running member with its own dt and stage count, one launch a stage
    (`Stepper.step_members`: a member with fewer RKC stages sits out the later ones);
-4. the peak fields of every member in one launch (`PeakStore.update_members`), then each
-   member's time, statistics and callbacks (`Simulation._step_end`); the first member that
-   asks for slot 0's totals (its diagnostics row, its mass check) takes every member's in
-   one launch (`SharedSums`).
+4. the peak fields of every member in one launch (`PeakStore.update_members`), the guard
+   scan of the members due a check in one (`GuardStore.scan_members`), then each member's
+   time, statistics and callbacks (`Simulation._step_end`); the first member that asks for
+   slot 0's totals (its diagnostics row, its mass check) takes every member's in one launch
+   (`SharedSums`), and the last good states of the members that passed are copied in one
+   launch after them (`GuardStore.flush`).
 
 A member's steps, diagnostics and fields are bitwise those of the same member run alone
 (tests/test_batch.py). A member that reaches its end time, or fails a guard, stops (its state
@@ -34,6 +36,7 @@ from ..errors import InputError, TisegError
 from ..solver.numerics.config import config_from_scene
 from ..solver.numerics.operator import TaichiOperator
 from ..solver.timestepping import stepper_for
+from .guards import GuardStore
 from .limits import check_memory
 from .member_view import SharedSums
 from .simulation import RunSession, Simulation, state_slots
@@ -80,6 +83,9 @@ class Batch:
         self.sums = SharedSums(self.op)
         for view in self.views:
             view.shared_sums = self.sums
+        # the guards of the members due a check after a step: one scan, one copy (GuardStore)
+        self.guards = self.op.state.observer(GuardStore)
+        self.guards.shared = True
 
     @classmethod
     def resume(cls, run_dirs, **kwargs) -> "Batch":
@@ -136,6 +142,9 @@ class Batch:
             sessions[e].close()
 
         try:
+            # the first check of each (RunSession.open) in one scan (a member whose state
+            # its opening sets, a resumed one, scans alone)
+            self.guards.scan_members(np.ones(n, dtype=np.int32))
             for e, session in enumerate(sessions):
                 try:
                     session.open()
@@ -166,6 +175,7 @@ class Batch:
         op, sims, views = self.op, self.sims, self.views
         idx = [e for e, r in enumerate(running) if r]
         failed = []
+        self.guards.flush()  # the last good states kept since the last step, before it
         op.set_running(running)
         ts = np.array([sim.t for sim in sims])
         # 1. the wet scan of all, each member's range, their union
@@ -206,18 +216,26 @@ class Batch:
         stepper.index = sims[idx[0]].stats.steps
         stepper.step_members(op, ts, dt, stages)
         self.sums.clear()
-        # 4. the peaks of all in one launch, then each member's time, statistics, callbacks
+        self.guards.clear()
+        # 4. the peaks of all in one launch, the guard scan of those due a check in one, then
+        # each member's time, statistics and callbacks
         observed = [e for e in idx if sims[e].peaks is not None]
         if observed:
             on = np.zeros(len(sims), dtype=np.int32)
             on[observed] = 1
             t_next = np.array([plans[e].t_next if on[e] else 0.0 for e in range(len(sims))])
             sims[observed[0]].peaks.store.update_members(t_next, on)
+        due = [e for e in idx if sims[e].dispatch.guard_due(sims[e].stats.steps + 1, pending[e])]
+        if len(due) > 1:
+            on = np.zeros(len(sims), dtype=np.int32)
+            on[due] = 1
+            self.guards.scan_members(on)
         for e in idx:
             try:
                 sims[e]._step_end(plans[e], pending[e], peaks_done=True)
             except TisegError as exc:
                 failed.append((e, exc))
+        self.guards.flush()
         return failed
 
     def _set_union(self, idx) -> None:

@@ -60,6 +60,17 @@ class CallbackDispatch:
                 lambda sim: sim._guard(), IterationInterval(n), name="guard", order=GUARD_ORDER
             )
 
+    def guard_due(self, steps: int, pending) -> bool:
+        """Whether `after_step` of step number ``steps`` with the snapshots ``pending`` will
+        check the guard: a forecast for a batch, which scans those members in one launch (a
+        check that a callback on a wall clock asks for is not foreseen: that member's scan
+        is a launch of its own)."""
+        guard = self.run.callbacks.get("guard")
+        if guard is not None and isinstance(guard.schedule, IterationInterval):
+            if guard.schedule.due(None, None, steps):
+                return True
+        return bool(pending)
+
     def pending_snapshots(self, t0: float, t1: float) -> list[tuple[float, list[Callback]]]:
         """(time, snapshot callbacks) for every scheduled snapshot time in (t0, t1], in order."""
         by_time: dict[float, list[Callback]] = {}

@@ -97,6 +97,52 @@ class GuardStore:
         ft.finalize()
         ft.free_with(self)
         self.par_host = np.zeros((M, 3), dtype=state.np_fp)
+        # a batch's store (`tiseg.run.batch.Batch` sets ``shared``): the members due a check
+        # after a step are scanned in one launch (`scan_members`), and the states of those
+        # that passed are kept by one launch after the step (`flush`)
+        self.shared = False
+        self._table = None  # the result tables of the last shared scan, (M, 4, 2)
+        self._scanned = None  # the members it holds
+        self._writes = None  # the state's host writes when it was taken
+        self._pending = np.zeros(M, dtype=np.int32)  # members whose keep is not yet copied
+
+    def scan_members(self, on) -> None:
+        """Scan slot 0 of every member e with on[e] in one launch; each member's `table`
+        reads its rows until the state changes."""
+        on = np.ascontiguousarray(on, dtype=np.int32)
+        self._scan_members(on, self.op.serial_loops(whole=True))
+        self._table, self._scanned = self.res.to_numpy(), on != 0
+        self._writes = self.op.host_writes
+
+    def table(self, e: int) -> np.ndarray:
+        """Member e's result table (4, 2) of its slot 0 now: the shared scan's where it holds
+        the member and no slot was set from the host since, else one launch of its own."""
+        if self._table is not None and self._scanned[e] and self._writes == self.op.host_writes:
+            return self._table[e]
+        self._scan(e, self.op.serial_loops(whole=True))
+        return self.res.to_numpy()[e]
+
+    def clear(self) -> None:
+        """Forget the shared scan (the batch's step changed the states)."""
+        self._table = None
+
+    def keep(self, e: int) -> None:
+        """Member e's slot 0 and budget into its last-good buffer: now, or in a shared store
+        with the others' at the next `flush`."""
+        if self.shared:
+            self._pending[e] = 1
+        else:
+            self._keep(e, self.op.serial_loops(whole=True))
+
+    def flush(self) -> None:
+        """Copy the keeps not yet copied, in one launch (before the states change again)."""
+        if self._pending.any():
+            self._keep_members(self._pending, self.op.serial_loops(whole=True))
+            self._pending[:] = 0
+
+    def before_host_write(self) -> None:
+        """(`OperatorState` calls it before a slot or budget is set from the host.)"""
+        self.flush()
 
     @ti.kernel
     def _scan(self, e: ti.i32, serial: ti.template()):
@@ -110,28 +156,50 @@ class GuardStore:
         hmin = self.par[e, 2]
         ti.loop_config(serialize=serial)  # as the operator's loops (operator.py)
         for i, j in ti.ndrange((gx, gx + nx), (gy, gy + ny)):
-            v = self.op.q[0, i, j, e]
-            idx = (i - gx) * ny + (j - gy)
-            bad = 0
-            for c in ti.static(range(self.op.nc)):
-                if ti.math.isnan(v[c]) or ti.math.isinf(v[c]):
-                    bad = 1
-            rule = -1
-            if bad == 1:
-                rule = NONFINITE
-            elif v[0] < -h_tol:
-                rule = NEG_H
-            if ti.static(self.op.seg):
-                h = v[0]
-                hp = v[self.op.HPHI]
-                if rule < 0 and h >= hmin:
-                    if hp < -phi_tol * h:
-                        rule = PHI_LOW
-                    elif hp > (1.0 + phi_tol) * h:
-                        rule = PHI_HIGH
-            if rule >= 0:
-                ti.atomic_add(self.res[e, rule, 0], 1)
-                ti.atomic_min(self.res[e, rule, 1], idx)
+            self._check(e, i, j, h_tol, phi_tol, hmin)
+
+    @ti.kernel
+    def _scan_members(self, on: ti.types.ndarray(), serial: ti.template()):
+        """`_scan` of every member e with on[e] != 0, in one launch."""
+        gx, nx, gy, ny = ti.static(self.op.gx, self.op.nx, self.op.gy, self.op.ny)
+        ti.loop_config(serialize=True)
+        for e in range(self.op.M):
+            if on[e] != 0:
+                for r in range(4):
+                    self.res[e, r, 0] = 0
+                    self.res[e, r, 1] = _NO_CELL
+        ti.loop_config(serialize=serial)
+        for i, j, e in ti.ndrange((gx, gx + nx), (gy, gy + ny), self.op.M):
+            if on[e] != 0:
+                self._check(e, i, j, self.par[e, 0], self.par[e, 1], self.par[e, 2])
+
+    @ti.func
+    def _check(self, e, i, j, h_tol, phi_tol, hmin):
+        """Cell (i, j) of member e's slot 0 into its result table: the first rule it breaks
+        counts it and keeps the smallest linear index."""
+        gx, gy, ny = ti.static(self.op.gx, self.op.gy, self.op.ny)
+        v = self.op.q[0, i, j, e]
+        idx = (i - gx) * ny + (j - gy)
+        bad = 0
+        for c in ti.static(range(self.op.nc)):
+            if ti.math.isnan(v[c]) or ti.math.isinf(v[c]):
+                bad = 1
+        rule = -1
+        if bad == 1:
+            rule = NONFINITE
+        elif v[0] < -h_tol:
+            rule = NEG_H
+        if ti.static(self.op.seg):
+            h = v[0]
+            hp = v[self.op.HPHI]
+            if rule < 0 and h >= hmin:
+                if hp < -phi_tol * h:
+                    rule = PHI_LOW
+                elif hp > (1.0 + phi_tol) * h:
+                    rule = PHI_HIGH
+        if rule >= 0:
+            ti.atomic_add(self.res[e, rule, 0], 1)
+            ti.atomic_min(self.res[e, rule, 1], idx)
 
     @ti.kernel
     def _keep(self, e: ti.i32, serial: ti.template()):
@@ -141,6 +209,18 @@ class GuardStore:
         ti.loop_config(serialize=True)
         for b in range(NBUDGET):
             self.good_bud[e, b] = self.op.bud[e, 0, b]
+
+    @ti.kernel
+    def _keep_members(self, on: ti.types.ndarray(), serial: ti.template()):
+        """`_keep` of every member e with on[e] != 0, in one launch."""
+        ti.loop_config(serialize=serial)
+        for i, j, e in ti.ndrange(self.op.NX, self.op.NY, self.op.M):
+            if on[e] != 0:
+                self.good[i, j, e] = self.op.q[0, i, j, e]
+        ti.loop_config(serialize=True)
+        for e, b in ti.ndrange(self.op.M, NBUDGET):
+            if on[e] != 0:
+                self.good_bud[e, b] = self.op.bud[e, 0, b]
 
     @ti.kernel
     def _good_out(self, e: ti.i32, out: ti.types.ndarray(), serial: ti.template()):
@@ -191,8 +271,7 @@ class StateGuard:
     def scan(self, t: float, step: int) -> Violation | None:
         """Check slot 0; the first broken rule (in the order of RULES) or None."""
         self.op.check_alive()
-        self.store._scan(self.member, self.op.serial_loops(whole=True))
-        res = self.store.res.to_numpy()[self.member]
+        res = self.store.table(self.member)
         for rule in range(4):
             count, idx = int(res[rule, 0]), int(res[rule, 1])
             if count:
@@ -216,13 +295,14 @@ class StateGuard:
 
     def keep(self, meta: dict) -> None:
         """Copy slot 0 and its budget into the last-good buffer (on the device)."""
-        self.store._keep(self.member, self.op.serial_loops(whole=True))
+        self.store.keep(self.member)
         self.good_meta = dict(meta)
 
     def last_good(self) -> tuple[np.ndarray, np.ndarray, dict] | None:
         """(q with ghosts (nc, NX, NY) in float64, budget, meta) of the last state that passed."""
         if self.good_meta is None:
             return None
+        self.store.flush()
         q = np.empty((self.op.nc, self.op.NX, self.op.NY), dtype=self.op.np_fp)
         self.store._good_out(self.member, q, self.op.serial_loops(whole=True))
         bud = self.store.good_bud.to_numpy()[self.member]

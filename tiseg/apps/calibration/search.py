@@ -226,7 +226,7 @@ class Evaluator:
             # up to `batch` (sweep.members.execute_batch), and a worker runs a lone point
             # on the simulation of its last (execute_run's reuse)
             size = self.batch or default_batch(
-                runs, worker_count(self._client), local=self.scheduler is None
+                runs, worker_count(self._client), self.scheduler is None, self.arch
             )
             futures = submit_tasks(
                 self._client,

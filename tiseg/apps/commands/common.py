@@ -147,8 +147,9 @@ def add_dask_options(p, runs: str) -> None:
         "numerics) in one task, advanced together (one kernel launch a stage for all of "
         "them): Taichi's start-up and the kernels' compilation are paid once per task, and "
         f"each member's results are bitwise those of a run alone; 1 runs each of the {runs} "
-        "in its own task (default: enough tasks for two per worker, at most 16 members each, "
-        "and on a local cluster no more than fit in a worker's share of the free memory)",
+        "in its own task (default: enough tasks for two per worker, at most 16 members each; "
+        "on a local cluster no more than fit in a worker's share of the free memory, and "
+        "on the CPU 1 for runs of more than 50,000 cells, where batching does not pay)",
     )
 
 

@@ -322,7 +322,7 @@ def _run_on_dask(
     client, cluster, threads, where = open_dask(
         scheduler, workers, threads_per_task, len(pending), say
     )
-    size = batch or default_batch(pending, worker_count(client), local=scheduler is None)
+    size = batch or default_batch(pending, worker_count(client), scheduler is None, arch)
     tasks = batches(pending, size)
     per = "the worker's" if threads is None else (threads or "all")
     grouped = f" in {len(tasks)} tasks of up to {size} runs advanced together" if size > 1 else ""
@@ -507,6 +507,10 @@ def _wait_for_a_worker(client, scheduler: str, say) -> None:
 # progress (each finished member keeps its done.json), and the shared start-up of a batch
 # this large is already a small part of its wall time
 MAX_AUTO_BATCH = 16
+# the largest member a CPU batch takes by default: on a 2-core VM (benchmarks/sweep_batch)
+# batches paid at 4,500 cells a member (16 seeds: 0.42 of one at a time) and 28,125 (0.91),
+# and cost 4-6 % at 105,656 (five seeds of the grid study at 375 cells/m)
+MAX_CPU_BATCH_CELLS = 50_000
 
 
 def batch_size(n_runs: int, workers: int) -> int:
@@ -517,12 +521,17 @@ def batch_size(n_runs: int, workers: int) -> int:
     return max(1, min(per, MAX_AUTO_BATCH))
 
 
-def default_batch(runs: list, workers: int, local: bool) -> int:
+def default_batch(runs: list, workers: int, local: bool, arch: str = "cpu") -> int:
     """The members per task when --batch is not given: `batch_size`, and on a local cluster
     no more than the largest member's batch can hold in a worker's share of the memory
     available now (`tiseg.run.batch.members_that_fit`; a remote cluster's memory is not
-    known here)."""
+    known here). On the CPU, members of more than `MAX_CPU_BATCH_CELLS` cells run one at a
+    time: their start-up is a small part of their run, and together they share the caches
+    and the memory bandwidth (docs/performance.md)."""
     size = batch_size(len(runs), workers)
+    if arch == "cpu" and runs:
+        if max(r.scene.domain.nx * r.scene.domain.ny for r in runs) > MAX_CPU_BATCH_CELLS:
+            return 1
     if local and size > 1 and runs:
         from ...run.batch import members_that_fit
 

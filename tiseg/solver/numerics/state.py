@@ -259,6 +259,14 @@ class OperatorState:
             self._observers[cls] = cls(self)
         return self._observers[cls]
 
+    def _before_host_write(self) -> None:
+        """Let the observers finish what they hold of the state before the host replaces
+        it (the guard's deferred copies of a batch's last good states)."""
+        for obs in self._observers.values():
+            hook = getattr(obs, "before_host_write", None)
+            if hook is not None:
+                hook()
+
     def _member(self, member: int) -> int:
         if not (isinstance(member, (int, np.integer)) and 0 <= member < self.M):
             raise TisegError(f"member {member!r}: this state has members 0 to {self.M - 1}")
@@ -325,6 +333,7 @@ class OperatorState:
     def set(self, slot: int, arr: np.ndarray, member: int | None = None) -> None:
         """Replace slot ``slot`` of member ``member`` (of every member: None) by ``arr``
         shaped (nc, NX, NY)."""
+        self._before_host_write()
         self.prepared = self.interior = None
         self.rest_stale = self.rest_stale or slot == 0
         self.set_active(self.gx, self.gx + self.nx)  # wet cells may now lie anywhere
@@ -366,6 +375,7 @@ class OperatorState:
     def reset_budget(self, values=None, member: int | None = None) -> None:
         """Slot 0's budget of member ``member`` (every member's: None) set to ``values``
         (zero: None)."""
+        self._before_host_write()
         b = self.bud.to_numpy()
         rows = slice(None) if member is None else self._member(member)
         b[rows, 0] = 0.0 if values is None else values
