@@ -169,9 +169,9 @@ def test_members_must_share_their_compiled_options(ti_cpu):
         Batch([a])
 
 
-def test_a_members_totals_follow_its_state(ti_cpu, tmp_path):
-    """The totals of a batch's step are every member's, taken once; a member's state set
-    anew is summed anew (not the step's totals)."""
+def test_a_members_totals_and_budget_follow_its_state(ti_cpu, tmp_path):
+    """The totals and budgets of a batch's step are every member's, taken once; a member's
+    state or budget set anew is read anew (not the step's)."""
     scenes = [
         load_scene("fingers", {"domain.resolution": 40, "time.t_end": 0.2, "inflow.seed": s})
         for s in (1, 2)
@@ -183,10 +183,17 @@ def test_a_members_totals_follow_its_state(ti_cpu, tmp_path):
         sim.op.batch.sums(0, e)[0] * (scenes[e].dx * scenes[e].dy)
         for e, sim in enumerate(batch.sims)
     ]
+    # so are the boundary budgets (read once for all), which an inflow has filled
+    budgets = [sim.budget()["mass_in"] for sim in batch.sims]
+    assert all(b > 0 for b in budgets) and budgets[0] != budgets[1]
+    for e, sim in enumerate(batch.sims):
+        assert np.array_equal(sim.op.budget(0), batch.op.state.budget(0, e))
     sim = batch.sims[1]
     sim.set_conserved(0.5 * sim.conserved())
     assert sim.totals()["mass"] == pytest.approx(0.5 * before[1], rel=1e-14)
     assert batch.sims[0].totals()["mass"] == before[0]
+    sim.op.reset_budget()  # a budget set from the host is read anew
+    assert sim.budget()["mass_in"] == 0.0 and batch.sims[0].budget()["mass_in"] == budgets[0]
 
 
 def test_members_write_folders_of_their_own(ti_cpu, tmp_path):

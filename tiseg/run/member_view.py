@@ -50,6 +50,10 @@ class MemberOperator:
         self._op.set(slot, arr, self.member)
 
     def budget(self, slot: int = 0):
+        """The member's boundary budget; that of slot 0 after a batch's step is every
+        member's, read at once by the first member that asks (`SharedSums`)."""
+        if slot == 0 and self.shared_sums is not None:
+            return self.shared_sums.budget_of(self.member)
         return self._op.budget(slot, self.member)
 
     def reset_budget(self, values=None) -> None:
@@ -127,16 +131,17 @@ class MemberOperator:
 
 
 class SharedSums:
-    """The totals of slot 0 of every member of a batch's operator after a step, taken in one
-    launch (`TaichiOperator.member_sums`) when the first member asks for its own (its
-    diagnostics row, its mass check) and handed to the others. The batch clears them after
-    each step; a slot set from the host (`OperatorState.set`: a member's new state, a reset, a
+    """The totals and the boundary budgets of slot 0 of every member of a batch's operator
+    after a step, each taken in one launch (`TaichiOperator.member_sums`, the budget field
+    read whole) when the first member asks for its own (its diagnostics row, its mass check)
+    and handed to the others. The batch clears them after each step; a slot or budget set from
+    the host (`OperatorState.set`, `reset_budget`: a member's new state, a reset, a
     checkpoint) makes them stale."""
 
     def __init__(self, op):
         self._op = op
-        self._sums = None
-        self._writes = None  # the state's host writes when they were taken
+        self._sums = self._budget = None
+        self._writes = self._budget_writes = None  # the state's host writes when taken
 
     def of(self, member: int) -> tuple[float, float]:
         writes = self._op.state.host_writes
@@ -144,5 +149,12 @@ class SharedSums:
             self._sums, self._writes = self._op.member_sums(0), writes
         return float(self._sums[member, 0]), float(self._sums[member, 1])
 
+    def budget_of(self, member: int) -> np.ndarray:
+        """Member ``member``'s budget of slot 0, as `OperatorState.budget` gives it."""
+        state = self._op.state
+        if self._budget is None or self._budget_writes != state.host_writes:
+            self._budget, self._budget_writes = state.bud.to_numpy(), state.host_writes
+        return self._budget[member, 0].astype(float)
+
     def clear(self) -> None:
-        self._sums = None
+        self._sums = self._budget = None

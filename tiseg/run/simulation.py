@@ -141,7 +141,9 @@ class Simulation:
         if self.cfg.bed:  # the bed under the flow and its walls (tiseg.solver.numerics.bed)
             b, solid = scene.bed_arrays()
             self.op.set_bed(b, solid if self.cfg.solid else None)
-        self.arrays = StateArrays(self.op.state, self.op.sums, scene.dx, scene.dy, self.member)
+        self.arrays = StateArrays(
+            self.op.state, self.op.sums, scene.dx, scene.dy, self.member, budget=self.op.budget
+        )
         self.dispatch = CallbackDispatch(self)
         self.failures = FailureChecks(self)
         # Work only on the x range that can change (the wet region and a margin): exact,

@@ -32,13 +32,16 @@ def output_velocity(h: np.ndarray, m: np.ndarray, h_eps: float) -> np.ndarray:
 class StateArrays:
     """Reading and replacing the state of a `tiseg.run.simulation.Simulation`'s operator."""
 
-    def __init__(self, state, sums, dx: float, dy: float, member: int = 0):
+    def __init__(self, state, sums, dx: float, dy: float, member: int = 0, budget=None):
         """``state``: the operator's `OperatorState`; ``sums``: ``sums(slot)``, the
         member's (sum of h, sum of h phi) over the interior cells of a slot (the operator's
         `sums`); ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life);
-        ``member``: the ensemble member whose state these are."""
+        ``member``: the ensemble member whose state these are; ``budget``: ``budget(slot)``,
+        the member's boundary budget (default: the state's row of the member; a batch
+        member's view reads every member's at once)."""
         self.state = state
         self.sums = sums
+        self._budget = budget
         self.member = int(member)
         self.layout = state.lay
         # a cell's area (per metre of width in 1D)
@@ -122,7 +125,10 @@ class StateArrays:
 
     def budget(self, slot: int = 0) -> dict[str, float]:
         """Mass and small-particle mass that entered through the boundaries since the start."""
-        b = self.state.budget(slot, self.member)
+        if self._budget is not None:
+            b = self._budget(slot)
+        else:
+            b = self.state.budget(slot, self.member)
         return {
             "mass_in": float((b[0] + b[2]) * self._per_width),
             "small_mass_in": float((b[1] + b[3]) * self._per_width),

@@ -212,7 +212,7 @@ class OperatorState:
         self._prof_host = np.zeros((self.M, NY)) if self.inflow_prof is not None else None
         self._running = None  # the running flags last written (set_running)
         self._observers = {}  # the run's observers of every member (observer)
-        self.host_writes = 0  # slots replaced from the host so far (set)
+        self.host_writes = 0  # slots and budgets replaced from the host so far (set, reset_budget)
 
     def finalize(self) -> None:
         """The fields exist from here on; they are freed with this object."""
@@ -380,6 +380,7 @@ class OperatorState:
         rows = slice(None) if member is None else self._member(member)
         b[rows, 0] = 0.0 if values is None else values
         self.bud.from_numpy(b)
+        self.host_writes += 1
 
     # ------------------------------------------------------------------ the caches
     def written(self, dst: int, primitives: bool = False) -> None:
