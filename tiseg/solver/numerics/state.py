@@ -293,13 +293,22 @@ class OperatorState:
         members each at their own time)."""
         if self.bc[0] != "inflow":
             return
-        for e, (te, cfg) in enumerate(zip(self.times(t), self.cfgs)):
+        keys = []
+        for te, cfg in zip(self.times(t), self.cfgs):
             h, _, _ = cfg.inflow_state(te)
-            key = (h, 0.0 if te > cfg.inflow_stop else 1.0)
-            if key != self.inflow_key[e]:
-                self.par[e, Params.IN_H] = h
-                self.par[e, Params.IN_ON] = key[1]
-                self.inflow_key[e] = key
+            keys.append((h, 0.0 if te > cfg.inflow_stop else 1.0))
+        if keys != self.inflow_key:  # (the ramp, the stop) every member's row in one launch
+            vals = np.array(keys, dtype=self.np_fp)
+            self._inflow_in(np.ascontiguousarray(vals[:, 0]), np.ascontiguousarray(vals[:, 1]))
+            self.inflow_key = keys
+
+    @ti.kernel
+    def _inflow_in(self, h: ti.types.ndarray(), on: ti.types.ndarray()):
+        """Each member's inflow thickness and on/off flag into its parameter row."""
+        ti.loop_config(serialize=True)
+        for e in range(self.M):
+            self.par[e, Params.IN_H] = h[e]
+            self.par[e, Params.IN_ON] = on[e]
 
     def inflow_on(self, t) -> bool:
         """Whether an inflow runs at time t (until the scene's inflow stop time) in any
