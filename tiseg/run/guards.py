@@ -12,7 +12,10 @@ the interior cells:
   ``tests/test_hard_cases.py``, see `measure_overhead`), so it can run every few steps;
 * after a check that passes, the state (ghost cells included) and the boundary budget are copied,
   on the device, into a "last good" buffer, so that a failure can save the last state that passed
-  next to the offending one.
+  next to the offending one;
+* in a batch (`tiseg.run.batch`) the members due a check after a step are scanned by one launch
+  and the last good states of those that passed are copied by one (`GuardStore.scan_members`,
+  `GuardStore.flush`).
 
 Tolerances (why not exactly zero): the operator's ``postprocess`` clamps h >= 0 and
 0 <= h phi <= h after every stage, so in slot 0 h < 0 and phi outside [0, 1] cannot occur from the
