@@ -160,6 +160,25 @@ def test_the_members_due_a_check_are_scanned_in_one_launch(ti_cpu, tmp_path, mon
     assert all(sim.guard.good_meta["t"] == sim.t == 0.3 for sim in batch.sims)
 
 
+def test_a_kept_last_good_state_survives_a_state_set_from_the_host(ti_cpu):
+    """A batch copies a passed check's state after the step; a state set from the host in
+    between is set only after that copy is made."""
+    scenes = [
+        load_scene("fingers", {"domain.resolution": 40, "time.t_end": 0.2, "inflow.seed": s})
+        for s in (1, 2)
+    ]
+    batch = Batch(scenes)
+    batch.run()
+    sim = batch.sims[0]
+    checked = sim.op.get(0)
+    sim._guard()  # passes: its copy waits for the batch
+    assert batch.guards._pending[0] == 1
+    sim.set_conserved(0.5 * sim.conserved())
+    q, _, meta = sim.guard.last_good()
+    assert np.array_equal(q, checked) and meta["t"] == sim.t
+    assert not np.array_equal(sim.op.get(0), checked)
+
+
 def test_members_must_share_their_compiled_options(ti_cpu):
     a = load_scene("fingers", {"domain.resolution": 40})
     b = load_scene("fingers", {"domain.resolution": 50})
