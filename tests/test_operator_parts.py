@@ -64,7 +64,7 @@ def test_the_state_arrays_alone_round_trip_primitive_fields(ti_cpu):
 
     cfg = make_config(8, 6)
     st, red = _state(cfg)
-    arrays = StateArrays(st, lambda slot: red.totals(slot, True), cfg.dx, cfg.dy)
+    arrays = StateArrays(st, lambda slot: red.totals(slot, True), st.budget, cfg.dx, cfg.dy)
     lay = cfg.layout
     rng = np.random.default_rng(2)
     h = rng.random((lay.ny, lay.nx)) + 0.1

@@ -215,8 +215,7 @@ class Batch:
         stepper = sims[idx[0]].stepper
         stepper.index = sims[idx[0]].stats.steps
         stepper.step_members(op, ts, dt, stages)
-        self.sums.clear()
-        self.guards.clear()
+        op.state.changed()  # (the shared totals, budgets and guard scans taken before: stale)
         # 4. the peaks of all in one launch, the guard scan of those due a check in one, then
         # each member's time, statistics and callbacks
         observed = [e for e in idx if sims[e].peaks is not None]

@@ -106,7 +106,7 @@ class GuardStore:
         self.shared = False
         self._table = None  # the result tables of the last shared scan, (M, 4, 2)
         self._scanned = None  # the members it holds
-        self._writes = None  # the state's host writes when it was taken
+        self._changes = None  # the state's change count when it was taken
         self._pending = np.zeros(M, dtype=np.int32)  # members whose keep is not yet copied
 
     def scan_members(self, on) -> None:
@@ -115,19 +115,15 @@ class GuardStore:
         on = np.ascontiguousarray(on, dtype=np.int32)
         self._scan_members(on, self.op.serial_loops(whole=True))
         self._table, self._scanned = self.res.to_numpy(), on != 0
-        self._writes = self.op.host_writes
+        self._changes = self.op.changes
 
     def table(self, e: int) -> np.ndarray:
         """Member e's result table (4, 2) of its slot 0 now: the shared scan's where it holds
-        the member and no slot was set from the host since, else one launch of its own."""
-        if self._table is not None and self._scanned[e] and self._writes == self.op.host_writes:
+        the member and the state has not changed since, else one launch of its own."""
+        if self._table is not None and self._scanned[e] and self._changes == self.op.changes:
             return self._table[e]
         self._scan(e, self.op.serial_loops(whole=True))
         return self.res.to_numpy()[e]
-
-    def clear(self) -> None:
-        """Forget the shared scan (the batch's step changed the states)."""
-        self._table = None
 
     def keep(self, e: int) -> None:
         """Member e's slot 0 and budget into its last-good buffer: now, or in a shared store

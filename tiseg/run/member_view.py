@@ -134,27 +134,24 @@ class SharedSums:
     """The totals and the boundary budgets of slot 0 of every member of a batch's operator
     after a step, each taken in one launch (`TaichiOperator.member_sums`, the budget field
     read whole) when the first member asks for its own (its diagnostics row, its mass check)
-    and handed to the others. The batch clears them after each step; a slot or budget set from
-    the host (`OperatorState.set`, `reset_budget`: a member's new state, a reset, a
-    checkpoint) makes them stale."""
+    and handed to the others, until the state changes (`OperatorState.changed`: the batch's
+    next step, or a slot or budget set from the host: a member's new state, a reset, a
+    checkpoint)."""
 
     def __init__(self, op):
         self._op = op
         self._sums = self._budget = None
-        self._writes = self._budget_writes = None  # the state's host writes when taken
+        self._changes = self._budget_changes = None  # the state's change count when taken
 
     def of(self, member: int) -> tuple[float, float]:
-        writes = self._op.state.host_writes
-        if self._sums is None or self._writes != writes:
-            self._sums, self._writes = self._op.member_sums(0), writes
+        changes = self._op.state.changes
+        if self._changes != changes:
+            self._sums, self._changes = self._op.member_sums(0), changes
         return float(self._sums[member, 0]), float(self._sums[member, 1])
 
     def budget_of(self, member: int) -> np.ndarray:
         """Member ``member``'s budget of slot 0, as `OperatorState.budget` gives it."""
         state = self._op.state
-        if self._budget is None or self._budget_writes != state.host_writes:
-            self._budget, self._budget_writes = state.bud.to_numpy(), state.host_writes
+        if self._budget_changes != state.changes:
+            self._budget, self._budget_changes = state.bud.to_numpy(), state.changes
         return self._budget[member, 0].astype(float)
-
-    def clear(self) -> None:
-        self._sums = self._budget = None

@@ -142,7 +142,7 @@ class Simulation:
             b, solid = scene.bed_arrays()
             self.op.set_bed(b, solid if self.cfg.solid else None)
         self.arrays = StateArrays(
-            self.op.state, self.op.sums, scene.dx, scene.dy, self.member, budget=self.op.budget
+            self.op.state, self.op.sums, self.op.budget, scene.dx, scene.dy, self.member
         )
         self.dispatch = CallbackDispatch(self)
         self.failures = FailureChecks(self)

@@ -2,10 +2,10 @@
 
 A collaborator of `tiseg.run.simulation.Simulation` (issue 49; a mixin before) that receives
 the operator's state (`tiseg.solver.numerics.state.OperatorState`: its slots, budgets and
-layout) and the operator's deterministic totals (`TaichiOperator.sums`, or a batch member's,
-`tiseg.run.member_view.MemberOperator.sums`): the conserved slots seen as NumPy arrays shaped (ny, nx) (primitive
-fields) or (nc, nx, ny) (conserved, no ghost cells), the totals that the mass balance compares
-and the boundary budget. What a new state means for the run (the mass balance, the peak
+layout) and the operator's deterministic totals and boundary budgets (`TaichiOperator.sums`
+and ``budget``, or a batch member's, `tiseg.run.member_view.MemberOperator`): the conserved
+slots seen as NumPy arrays shaped (ny, nx) (primitive fields) or (nc, nx, ny) (conserved, no
+ghost cells), the totals that the mass balance compares and the boundary budget. What a new state means for the run (the mass balance, the peak
 fields) is the simulation's."""
 
 from __future__ import annotations
@@ -32,13 +32,12 @@ def output_velocity(h: np.ndarray, m: np.ndarray, h_eps: float) -> np.ndarray:
 class StateArrays:
     """Reading and replacing the state of a `tiseg.run.simulation.Simulation`'s operator."""
 
-    def __init__(self, state, sums, dx: float, dy: float, member: int = 0, budget=None):
+    def __init__(self, state, sums, budget, dx: float, dy: float, member: int = 0):
         """``state``: the operator's `OperatorState`; ``sums``: ``sums(slot)``, the
         member's (sum of h, sum of h phi) over the interior cells of a slot (the operator's
-        `sums`); ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life);
-        ``member``: the ensemble member whose state these are; ``budget``: ``budget(slot)``,
-        the member's boundary budget (default: the state's row of the member; a batch
-        member's view reads every member's at once)."""
+        `sums`); ``budget``: ``budget(slot)``, the member's boundary budget (the operator's
+        `budget`); ``dx``, ``dy``: the cell size [m] (fixed for the kernels' life);
+        ``member``: the ensemble member whose state these are."""
         self.state = state
         self.sums = sums
         self._budget = budget
@@ -125,10 +124,7 @@ class StateArrays:
 
     def budget(self, slot: int = 0) -> dict[str, float]:
         """Mass and small-particle mass that entered through the boundaries since the start."""
-        if self._budget is not None:
-            b = self._budget(slot)
-        else:
-            b = self.state.budget(slot, self.member)
+        b = self._budget(slot)
         return {
             "mass_in": float((b[0] + b[2]) * self._per_width),
             "small_mass_in": float((b[1] + b[3]) * self._per_width),

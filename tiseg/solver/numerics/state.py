@@ -212,7 +212,9 @@ class OperatorState:
         self._prof_host = np.zeros((self.M, NY)) if self.inflow_prof is not None else None
         self._running = None  # the running flags last written (set_running)
         self._observers = {}  # the run's observers of every member (observer)
-        self.host_writes = 0  # slots and budgets replaced from the host so far (set, reset_budget)
+        # how often the slots or budgets changed as a whole (set, reset_budget, a batch's
+        # step): what an observer read of them at another count is stale (`changed`)
+        self.changes = 0
 
     def finalize(self) -> None:
         """The fields exist from here on; they are freed with this object."""
@@ -258,6 +260,11 @@ class OperatorState:
         if cls not in self._observers:
             self._observers[cls] = cls(self)
         return self._observers[cls]
+
+    def changed(self) -> None:
+        """The slots or budgets changed (a host write, a batch's step): the totals, budgets
+        and guard scans a batch's observers took before are stale."""
+        self.changes += 1
 
     def _before_host_write(self) -> None:
         """Let the observers finish what they hold of the state before the host replaces
@@ -356,7 +363,7 @@ class OperatorState:
         rows = range(self.M) if member is None else (self._member(member),)
         for e in rows:
             self._slot_in(e, int(slot), a, self.serial_loops(whole=True))
-        self.host_writes += 1  # (what was summed of the slots before is stale: SharedSums)
+        self.changed()
 
     @ti.kernel
     def _slot_out(self, e: ti.i32, s: ti.i32, out: ti.types.ndarray(), serial: ti.template()):
@@ -389,7 +396,7 @@ class OperatorState:
         rows = slice(None) if member is None else self._member(member)
         b[rows, 0] = 0.0 if values is None else values
         self.bud.from_numpy(b)
-        self.host_writes += 1
+        self.changed()
 
     # ------------------------------------------------------------------ the caches
     def written(self, dst: int, primitives: bool = False) -> None:
