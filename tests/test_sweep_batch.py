@@ -100,6 +100,41 @@ def test_a_workers_next_task_reuses_its_batch(ti_cpu, tmp_path):
         _same_run(tmp_path / "second" / run.name, tmp_path / "alone" / run.name)
 
 
+class _InProcess:
+    """A Dask client that runs each task where it is submitted (one worker: this process)."""
+
+    class _Done:
+        def __init__(self, value):
+            self.value = value
+
+        def result(self):
+            return self.value
+
+    def submit(self, fn, arg, **_options):
+        return self._Done(fn(arg))
+
+
+def test_a_workers_lone_members_run_on_the_simulation_of_its_last(ti_cpu, tmp_path):
+    """Tasks of one member (`--batch 1`, or members too large to group on the CPU) run on the
+    simulation the worker built for its last member with the same kernels: one Taichi
+    start-up for all four, and each member bitwise its run on a fresh runtime."""
+    from tiseg import backend
+
+    sweep = load_sweep(TINY, grid_overrides={"inflow.seed": [1, 2]})
+    members._LAST.clear()
+    g = backend.state().generation
+    futures = runner.submit_tasks(
+        _InProcess(), batches(sweep.runs, 1), tmp_path / "lone", "cpu", 1, False
+    )
+    records = [rec for fut, task in futures.items() for rec in runner.task_records(fut, task)]
+    assert [r["status"] for r in records] == ["done"] * 4
+    assert backend.state().generation == g + 1  # the first member's start-up, then reuse
+    for run, spec in zip(sweep.runs, _specs(sweep, tmp_path / "fresh")):
+        execute_run(spec)  # (no reuse: each on a fresh runtime)
+        _same_run(tmp_path / "lone" / run.name, tmp_path / "fresh" / run.name)
+    assert backend.state().generation == g + 5
+
+
 def test_a_batch_of_different_kernels_builds_a_simulation_for_each(ti_cpu, tmp_path):
     """Two grids in one batch: the second member needs other kernels and gets its own
     simulation; both equal their runs alone, and a batch is reused as a sweep's folders are."""

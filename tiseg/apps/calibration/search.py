@@ -235,7 +235,6 @@ class Evaluator:
                 self.arch,
                 self._threads,
                 self.overwrite,
-                reuse=True,
             )
             for fut in as_completed(list(futures), loop=self._client.loop):
                 task = futures[fut]

@@ -194,8 +194,9 @@ def run_sweep(
     goes (default ``echo``; the command line: stdout, which ``-q`` keeps). ``batch``: members
     that share their compiled kernels (`compiled_fingerprint`) run up to this many to a Dask
     task, advanced together on one operator with a member axis (`execute_batch`: one launch
-    a stage for all, start-up and compilation paid once); 1 runs each alone; None (default) chooses enough tasks to keep every worker busy
-    (`batch_size`).
+    a stage for all, start-up and compilation paid once); 1 runs each alone (a worker's
+    members on the kernels it built for its first, `execute_run`'s reuse); None (default)
+    chooses enough tasks to keep every worker busy (`batch_size`).
 
     The local cluster starts its workers with multiprocessing's "spawn", which re-imports the
     calling script: call this from under ``if __name__ == "__main__":`` in a script.
@@ -552,13 +553,11 @@ def batches(runs: list, size: int) -> list[list]:
     return sorted(tasks, key=lambda t: -sum(r.cost for r in t))
 
 
-def submit_tasks(
-    client, tasks: list[list], out, arch: str, threads, overwrite: bool, reuse: bool = False
-) -> dict:
+def submit_tasks(client, tasks: list[list], out, arch: str, threads, overwrite: bool) -> dict:
     """Submit each task (a list of runs, `batches`) to Dask: {future: task}. A task of
     several members runs them together (`execute_batch`), a task of one alone
-    (`execute_run`); ``reuse``: a lone member runs on the simulation of the worker's last
-    member when that was compiled for it (a calibration's points)."""
+    (`execute_run`), on the simulation of the worker's last member when that was compiled
+    for it (``reuse``: the Taichi start-up, seconds, is paid once a worker and kernels)."""
     futures = {}
     for task in tasks:  # longest first: better packing
         specs = [member_spec(run, out, arch, threads, overwrite) for run in task]
@@ -567,7 +566,7 @@ def submit_tasks(
             # every task of the runner calls, so that a replacement of it covers them too)
             fn, arg = functools.partial(execute_batch, run=execute_run), specs
         else:
-            fn, arg = execute_run, {**specs[0], "reuse": True} if reuse else specs[0]
+            fn, arg = execute_run, {**specs[0], "reuse": True}
         # retries=1: a transient failure outside execute_run (a worker lost) is tried once
         # more; execute_run returns a run's own error as a failed record (no retry, no Dask
         # traceback) and retries a failed ti.init itself. A batch's members that finished
