@@ -5,9 +5,10 @@
 
 Each ensemble is M inflow seeds of the fingers scene on a 0.3 m wide chute to t = 7.5 s (the
 ensemble of benchmarks/sweep_batch.py, at 100 or 250 cells/m), run by ``tiseg sweep`` twice
-into fresh folders: with ``--batch 1`` (every member starts Taichi and compiles its kernels)
-and with ``--batch ceil(M / workers)`` (one task per worker, its members advanced together,
-`tiseg.run.batch.Batch`). Both use ``--workers`` Dask workers of one Taichi thread. Records the wall
+into fresh folders: with ``--batch 1`` (every member alone, a worker's members on the
+kernels it built for its first) and with ``--batch ceil(M / workers)`` (one task per
+worker, its members advanced together, `tiseg.run.batch.Batch`). Both use ``--workers``
+Dask workers of one Taichi thread. Records the wall
 time of each command, the sum of the members' own run times (done.json ``wall_s``: their steps
 and output), whether every member's fields.nc is bitwise the same in both, and per grid the
 memory of one member: the peak resident size of a process that runs one member alone against

@@ -145,11 +145,12 @@ def add_dask_options(p, runs: str) -> None:
         metavar="N",
         help=f"run up to N {runs} that share their compiled kernels (grid, effects, "
         "numerics) in one task, advanced together (one kernel launch a stage for all of "
-        "them): Taichi's start-up and the kernels' compilation are paid once per task, and "
-        f"each member's results are bitwise those of a run alone; 1 runs each of the {runs} "
-        "in its own task (default: enough tasks for two per worker, at most 16 members each; "
-        "on a local cluster no more than fit in a worker's share of the free memory, and "
-        "on the CPU 1 for runs of more than 50,000 cells, where batching does not pay)",
+        "them), each member's results bitwise those of a run alone; 1 runs each of the "
+        f"{runs} in its own task; either way a worker pays Taichi's start-up and the "
+        "kernels' compilation once. Default: enough tasks for two per worker, at most 16 "
+        "members each; on a local cluster no more than fit in a worker's share of the free "
+        "memory; on the CPU 1 for runs of more than 20,000 cells, where batching does not "
+        "pay",
     )
 
 

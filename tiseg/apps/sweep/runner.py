@@ -508,10 +508,12 @@ def _wait_for_a_worker(client, scheduler: str, say) -> None:
 # progress (each finished member keeps its done.json), and the shared start-up of a batch
 # this large is already a small part of its wall time
 MAX_AUTO_BATCH = 16
-# the largest member a CPU batch takes by default: on a 2-core VM (benchmarks/sweep_batch)
-# batches paid at 4,500 cells a member (16 seeds: 0.42 of one at a time) and 28,125 (0.91),
-# and cost 4-6 % at 105,656 (five seeds of the grid study at 375 cells/m)
-MAX_CPU_BATCH_CELLS = 50_000
+# the largest member a CPU batch takes by default. On a 2-core VM (benchmarks/sweep_batch),
+# against members one at a time that share their worker's start-up (execute_run's reuse),
+# 16 seeds batched took 0.93, 0.89 and 0.96 of the time at 4,500, 10,125 and 18,000 cells a
+# member, and 1.13 at 28,125 (1.24 for 64 seeds): a batch's fields are its members' together,
+# and once they outgrow the caches its steps lose what the shared launches save
+MAX_CPU_BATCH_CELLS = 20_000
 
 
 def batch_size(n_runs: int, workers: int) -> int:
