@@ -76,6 +76,8 @@ def main(argv=None) -> int:
         "machine": f"{platform.machine()}, {os.cpu_count()} cores ({platform.node()})",
         "workers": args.workers,
         "members": SEEDS,
+        # a lone member runs on its worker's kernels (sweep.members.execute_run's reuse)
+        "one_at_a_time_start_up": "once a worker",
     }
     folders = {}
     for mode, b in (("one_at_a_time", 1), ("batched", math.ceil(SEEDS / args.workers))):
