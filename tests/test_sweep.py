@@ -458,3 +458,32 @@ def test_a_failed_connection_leaves_dask_as_it_was(tmp_path):
         left = None
     assert left is None or left.status == "running"
     xr.Dataset({"a": ("x", np.arange(3.0))}).to_netcdf(tmp_path / "a.nc", engine="netcdf4")
+
+
+def test_a_local_clusters_workers_log_no_errors_once_it_closes():
+    """Before a sweep's local cluster closes, its workers stop logging errors (a heartbeat
+    that meets the closing scheduler would print a traceback after a sweep that succeeded),
+    and close_dask closes what it was given."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    from tiseg.apps.sweep import runner
+
+    cluster = LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )  # fmt: skip
+    client = Client(cluster)
+
+    def logs_errors():
+        return logging.getLogger("distributed.worker").isEnabledFor(logging.ERROR)
+
+    try:
+        before = list(client.run(logs_errors).values())
+        runner.quiet_workers(client)
+        after = list(client.run(logs_errors).values())
+    finally:
+        runner.close_dask(client, cluster)
+    assert before == [True] and after == [False]
+    assert client.status == "closed" and cluster.status.name == "closed"

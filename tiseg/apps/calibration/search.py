@@ -14,6 +14,7 @@ from ...errors import TisegError
 from ..sweep.members import check_member_folder, read_marker, refresh_metrics
 from ..sweep.runner import (
     batches,
+    close_dask,
     default_batch,
     member_spec,
     open_dask,
@@ -258,9 +259,7 @@ class Evaluator:
                 self._client.unsubscribe_topic(PROGRESS_TOPIC)
             except Exception:
                 pass
-            self._client.close()
-            if self._cluster is not None:
-                self._cluster.close()
+            close_dask(self._client, self._cluster)
             self._client = self._cluster = None
 
 

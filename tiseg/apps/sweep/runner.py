@@ -363,9 +363,34 @@ def _run_on_dask(
             client.unsubscribe_topic(PROGRESS_TOPIC)
         except Exception:
             pass
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        close_dask(client, cluster)
+
+
+def close_dask(client, cluster) -> None:
+    """Close ``client`` and, where it was started here, its local ``cluster``, whose workers
+    first stop logging errors (`quiet_workers`)."""
+    if cluster is not None:
+        quiet_workers(client)
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def quiet_workers(client) -> None:
+    """Silence the Dask loggers of the client's workers, before their cluster closes: a
+    worker whose heartbeat meets the closing scheduler logs a traceback ("Failed to
+    communicate with scheduler during heartbeat", dask/distributed#7105) after runs that
+    all succeeded. (Not for a --scheduler's workers, which go on serving others.)"""
+    try:
+        client.run(_silence_dask_logs)
+    except Exception:  # a worker already gone: nothing of it left to silence
+        pass
+
+
+def _silence_dask_logs() -> None:
+    for name in [n for n in logging.root.manager.loggerDict if n.split(".")[0] == "distributed"]:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
 
 
 def progress_handler(say, progress_interval: float):
