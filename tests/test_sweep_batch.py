@@ -91,9 +91,9 @@ def test_a_workers_next_task_reuses_its_batch(ti_cpu, tmp_path):
     members._LAST.clear()
     execute_batch(_specs(first, tmp_path / "first"))
     g = backend.state().generation
-    batch = members._LAST["batch"]
+    batch = members._LAST["held"]
     again = execute_batch(_specs(second, tmp_path / "second"))
-    assert backend.state().generation == g and members._LAST["batch"] is batch
+    assert backend.state().generation == g and members._LAST["held"] is batch
     assert [r["status"] for r in again] == ["done"] * 2
     for run, spec in zip(second.runs, _specs(second, tmp_path / "alone")):
         execute_run(spec)

@@ -234,11 +234,8 @@ def _run_together(group: list) -> list:
     specs = [item[1] for item in group]
     spec0 = specs[0]
     t0 = _time.perf_counter()
-    threads = spec0.get("threads", 0)
-    if threads is None:
-        threads = _worker_threads()
     try:
-        batch = _batch_for([item[3] for item in group], spec0.get("arch", "cpu"), int(threads))
+        batch = _batch_for([item[3] for item in group], spec0.get("arch", "cpu"), _threads(spec0))
         resumed = [_resume_member(sim, item[2], item[5]) for sim, item in zip(batch.sims, group)]
         reports = [
             _reporter(s["name"], item[3].t_end) if s.get("report", True) else None
@@ -261,23 +258,40 @@ def _run_together(group: list) -> list:
 
 def _batch_for(scenes: list, arch: str, threads: int):
     """A batch of ``scenes``: the process's last one (`_LAST`) where it was built for the
-    same kernels, number of members and threads, each member given its scene and reset to
-    its initial state (a worker's next task of a sweep: no Taichi start-up, no kernels
-    traced or loaded again); else a new one on a fresh Taichi runtime, kept for the next."""
+    same kernels, number of members and threads, else a new one (`_kept`)."""
     from ...run.batch import Batch
 
     key = ("batch", arch, threads, compiled_fingerprint(scenes[0]), len(scenes))
-    if _LAST.get("key") == key and _LAST.get("generation") == backend.generation():
-        batch = _LAST["batch"]
-        for sim, scene in zip(batch.sims, scenes):
+    return _kept(_LAST, key, scenes, arch, threads, lambda: Batch(scenes))
+
+
+def _kept(cache: dict | None, key: tuple, scenes: list, arch: str, threads: int, build):
+    """What ``cache`` holds for ``key`` (a member's `Simulation` or a `Batch`), each of its
+    simulations given its scene of ``scenes`` and reset to its initial state (the state, the
+    time, the budget, the peaks and the statistics), where it was built on the Taichi
+    runtime alive now: a worker's next task of the same kernels, with no start-up and no
+    kernels traced or loaded again. Else ``build()`` on a fresh Taichi runtime, which frees
+    the fields of the worker's last run, kept in ``cache`` for the next (None: nowhere)."""
+    alive = cache is not None and cache.get("generation") == backend.generation()
+    if alive and cache.get("key") == key:
+        held = cache["held"]
+        for sim, scene in zip(getattr(held, "sims", [held]), scenes):
             sim.set_parameters(scene=scene)
             sim.reset()
-        return batch
-    _LAST.clear()  # the batch's operator replaces the process's last simulation
-    backend.init(arch, scenes[0].numerics.precision, threads, force=True)
-    batch = Batch(scenes)
-    _LAST.update(key=key, batch=batch, generation=backend.generation())
-    return batch
+        return held
+    if cache is not None:
+        cache.clear()
+    precision = scenes[0].numerics.precision
+    try:
+        backend.init(arch, precision, threads, force=True)
+    except (RuntimeError, OSError):  # a transient failure (resources briefly short): once more
+        _time.sleep(1.0)
+        backend.init(arch, precision, threads, force=True)
+    held = build()
+    if cache is not None:
+        # (a Taichi runtime started since, by anyone, has freed its fields)
+        cache.update(key=key, held=held, generation=backend.generation())
+    return held
 
 
 def _guarded(spec: dict, fn, *args) -> dict:
@@ -344,35 +358,9 @@ def _execute_locked(
     from ...run.simulation import Simulation
 
     t0 = _time.perf_counter()
-    threads = spec.get("threads", 0)
-    if threads is None:
-        threads = _worker_threads()
-    key = (spec.get("arch", "cpu"), int(threads), compiled_fingerprint(scene))
-    sim = None
-    alive = cache is not None and cache.get("generation") == backend.generation()
-    if alive and cache.get("key") == key:
-        # the batch's simulation, compiled for this member: its run-time numbers and initial
-        # state anew (the state, the time, the budget, the peaks and the statistics)
-        sim = cache["sim"]
-        sim.set_parameters(scene=scene)
-        sim.reset()
-    else:
-        # A fresh Taichi runtime per task: frees the fields of the worker's previous run.
-        if cache is not None:
-            cache.clear()
-        try:
-            backend.init(
-                spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True
-            )
-        except (RuntimeError, OSError):  # a transient failure (resources briefly short): once more
-            _time.sleep(1.0)
-            backend.init(
-                spec.get("arch", "cpu"), scene.numerics.precision, int(threads), force=True
-            )
-        sim = Simulation(scene)
-        if cache is not None:
-            # (a Taichi runtime started since, by anyone, has freed its fields)
-            cache.update(key=key, sim=sim, generation=backend.generation())
+    arch, threads = spec.get("arch", "cpu"), _threads(spec)
+    key = (arch, threads, compiled_fingerprint(scene))
+    sim = _kept(cache, key, [scene], arch, threads, lambda: Simulation(scene))
     spec = {**spec, "resumed_at": _resume_member(sim, run_dir, ck)}
     report = _reporter(spec["name"], scene.t_end) if spec.get("report", True) else None
     stats = sim.run(
@@ -463,6 +451,13 @@ def refresh_metrics(run_dir, rec: dict) -> dict:
     rec = {**{k: v for k, v in rec.items() if k != "status"}, "metrics": _record_metrics(metrics)}
     write_json_atomic(run_dir / DONE_MARKER, rec)
     return rec
+
+
+def _threads(spec: dict) -> int:
+    """The Taichi threads of a member's task: ``spec["threads"]`` (0: all cores), None for
+    its Dask worker's own count."""
+    threads = spec.get("threads", 0)
+    return int(_worker_threads() if threads is None else threads)
 
 
 def _worker_threads() -> int:
