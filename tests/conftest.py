@@ -44,6 +44,18 @@ _held_by_fixtures: set = set()  # test files whose module-scoped fixtures hold f
 
 
 @pytest.fixture(autouse=True)
+def _tiseg_log_level():
+    """Give the next test the ``tiseg`` logger's level as it was: a command run in-process
+    (`tiseg.log.configure`) sets it for the process, and after a ``-q`` (errors only) a later
+    test's ``caplog`` would miss the warnings it checks."""
+    from tiseg.log import logger
+
+    level = logger.level
+    yield
+    logger.setLevel(level)
+
+
+@pytest.fixture(autouse=True)
 def _fresh_runtime_per_test(request):
     """Reset Taichi (0.1 s) before a test when the tests before it made simulations and
     nothing holds Taichi fields any more, so that its kernels come from Taichi's offline cache

@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+from tiseg.post.analysis.channels import column_runs, count_channels
 from tiseg.post.analysis.fingers import analyse_run, finger_metrics, front_speed, periodic_runs
 from tiseg.apps.cli import main
 
@@ -74,6 +75,92 @@ def test_periodic_runs_basic():
     # a 1-cell gap closes a line on itself -> no levee -> no run
     assert periodic_runs([1, 1, 0, 1, 1, 1], min_gap=2) == []
     assert periodic_runs([1, 1, 0, 1, 1, 1, 0, 0], min_gap=2) == [(0, 6)]
+
+
+def _runs_cell_by_cell(line, min_width, min_gap):
+    """The noise-filtered periodic runs of one line, found cell by cell (a reference for
+    `column_runs`): the sets of cells of each run, as (start, length) from the first gap cell
+    on."""
+    n = len(line)
+    if all(line) or not any(line):
+        return []
+    k = line.index(False)  # walk from a gap cell: no run is cut by the walk's start
+    runs, run = [], []
+    for i in range(k, k + n):
+        if line[i % n]:
+            run.append(i)
+        elif run:
+            runs.append(run)
+            run = []
+    if run:
+        runs.append(run)
+    runs = [r for r in runs if len(r) >= min_width]
+    merged = []
+    for r in runs:  # join a run to the previous one across a gap narrower than min_gap
+        if merged and r[0] - merged[-1][-1] - 1 < min_gap:
+            merged[-1] = list(range(merged[-1][0], r[-1] + 1))
+        else:
+            merged.append(r)
+    if merged and merged[0][0] + n - merged[-1][-1] - 1 < min_gap:
+        if len(merged) == 1:
+            return []
+        last = merged.pop()
+        merged[0] = list(range(last[0], merged[0][-1] + n + 1))
+    return [(r[0] % n, len(r)) for r in merged]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_column_runs_are_each_columns_runs_found_cell_by_cell(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        ny, ncols = int(rng.integers(1, 30)), int(rng.integers(1, 6))
+        mask = rng.uniform(size=(ny, ncols)) < rng.uniform()
+        width, gap = int(rng.integers(0, 4)), int(rng.integers(0, 5))
+        runs = column_runs(mask, width, gap)
+        for c in range(ncols):
+            want = _runs_cell_by_cell(mask[:, c].tolist(), width, gap)
+            assert runs.of(c) == want == periodic_runs(mask[:, c], width, gap)
+
+
+def _count_by_flood_fill(chan, x, min_span):
+    """max over s of the channels at x >= s reaching min_span along x, each found afresh by a
+    flood fill of the channel cells of the columns at x >= s (4-neighbours, periodic in y): a
+    reference for `count_channels` on masks that need no noise filter (a column that is
+    channel all across has no levee: no channel)."""
+    chan = chan & ~chan.all(axis=0)
+    ny, nx = chan.shape
+    dx = x[1] - x[0]
+    best = 0
+    for first in range(nx - 1, -1, -1):
+        seen = np.zeros_like(chan)
+        found = 0
+        for i0, j0 in zip(*np.nonzero(chan[:, first:])):
+            if seen[i0, j0 + first]:
+                continue
+            stack, cols = [(i0, j0 + first)], []
+            seen[i0, j0 + first] = True
+            while stack:
+                i, j = stack.pop()
+                cols.append(j)
+                for a, b in ((i + 1) % ny, j), ((i - 1) % ny, j), (i, j + 1), (i, j - 1):
+                    if first <= b < nx and chan[a, b] and not seen[a, b]:
+                        seen[a, b] = True
+                        stack.append((a, b))
+            found += x[max(cols)] - x[min(cols)] + dx >= min_span * (1 - 1e-12)
+        best = max(best, found)
+    return best
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_channel_count_is_the_flood_fill_count(seed):
+    rng = np.random.default_rng(seed)
+    x = 0.01 * np.arange(12)
+    for _ in range(60):
+        chan = rng.uniform(size=(10, 12)) < rng.uniform(0.2, 0.7)
+        span = float(rng.choice([0.0, 0.03, 0.06]))
+        runs = column_runs(chan)
+        count, _ = count_channels(runs, list(range(12)), x, span)
+        assert count == _count_by_flood_fill(chan, x, span)
 
 
 # ---- counting -------------------------------------------------------------------------------

@@ -55,7 +55,7 @@ import numpy as np  # noqa: E402
 import netCDF4 as nc  # noqa: E402
 from scipy.signal import find_peaks  # noqa: E402
 
-from tiseg.post.analysis.channels import count_channels, periodic_runs  # noqa: E402
+from tiseg.post.analysis.channels import column_runs, count_channels  # noqa: E402
 from tiseg.post.analysis.fingers import front_max, front_min  # noqa: E402
 
 OUT = os.path.dirname(os.path.abspath(__file__))
@@ -98,11 +98,10 @@ def snapshot(ds, i):
 
 def diag_runs(h, phi, x, zone_cols, thr, dy, xl):
     """The diagnostic's runs (threshold thr, 2-cell filters) and their counted-finger flags."""
-    ny = h.shape[0]
     chan = (h >= HMIN) & (phi > thr)
-    runs = [periodic_runs(chan[:, j], 2, 2) for j in zone_cols]
-    _, inf = count_channels(runs, zone_cols, x, ny, 0.1 * xl)
-    return runs, inf
+    runs = column_runs(chan[:, zone_cols], 2, 2)
+    _, inf = count_channels(runs, zone_cols, x, 0.1 * xl)
+    return runs.lists(), runs.by_column(inf.tolist())
 
 
 def finger_maxima(runs, cols, x, s, ny, span):

@@ -92,7 +92,13 @@ from typing import Sequence
 import numpy as np
 
 from ...errors import InputError
-from .channels import DEFAULT_MIN_SPAN, channel_numbers, count_channels, periodic_runs
+from .channels import (
+    DEFAULT_MIN_SPAN,
+    channel_numbers,
+    column_runs,
+    count_channels,
+    periodic_runs,
+)
 from .deposit import (
     DEFAULT_REST_SPEED,
     DEFAULT_SETTLE_FRACTION,
@@ -257,28 +263,29 @@ def finger_metrics(
     band: list[int] = []  # every column of the fingered zone
     if math.isfinite(x_l):
         band = [int(j) for j in np.flatnonzero((x >= xf_min) & (x <= xf_max))]
-    band_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in band]
+    band_runs = column_runs(channel[:, band], w_cells, g_cells)
+    band_counts = band_runs.counts()
     if fractions is None:
         cols, line_runs = band, band_runs
     else:
         cols = [int(np.argmin(np.abs(x - (xf_min + f * x_l)))) for f in fractions] if band else []
-        line_runs = [periodic_runs(channel[:, j], w_cells, g_cells) for j in cols]
-    line_counts = [len(r) for r in line_runs]
+        line_runs = column_runs(channel[:, cols], w_cells, g_cells)
+    line_counts = line_runs.counts().tolist()
     # the persistent line count: the non-zero count held over the longest downslope distance
     count_lines = 0
-    values, hits = np.unique([len(r) for r in band_runs if r], return_counts=True)
+    values, hits = np.unique(band_counts[band_counts > 0], return_counts=True)
     if values.size:
         best = int(np.flatnonzero(hits == hits.max())[-1])  # ties: the larger count
-        if hits[best] >= max(2, min_persistence * len(band_runs)):
+        if hits[best] >= max(2, min_persistence * len(band)):
             count_lines = int(values[best])
     # no lines (x_f^- undefined: no coarse-rich region, no levees) -> no segregation fingers
-    count, in_finger = 0, [[False] * len(r) for r in band_runs]
+    count, in_finger = 0, np.zeros(band_runs.col.size, dtype=bool)
     if band:
-        count, in_finger = count_channels(band_runs, band, x, ny, min_span * x_l)
+        count, in_finger = count_channels(band_runs, band, x, min_span * x_l)
     if fractions is not None:
         count = sorted(line_counts)[(len(line_counts) - 1) // 2] if line_counts else 0
     chosen = [k for k, c in enumerate(line_counts) if c == count] if count else []
-    widths = line_runs[chosen[len(chosen) // 2]] if chosen else []
+    widths = line_runs.of(chosen[len(chosen) // 2]) if chosen else []
     count_length = len(chosen) * _spacing(x) if chosen else math.nan
     numbers = channel_numbers(band_runs, in_finger, band, h, phi, speed, h_min, thr, u0)
 
